@@ -1,0 +1,547 @@
+//! Burst detector (the paper's Fig. 2, blocks 8–10): one voltage sample per
+//! tick in, bursts out.
+//!
+//! * A puff raises the voltage above the neutral, a sip lowers it. A breath
+//!   starts when the signal passes its threshold and ends when it comes back
+//!   past it by the hysteresis.
+//! * Every change of state must last more than `glitch_ms` samples, so a
+//!   spike or dropout of a few samples neither creates a burst nor splits one.
+//!   Start and end are dated to the first sample of the confirming run, so
+//!   durations are exact; the burst is emitted on the tick its end is
+//!   confirmed (`glitch_ms` ticks after the signal crossed back).
+//! * The neutral is tracked (slow exponential average) only while the signal
+//!   is at rest, and the thresholds move with it by their configured offsets.
+//! * A NaN, infinite or out-of-range sample is a sensor fault: any breath in
+//!   progress is dropped (never turned into a burst) and detection resumes
+//!   only after `fault_recovery_ms` of valid samples at rest.
+
+use crate::Tick;
+use crate::action::{Action, Breath};
+use crate::config::DetectorConfig;
+
+/// A finished burst.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Burst {
+    /// Short/long sip/puff.
+    pub action: Action,
+    /// First tick past the threshold.
+    pub start: Tick,
+    /// First tick back past the threshold by the hysteresis.
+    pub end: Tick,
+}
+
+impl Burst {
+    /// Length in ticks (ms).
+    pub fn duration_ms(&self) -> u64 {
+        self.end - self.start
+    }
+}
+
+/// Why the sensor signal was rejected.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FaultReason {
+    /// The sample is NaN (e.g. a dropped reading).
+    NotANumber,
+    /// The sample is ±infinity.
+    Infinite,
+    /// The sample is further outside 0–5 V than `fault_margin_volts`.
+    OutOfRange {
+        /// The offending sample.
+        volts: f64,
+    },
+}
+
+impl FaultReason {
+    /// Plain-words reason, for the event log.
+    pub fn describe(&self) -> String {
+        match self {
+            FaultReason::NotANumber => "sensor sample is NaN".to_string(),
+            FaultReason::Infinite => "sensor sample is infinite".to_string(),
+            FaultReason::OutOfRange { volts } => {
+                format!("sensor sample {volts:.3} V is outside the 0–5 V range")
+            }
+        }
+    }
+}
+
+/// Something the detector reports on one tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DetectorEvent {
+    /// A burst ended and was long enough to count.
+    Burst(Burst),
+    /// The sensor signal became invalid.
+    Fault(FaultReason),
+    /// The signal has been valid and at rest for `fault_recovery_ms`.
+    Recovered,
+}
+
+/// What the user is doing right now.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Held {
+    /// The breath held, if any.
+    pub breath: Option<Breath>,
+    /// How far past its threshold the signal is, in volts (0 when nothing is
+    /// held).
+    pub strength_volts: f64,
+}
+
+/// The detector's output for one tick. `Copy`, RT-safe.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DetectorOutput {
+    /// The breath held right now (confirmed, so glitches never show here).
+    pub held: Held,
+    /// A breath is held or may be starting (a crossing not yet confirmed):
+    /// the matcher's timeout must not run out meanwhile.
+    pub in_progress: bool,
+    /// The sensor is in fault: nothing is detected.
+    pub faulted: bool,
+    /// At most one event per tick.
+    pub event: Option<DetectorEvent>,
+}
+
+/// Which side of the thresholds a sample is on, given the current state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Zone {
+    Rest,
+    Breath(Breath),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum State {
+    Rest,
+    Held {
+        breath: Breath,
+        start: Tick,
+    },
+    /// Sensor fault; `rest_since` is the first tick of the current run of
+    /// valid samples at rest.
+    Faulted {
+        rest_since: Option<Tick>,
+    },
+}
+
+/// The burst detector. Construct once; [`BurstDetector::step`] is RT-safe
+/// (no allocation, no panic, O(1)).
+#[derive(Debug, Clone)]
+pub struct BurstDetector {
+    puff_offset: f64,
+    sip_offset: f64,
+    hysteresis: f64,
+    rest_band: f64,
+    min_burst: u64,
+    long_burst: u64,
+    glitch: u64,
+    tracking_alpha: f64,
+    low_limit: f64,
+    high_limit: f64,
+    recovery: u64,
+
+    neutral: f64,
+    state: State,
+    /// A zone differing from the state's, and the tick its run began.
+    candidate: Option<(Zone, Tick)>,
+    strength: f64,
+}
+
+impl BurstDetector {
+    /// Builds a detector from validated settings. Not RT-safe (call at
+    /// start-up), though it does not allocate either.
+    pub fn new(config: &DetectorConfig) -> Self {
+        let puff_offset = config.puff_threshold_volts - config.neutral_volts;
+        let sip_offset = config.sip_threshold_volts - config.neutral_volts;
+        BurstDetector {
+            puff_offset,
+            sip_offset,
+            hysteresis: config.hysteresis_volts,
+            rest_band: 0.5 * puff_offset.min(-sip_offset),
+            min_burst: config.min_burst_ms.into(),
+            long_burst: config.long_burst_ms.into(),
+            glitch: config.glitch_ms.into(),
+            tracking_alpha: 1.0 / f64::from(config.neutral_tracking_ms),
+            low_limit: -config.fault_margin_volts,
+            high_limit: 5.0 + config.fault_margin_volts,
+            recovery: config.fault_recovery_ms.into(),
+            neutral: config.neutral_volts,
+            state: State::Rest,
+            candidate: None,
+            strength: 0.0,
+        }
+    }
+
+    /// The neutral voltage as currently tracked.
+    pub fn neutral_volts(&self) -> f64 {
+        self.neutral
+    }
+
+    /// Feeds one sample taken at tick `now` (ticks must increase). RT-safe.
+    pub fn step(&mut self, now: Tick, volts: f64) -> DetectorOutput {
+        let event = match Self::check(volts, self.low_limit, self.high_limit) {
+            Err(reason) => self.fault(reason),
+            Ok(()) => match self.state {
+                State::Faulted { rest_since } => self.recover(now, volts, rest_since),
+                State::Rest | State::Held { .. } => self.detect(now, volts),
+            },
+        };
+        let held = match self.state {
+            State::Held { breath, .. } => Held {
+                breath: Some(breath),
+                strength_volts: self.strength,
+            },
+            _ => Held::default(),
+        };
+        let starting = matches!(self.candidate, Some((Zone::Breath(_), _)));
+        DetectorOutput {
+            held,
+            in_progress: held.breath.is_some() || starting,
+            faulted: matches!(self.state, State::Faulted { .. }),
+            event,
+        }
+    }
+
+    fn check(volts: f64, low: f64, high: f64) -> Result<(), FaultReason> {
+        if volts.is_nan() {
+            Err(FaultReason::NotANumber)
+        } else if volts.is_infinite() {
+            Err(FaultReason::Infinite)
+        } else if volts < low || volts > high {
+            Err(FaultReason::OutOfRange { volts })
+        } else {
+            Ok(())
+        }
+    }
+
+    fn fault(&mut self, reason: FaultReason) -> Option<DetectorEvent> {
+        let already = matches!(self.state, State::Faulted { .. });
+        self.state = State::Faulted { rest_since: None };
+        self.candidate = None;
+        self.strength = 0.0;
+        (!already).then_some(DetectorEvent::Fault(reason))
+    }
+
+    fn recover(
+        &mut self,
+        now: Tick,
+        volts: f64,
+        rest_since: Option<Tick>,
+    ) -> Option<DetectorEvent> {
+        if self.zone(volts, None) != Zone::Rest {
+            self.state = State::Faulted { rest_since: None };
+            return None;
+        }
+        let since = rest_since.unwrap_or(now);
+        if now + 1 - since >= self.recovery {
+            self.state = State::Rest;
+            Some(DetectorEvent::Recovered)
+        } else {
+            self.state = State::Faulted {
+                rest_since: Some(since),
+            };
+            None
+        }
+    }
+
+    /// Classifies a sample; `held` selects the hysteresis side.
+    fn zone(&self, volts: f64, held: Option<Breath>) -> Zone {
+        let puff_on = self.neutral + self.puff_offset;
+        let sip_on = self.neutral + self.sip_offset;
+        let (puff_off, sip_off) = match held {
+            Some(Breath::Puff) => (puff_on - self.hysteresis, sip_on),
+            Some(Breath::Sip) => (puff_on, sip_on + self.hysteresis),
+            None => (puff_on, sip_on),
+        };
+        if volts > puff_off {
+            Zone::Breath(Breath::Puff)
+        } else if volts < sip_off {
+            Zone::Breath(Breath::Sip)
+        } else {
+            Zone::Rest
+        }
+    }
+
+    fn detect(&mut self, now: Tick, volts: f64) -> Option<DetectorEvent> {
+        let held = match self.state {
+            State::Held { breath, .. } => Some(breath),
+            _ => None,
+        };
+        let current = held.map_or(Zone::Rest, Zone::Breath);
+        let zone = self.zone(volts, held);
+
+        if zone == current {
+            self.candidate = None;
+            match held {
+                Some(breath) => self.strength = self.past_threshold(breath, volts),
+                None => self.track_neutral(volts),
+            }
+            return None;
+        }
+
+        let since = match self.candidate {
+            Some((z, since)) if z == zone => since,
+            _ => now,
+        };
+        self.candidate = Some((zone, since));
+        if now + 1 - since <= self.glitch {
+            return None; // not (yet) longer than a glitch
+        }
+        self.candidate = None;
+
+        let finished = match self.state {
+            State::Held { breath, start } => self.finish(breath, start, since),
+            _ => None,
+        };
+        self.state = match zone {
+            Zone::Breath(breath) => {
+                self.strength = self.past_threshold(breath, volts);
+                State::Held {
+                    breath,
+                    start: since,
+                }
+            }
+            Zone::Rest => {
+                self.strength = 0.0;
+                State::Rest
+            }
+        };
+        finished.map(DetectorEvent::Burst)
+    }
+
+    fn finish(&self, breath: Breath, start: Tick, end: Tick) -> Option<Burst> {
+        let duration = end - start;
+        (duration >= self.min_burst).then(|| Burst {
+            action: Action::new(breath, duration >= self.long_burst),
+            start,
+            end,
+        })
+    }
+
+    fn past_threshold(&self, breath: Breath, volts: f64) -> f64 {
+        let past = match breath {
+            Breath::Puff => volts - (self.neutral + self.puff_offset),
+            Breath::Sip => (self.neutral + self.sip_offset) - volts,
+        };
+        past.max(0.0)
+    }
+
+    fn track_neutral(&mut self, volts: f64) {
+        let deviation = volts - self.neutral;
+        if deviation.abs() < self.rest_band {
+            self.neutral += deviation * self.tracking_alpha;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Runs a detector over samples, returning (tick, event) pairs.
+    fn run(config: &DetectorConfig, samples: &[f64]) -> Vec<(Tick, DetectorEvent)> {
+        let mut d = BurstDetector::new(config);
+        samples
+            .iter()
+            .enumerate()
+            .filter_map(|(t, &v)| d.step(t as Tick, v).event.map(|e| (t as Tick, e)))
+            .collect()
+    }
+
+    /// `rest` ms at 2.5 V, `len` ms at `level`, `after` ms at 2.5 V.
+    fn square(rest: usize, level: f64, len: usize, after: usize) -> Vec<f64> {
+        let mut s = vec![2.5; rest];
+        s.extend(std::iter::repeat_n(level, len));
+        s.extend(std::iter::repeat_n(2.5, after));
+        s
+    }
+
+    fn burst(action: Action, start: Tick, end: Tick) -> DetectorEvent {
+        DetectorEvent::Burst(Burst { action, start, end })
+    }
+
+    #[test]
+    fn short_and_long_with_exact_durations() {
+        let c = DetectorConfig::default(); // min 40, long 500, glitch 5
+        // A 100 ms puff from tick 10: ends at 110, confirmed at 115.
+        assert_eq!(
+            run(&c, &square(10, 4.0, 100, 50)),
+            [(115, burst(Action::ShortPuff, 10, 110))]
+        );
+        assert_eq!(
+            run(&c, &square(10, 1.0, 500, 50)),
+            [(515, burst(Action::LongSip, 10, 510))]
+        );
+        assert_eq!(
+            run(&c, &square(10, 1.0, 499, 50)),
+            [(514, burst(Action::ShortSip, 10, 509))]
+        );
+        assert_eq!(
+            run(&c, &square(0, 4.0, 40, 50)),
+            [(45, burst(Action::ShortPuff, 0, 40))]
+        );
+        assert_eq!(run(&c, &square(0, 4.0, 39, 50)), []);
+    }
+
+    #[test]
+    fn threshold_and_hysteresis() {
+        let c = DetectorConfig::default(); // puff 3.0, hysteresis 0.1
+        // Exactly at the threshold is not past it.
+        assert_eq!(run(&c, &square(5, 3.0, 200, 50)), []);
+        // Dropping to 2.95 is inside the hysteresis band: the puff goes on.
+        let mut s = square(5, 3.5, 100, 0);
+        s.extend(std::iter::repeat_n(2.95, 100));
+        s.extend(std::iter::repeat_n(2.5, 50));
+        assert_eq!(run(&c, &s), [(210, burst(Action::ShortPuff, 5, 205))]);
+    }
+
+    #[test]
+    fn glitches_neither_create_nor_split_bursts() {
+        let c = DetectorConfig::default();
+        // Spikes of 1..=5 samples to both rails at rest: nothing.
+        for len in 1..=5 {
+            for level in [0.0, 5.0] {
+                assert_eq!(run(&c, &square(20, level, len, 50)), [], "{len} at {level}");
+            }
+        }
+        // The same spikes inside a long puff, and a dropout to 0 V: one burst.
+        for len in 1..=5 {
+            let mut s = square(10, 4.0, 300, 0);
+            s[150..150 + len].fill(0.0);
+            s[250..250 + len].fill(5.0);
+            s.extend(std::iter::repeat_n(2.5, 50));
+            assert_eq!(
+                run(&c, &s),
+                [(315, burst(Action::ShortPuff, 10, 310))],
+                "{len}"
+            );
+        }
+        // Six samples is longer than a glitch: the puff is split.
+        let mut s = square(10, 4.0, 300, 0);
+        s[150..156].fill(2.5);
+        s.extend(std::iter::repeat_n(2.5, 50));
+        assert_eq!(run(&c, &s).len(), 2);
+    }
+
+    #[test]
+    fn direct_reversal_ends_one_burst_and_starts_the_other() {
+        let c = DetectorConfig::default();
+        let mut s = square(10, 4.0, 100, 0);
+        s.extend(std::iter::repeat_n(1.0, 100));
+        s.extend(std::iter::repeat_n(2.5, 20));
+        assert_eq!(
+            run(&c, &s),
+            [
+                (115, burst(Action::ShortPuff, 10, 110)),
+                (215, burst(Action::ShortSip, 110, 210)),
+            ]
+        );
+    }
+
+    #[test]
+    fn held_and_strength_follow_the_breath() {
+        let c = DetectorConfig::default();
+        let mut d = BurstDetector::new(&c);
+        for t in 0..10 {
+            assert_eq!(d.step(t, 2.5).held, Held::default());
+        }
+        let mut out = DetectorOutput::default();
+        for t in 10..20 {
+            out = d.step(t, 3.7);
+        }
+        assert_eq!(out.held.breath, Some(Breath::Puff));
+        assert!((out.held.strength_volts - 0.7).abs() < 1e-12);
+        // A one-sample spike keeps the held state and its strength.
+        let spike = d.step(20, 0.0);
+        assert_eq!(spike.held, out.held);
+        assert!(spike.in_progress);
+    }
+
+    #[test]
+    fn slow_drift_neither_creates_nor_loses_bursts() {
+        let c = DetectorConfig::default();
+        let mut d = BurstDetector::new(&c);
+        let mut bursts = 0;
+        // +0.3 V over one minute, with a 150 ms puff of 0.9 V every 2 s.
+        for t in 0..60_000u64 {
+            let neutral = 2.5 + 0.3 * t as f64 / 60_000.0;
+            let phase = t % 2000;
+            let v = if (1000..1150).contains(&phase) {
+                neutral + 0.9
+            } else {
+                neutral
+            };
+            if let Some(DetectorEvent::Burst(b)) = d.step(t, v).event {
+                assert_eq!(b.action, Action::ShortPuff);
+                assert_eq!(b.duration_ms(), 150);
+                bursts += 1;
+            }
+        }
+        assert_eq!(bursts, 30);
+        // An exponential tracker lags a ramp by rate × τ = 0.005 V/s × 4 s.
+        let lag = 2.8 - d.neutral_volts();
+        assert!((0.015..0.03).contains(&lag), "lag {lag}");
+        // Then back down −0.3 V below the start with sips.
+        for t in 60_000..180_000u64 {
+            let neutral = 2.8 - 0.6 * (t - 60_000) as f64 / 120_000.0;
+            let phase = t % 2000;
+            let v = if (1000..1150).contains(&phase) {
+                neutral - 0.9
+            } else {
+                neutral
+            };
+            if let Some(DetectorEvent::Burst(b)) = d.step(t, v).event {
+                assert_eq!(b.action, Action::ShortSip);
+                bursts += 1;
+            }
+        }
+        assert_eq!(bursts, 90);
+    }
+
+    #[test]
+    fn neutral_is_not_tracked_during_a_breath() {
+        let c = DetectorConfig::default();
+        let mut d = BurstDetector::new(&c);
+        for t in 0..10_000 {
+            d.step(t, 2.9); // gentle pressure, not a breath, outside the rest band
+        }
+        assert_eq!(d.neutral_volts(), 2.5);
+        for t in 10_000..20_000 {
+            d.step(t, 4.0);
+        }
+        assert_eq!(d.neutral_volts(), 2.5);
+    }
+
+    #[test]
+    fn faults_are_never_bursts_and_recover_at_rest() {
+        let c = DetectorConfig::default(); // recovery 250 ms, margin 0.5 V
+        let mut s = square(10, 4.0, 100, 0); // puff in progress …
+        s.push(f64::NAN); // … dropped by a fault
+        s.extend(std::iter::repeat_n(4.0, 100));
+        s.extend(std::iter::repeat_n(2.5, 300));
+        let events = run(&c, &s);
+        assert_eq!(
+            events,
+            [
+                (110, DetectorEvent::Fault(FaultReason::NotANumber)),
+                // At rest from 211; 250 samples later.
+                (460, DetectorEvent::Recovered),
+            ]
+        );
+        assert_eq!(
+            run(&c, &[2.5, f64::INFINITY])[0].1,
+            DetectorEvent::Fault(FaultReason::Infinite)
+        );
+        assert_eq!(
+            run(&c, &[2.5, 5.6])[0].1,
+            DetectorEvent::Fault(FaultReason::OutOfRange { volts: 5.6 })
+        );
+        assert_eq!(run(&c, &[5.5, -0.5, 0.0, 5.0]), []); // within the margin
+    }
+
+    #[test]
+    fn output_reports_fault_state() {
+        let c = DetectorConfig::default();
+        let mut d = BurstDetector::new(&c);
+        let out = d.step(0, f64::NEG_INFINITY);
+        assert!(out.faulted);
+        assert_eq!(out.held, Held::default());
+        assert!(d.step(1, f64::NAN).event.is_none(), "one event per fault");
+    }
+}

@@ -1,0 +1,82 @@
+//! Events the core reports, and the fixed-capacity list one tick carries.
+
+use crate::action::ActionSeq;
+use crate::detector::{Burst, FaultReason};
+use crate::matcher::ResetReason;
+use crate::modes::{DetectionReason, Mode};
+
+/// Something worth telling the user, the clinician or the log. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Event {
+    /// A burst was detected.
+    Burst(Burst),
+    /// A sequence matched: command mode for `mode` starts.
+    Match {
+        /// The matched sequence.
+        sequence: ActionSeq,
+        /// The mode entered.
+        mode: Mode,
+    },
+    /// The current sequence was dropped.
+    Reset {
+        /// The dropped sequence.
+        sequence: ActionSeq,
+        /// Why.
+        reason: ResetReason,
+    },
+    /// Back to detection mode.
+    Detection {
+        /// Why.
+        reason: DetectionReason,
+    },
+    /// The sensor signal became invalid; motion stops.
+    Fault(FaultReason),
+    /// The sensor signal is valid again; detection resumes.
+    Recovered,
+}
+
+/// Most events one tick can produce: a fault also resets the sequence and
+/// leaves command mode; nothing else produces more than two.
+pub const MAX_EVENTS_PER_TICK: usize = 4;
+
+/// The events of one tick, inline. `Copy`, RT-safe.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Events {
+    items: [Option<Event>; MAX_EVENTS_PER_TICK],
+    len: u8,
+}
+
+impl Default for Events {
+    fn default() -> Self {
+        Events {
+            items: [None; MAX_EVENTS_PER_TICK],
+            len: 0,
+        }
+    }
+}
+
+impl Events {
+    /// Adds an event; returns it back if the list is full (cannot happen
+    /// with the core's event sources, see [`MAX_EVENTS_PER_TICK`]).
+    pub fn push(&mut self, event: Event) -> Result<(), Event> {
+        let slot = self.items.get_mut(usize::from(self.len)).ok_or(event)?;
+        *slot = Some(event);
+        self.len += 1;
+        Ok(())
+    }
+
+    /// The events, in the order they happened.
+    pub fn iter(&self) -> impl Iterator<Item = &Event> {
+        self.items.iter().flatten()
+    }
+
+    /// Number of events.
+    pub fn len(&self) -> usize {
+        usize::from(self.len)
+    }
+
+    /// Whether nothing happened.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}

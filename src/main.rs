@@ -1,0 +1,235 @@
+//! The `sipnpuff` command line: replay recordings, generate synthetic ones,
+//! check a configuration.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+
+use sipnpuff::action::Action;
+use sipnpuff::alloc_counter::CountingAllocator;
+use sipnpuff::config::Config;
+use sipnpuff::csv_signal::CsvSignal;
+use sipnpuff::signal::{self, SignalGenerator, SignalParams, Step, Timing};
+
+#[global_allocator]
+static ALLOCATOR: CountingAllocator = CountingAllocator;
+
+#[derive(Parser)]
+#[command(
+    version,
+    about = "Sip-and-puff sequence-matching control for an assistive robot arm"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run the core over a recorded signal as fast as possible; print events
+    /// as JSON Lines.
+    Replay {
+        /// CSV with a header row and a `volts` column, one row per 1 ms sample.
+        signal: PathBuf,
+        /// TOML configuration (default: built-in).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Write events here instead of standard output.
+        #[arg(long)]
+        events: Option<PathBuf>,
+    },
+    /// Write a synthetic recording of a scripted user (seeded, repeatable).
+    Generate {
+        /// Output CSV file.
+        #[arg(long)]
+        out: PathBuf,
+        /// TOML configuration (its thresholds shape the breaths and its
+        /// library feeds the random user).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Length of a random session, in seconds.
+        #[arg(long, default_value_t = 60)]
+        seconds: u64,
+        /// Instead of a random session, enter these sequences in order, e.g.
+        /// `--sequences "1,2,-1 1,2 2,1"` (codes: 1 short sip, 2 long sip,
+        /// -1 short puff, -2 long puff).
+        #[arg(long, allow_hyphen_values = true)]
+        sequences: Option<String>,
+        /// Random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Gaussian noise, standard deviation in volts.
+        #[arg(long, default_value_t = 0.0)]
+        noise_volts: f64,
+        /// 50 Hz hum amplitude in volts.
+        #[arg(long, default_value_t = 0.0)]
+        hum_volts: f64,
+        /// Neutral drift amplitude in volts (one-minute period).
+        #[arg(long, default_value_t = 0.0)]
+        drift_volts: f64,
+        /// A one-sample spike to a rail every this many ms (0 = none).
+        #[arg(long, default_value_t = 0)]
+        spike_every_ms: u64,
+    },
+    /// Check a configuration and print it with its sequence table.
+    Config {
+        /// TOML configuration (default: built-in).
+        #[arg(long)]
+        config: Option<PathBuf>,
+    },
+}
+
+fn load_config(path: Option<&Path>) -> anyhow::Result<Config> {
+    match path {
+        Some(path) => Config::from_file(path),
+        None => Ok(Config::default()),
+    }
+}
+
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Replay {
+            signal,
+            config,
+            events,
+        } => replay(&signal, config.as_deref(), events.as_deref()),
+        Command::Generate {
+            out,
+            config,
+            seconds,
+            sequences,
+            seed,
+            noise_volts,
+            hum_volts,
+            drift_volts,
+            spike_every_ms,
+        } => {
+            let config = load_config(config.as_deref())?;
+            let mut params = SignalParams::clean(config.detector(), seed);
+            params.noise_volts = noise_volts;
+            params.hum_volts = hum_volts;
+            params.drift_volts = drift_volts;
+            params.spike_every_ms = spike_every_ms;
+            let script = match sequences {
+                Some(text) => scripted_sequences(&config, &text)?,
+                None => signal::random_session(&config, seconds, seed).0,
+            };
+            let file =
+                File::create(&out).with_context(|| format!("cannot create {}", out.display()))?;
+            let mut writer = BufWriter::new(file);
+            let n = signal::write_csv(&mut writer, SignalGenerator::new(params, &script))?;
+            writer.flush()?;
+            eprintln!(
+                "wrote {n} samples ({:.1} s) to {}",
+                n as f64 / 1000.0,
+                out.display()
+            );
+            Ok(())
+        }
+        Command::Config { config } => {
+            let config = load_config(config.as_deref())?;
+            print_config(&config);
+            Ok(())
+        }
+    }
+}
+
+fn replay(signal: &Path, config: Option<&Path>, events: Option<&Path>) -> anyhow::Result<()> {
+    let config = load_config(config)?;
+    let mut input = CsvSignal::open(signal)?;
+    let mut out: Box<dyn Write> = match events {
+        Some(path) => Box::new(BufWriter::new(
+            File::create(path).with_context(|| format!("cannot create {}", path.display()))?,
+        )),
+        None => Box::new(BufWriter::new(std::io::stdout().lock())),
+    };
+    let started = Instant::now();
+    let result = sipnpuff::replay::replay(&config, &mut input, &mut out);
+    let seconds = started.elapsed().as_secs_f64();
+    let summary = result.with_context(|| signal.display().to_string())?;
+    let signal_seconds = summary.samples as f64 / 1000.0;
+    eprintln!(
+        "replayed {} samples ({signal_seconds:.1} s of signal) in {seconds:.3} s: {:.0}x real time, {} events",
+        summary.samples,
+        signal_seconds / seconds.max(1e-9),
+        summary.events
+    );
+    Ok(())
+}
+
+/// Steps entering each sequence, with time after each to be matched and to
+/// return to detection mode.
+fn scripted_sequences(config: &Config, text: &str) -> anyhow::Result<Vec<Step>> {
+    let rest = config.matcher().sequence_timeout_ms + config.command().inactivity_timeout_ms + 500;
+    let mut script = vec![Step::Rest { ms: 1000 }];
+    for group in text.split_whitespace() {
+        let actions = group
+            .split(',')
+            .map(|code| {
+                code.trim()
+                    .parse::<i64>()
+                    .ok()
+                    .and_then(Action::from_code)
+                    .with_context(|| {
+                        format!("{code:?} in {group:?} is not an action code (1, 2, -1, -2)")
+                    })
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        script.extend(signal::sequence_steps(&actions, Timing::DEFAULT));
+        script.push(Step::Rest { ms: rest });
+    }
+    Ok(script)
+}
+
+fn print_config(config: &Config) {
+    let d = config.detector();
+    println!("[detector]");
+    println!("neutral_volts = {}", d.neutral_volts);
+    println!("puff_threshold_volts = {}", d.puff_threshold_volts);
+    println!("sip_threshold_volts = {}", d.sip_threshold_volts);
+    println!("hysteresis_volts = {}", d.hysteresis_volts);
+    println!("min_burst_ms = {}", d.min_burst_ms);
+    println!("long_burst_ms = {}", d.long_burst_ms);
+    println!("glitch_ms = {}", d.glitch_ms);
+    println!("neutral_tracking_ms = {}", d.neutral_tracking_ms);
+    println!("fault_margin_volts = {}", d.fault_margin_volts);
+    println!("fault_recovery_ms = {}", d.fault_recovery_ms);
+    println!(
+        "\n[matcher]\nsequence_timeout_ms = {}",
+        config.matcher().sequence_timeout_ms
+    );
+    println!(
+        "\n[command]\ninactivity_timeout_ms = {}",
+        config.command().inactivity_timeout_ms
+    );
+    for entry in config.sequences() {
+        let words: Vec<String> = entry
+            .actions
+            .as_slice()
+            .iter()
+            .map(|a| a.to_string())
+            .collect();
+        println!(
+            "\n[[sequence]]  # {}: {}\nactions = {:?}\nmode = {:?}",
+            words.join(", "),
+            entry.mode.description(),
+            entry.actions.codes().collect::<Vec<_>>(),
+            entry.mode.name()
+        );
+    }
+}

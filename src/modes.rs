@@ -1,0 +1,295 @@
+//! The paper's nine arm modes and the detection/command mode machine of its
+//! Fig. 1.
+//!
+//! Detection mode: no motion; a match enters command mode for the matched
+//! mode. Command mode: puff = positive direction, sip = negative, motion only
+//! while the breath is held (hold-to-run); no breath for
+//! `inactivity_timeout_ms` returns to detection mode, and so does a sensor
+//! fault (motion never resumes by itself after a fault).
+
+use crate::Tick;
+use crate::detector::Held;
+
+/// One of the paper's nine arm modes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Mode {
+    /// Forward (puff) / backward (sip).
+    TranslateX,
+    /// Left (puff) / right (sip).
+    TranslateY,
+    /// Up (puff) / down (sip).
+    TranslateZ,
+    /// Rotation about the tool's x axis.
+    RotateX,
+    /// Rotation about the tool's y axis.
+    RotateY,
+    /// Rotation about the tool's z axis.
+    RotateZ,
+    /// Open (puff) / close (sip) the fingers.
+    Fingers,
+    /// Store the current pose.
+    SavePoint,
+    /// Move to the stored pose.
+    GotoPoint,
+}
+
+impl Mode {
+    /// All modes, in the paper's order.
+    pub const ALL: [Mode; 9] = [
+        Mode::TranslateX,
+        Mode::TranslateY,
+        Mode::TranslateZ,
+        Mode::RotateX,
+        Mode::RotateY,
+        Mode::RotateZ,
+        Mode::Fingers,
+        Mode::SavePoint,
+        Mode::GotoPoint,
+    ];
+
+    /// The name used in config files and events.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Mode::TranslateX => "translate_x",
+            Mode::TranslateY => "translate_y",
+            Mode::TranslateZ => "translate_z",
+            Mode::RotateX => "rotate_x",
+            Mode::RotateY => "rotate_y",
+            Mode::RotateZ => "rotate_z",
+            Mode::Fingers => "fingers",
+            Mode::SavePoint => "save_point",
+            Mode::GotoPoint => "goto_point",
+        }
+    }
+
+    /// What puff and sip do in this mode, for people.
+    pub const fn description(self) -> &'static str {
+        match self {
+            Mode::TranslateX => "forward (puff) / backward (sip)",
+            Mode::TranslateY => "left (puff) / right (sip)",
+            Mode::TranslateZ => "up (puff) / down (sip)",
+            Mode::RotateX => "rotate about the tool's x axis",
+            Mode::RotateY => "rotate about the tool's y axis",
+            Mode::RotateZ => "rotate about the tool's z axis",
+            Mode::Fingers => "open (puff) / close (sip) the fingers",
+            Mode::SavePoint => "puff stores the current pose",
+            Mode::GotoPoint => "hold a puff to move to the stored pose",
+        }
+    }
+
+    /// The mode with this config name.
+    pub fn from_name(name: &str) -> Option<Mode> {
+        Mode::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
+/// Which mode the interface is in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ModeState {
+    /// Waiting for a sequence; nothing moves.
+    #[default]
+    Detection,
+    /// Puff and sip move the arm in this mode.
+    Command(Mode),
+}
+
+impl ModeState {
+    /// `detection` or the mode's name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ModeState::Detection => "detection",
+            ModeState::Command(mode) => mode.name(),
+        }
+    }
+}
+
+/// Why the machine went back to detection mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DetectionReason {
+    /// No breath for `inactivity_timeout_ms`.
+    Inactivity,
+    /// The sensor signal faulted.
+    Fault,
+}
+
+impl DetectionReason {
+    /// Name used in the event log.
+    pub const fn name(self) -> &'static str {
+        match self {
+            DetectionReason::Inactivity => "inactivity",
+            DetectionReason::Fault => "fault",
+        }
+    }
+}
+
+/// The command for the motion layer on one tick. `Copy`, RT-safe.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ModeOutput {
+    /// Current mode.
+    pub state: ModeState,
+    /// +1 (puff), −1 (sip) or 0; never non-zero in detection mode.
+    pub direction: i8,
+    /// Volts past the threshold while a breath is held, else 0.
+    pub strength_volts: f64,
+}
+
+/// The mode machine. `step` is RT-safe.
+#[derive(Debug, Clone)]
+pub struct ModeMachine {
+    inactivity: u64,
+    state: ModeState,
+    last_activity: Tick,
+    /// A breath was already held when the mode was entered (a sip right
+    /// after a puff, say): it must be released before anything moves.
+    await_release: bool,
+}
+
+impl ModeMachine {
+    /// Starts in detection mode, no motion.
+    pub fn new(inactivity_timeout_ms: u32) -> Self {
+        ModeMachine {
+            inactivity: inactivity_timeout_ms.into(),
+            state: ModeState::Detection,
+            last_activity: 0,
+            await_release: false,
+        }
+    }
+
+    /// The current mode.
+    pub fn state(&self) -> ModeState {
+        self.state
+    }
+
+    /// One tick: `matched` is the mode the matcher selected on this tick.
+    /// Returns the command and, if it happened, why the machine went back
+    /// to detection mode. RT-safe.
+    pub fn step(
+        &mut self,
+        now: Tick,
+        held: Held,
+        matched: Option<Mode>,
+        faulted: bool,
+    ) -> (ModeOutput, Option<DetectionReason>) {
+        let mut output = ModeOutput::default();
+        let mut left = None;
+        match self.state {
+            ModeState::Detection => {
+                if let Some(mode) = matched {
+                    self.state = ModeState::Command(mode);
+                    self.last_activity = now;
+                    self.await_release = held.breath.is_some();
+                }
+            }
+            ModeState::Command(_) => {
+                if faulted {
+                    left = Some(DetectionReason::Fault);
+                } else if let Some(breath) = held.breath {
+                    self.last_activity = now;
+                    if !self.await_release {
+                        output.direction = breath.direction();
+                        output.strength_volts = held.strength_volts;
+                    }
+                } else {
+                    self.await_release = false;
+                    if now - self.last_activity >= self.inactivity {
+                        left = Some(DetectionReason::Inactivity);
+                    }
+                }
+                if left.is_some() {
+                    self.state = ModeState::Detection;
+                }
+            }
+        }
+        output.state = self.state;
+        (output, left)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::action::Breath;
+
+    const REST: Held = Held {
+        breath: None,
+        strength_volts: 0.0,
+    };
+
+    fn puff(strength: f64) -> Held {
+        Held {
+            breath: Some(Breath::Puff),
+            strength_volts: strength,
+        }
+    }
+
+    #[test]
+    fn names_round_trip() {
+        for mode in Mode::ALL {
+            assert_eq!(Mode::from_name(mode.name()), Some(mode));
+        }
+        assert_eq!(Mode::from_name("translate"), None);
+    }
+
+    #[test]
+    fn starts_in_detection_and_does_not_move() {
+        let mut m = ModeMachine::new(2000);
+        let (out, left) = m.step(0, puff(1.0), None, false);
+        assert_eq!(out, ModeOutput::default());
+        assert_eq!(left, None);
+    }
+
+    #[test]
+    fn hold_to_run_and_inactivity() {
+        let mut m = ModeMachine::new(2000);
+        let (out, _) = m.step(100, REST, Some(Mode::TranslateZ), false);
+        assert_eq!(out.state, ModeState::Command(Mode::TranslateZ));
+        assert_eq!(out.direction, 0);
+
+        let (out, _) = m.step(500, puff(0.8), None, false);
+        assert_eq!((out.direction, out.strength_volts), (1, 0.8));
+        let sip = Held {
+            breath: Some(Breath::Sip),
+            strength_volts: 0.3,
+        };
+        assert_eq!(m.step(700, sip, None, false).0.direction, -1);
+        // Released at 701: still in command mode until 701 + 2000.
+        assert_eq!(m.step(701, REST, None, false).0.direction, 0);
+        assert_eq!(m.step(2699, REST, None, false).1, None);
+        let (out, left) = m.step(2700, REST, None, false);
+        assert_eq!(left, Some(DetectionReason::Inactivity));
+        assert_eq!(out, ModeOutput::default());
+    }
+
+    #[test]
+    fn inactivity_counts_from_the_match() {
+        let mut m = ModeMachine::new(2000);
+        m.step(100, REST, Some(Mode::Fingers), false);
+        assert_eq!(m.step(2099, REST, None, false).1, None);
+        assert_eq!(
+            m.step(2100, REST, None, false).1,
+            Some(DetectionReason::Inactivity)
+        );
+    }
+
+    #[test]
+    fn a_fault_returns_to_detection() {
+        let mut m = ModeMachine::new(2000);
+        m.step(100, REST, Some(Mode::RotateX), false);
+        m.step(200, puff(1.0), None, false);
+        let (out, left) = m.step(201, REST, None, true);
+        assert_eq!(left, Some(DetectionReason::Fault));
+        assert_eq!(out, ModeOutput::default());
+    }
+
+    #[test]
+    fn a_breath_held_at_the_match_must_be_released_first() {
+        let mut m = ModeMachine::new(2000);
+        let (out, _) = m.step(100, puff(1.0), Some(Mode::TranslateX), false);
+        assert_eq!(out.direction, 0);
+        assert_eq!(m.step(150, puff(1.0), None, false).0.direction, 0);
+        assert_eq!(m.step(151, REST, None, false).0.direction, 0);
+        assert_eq!(m.step(152, puff(1.0), None, false).0.direction, 1);
+        // The held breath counted as activity.
+        assert_eq!(m.step(2150, REST, None, false).1, None);
+    }
+}

@@ -1,0 +1,116 @@
+//! The core, stage by stage: detector → matcher → mode machine, one `step`
+//! per sample. Pure and deterministic: the same samples give the same
+//! outputs in replay, in tests and on the real-time thread.
+
+use crate::Tick;
+use crate::config::Config;
+use crate::detector::{BurstDetector, DetectorEvent, Held};
+use crate::event::{Event, Events};
+use crate::matcher::{MatchEvent, SequenceIndex, SequenceMatcher, TrieIndex};
+use crate::modes::{ModeMachine, ModeOutput};
+
+/// Everything the core says about one tick. `Copy`, RT-safe.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TickOutput {
+    /// The tick this output belongs to.
+    pub tick: Tick,
+    /// Mode, direction and strength for the motion layer.
+    pub command: ModeOutput,
+    /// The breath held right now, whatever the mode.
+    pub held: Held,
+    /// The sensor is in fault.
+    pub faulted: bool,
+    /// What happened on this tick.
+    pub events: Events,
+    /// Events that did not fit in `events` (always 0; counted, never
+    /// silently lost).
+    pub dropped_events: u8,
+}
+
+/// The deterministic core. Build with [`Core::new`] at start-up (allocates
+/// the matcher's index); [`Core::step`] is RT-safe: no allocation, no
+/// panic, no clock.
+#[derive(Debug, Clone)]
+pub struct Core<I: SequenceIndex = TrieIndex> {
+    detector: BurstDetector,
+    matcher: SequenceMatcher<I>,
+    modes: ModeMachine,
+}
+
+impl<I: SequenceIndex> Core<I> {
+    /// Builds the core from a validated config.
+    pub fn new(config: &Config) -> Self {
+        Core {
+            detector: BurstDetector::new(config.detector()),
+            matcher: SequenceMatcher::new(config.sequences(), config.matcher().sequence_timeout_ms),
+            modes: ModeMachine::new(config.command().inactivity_timeout_ms),
+        }
+    }
+
+    /// The detector (e.g. to read the tracked neutral).
+    pub fn detector(&self) -> &BurstDetector {
+        &self.detector
+    }
+
+    /// Feeds the sample taken at tick `now`. RT-safe.
+    pub fn step(&mut self, now: Tick, volts: f64) -> TickOutput {
+        let mut out = TickOutput {
+            tick: now,
+            command: ModeOutput::default(),
+            held: Held::default(),
+            faulted: false,
+            events: Events::default(),
+            dropped_events: 0,
+        };
+        let emit = |out: &mut TickOutput, event: Event| {
+            if out.events.push(event).is_err() {
+                out.dropped_events = out.dropped_events.saturating_add(1);
+            }
+        };
+
+        let detected = self.detector.step(now, volts);
+        out.held = detected.held;
+        out.faulted = detected.faulted;
+        let in_detection = self.modes.state() == crate::modes::ModeState::Detection;
+
+        let mut decision = None;
+        match detected.event {
+            Some(DetectorEvent::Burst(burst)) => {
+                emit(&mut out, Event::Burst(burst));
+                if in_detection {
+                    decision = self.matcher.on_burst(&burst);
+                }
+            }
+            Some(DetectorEvent::Fault(reason)) => {
+                emit(&mut out, Event::Fault(reason));
+                decision = self.matcher.interrupt();
+            }
+            Some(DetectorEvent::Recovered) => emit(&mut out, Event::Recovered),
+            None => {}
+        }
+        if decision.is_none() {
+            decision = self.matcher.on_tick(now, detected.in_progress);
+        }
+
+        let matched = match decision {
+            Some(MatchEvent::Match { sequence, mode }) => {
+                emit(&mut out, Event::Match { sequence, mode });
+                Some(mode)
+            }
+            Some(MatchEvent::Reset { sequence, reason }) => {
+                emit(&mut out, Event::Reset { sequence, reason });
+                None
+            }
+            None => None,
+        };
+
+        let (command, left) = self
+            .modes
+            .step(now, detected.held, matched, detected.faulted);
+        out.command = command;
+        if let Some(reason) = left {
+            emit(&mut out, Event::Detection { reason });
+        }
+        out
+    }
+}
