@@ -118,8 +118,9 @@ impl fmt::Display for Action {
 }
 
 /// A sequence of at most [`MAX_SEQUENCE_LEN`] actions, stored inline so it is
-/// `Copy` and never touches the heap. RT-safe.
-#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+/// `Copy` and never touches the heap. RT-safe. Equality and hashing look
+/// only at the actions held, never at the unused tail of the array.
+#[derive(Clone, Copy)]
 pub struct ActionSeq {
     actions: [Action; MAX_SEQUENCE_LEN],
     len: u8,
@@ -184,6 +185,20 @@ impl ActionSeq {
     }
 }
 
+impl PartialEq for ActionSeq {
+    fn eq(&self, other: &Self) -> bool {
+        self.as_slice() == other.as_slice()
+    }
+}
+
+impl Eq for ActionSeq {}
+
+impl std::hash::Hash for ActionSeq {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.as_slice().hash(state);
+    }
+}
+
 impl Default for ActionSeq {
     fn default() -> Self {
         ActionSeq::EMPTY
@@ -229,5 +244,17 @@ mod tests {
         assert!(ActionSeq::from_slice(&[Action::ShortSip; MAX_SEQUENCE_LEN + 1]).is_none());
         seq.clear();
         assert!(seq.is_empty());
+    }
+
+    #[test]
+    fn equality_ignores_what_was_cleared() {
+        let mut reused = ActionSeq::from_slice(&[Action::LongPuff, Action::LongPuff]).unwrap();
+        reused.clear();
+        reused.try_push(Action::LongSip).unwrap();
+        let fresh = ActionSeq::from_slice(&[Action::LongSip]).unwrap();
+        assert_eq!(reused, fresh);
+        use std::hash::BuildHasher;
+        let state = std::hash::RandomState::new();
+        assert_eq!(state.hash_one(reused), state.hash_one(fresh));
     }
 }

@@ -114,9 +114,11 @@ enum State {
         start: Tick,
     },
     /// Sensor fault; `rest_since` is the first tick of the current run of
-    /// valid samples at rest.
+    /// valid samples at rest (glitches allowed), `away_since` the first of
+    /// the current run of samples away from rest.
     Faulted {
         rest_since: Option<Tick>,
+        away_since: Option<Tick>,
     },
 }
 
@@ -178,7 +180,10 @@ impl BurstDetector {
         let event = match Self::check(volts, self.low_limit, self.high_limit) {
             Err(reason) => self.fault(reason),
             Ok(()) => match self.state {
-                State::Faulted { rest_since } => self.recover(now, volts, rest_since),
+                State::Faulted {
+                    rest_since,
+                    away_since,
+                } => self.recover(now, volts, rest_since, away_since),
                 State::Rest | State::Held { .. } => self.detect(now, volts),
             },
         };
@@ -212,20 +217,31 @@ impl BurstDetector {
 
     fn fault(&mut self, reason: FaultReason) -> Option<DetectorEvent> {
         let already = matches!(self.state, State::Faulted { .. });
-        self.state = State::Faulted { rest_since: None };
+        self.state = State::Faulted {
+            rest_since: None,
+            away_since: None,
+        };
         self.candidate = None;
         self.strength = 0.0;
         (!already).then_some(DetectorEvent::Fault(reason))
     }
 
+    /// Counts valid samples at rest; a glitch (at most `glitch_ms` away from
+    /// rest) does not break the count, a longer excursion restarts it.
     fn recover(
         &mut self,
         now: Tick,
         volts: f64,
         rest_since: Option<Tick>,
+        away_since: Option<Tick>,
     ) -> Option<DetectorEvent> {
         if self.zone(volts, None) != Zone::Rest {
-            self.state = State::Faulted { rest_since: None };
+            let away = away_since.unwrap_or(now);
+            let glitch = now + 1 - away <= self.glitch;
+            self.state = State::Faulted {
+                rest_since: rest_since.filter(|_| glitch),
+                away_since: Some(away),
+            };
             return None;
         }
         let since = rest_since.unwrap_or(now);
@@ -235,6 +251,7 @@ impl BurstDetector {
         } else {
             self.state = State::Faulted {
                 rest_since: Some(since),
+                away_since: None,
             };
             None
         }
@@ -533,6 +550,24 @@ mod tests {
             DetectorEvent::Fault(FaultReason::OutOfRange { volts: 5.6 })
         );
         assert_eq!(run(&c, &[5.5, -0.5, 0.0, 5.0]), []); // within the margin
+    }
+
+    #[test]
+    fn recovery_ignores_glitches_but_not_breaths() {
+        let c = DetectorConfig::default(); // recovery 250 ms, glitch 5 ms
+        // Spikes to the rails every 100 ms do not hold recovery off.
+        let mut s = vec![f64::NAN];
+        s.extend(std::iter::repeat_n(2.5, 400));
+        for i in (60..400).step_by(100) {
+            s[i] = 5.0;
+        }
+        assert_eq!(run(&c, &s)[1], (250, DetectorEvent::Recovered));
+        // A breath (longer than a glitch) restarts the count.
+        let mut s = vec![f64::NAN];
+        s.extend(std::iter::repeat_n(2.5, 100));
+        s.extend(std::iter::repeat_n(4.0, 6));
+        s.extend(std::iter::repeat_n(2.5, 400));
+        assert_eq!(run(&c, &s)[1], (356, DetectorEvent::Recovered));
     }
 
     #[test]

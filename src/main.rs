@@ -10,11 +10,10 @@ use std::time::Instant;
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 
-use sipnpuff::action::Action;
 use sipnpuff::alloc_counter::CountingAllocator;
 use sipnpuff::config::Config;
 use sipnpuff::csv_signal::CsvSignal;
-use sipnpuff::signal::{self, SignalGenerator, SignalParams, Step, Timing};
+use sipnpuff::signal::{self, SignalGenerator, SignalParams};
 
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
@@ -126,7 +125,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             params.drift_volts = drift_volts;
             params.spike_every_ms = spike_every_ms;
             let script = match sequences {
-                Some(text) => scripted_sequences(&config, &text)?,
+                Some(text) => {
+                    let sequences = signal::parse_sequences(&text).map_err(anyhow::Error::msg)?;
+                    signal::sequences_script(&config, &sequences)
+                }
                 None => signal::random_session(&config, seconds, seed).0,
             };
             let file =
@@ -170,30 +172,6 @@ fn replay(signal: &Path, config: Option<&Path>, events: Option<&Path>) -> anyhow
         summary.events
     );
     Ok(())
-}
-
-/// Steps entering each sequence, with time after each to be matched and to
-/// return to detection mode.
-fn scripted_sequences(config: &Config, text: &str) -> anyhow::Result<Vec<Step>> {
-    let rest = config.matcher().sequence_timeout_ms + config.command().inactivity_timeout_ms + 500;
-    let mut script = vec![Step::Rest { ms: 1000 }];
-    for group in text.split_whitespace() {
-        let actions = group
-            .split(',')
-            .map(|code| {
-                code.trim()
-                    .parse::<i64>()
-                    .ok()
-                    .and_then(Action::from_code)
-                    .with_context(|| {
-                        format!("{code:?} in {group:?} is not an action code (1, 2, -1, -2)")
-                    })
-            })
-            .collect::<anyhow::Result<Vec<_>>>()?;
-        script.extend(signal::sequence_steps(&actions, Timing::DEFAULT));
-        script.push(Step::Rest { ms: rest });
-    }
-    Ok(script)
 }
 
 fn print_config(config: &Config) {

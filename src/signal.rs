@@ -333,6 +333,40 @@ pub fn sequence_steps(actions: &[Action], timing: Timing) -> Vec<Step> {
         .collect()
 }
 
+/// Parses sequences written as codes, groups separated by spaces:
+/// `"1,2,-1 1,2 2,1"`.
+pub fn parse_sequences(text: &str) -> Result<Vec<Vec<Action>>, String> {
+    text.split_whitespace()
+        .map(|group| {
+            group
+                .split(',')
+                .map(|code| {
+                    code.trim()
+                        .parse::<i64>()
+                        .ok()
+                        .and_then(Action::from_code)
+                        .ok_or_else(|| {
+                            format!("{code:?} in {group:?} is not an action code (1, 2, -1, -2)")
+                        })
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// A script entering each sequence in turn (default timings), with enough
+/// rest after each to be matched (or reset) and to return to detection mode
+/// before the next.
+pub fn sequences_script(config: &Config, sequences: &[Vec<Action>]) -> Vec<Step> {
+    let rest = config.matcher().sequence_timeout_ms + config.command().inactivity_timeout_ms + 500;
+    let mut script = vec![Step::Rest { ms: 1000 }];
+    for actions in sequences {
+        script.extend(sequence_steps(actions, Timing::DEFAULT));
+        script.push(Step::Rest { ms: rest });
+    }
+    script
+}
+
 /// A scripted user session: random library sequences, each followed by a
 /// few moves (holds of 0.2–3 s) and a wait until the interface returns to
 /// detection mode. Deterministic for a seed. Returns the script and the

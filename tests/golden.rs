@@ -1,0 +1,216 @@
+//! Replays the recordings in `fixtures/` through the real pipeline and
+//! compares the events with the golden files, then checks independently that
+//! those goldens say what the paper and the scripts say.
+
+use std::path::Path;
+
+use serde_json::Value;
+use sipnpuff::action::Action;
+use sipnpuff::config::Config;
+use sipnpuff::csv_signal::CsvSignal;
+use sipnpuff::modes::Mode;
+use sipnpuff::replay::replay;
+use sipnpuff::signal::{
+    self, SignalGenerator, SignalParams, Step, parse_sequences, random_session, sequences_script,
+};
+
+fn fixture(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures")
+        .join(name)
+}
+
+fn replay_events(csv: &str, config: &Config) -> Vec<Value> {
+    let mut input = CsvSignal::open(&fixture(csv)).unwrap();
+    let mut out = Vec::new();
+    replay(config, &mut input, &mut out).unwrap();
+    String::from_utf8(out)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+fn golden(name: &str) -> Vec<Value> {
+    std::fs::read_to_string(fixture(name))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+fn paper_config() -> Config {
+    Config::from_file(&fixture("paper-example.toml")).unwrap()
+}
+
+/// Regenerates a fixture's CSV in memory, as `generate` wrote it.
+fn regenerate(params: SignalParams, script: &[Step]) -> String {
+    let mut out = Vec::new();
+    signal::write_csv(&mut out, SignalGenerator::new(params, script)).unwrap();
+    String::from_utf8(out).unwrap()
+}
+
+/// `generate --config fixtures/paper-example.toml --sequences "1,2,-1 1,2 2,1 2 1,2,1"
+/// --seed 3 --noise-volts 0.02`
+fn paper_fixture_script(config: &Config) -> (SignalParams, Vec<Step>) {
+    let mut params = SignalParams::clean(config.detector(), 3);
+    params.noise_volts = 0.02;
+    let sequences = parse_sequences("1,2,-1 1,2 2,1 2 1,2,1").unwrap();
+    (params, sequences_script(config, &sequences))
+}
+
+/// `generate --seconds 60 --seed 1 --noise-volts 0.03 --hum-volts 0.05
+/// --drift-volts 0.1 --spike-every-ms 250`
+fn demo_fixture_script(config: &Config) -> (SignalParams, Vec<Step>, Vec<Mode>) {
+    let mut params = SignalParams::clean(config.detector(), 1);
+    params.noise_volts = 0.03;
+    params.hum_volts = 0.05;
+    params.drift_volts = 0.1;
+    params.spike_every_ms = 250;
+    let (script, modes) = random_session(config, 60, 1);
+    (params, script, modes)
+}
+
+#[test]
+fn fixtures_are_what_the_generator_makes() {
+    let config = paper_config();
+    let (params, script) = paper_fixture_script(&config);
+    let committed = std::fs::read_to_string(fixture("paper-example.csv")).unwrap();
+    assert!(
+        regenerate(params, &script) == committed,
+        "paper-example.csv differs"
+    );
+
+    let config = Config::default();
+    let (params, script, _) = demo_fixture_script(&config);
+    let committed = std::fs::read_to_string(fixture("demo.csv")).unwrap();
+    assert!(regenerate(params, &script) == committed, "demo.csv differs");
+}
+
+#[test]
+fn paper_example_matches_golden() {
+    assert_eq!(
+        replay_events("paper-example.csv", &paper_config()),
+        golden("paper-example.events.jsonl")
+    );
+}
+
+#[test]
+fn demo_matches_golden() {
+    assert_eq!(
+        replay_events("demo.csv", &Config::default()),
+        golden("demo.events.jsonl")
+    );
+}
+
+/// The paper's walk-through, as the recording enters it:
+/// ⟨1,2,−1⟩ matches S1 at once; ⟨1,2⟩ waits and matches S2 exactly
+/// `sequence_timeout_ms` after the end of its last burst; ⟨2,1⟩ matches S3;
+/// ⟨2⟩ alone is reset at the timeout; ⟨1,2,1⟩ is reset on its third burst.
+#[test]
+fn paper_example_golden_tells_the_papers_story() {
+    let events = golden("paper-example.events.jsonl");
+    let decisions: Vec<(&str, Vec<i64>, &str)> = events
+        .iter()
+        .filter(|e| e["event"] == "match" || e["event"] == "reset")
+        .map(|e| {
+            let seq = e["sequence"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|c| c.as_i64().unwrap())
+                .collect();
+            let what = e["mode"].as_str().or(e["reason"].as_str()).unwrap();
+            (e["event"].as_str().unwrap(), seq, what)
+        })
+        .collect();
+    assert_eq!(
+        decisions,
+        [
+            ("match", vec![1, 2, -1], "translate_x"),
+            ("match", vec![1, 2], "translate_y"),
+            ("match", vec![2, 1], "translate_z"),
+            ("reset", vec![2], "timeout"),
+            ("reset", vec![1, 2, 1], "no_match"),
+        ]
+    );
+
+    // Immediate decisions land on the tick of the last burst; waiting ones
+    // exactly sequence_timeout_ms after that burst's end.
+    let timeout = u64::from(paper_config().matcher().sequence_timeout_ms);
+    let waited = [false, true, false, true, false];
+    let decided: Vec<usize> = (0..events.len())
+        .filter(|&i| events[i]["event"] == "match" || events[i]["event"] == "reset")
+        .collect();
+    for (&i, waited) in decided.iter().zip(waited) {
+        let burst = events[..i]
+            .iter()
+            .rev()
+            .find(|b| b["event"] == "burst")
+            .unwrap();
+        let end = burst["start_tick"].as_u64().unwrap() + burst["duration_ms"].as_u64().unwrap();
+        let expected = if waited {
+            end + timeout
+        } else {
+            burst["tick"].as_u64().unwrap()
+        };
+        assert_eq!(
+            events[i]["tick"].as_u64().unwrap(),
+            expected,
+            "{}",
+            events[i]
+        );
+    }
+    // Every match is followed by a return to detection mode.
+    let detections = events.iter().filter(|e| e["event"] == "detection").count();
+    assert_eq!(detections, 3);
+}
+
+/// Every burst the scripted user made is in the golden, with the right sip
+/// or puff and length class, and every mode it selected was matched, in
+/// order; nothing else was detected.
+#[test]
+fn demo_golden_has_every_scripted_burst_and_mode() {
+    let config = Config::default();
+    let (_, script, modes) = demo_fixture_script(&config);
+    let events = golden("demo.events.jsonl");
+    let long = u64::from(config.detector().long_burst_ms);
+
+    let bursts: Vec<&Value> = events.iter().filter(|e| e["event"] == "burst").collect();
+    let scripted: Vec<(sipnpuff::action::Breath, u32)> = script
+        .iter()
+        .filter_map(|s| match *s {
+            Step::Breath { breath, ms } => Some((breath, ms)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(bursts.len(), scripted.len());
+    for (b, (breath, ms)) in bursts.iter().zip(&scripted) {
+        let action = Action::from_code(b["action"].as_i64().unwrap()).unwrap();
+        assert_eq!(action.breath(), *breath, "{b}");
+        let measured = b["duration_ms"].as_u64().unwrap();
+        // 0.05 V of hum and 0.03 V of noise move each crossing of a
+        // ~0.03 V/ms ramp by a few ms; a few ms is far below what tells a
+        // short breath from a long one.
+        assert!(
+            measured.abs_diff(u64::from(*ms)) <= 10,
+            "{b} scripted {ms} ms"
+        );
+        if u64::from(*ms).abs_diff(long) > 10 {
+            assert_eq!(action.is_long(), u64::from(*ms) >= long, "{b}");
+        }
+    }
+
+    let matched: Vec<&str> = events
+        .iter()
+        .filter(|e| e["event"] == "match")
+        .map(|e| e["mode"].as_str().unwrap())
+        .collect();
+    let expected: Vec<&str> = modes.iter().map(|m| m.name()).collect();
+    assert_eq!(matched, expected);
+    assert!(
+        events
+            .iter()
+            .all(|e| e["event"] != "reset" && e["event"] != "fault")
+    );
+}
