@@ -62,7 +62,7 @@ impl Default for DetectorConfig {
             min_burst_ms: 40,
             long_burst_ms: 500,
             glitch_ms: 5,
-            neutral_tracking_ms: 4000,
+            neutral_tracking_ms: 1000,
             fault_margin_volts: 0.5,
             fault_recovery_ms: 250,
         }
@@ -407,7 +407,7 @@ impl Reader {
         }
         let nearest =
             (c.puff_threshold_volts - c.neutral_volts).min(c.neutral_volts - c.sip_threshold_volts);
-        if !(c.hysteresis_volts >= 0.0) {
+        if c.hysteresis_volts.is_nan() || c.hysteresis_volts < 0.0 {
             self.error("detector.hysteresis_volts", "must be 0 V or more");
         } else if nearest > 0.0 && c.hysteresis_volts >= nearest {
             self.error(
@@ -733,6 +733,21 @@ mod tests {
         ));
         assert_eq!(e.len(), 1);
         assert!(e[0].message.contains("at most 16"), "{}", e[0].message);
+    }
+
+    #[test]
+    fn nan_and_infinite_settings_are_rejected() {
+        let e = keys(
+            "[detector]\nneutral_volts = nan\nhysteresis_volts = nan\nfault_margin_volts = inf\n",
+        );
+        assert_eq!(
+            e,
+            [
+                "detector.neutral_volts",
+                "detector.hysteresis_volts",
+                "detector.fault_margin_volts"
+            ]
+        );
     }
 
     #[test]

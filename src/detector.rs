@@ -9,8 +9,9 @@
 //!   Start and end are dated to the first sample of the confirming run, so
 //!   durations are exact; the burst is emitted on the tick its end is
 //!   confirmed (`glitch_ms` ticks after the signal crossed back).
-//! * The neutral is tracked (slow exponential average) only while the signal
-//!   is at rest, and the thresholds move with it by their configured offsets.
+//! * The neutral is tracked (exponential average, time constant
+//!   `neutral_tracking_ms`) only while the signal is at rest, and the
+//!   thresholds move with it by their configured offsets.
 //! * A NaN, infinite or out-of-range sample is a sensor fault: any breath in
 //!   progress is dropped (never turned into a burst) and detection resumes
 //!   only after `fault_recovery_ms` of valid samples at rest.
@@ -122,6 +123,12 @@ enum State {
     },
 }
 
+/// How far behind the signal the neutral tracker reads. Longer than the
+/// part of a breath's rise that stays below the threshold, so a sample is
+/// used only once it is known not to be the start of a breath; after a
+/// breath, tracking resumes this long after its end, past the fall.
+pub const TRACKING_DELAY_MS: usize = 100;
+
 /// The burst detector. Construct once; [`BurstDetector::step`] is RT-safe
 /// (no allocation, no panic, O(1)).
 #[derive(Debug, Clone)]
@@ -129,7 +136,6 @@ pub struct BurstDetector {
     puff_offset: f64,
     sip_offset: f64,
     hysteresis: f64,
-    rest_band: f64,
     min_burst: u64,
     long_burst: u64,
     glitch: u64,
@@ -139,6 +145,10 @@ pub struct BurstDetector {
     recovery: u64,
 
     neutral: f64,
+    /// The last [`TRACKING_DELAY_MS`] resting samples, indexed by tick.
+    recent: [f64; TRACKING_DELAY_MS],
+    /// Ticks at rest since the last confirmed breath (or fault) ended.
+    quiet_ticks: u64,
     state: State,
     /// A zone differing from the state's, and the tick its run began.
     candidate: Option<(Zone, Tick)>,
@@ -155,7 +165,6 @@ impl BurstDetector {
             puff_offset,
             sip_offset,
             hysteresis: config.hysteresis_volts,
-            rest_band: 0.5 * puff_offset.min(-sip_offset),
             min_burst: config.min_burst_ms.into(),
             long_burst: config.long_burst_ms.into(),
             glitch: config.glitch_ms.into(),
@@ -164,6 +173,8 @@ impl BurstDetector {
             high_limit: 5.0 + config.fault_margin_volts,
             recovery: config.fault_recovery_ms.into(),
             neutral: config.neutral_volts,
+            recent: [config.neutral_volts; TRACKING_DELAY_MS],
+            quiet_ticks: 0,
             state: State::Rest,
             candidate: None,
             strength: 0.0,
@@ -221,6 +232,7 @@ impl BurstDetector {
             rest_since: None,
             away_since: None,
         };
+        self.quiet_ticks = 0;
         self.candidate = None;
         self.strength = 0.0;
         (!already).then_some(DetectorEvent::Fault(reason))
@@ -287,9 +299,14 @@ impl BurstDetector {
             self.candidate = None;
             match held {
                 Some(breath) => self.strength = self.past_threshold(breath, volts),
-                None => self.track_neutral(volts),
+                None => self.track_neutral(now, volts),
             }
             return None;
+        }
+        if held.is_none() {
+            // A crossing not yet confirmed (maybe a glitch): keep the delay
+            // line going with the current estimate, which moves nothing.
+            self.track_neutral(now, self.neutral);
         }
 
         let since = match self.candidate {
@@ -306,6 +323,7 @@ impl BurstDetector {
             State::Held { breath, start } => self.finish(breath, start, since),
             _ => None,
         };
+        self.quiet_ticks = 0;
         self.state = match zone {
             Zone::Breath(breath) => {
                 self.strength = self.past_threshold(breath, volts);
@@ -339,11 +357,21 @@ impl BurstDetector {
         past.max(0.0)
     }
 
-    fn track_neutral(&mut self, volts: f64) {
-        let deviation = volts - self.neutral;
-        if deviation.abs() < self.rest_band {
-            self.neutral += deviation * self.tracking_alpha;
+    /// Called only for samples at rest (between the thresholds, no crossing
+    /// pending): every such sample is ambient pressure. A narrower band
+    /// would let the estimate fall outside it during fast drift and stop
+    /// tracking for good.
+    ///
+    /// Samples go through a delay line; one is used once the signal has
+    /// been at rest for a whole delay before it and a whole delay after it.
+    fn track_neutral(&mut self, now: Tick, volts: f64) {
+        let slot = (now % TRACKING_DELAY_MS as u64) as usize;
+        self.quiet_ticks += 1;
+        if self.quiet_ticks > 2 * TRACKING_DELAY_MS as u64 {
+            let delayed = self.recent[slot];
+            self.neutral += (delayed - self.neutral) * self.tracking_alpha;
         }
+        self.recent[slot] = volts;
     }
 }
 
@@ -491,9 +519,10 @@ mod tests {
             }
         }
         assert_eq!(bursts, 30);
-        // An exponential tracker lags a ramp by rate × τ = 0.005 V/s × 4 s.
+        // An exponential tracker lags a ramp by rate × (τ + delay) =
+        // 0.005 V/s × 1.1 s, a little more for the pauses during breaths.
         let lag = 2.8 - d.neutral_volts();
-        assert!((0.015..0.03).contains(&lag), "lag {lag}");
+        assert!((0.005..0.008).contains(&lag), "lag {lag}");
         // Then back down −0.3 V below the start with sips.
         for t in 60_000..180_000u64 {
             let neutral = 2.8 - 0.6 * (t - 60_000) as f64 / 120_000.0;
@@ -512,17 +541,35 @@ mod tests {
     }
 
     #[test]
-    fn neutral_is_not_tracked_during_a_breath() {
+    fn neutral_is_tracked_at_rest_only() {
         let c = DetectorConfig::default();
         let mut d = BurstDetector::new(&c);
+        // A 10 s breath, then a one-sample spike and the start of another
+        // breath (crossings pending): none of it moves the neutral.
         for t in 0..10_000 {
-            d.step(t, 2.9); // gentle pressure, not a breath, outside the rest band
+            d.step(t, 4.0);
+        }
+        for t in 10_000..10_100 {
+            d.step(t, 2.5);
         }
         assert_eq!(d.neutral_volts(), 2.5);
-        for t in 10_000..20_000 {
+        d.step(10_100, 0.0);
+        for t in 10_101..10_104 {
             d.step(t, 4.0);
         }
         assert_eq!(d.neutral_volts(), 2.5);
+        // A resting level that moved by 0.2 V is followed with the
+        // configured time constant: 1 − e⁻¹ of the way after 1 s.
+        // Tracking starts once the signal has been at rest for twice the
+        // delay; each tick then consumes the sample one delay old.
+        let mut d = BurstDetector::new(&c);
+        let start = 2 * TRACKING_DELAY_MS as u64;
+        for t in 0..start + 1000 {
+            d.step(t, 2.7);
+        }
+        let followed = (d.neutral_volts() - 2.5) / 0.2;
+        let expected = 1.0 - (1.0 - 1.0 / 1000.0f64).powi(1000);
+        assert!((followed - expected).abs() < 1e-9, "{followed}");
     }
 
     #[test]

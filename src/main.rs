@@ -51,7 +51,7 @@ enum Command {
         /// library feeds the random user).
         #[arg(long)]
         config: Option<PathBuf>,
-        /// Length of a random session, in seconds.
+        /// Length of a random session, in seconds (exact).
         #[arg(long, default_value_t = 60)]
         seconds: u64,
         /// Instead of a random session, enter these sequences in order, e.g.
@@ -124,17 +124,23 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             params.hum_volts = hum_volts;
             params.drift_volts = drift_volts;
             params.spike_every_ms = spike_every_ms;
-            let script = match sequences {
+            let (script, length) = match sequences {
                 Some(text) => {
                     let sequences = signal::parse_sequences(&text).map_err(anyhow::Error::msg)?;
-                    signal::sequences_script(&config, &sequences)
+                    (signal::sequences_script(&config, &sequences), usize::MAX)
                 }
-                None => signal::random_session(&config, seconds, seed).0,
+                None => (
+                    signal::random_session(&config, seconds, seed).0,
+                    usize::try_from(seconds * 1000)?,
+                ),
             };
             let file =
                 File::create(&out).with_context(|| format!("cannot create {}", out.display()))?;
             let mut writer = BufWriter::new(file);
-            let n = signal::write_csv(&mut writer, SignalGenerator::new(params, &script))?;
+            let n = signal::write_csv(
+                &mut writer,
+                SignalGenerator::new(params, &script).take(length),
+            )?;
             writer.flush()?;
             eprintln!(
                 "wrote {n} samples ({:.1} s) to {}",

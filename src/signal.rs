@@ -75,6 +75,9 @@ impl Crossings {
     }
 }
 
+/// Range of a breath's rise (and fall) time, in ms.
+pub const DEFAULT_RAMP_MS: (f64, f64) = (30.0, 80.0);
+
 /// Everything about the synthetic sensor and user except the script.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SignalParams {
@@ -116,7 +119,7 @@ impl SignalParams {
             crossings: Crossings::of(detector),
             breath_volts: 1.2,
             breath_jitter: 0.15,
-            ramp_ms: (30.0, 80.0),
+            ramp_ms: DEFAULT_RAMP_MS,
             tremor_volts: 0.03,
             noise_volts: 0.0,
             hum_volts: 0.0,
@@ -282,7 +285,11 @@ impl Iterator for SignalGenerator<'_> {
         let mut volts = p.neutral_volts + drift + breath + tremor + hum + noise;
         if p.spike_every_ms > 0 && (self.tick - 1) % p.spike_every_ms == p.spike_every_ms / 2 {
             self.spikes += 1;
-            volts = if self.spikes % 2 == 0 { 0.0 } else { 5.0 };
+            volts = if self.spikes.is_multiple_of(2) {
+                0.0
+            } else {
+                5.0
+            };
         }
         Some(if dropout {
             f64::NAN
@@ -368,9 +375,12 @@ pub fn sequences_script(config: &Config, sequences: &[Vec<Action>]) -> Vec<Step>
 }
 
 /// A scripted user session: random library sequences, each followed by a
-/// few moves (holds of 0.2–3 s) and a wait until the interface returns to
-/// detection mode. Deterministic for a seed. Returns the script and the
-/// modes selected, in order.
+/// few moves (holds of 0.2–3 s, with pauses short enough to stay in the
+/// mode) and a wait until the interface returns to detection mode, then
+/// rest. Deterministic for a seed. Played with the default ramps, every
+/// breath ends within the first `seconds × 1000` samples and the script
+/// lasts at least that long, so cutting it there only shortens the final
+/// rest. Returns the script and the modes selected, in order.
 pub fn random_session(config: &Config, seconds: u64, seed: u64) -> (Vec<Step>, Vec<Mode>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_5e55_1011);
     let d = config.detector();
@@ -380,16 +390,25 @@ pub fn random_session(config: &Config, seconds: u64, seed: u64) -> (Vec<Step>, V
         gap_ms: 300,
     };
     let inactivity = config.command().inactivity_timeout_ms;
+    // Ramps add up to ~100 ms around a pause; stay well inside the timeout.
+    let longest_pause = inactivity.saturating_sub(400).max(201);
     let library = config.sequences();
     let total_ms = seconds * 1000;
+    // Samples a step plays: at least its `ms`, and for a breath at most its
+    // `ms` plus both ramps whole.
+    let bounds = |steps: &[Step]| {
+        steps.iter().fold((0, 0), |(low, high), s| match *s {
+            Step::Breath { ms, .. } => (
+                low + u64::from(ms),
+                high + u64::from(ms) + 2 * DEFAULT_RAMP_MS.1 as u64 + 2,
+            ),
+            Step::Rest { ms } | Step::Dropout { ms } => (low + u64::from(ms), high + u64::from(ms)),
+        })
+    };
     let mut script = vec![Step::Rest { ms: 1000 }];
     let mut modes = Vec::new();
-    let mut elapsed = 1000u64;
-    let length = |s: &Step| match *s {
-        Step::Breath { ms, .. } => u64::from(ms) + 150,
-        Step::Rest { ms } | Step::Dropout { ms } => ms.into(),
-    };
-    while elapsed < total_ms && !library.is_empty() {
+    let (mut low, mut high) = (1000, 1000);
+    while !library.is_empty() {
         let entry = library[rng.random_range(0..library.len())];
         let mut steps = sequence_steps(entry.actions.as_slice(), timing);
         // Wait out the sequence timeout in case the entry is a prefix.
@@ -407,16 +426,25 @@ pub fn random_session(config: &Config, seconds: u64, seed: u64) -> (Vec<Step>, V
                 ms: rng.random_range(200..=3000),
             });
             steps.push(Step::Rest {
-                ms: rng.random_range(200..inactivity.max(201)),
+                ms: rng.random_range(200..longest_pause),
             });
         }
         steps.push(Step::Rest {
             ms: inactivity + 500,
         });
-        elapsed += steps.iter().map(length).sum::<u64>();
+        let (step_low, step_high) = bounds(&steps);
+        if high + step_high > total_ms {
+            break;
+        }
+        low += step_low;
+        high += step_high;
         script.extend(steps);
         modes.push(entry.mode);
     }
+    let fill = total_ms.saturating_sub(low);
+    script.push(Step::Rest {
+        ms: u32::try_from(fill).unwrap_or(u32::MAX),
+    });
     (script, modes)
 }
 
