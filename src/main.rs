@@ -183,15 +183,15 @@ fn replay(signal: &Path, config: Option<&Path>, events: Option<&Path>) -> anyhow
 fn print_config(config: &Config) {
     let d = config.detector();
     println!("[detector]");
-    println!("neutral_volts = {}", d.neutral_volts);
-    println!("puff_threshold_volts = {}", d.puff_threshold_volts);
-    println!("sip_threshold_volts = {}", d.sip_threshold_volts);
-    println!("hysteresis_volts = {}", d.hysteresis_volts);
+    println!("neutral_volts = {:?}", d.neutral_volts);
+    println!("puff_threshold_volts = {:?}", d.puff_threshold_volts);
+    println!("sip_threshold_volts = {:?}", d.sip_threshold_volts);
+    println!("hysteresis_volts = {:?}", d.hysteresis_volts);
     println!("min_burst_ms = {}", d.min_burst_ms);
     println!("long_burst_ms = {}", d.long_burst_ms);
     println!("glitch_ms = {}", d.glitch_ms);
     println!("neutral_tracking_ms = {}", d.neutral_tracking_ms);
-    println!("fault_margin_volts = {}", d.fault_margin_volts);
+    println!("fault_margin_volts = {:?}", d.fault_margin_volts);
     println!("fault_recovery_ms = {}", d.fault_recovery_ms);
     println!(
         "\n[matcher]\nsequence_timeout_ms = {}",
