@@ -15,6 +15,37 @@
 //! construction: time enters as a [`Tick`] argument (1 tick = 1 ms = one
 //! sensor sample at 1 kHz). [`config`], [`signal`], [`csv_signal`] and
 //! [`replay`] are set-up and tooling code and may allocate.
+//!
+//! ```
+//! use sipnpuff::config::Config;
+//! use sipnpuff::event::Event;
+//! use sipnpuff::modes::{Mode, ModeState};
+//! use sipnpuff::pipeline::Core;
+//!
+//! // Built-in library: two short puffs select forward/backward.
+//! let config = Config::default();
+//! let mut core: Core = Core::new(&config);
+//! let mut tick = 0;
+//! let mut feed = |core: &mut Core, volts: f64, ms: u64| {
+//!     let mut events = Vec::new();
+//!     for _ in 0..ms {
+//!         events.extend(core.step(tick, volts).events.iter().copied());
+//!         tick += 1;
+//!     }
+//!     events
+//! };
+//! feed(&mut core, 2.5, 500);
+//! feed(&mut core, 4.0, 150); // short puff
+//! feed(&mut core, 2.5, 300);
+//! feed(&mut core, 4.0, 150); // short puff
+//! let events = feed(&mut core, 2.5, 10);
+//! assert!(events.iter().any(|e| matches!(e, Event::Match { mode: Mode::TranslateX, .. })));
+//!
+//! // Hold-to-run: a puff now means "forward" for as long as it is held.
+//! let out = (0..20).map(|_| { tick += 1; core.step(tick, 3.8) }).last().unwrap();
+//! assert_eq!(out.command.state, ModeState::Command(Mode::TranslateX));
+//! assert_eq!(out.command.direction, 1);
+//! ```
 
 #![deny(missing_docs)]
 #![deny(unsafe_op_in_unsafe_fn)]
