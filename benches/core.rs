@@ -8,11 +8,19 @@
 //! * `matcher_per_burst/{trie,scan}/{9,64,256}`: bursts entering every
 //!   sequence of a prefix-free library in turn (the built-in 9; all 64
 //!   sequences of 3 actions; all 256 of 4).
+//! * `ruckig/*`: one `rsruckig` update, six axes, as the motion layer uses
+//!   it: velocity interface steady (same target) and on a new target every
+//!   update; position interface (go to point) on a new target.
+//! * `tick/*`: one full tick (detector → matcher → modes → Ruckig →
+//!   100 Hz decimation → simulated arm): steady, holding a puff in
+//!   `translate_x`; and on a new target every tick (sip and puff
+//!   alternating each sample, glitch filter off).
 
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use sipnpuff::action::{Action, ActionSeq};
+use sipnpuff::arm::{ArmBackend, SimulatedJaco};
 use sipnpuff::config::{Config, SequenceEntry};
 use sipnpuff::detector::{Burst, BurstDetector};
 use sipnpuff::matcher::{ScanIndex, SequenceIndex, SequenceMatcher, TrieIndex};
@@ -130,5 +138,139 @@ fn matcher_per_burst(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, per_sample, matcher_per_burst);
+fn ruckig_updates(c: &mut Criterion) {
+    use rsruckig::prelude::*;
+    let mut group = c.benchmark_group("ruckig");
+    let limits = |input: &mut InputParameter<6>| {
+        for i in 0..6 {
+            let (v, a, j) = if i < 3 {
+                (0.2, 0.64, 3.2)
+            } else {
+                (1.07, 2.75, 14.0)
+            };
+            input.max_velocity[i] = v;
+            input.max_acceleration[i] = a;
+            input.max_jerk[i] = j;
+        }
+    };
+    let new = |interface, sync| {
+        let mut input = InputParameter::<6>::new(None);
+        input.control_interface = interface;
+        input.synchronization = sync;
+        limits(&mut input);
+        (
+            Ruckig::<6, ThrowErrorHandler>::new(None, 0.001),
+            input,
+            OutputParameter::<6>::new(None),
+        )
+    };
+
+    let (mut otg, mut input, mut output) = new(ControlInterface::Velocity, Synchronization::None);
+    input.target_velocity[0] = 0.2;
+    for _ in 0..1000 {
+        otg.update(&input, &mut output).unwrap();
+        output.pass_to_input(&mut input);
+    }
+    group.bench_function("velocity_steady", |b| {
+        b.iter(|| {
+            black_box(otg.update(black_box(&input), &mut output).unwrap());
+            output.pass_to_input(&mut input);
+        })
+    });
+
+    let (mut otg, mut input, mut output) = new(ControlInterface::Velocity, Synchronization::None);
+    let mut sign = 1.0;
+    group.bench_function("velocity_new_target", |b| {
+        b.iter(|| {
+            sign = -sign;
+            input.target_velocity[0] = 0.2 * sign;
+            input.target_velocity[4] = 1.0 * sign;
+            black_box(otg.update(black_box(&input), &mut output).unwrap());
+            output.pass_to_input(&mut input);
+        })
+    });
+
+    let (mut otg, mut input, mut output) = new(ControlInterface::Position, Synchronization::Time);
+    let mut sign = 1.0;
+    group.bench_function("position_new_target", |b| {
+        b.iter(|| {
+            sign = -sign;
+            for i in 0..6 {
+                input.target_position[i] = sign * (0.1 + 0.05 * i as f64);
+            }
+            black_box(otg.update(black_box(&input), &mut output).unwrap());
+            output.pass_to_input(&mut input);
+        })
+    });
+    group.finish();
+}
+
+/// A core (and arm) in `translate_x` command mode, after `warm_up` ticks.
+fn in_translate_x(config: &Config) -> (Core, SimulatedJaco, u64) {
+    let mut core: Core = Core::new(config);
+    let mut arm = SimulatedJaco::new(config);
+    let mut tick = 0u64;
+    // Two short puffs select translate_x in the built-in library.
+    let mut feed = |volts: f64, ms: u64, core: &mut Core, arm: &mut SimulatedJaco| {
+        for _ in 0..ms {
+            let out = core.step(tick, volts);
+            if let Some(c) = &out.motion.arm_command {
+                let _ = arm.send(c);
+            }
+            arm.advance_ms();
+            tick += 1;
+        }
+    };
+    for (volts, ms) in [(2.5, 200), (3.8, 150), (2.5, 300), (3.8, 150), (2.5, 400)] {
+        feed(volts, ms, &mut core, &mut arm);
+    }
+    (core, arm, tick)
+}
+
+fn full_tick(c: &mut Criterion) {
+    let mut group = c.benchmark_group("tick");
+    let config = Config::default();
+    let (mut core, mut arm, mut tick) = in_translate_x(&config);
+    // Into steady forward motion (0.2 m/s after 0.51 s).
+    for _ in 0..1000 {
+        core.step(tick, 3.8);
+        tick += 1;
+    }
+    group.bench_function("steady", |b| {
+        b.iter(|| {
+            let out = core.step(tick, black_box(3.8));
+            if let Some(c) = &out.motion.arm_command {
+                let _ = arm.send(c);
+            }
+            arm.advance_ms();
+            tick += 1;
+            black_box(out)
+        })
+    });
+
+    let config = Config::from_toml_str("[detector]\nglitch_ms = 0\n").unwrap();
+    let (mut core, mut arm, mut tick) = in_translate_x(&config);
+    group.bench_function("new_target", |b| {
+        b.iter(|| {
+            let volts = if tick % 2 == 0 { 3.8 } else { 1.2 };
+            let out = core.step(tick, black_box(volts));
+            debug_assert!(out.motion.recalculated);
+            if let Some(c) = &out.motion.arm_command {
+                let _ = arm.send(c);
+            }
+            arm.advance_ms();
+            tick += 1;
+            black_box(out)
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    per_sample,
+    matcher_per_burst,
+    ruckig_updates,
+    full_tick
+);
 criterion_main!(benches);

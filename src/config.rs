@@ -50,6 +50,8 @@ pub struct DetectorConfig {
     /// After a fault, the signal must be valid and at rest this long before
     /// detection resumes.
     pub fault_recovery_ms: u32,
+    /// No sample for this long is a sensor fault (stale sensor).
+    pub stale_ms: u32,
 }
 
 impl Default for DetectorConfig {
@@ -65,6 +67,7 @@ impl Default for DetectorConfig {
             neutral_tracking_ms: 1000,
             fault_margin_volts: 0.5,
             fault_recovery_ms: 250,
+            stale_ms: 50,
         }
     }
 }
@@ -97,6 +100,131 @@ impl Default for CommandConfig {
     fn default() -> Self {
         CommandConfig {
             inactivity_timeout_ms: 2000,
+        }
+    }
+}
+
+/// Hard caps no configuration may exceed: the Kinova JACO2's client limits
+/// (ISO 10218's reduced speed, 0.25 m/s, is above them).
+pub mod caps {
+    /// Linear speed, m/s.
+    pub const LINEAR_SPEED_MPS: f64 = 0.20;
+    /// Slowest linear speed the JACO2 executes (its dead band is ~0.03 m/s).
+    pub const MIN_LINEAR_SPEED_MPS: f64 = 0.04;
+    /// Angular speed, rad/s.
+    pub const ANGULAR_SPEED_RADPS: f64 = 1.07;
+    /// Slowest angular speed the JACO2 executes (dead band).
+    pub const MIN_ANGULAR_SPEED_RADPS: f64 = 0.2;
+    /// Linear acceleration, m/s².
+    pub const LINEAR_ACCELERATION_MPS2: f64 = 0.64;
+    /// Angular acceleration, rad/s².
+    pub const ANGULAR_ACCELERATION_RADPS2: f64 = 2.75;
+    /// Linear jerk, m/s³ (our choice: full acceleration in 64 ms at most).
+    pub const LINEAR_JERK_MPS3: f64 = 10.0;
+    /// Angular jerk, rad/s³ (our choice: full acceleration in 55 ms at most).
+    pub const ANGULAR_JERK_RADPS3: f64 = 50.0;
+    /// Finger speed, JACO2 finger units/s (0 = open … 6800 = closed).
+    pub const FINGER_SPEED: f64 = 6800.0;
+    /// Finger acceleration, units/s².
+    pub const FINGER_ACCELERATION: f64 = 100_000.0;
+    /// Finger jerk, units/s³.
+    pub const FINGER_JERK: f64 = 2_000_000.0;
+    /// Reach of the arm, m.
+    pub const REACH_M: f64 = 0.9;
+}
+
+/// Motion settings (`[motion]`), validated against [`caps`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionConfig {
+    /// Speed of a translation mode, m/s.
+    pub linear_speed_mps: f64,
+    /// Speed of a rotation mode, rad/s.
+    pub angular_speed_radps: f64,
+    /// Per-axis linear acceleration limit, m/s².
+    pub linear_acceleration_mps2: f64,
+    /// Per-axis angular acceleration limit, rad/s².
+    pub angular_acceleration_radps2: f64,
+    /// Per-axis linear jerk limit, m/s³.
+    pub linear_jerk_mps3: f64,
+    /// Per-axis angular jerk limit, rad/s³.
+    pub angular_jerk_radps3: f64,
+    /// Finger speed, units/s.
+    pub finger_speed: f64,
+    /// Finger acceleration limit, units/s².
+    pub finger_acceleration: f64,
+    /// Finger jerk limit, units/s³.
+    pub finger_jerk: f64,
+    /// Scale speed with how hard the user sips or puffs.
+    pub proportional_speed: bool,
+    /// Pressure past the threshold that gives full speed, volts.
+    pub proportional_full_scale_volts: f64,
+    /// Fraction of full speed at the threshold itself.
+    pub proportional_min_fraction: f64,
+}
+
+impl Default for MotionConfig {
+    fn default() -> Self {
+        MotionConfig {
+            linear_speed_mps: caps::LINEAR_SPEED_MPS,
+            angular_speed_radps: caps::ANGULAR_SPEED_RADPS,
+            linear_acceleration_mps2: caps::LINEAR_ACCELERATION_MPS2,
+            angular_acceleration_radps2: caps::ANGULAR_ACCELERATION_RADPS2,
+            linear_jerk_mps3: 3.2,
+            angular_jerk_radps3: 14.0,
+            finger_speed: 3000.0,
+            finger_acceleration: 20_000.0,
+            finger_jerk: 200_000.0,
+            proportional_speed: false,
+            proportional_full_scale_volts: 1.0,
+            proportional_min_fraction: 0.25,
+        }
+    }
+}
+
+/// Where the tool may go (`[workspace]`), in the base frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorkspaceConfig {
+    /// Largest distance from the base, m.
+    pub reach_m: f64,
+    /// Smallest distance from the base, m.
+    pub min_radius_m: f64,
+    /// Height of the table plane, m (the tool stays above it).
+    pub table_z_m: f64,
+    /// The tool stops at least this far from any boundary, m.
+    pub stop_margin_m: f64,
+    /// Finger position when closed, units (open is 0).
+    pub finger_closed: f64,
+}
+
+impl Default for WorkspaceConfig {
+    fn default() -> Self {
+        WorkspaceConfig {
+            reach_m: caps::REACH_M,
+            min_radius_m: 0.2,
+            table_z_m: 0.0,
+            stop_margin_m: 0.005,
+            finger_closed: 6800.0,
+        }
+    }
+}
+
+/// The arm at power-up (`[arm]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArmConfig {
+    /// Tool position at power-up, m, base frame.
+    pub home_position_m: [f64; 3],
+    /// Tool orientation at power-up, as a rotation vector, rad.
+    pub home_rotation_vector_rad: [f64; 3],
+    /// Finger position at power-up, units.
+    pub home_fingers: f64,
+}
+
+impl Default for ArmConfig {
+    fn default() -> Self {
+        ArmConfig {
+            home_position_m: [0.21, -0.26, 0.48],
+            home_rotation_vector_rad: [0.0, 0.0, 0.0],
+            home_fingers: 0.0,
         }
     }
 }
@@ -136,6 +264,9 @@ pub struct Config {
     detector: DetectorConfig,
     matcher: MatcherConfig,
     command: CommandConfig,
+    motion: MotionConfig,
+    workspace: WorkspaceConfig,
+    arm: ArmConfig,
     sequences: Vec<SequenceEntry>,
 }
 
@@ -152,6 +283,9 @@ impl Default for Config {
             detector: DetectorConfig::default(),
             matcher: MatcherConfig::default(),
             command: CommandConfig::default(),
+            motion: MotionConfig::default(),
+            workspace: WorkspaceConfig::default(),
+            arm: ArmConfig::default(),
             sequences,
         }
     }
@@ -218,11 +352,14 @@ impl Config {
         let detector = reader.detector(&mut root, defaults.detector);
         let matcher = reader.matcher(&mut root, defaults.matcher);
         let command = reader.command(&mut root, defaults.command);
+        let motion = reader.motion(&mut root, defaults.motion);
+        let workspace = reader.workspace(&mut root, defaults.workspace);
+        let arm = reader.arm(&mut root, defaults.arm, &workspace);
         let sequences = reader.sequences(&mut root).unwrap_or(defaults.sequences);
         for key in root.keys() {
             reader.error(
                 key.clone(),
-                "unknown section or key (known: detector, matcher, command, sequence)",
+                "unknown section or key (known: detector, matcher, command, motion, workspace, arm, sequence)",
             );
         }
 
@@ -231,6 +368,9 @@ impl Config {
                 detector,
                 matcher,
                 command,
+                motion,
+                workspace,
+                arm,
                 sequences,
             })
         } else {
@@ -253,6 +393,21 @@ impl Config {
         &self.command
     }
 
+    /// Motion settings.
+    pub fn motion(&self) -> &MotionConfig {
+        &self.motion
+    }
+
+    /// Workspace limits.
+    pub fn workspace(&self) -> &WorkspaceConfig {
+        &self.workspace
+    }
+
+    /// The arm at power-up.
+    pub fn arm(&self) -> &ArmConfig {
+        &self.arm
+    }
+
     /// The user-defined sequences, in file order.
     pub fn sequences(&self) -> &[SequenceEntry] {
         &self.sequences
@@ -273,42 +428,44 @@ impl Reader {
         });
     }
 
-    /// Removes a sub-table from `root`; an absent section is empty.
-    fn section(&mut self, root: &mut Table, name: &str) -> Table {
-        match root.remove(name) {
+    /// Opens a section of `root`; an absent section is empty.
+    fn section<'r>(&'r mut self, root: &mut Table, name: &'static str) -> Section<'r> {
+        let table = match root.remove(name) {
             None => Table::new(),
             Some(Value::Table(table)) => table,
             Some(other) => {
                 self.error(name, format!("must be a table, found {}", other.type_str()));
                 Table::new()
             }
+        };
+        Section {
+            reader: self,
+            table,
+            path: name.to_string(),
+            known: Vec::new(),
         }
     }
 
-    /// Takes one typed key out of a table; on a type error records it and
-    /// returns `None` (the caller falls back to the default so that the
-    /// remaining checks still run).
-    fn take<T: DeserializeOwned>(&mut self, table: &mut Table, path: &str, key: &str) -> Option<T> {
-        let value = table.remove(key)?;
-        let found = value.type_str();
-        match value.try_into::<T>() {
-            Ok(v) => Some(v),
-            Err(e) => {
-                self.error(
-                    format!("{path}.{key}"),
-                    format!("wrong type ({found}): {}", e.message().trim()),
-                );
-                None
-            }
-        }
-    }
-
-    /// Every key left in a section after the known ones were taken is unknown.
-    fn unknown_keys(&mut self, table: Table, path: &str, known: &[&str]) {
-        for key in table.keys() {
+    /// Checks `low < value ≤ high` (or `low ≤ value` when `low_inclusive`).
+    fn range(
+        &mut self,
+        key: &str,
+        value: f64,
+        low: f64,
+        low_inclusive: bool,
+        high: f64,
+        unit: &str,
+    ) {
+        let above_low = if low_inclusive {
+            value >= low
+        } else {
+            value > low
+        };
+        if !(above_low && value <= high) {
+            let bound = if low_inclusive { "at least" } else { "above" };
             self.error(
-                format!("{path}.{key}"),
-                format!("unknown key (known: {})", known.join(", ")),
+                key,
+                format!("{value} {unit} must be {bound} {low} {unit} and at most {high} {unit}"),
             );
         }
     }
@@ -325,54 +482,21 @@ impl Reader {
     }
 
     fn detector(&mut self, root: &mut Table, d: DetectorConfig) -> DetectorConfig {
-        const P: &str = "detector";
-        let mut t = self.section(root, P);
+        let mut t = self.section(root, "detector");
         let c = DetectorConfig {
-            neutral_volts: self
-                .take(&mut t, P, "neutral_volts")
-                .unwrap_or(d.neutral_volts),
-            puff_threshold_volts: self
-                .take(&mut t, P, "puff_threshold_volts")
-                .unwrap_or(d.puff_threshold_volts),
-            sip_threshold_volts: self
-                .take(&mut t, P, "sip_threshold_volts")
-                .unwrap_or(d.sip_threshold_volts),
-            hysteresis_volts: self
-                .take(&mut t, P, "hysteresis_volts")
-                .unwrap_or(d.hysteresis_volts),
-            min_burst_ms: self
-                .take(&mut t, P, "min_burst_ms")
-                .unwrap_or(d.min_burst_ms),
-            long_burst_ms: self
-                .take(&mut t, P, "long_burst_ms")
-                .unwrap_or(d.long_burst_ms),
-            glitch_ms: self.take(&mut t, P, "glitch_ms").unwrap_or(d.glitch_ms),
-            neutral_tracking_ms: self
-                .take(&mut t, P, "neutral_tracking_ms")
-                .unwrap_or(d.neutral_tracking_ms),
-            fault_margin_volts: self
-                .take(&mut t, P, "fault_margin_volts")
-                .unwrap_or(d.fault_margin_volts),
-            fault_recovery_ms: self
-                .take(&mut t, P, "fault_recovery_ms")
-                .unwrap_or(d.fault_recovery_ms),
+            neutral_volts: t.get("neutral_volts", d.neutral_volts),
+            puff_threshold_volts: t.get("puff_threshold_volts", d.puff_threshold_volts),
+            sip_threshold_volts: t.get("sip_threshold_volts", d.sip_threshold_volts),
+            hysteresis_volts: t.get("hysteresis_volts", d.hysteresis_volts),
+            min_burst_ms: t.get("min_burst_ms", d.min_burst_ms),
+            long_burst_ms: t.get("long_burst_ms", d.long_burst_ms),
+            glitch_ms: t.get("glitch_ms", d.glitch_ms),
+            neutral_tracking_ms: t.get("neutral_tracking_ms", d.neutral_tracking_ms),
+            fault_margin_volts: t.get("fault_margin_volts", d.fault_margin_volts),
+            fault_recovery_ms: t.get("fault_recovery_ms", d.fault_recovery_ms),
+            stale_ms: t.get("stale_ms", d.stale_ms),
         };
-        self.unknown_keys(
-            t,
-            P,
-            &[
-                "neutral_volts",
-                "puff_threshold_volts",
-                "sip_threshold_volts",
-                "hysteresis_volts",
-                "min_burst_ms",
-                "long_burst_ms",
-                "glitch_ms",
-                "neutral_tracking_ms",
-                "fault_margin_volts",
-                "fault_recovery_ms",
-            ],
-        );
+        t.finish();
         self.validate_detector(&c);
         c
     }
@@ -431,6 +555,7 @@ impl Reader {
         self.positive_ms("detector.long_burst_ms", c.long_burst_ms);
         self.positive_ms("detector.neutral_tracking_ms", c.neutral_tracking_ms);
         self.positive_ms("detector.fault_recovery_ms", c.fault_recovery_ms);
+        self.positive_ms("detector.stale_ms", c.stale_ms);
         if c.long_burst_ms <= c.min_burst_ms {
             self.error(
                 "detector.long_burst_ms",
@@ -452,28 +577,218 @@ impl Reader {
     }
 
     fn matcher(&mut self, root: &mut Table, d: MatcherConfig) -> MatcherConfig {
-        const P: &str = "matcher";
-        let mut t = self.section(root, P);
+        let mut t = self.section(root, "matcher");
         let c = MatcherConfig {
-            sequence_timeout_ms: self
-                .take(&mut t, P, "sequence_timeout_ms")
-                .unwrap_or(d.sequence_timeout_ms),
+            sequence_timeout_ms: t.get("sequence_timeout_ms", d.sequence_timeout_ms),
         };
-        self.unknown_keys(t, P, &["sequence_timeout_ms"]);
+        t.finish();
         self.positive_ms("matcher.sequence_timeout_ms", c.sequence_timeout_ms);
         c
     }
 
     fn command(&mut self, root: &mut Table, d: CommandConfig) -> CommandConfig {
-        const P: &str = "command";
-        let mut t = self.section(root, P);
+        let mut t = self.section(root, "command");
         let c = CommandConfig {
-            inactivity_timeout_ms: self
-                .take(&mut t, P, "inactivity_timeout_ms")
-                .unwrap_or(d.inactivity_timeout_ms),
+            inactivity_timeout_ms: t.get("inactivity_timeout_ms", d.inactivity_timeout_ms),
         };
-        self.unknown_keys(t, P, &["inactivity_timeout_ms"]);
+        t.finish();
         self.positive_ms("command.inactivity_timeout_ms", c.inactivity_timeout_ms);
+        c
+    }
+
+    fn motion(&mut self, root: &mut Table, d: MotionConfig) -> MotionConfig {
+        let mut t = self.section(root, "motion");
+        let c = MotionConfig {
+            linear_speed_mps: t.get("linear_speed_mps", d.linear_speed_mps),
+            angular_speed_radps: t.get("angular_speed_radps", d.angular_speed_radps),
+            linear_acceleration_mps2: t.get("linear_acceleration_mps2", d.linear_acceleration_mps2),
+            angular_acceleration_radps2: t
+                .get("angular_acceleration_radps2", d.angular_acceleration_radps2),
+            linear_jerk_mps3: t.get("linear_jerk_mps3", d.linear_jerk_mps3),
+            angular_jerk_radps3: t.get("angular_jerk_radps3", d.angular_jerk_radps3),
+            finger_speed: t.get("finger_speed", d.finger_speed),
+            finger_acceleration: t.get("finger_acceleration", d.finger_acceleration),
+            finger_jerk: t.get("finger_jerk", d.finger_jerk),
+            proportional_speed: t.get("proportional_speed", d.proportional_speed),
+            proportional_full_scale_volts: t.get(
+                "proportional_full_scale_volts",
+                d.proportional_full_scale_volts,
+            ),
+            proportional_min_fraction: t
+                .get("proportional_min_fraction", d.proportional_min_fraction),
+        };
+        t.finish();
+        let speed_note = "m/s (the JACO2 executes 0.04–0.20 m/s)";
+        self.range(
+            "motion.linear_speed_mps",
+            c.linear_speed_mps,
+            caps::MIN_LINEAR_SPEED_MPS,
+            true,
+            caps::LINEAR_SPEED_MPS,
+            speed_note,
+        );
+        self.range(
+            "motion.angular_speed_radps",
+            c.angular_speed_radps,
+            caps::MIN_ANGULAR_SPEED_RADPS,
+            true,
+            caps::ANGULAR_SPEED_RADPS,
+            "rad/s",
+        );
+        for (key, value, cap, unit) in [
+            (
+                "motion.linear_acceleration_mps2",
+                c.linear_acceleration_mps2,
+                caps::LINEAR_ACCELERATION_MPS2,
+                "m/s²",
+            ),
+            (
+                "motion.angular_acceleration_radps2",
+                c.angular_acceleration_radps2,
+                caps::ANGULAR_ACCELERATION_RADPS2,
+                "rad/s²",
+            ),
+            (
+                "motion.linear_jerk_mps3",
+                c.linear_jerk_mps3,
+                caps::LINEAR_JERK_MPS3,
+                "m/s³",
+            ),
+            (
+                "motion.angular_jerk_radps3",
+                c.angular_jerk_radps3,
+                caps::ANGULAR_JERK_RADPS3,
+                "rad/s³",
+            ),
+            (
+                "motion.finger_speed",
+                c.finger_speed,
+                caps::FINGER_SPEED,
+                "units/s",
+            ),
+            (
+                "motion.finger_acceleration",
+                c.finger_acceleration,
+                caps::FINGER_ACCELERATION,
+                "units/s²",
+            ),
+            (
+                "motion.finger_jerk",
+                c.finger_jerk,
+                caps::FINGER_JERK,
+                "units/s³",
+            ),
+            (
+                "motion.proportional_full_scale_volts",
+                c.proportional_full_scale_volts,
+                5.0,
+                "V",
+            ),
+        ] {
+            self.range(key, value, 0.0, false, cap, unit);
+        }
+        self.range(
+            "motion.proportional_min_fraction",
+            c.proportional_min_fraction,
+            0.0,
+            true,
+            1.0,
+            "",
+        );
+        c
+    }
+
+    fn workspace(&mut self, root: &mut Table, d: WorkspaceConfig) -> WorkspaceConfig {
+        let mut t = self.section(root, "workspace");
+        let c = WorkspaceConfig {
+            reach_m: t.get("reach_m", d.reach_m),
+            min_radius_m: t.get("min_radius_m", d.min_radius_m),
+            table_z_m: t.get("table_z_m", d.table_z_m),
+            stop_margin_m: t.get("stop_margin_m", d.stop_margin_m),
+            finger_closed: t.get("finger_closed", d.finger_closed),
+        };
+        t.finish();
+        self.range(
+            "workspace.reach_m",
+            c.reach_m,
+            0.0,
+            false,
+            caps::REACH_M,
+            "m",
+        );
+        self.range(
+            "workspace.min_radius_m",
+            c.min_radius_m,
+            0.0,
+            true,
+            c.reach_m,
+            "m",
+        );
+        self.range(
+            "workspace.table_z_m",
+            c.table_z_m,
+            -c.reach_m,
+            true,
+            c.reach_m,
+            "m",
+        );
+        self.range(
+            "workspace.stop_margin_m",
+            c.stop_margin_m,
+            0.0,
+            false,
+            0.1,
+            "m",
+        );
+        self.range(
+            "workspace.finger_closed",
+            c.finger_closed,
+            0.0,
+            false,
+            10_000.0,
+            "units",
+        );
+        c
+    }
+
+    fn arm(&mut self, root: &mut Table, d: ArmConfig, workspace: &WorkspaceConfig) -> ArmConfig {
+        let mut t = self.section(root, "arm");
+        let c = ArmConfig {
+            home_position_m: t.get("home_position_m", d.home_position_m),
+            home_rotation_vector_rad: t.get("home_rotation_vector_rad", d.home_rotation_vector_rad),
+            home_fingers: t.get("home_fingers", d.home_fingers),
+        };
+        t.finish();
+        let [x, y, z] = c.home_position_m;
+        let r = (x * x + y * y + z * z).sqrt();
+        let w = workspace;
+        if !(r.is_finite()
+            && r <= w.reach_m - w.stop_margin_m
+            && r >= w.min_radius_m + w.stop_margin_m
+            && z >= w.table_z_m + w.stop_margin_m)
+        {
+            self.error(
+                "arm.home_position_m",
+                format!(
+                    "{:?} is not inside the workspace (distance from the base {r:.3} m must be within {:.3}–{:.3} m, z at least {:.3} m)",
+                    c.home_position_m,
+                    w.min_radius_m + w.stop_margin_m,
+                    w.reach_m - w.stop_margin_m,
+                    w.table_z_m + w.stop_margin_m
+                ),
+            );
+        }
+        if !c.home_rotation_vector_rad.iter().all(|v| v.is_finite()) {
+            self.error("arm.home_rotation_vector_rad", "must be finite");
+        }
+        self.range(
+            "arm.home_fingers",
+            c.home_fingers,
+            0.0,
+            true,
+            w.finger_closed,
+            "units",
+        );
         c
     }
 
@@ -505,21 +820,22 @@ impl Reader {
         let mut seen: HashSet<ActionSeq> = HashSet::new();
         for (i, item) in list.into_iter().enumerate() {
             let path = format!("sequence #{}", i + 1);
-            let mut t = match item {
+            let table = match item {
                 Value::Table(t) => t,
                 other => {
                     self.error(path, format!("must be a table, found {}", other.type_str()));
                     continue;
                 }
             };
-            for key in ["actions", "mode"] {
-                if !t.contains_key(key) {
-                    self.error(format!("{path}.{key}"), "missing");
-                }
-            }
-            let codes = self.take::<Vec<i64>>(&mut t, &path, "actions");
-            let mode_name = self.take::<String>(&mut t, &path, "mode");
-            self.unknown_keys(t, &path, &["actions", "mode"]);
+            let mut t = Section {
+                reader: self,
+                table,
+                path: path.clone(),
+                known: Vec::new(),
+            };
+            let codes = t.require::<Vec<i64>>("actions");
+            let mode_name = t.require::<String>("mode");
+            t.finish();
 
             let actions = codes.and_then(|codes| self.actions(&path, &codes));
             let mode = mode_name.and_then(|name| {
@@ -583,6 +899,70 @@ impl Reader {
         }
         let actions: Vec<Action> = codes.iter().filter_map(|&c| Action::from_code(c)).collect();
         ActionSeq::from_slice(&actions)
+    }
+}
+
+/// One TOML table being read: takes known keys out, typed, with defaults,
+/// and reports whatever is left as unknown.
+struct Section<'r> {
+    reader: &'r mut Reader,
+    table: Table,
+    path: String,
+    known: Vec<&'static str>,
+}
+
+impl Section<'_> {
+    /// The value of `key`, or `default` if absent; a value of the wrong type
+    /// is reported and replaced by the default so that the remaining checks
+    /// still run.
+    fn get<T: DeserializeOwned>(&mut self, key: &'static str, default: T) -> T {
+        self.known.push(key);
+        let Some(value) = self.table.remove(key) else {
+            return default;
+        };
+        let found = value.type_str();
+        match value.try_into::<T>() {
+            Ok(v) => v,
+            Err(e) => {
+                self.reader.error(
+                    format!("{}.{key}", self.path),
+                    format!("wrong type ({found}): {}", e.message().trim()),
+                );
+                default
+            }
+        }
+    }
+
+    /// Like [`Section::get`] for a required key: `None` (and an error) if absent.
+    fn require<T: DeserializeOwned>(&mut self, key: &'static str) -> Option<T> {
+        if !self.table.contains_key(key) {
+            self.known.push(key);
+            self.reader.error(format!("{}.{key}", self.path), "missing");
+            return None;
+        }
+        let found = self.table.get(key).map(Value::type_str).unwrap_or("?");
+        let value = self.table.remove(key)?;
+        self.known.push(key);
+        match value.try_into::<T>() {
+            Ok(v) => Some(v),
+            Err(e) => {
+                self.reader.error(
+                    format!("{}.{key}", self.path),
+                    format!("wrong type ({found}): {}", e.message().trim()),
+                );
+                None
+            }
+        }
+    }
+
+    /// Reports every key that was not read.
+    fn finish(self) {
+        for key in self.table.keys() {
+            self.reader.error(
+                format!("{}.{key}", self.path),
+                format!("unknown key (known: {})", self.known.join(", ")),
+            );
+        }
     }
 }
 

@@ -50,6 +50,11 @@ pub enum FaultReason {
         /// The offending sample.
         volts: f64,
     },
+    /// No sample arrived for `stale_ms`.
+    Stale {
+        /// How long without a sample, ms.
+        ms: u64,
+    },
 }
 
 impl FaultReason {
@@ -61,6 +66,7 @@ impl FaultReason {
             FaultReason::OutOfRange { volts } => {
                 format!("sensor sample {volts:.3} V is outside the 0–5 V range")
             }
+            FaultReason::Stale { ms } => format!("no sensor sample for {ms} ms"),
         }
     }
 }
@@ -143,7 +149,10 @@ pub struct BurstDetector {
     low_limit: f64,
     high_limit: f64,
     recovery: u64,
+    stale: u64,
 
+    /// Tick of the last sample received.
+    last_sample: Option<Tick>,
     neutral: f64,
     /// The last [`TRACKING_DELAY_MS`] resting samples, indexed by tick.
     recent: [f64; TRACKING_DELAY_MS],
@@ -172,6 +181,8 @@ impl BurstDetector {
             low_limit: -config.fault_margin_volts,
             high_limit: 5.0 + config.fault_margin_volts,
             recovery: config.fault_recovery_ms.into(),
+            stale: config.stale_ms.into(),
+            last_sample: None,
             neutral: config.neutral_volts,
             recent: [config.neutral_volts; TRACKING_DELAY_MS],
             quiet_ticks: 0,
@@ -186,8 +197,23 @@ impl BurstDetector {
         self.neutral
     }
 
+    /// A tick on which no sample arrived: nothing changes until `stale_ms`
+    /// have passed since the last one (or since start), then the sensor is
+    /// in fault. RT-safe.
+    pub fn step_missing(&mut self, now: Tick) -> DetectorOutput {
+        let since = self.last_sample.map_or(now + 1, |t| now - t);
+        let event = if since >= self.stale {
+            // Restart the count so recovery needs fresh samples.
+            self.fault(FaultReason::Stale { ms: since })
+        } else {
+            None
+        };
+        self.output(event)
+    }
+
     /// Feeds one sample taken at tick `now` (ticks must increase). RT-safe.
     pub fn step(&mut self, now: Tick, volts: f64) -> DetectorOutput {
+        self.last_sample = Some(now);
         let event = match Self::check(volts, self.low_limit, self.high_limit) {
             Err(reason) => self.fault(reason),
             Ok(()) => match self.state {
@@ -198,6 +224,10 @@ impl BurstDetector {
                 State::Rest | State::Held { .. } => self.detect(now, volts),
             },
         };
+        self.output(event)
+    }
+
+    fn output(&self, event: Option<DetectorEvent>) -> DetectorOutput {
         let held = match self.state {
             State::Held { breath, .. } => Held {
                 breath: Some(breath),
@@ -615,6 +645,34 @@ mod tests {
         s.extend(std::iter::repeat_n(4.0, 6));
         s.extend(std::iter::repeat_n(2.5, 400));
         assert_eq!(run(&c, &s)[1], (356, DetectorEvent::Recovered));
+    }
+
+    #[test]
+    fn a_stale_sensor_faults_and_a_fresh_one_recovers() {
+        let c = DetectorConfig::default(); // stale 50 ms, recovery 250 ms
+        let mut d = BurstDetector::new(&c);
+        for t in 0..100 {
+            d.step(t, 3.8); // puff held …
+        }
+        for t in 100..149 {
+            let out = d.step_missing(t); // … then the sensor goes quiet
+            assert_eq!(out.held.breath, Some(Breath::Puff), "held until stale");
+            assert!(out.event.is_none());
+        }
+        let out = d.step_missing(149);
+        assert_eq!(
+            out.event,
+            Some(DetectorEvent::Fault(FaultReason::Stale { ms: 50 }))
+        );
+        assert!(out.faulted);
+        assert_eq!(out.held, Held::default());
+        assert_eq!(d.step_missing(500).event, None, "one event per fault");
+        let events: Vec<_> = (501..800).filter_map(|t| d.step(t, 2.5).event).collect();
+        assert_eq!(events, [DetectorEvent::Recovered]);
+        // Never a sample from start: stale too.
+        let mut d = BurstDetector::new(&c);
+        assert!(d.step_missing(48).event.is_none());
+        assert!(d.step_missing(49).event.is_some());
     }
 
     #[test]

@@ -4,6 +4,7 @@ use crate::action::ActionSeq;
 use crate::detector::{Burst, FaultReason};
 use crate::matcher::ResetReason;
 use crate::modes::{DetectionReason, Mode};
+use crate::motion::MotionEvent;
 
 /// Something worth telling the user, the clinician or the log. `Copy`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,11 +34,13 @@ pub enum Event {
     Fault(FaultReason),
     /// The sensor signal is valid again; detection resumes.
     Recovered,
+    /// From the motion layer (save, go to, workspace limits).
+    Motion(MotionEvent),
 }
 
 /// Most events one tick can produce: a fault also resets the sequence and
-/// leaves command mode; nothing else produces more than two.
-pub const MAX_EVENTS_PER_TICK: usize = 4;
+/// leaves command mode (3); a burst, a match and two motion events (4).
+pub const MAX_EVENTS_PER_TICK: usize = 6;
 
 /// The events of one tick, inline. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq)]

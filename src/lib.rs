@@ -9,7 +9,13 @@
 //! * [`matcher`] matches bursts against the user's sequence library with the
 //!   paper's waiting rules for prefixes;
 //! * [`modes`] is the detection/command mode machine of the paper's Fig. 1;
-//! * [`pipeline`] wires the three together into one `step` per tick.
+//! * [`motion`] turns the mode and breath into a jerk-limited Cartesian
+//!   velocity (Ruckig), keeps the tool inside its workspace, saves and goes
+//!   to points, and decimates the result to the arm's 100 Hz stream;
+//! * [`pipeline`] wires them together into one `step` per tick.
+//!
+//! [`arm`] is the edge towards the robot: the backend trait and the
+//! simulated JACO.
 //!
 //! The core never reads a clock, sleeps, locks, does I/O or allocates after
 //! construction: time enters as a [`Tick`] argument (1 tick = 1 ms = one
@@ -53,12 +59,15 @@
 
 pub mod action;
 pub mod alloc_counter;
+pub mod arm;
+pub mod bench;
 pub mod config;
 pub mod csv_signal;
 pub mod detector;
 pub mod event;
 pub mod matcher;
 pub mod modes;
+pub mod motion;
 pub mod pipeline;
 pub mod replay;
 pub mod signal;

@@ -41,6 +41,10 @@ enum Command {
         /// Write events here instead of standard output.
         #[arg(long)]
         events: Option<PathBuf>,
+        /// Write a per-tick motion trace here (CSV: tick, mode, commanded
+        /// twist in the base frame, simulated arm pose, fingers).
+        #[arg(long)]
+        trace: Option<PathBuf>,
     },
     /// Write a synthetic recording of a scripted user (seeded, repeatable).
     Generate {
@@ -54,6 +58,10 @@ enum Command {
         /// Length of a random session, in seconds (exact).
         #[arg(long, default_value_t = 60)]
         seconds: u64,
+        /// Instead of a random session, the demo user: every kind of mode,
+        /// save and go to a point, a finger end stop, the reach limit.
+        #[arg(long, conflicts_with = "sequences")]
+        demo: bool,
         /// Instead of a random session, enter these sequences in order, e.g.
         /// `--sequences "1,2,-1 1,2 2,1"` (codes: 1 short sip, 2 long sip,
         /// -1 short puff, -2 long puff).
@@ -75,11 +83,33 @@ enum Command {
         #[arg(long, default_value_t = 0)]
         spike_every_ms: u64,
     },
+    /// Measure the control path.
+    Bench {
+        #[command(subcommand)]
+        what: BenchCommand,
+    },
     /// Check a configuration and print it with its sequence table.
     Config {
         /// TOML configuration (default: built-in).
         #[arg(long)]
         config: Option<PathBuf>,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// Cost of each full tick (core + simulated arm), as percentiles, against
+    /// two clock reads measured in the same run.
+    Tick {
+        /// Seconds of signal to run (1000 ticks each).
+        #[arg(long, default_value_t = 60)]
+        seconds: u64,
+        /// TOML configuration (default: built-in).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Print one JSON object instead of a table.
+        #[arg(long)]
+        json: bool,
     },
 }
 
@@ -106,11 +136,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             signal,
             config,
             events,
-        } => replay(&signal, config.as_deref(), events.as_deref()),
+            trace,
+        } => replay(
+            &signal,
+            config.as_deref(),
+            events.as_deref(),
+            trace.as_deref(),
+        ),
         Command::Generate {
             out,
             config,
             seconds,
+            demo,
             sequences,
             seed,
             noise_volts,
@@ -125,6 +162,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             params.drift_volts = drift_volts;
             params.spike_every_ms = spike_every_ms;
             let (script, length) = match sequences {
+                None if demo => (signal::demo_script(&config).0, usize::MAX),
                 Some(text) => {
                     let sequences = signal::parse_sequences(&text).map_err(anyhow::Error::msg)?;
                     (signal::sequences_script(&config, &sequences), usize::MAX)
@@ -149,6 +187,23 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             );
             Ok(())
         }
+        Command::Bench {
+            what:
+                BenchCommand::Tick {
+                    seconds,
+                    config,
+                    json,
+                },
+        } => {
+            let config = load_config(config.as_deref())?;
+            let bench = sipnpuff::bench::bench_tick(&config, seconds);
+            if json {
+                println!("{}", bench.to_json());
+            } else {
+                print!("{}", bench.to_text());
+            }
+            Ok(())
+        }
         Command::Config { config } => {
             let config = load_config(config.as_deref())?;
             print_config(&config);
@@ -157,17 +212,31 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
-fn replay(signal: &Path, config: Option<&Path>, events: Option<&Path>) -> anyhow::Result<()> {
+fn create(path: &Path) -> anyhow::Result<BufWriter<File>> {
+    let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+    Ok(BufWriter::new(file))
+}
+
+fn replay(
+    signal: &Path,
+    config: Option<&Path>,
+    events: Option<&Path>,
+    trace: Option<&Path>,
+) -> anyhow::Result<()> {
     let config = load_config(config)?;
     let mut input = CsvSignal::open(signal)?;
     let mut out: Box<dyn Write> = match events {
-        Some(path) => Box::new(BufWriter::new(
-            File::create(path).with_context(|| format!("cannot create {}", path.display()))?,
-        )),
+        Some(path) => Box::new(create(path)?),
         None => Box::new(BufWriter::new(std::io::stdout().lock())),
     };
+    let mut trace_file = trace.map(create).transpose()?;
     let started = Instant::now();
-    let result = sipnpuff::replay::replay(&config, &mut input, &mut out);
+    let result = sipnpuff::replay::replay(
+        &config,
+        &mut input,
+        &mut out,
+        trace_file.as_mut().map(|t| t as &mut dyn Write),
+    );
     let seconds = started.elapsed().as_secs_f64();
     let summary = result.with_context(|| signal.display().to_string())?;
     let signal_seconds = summary.samples as f64 / 1000.0;
@@ -176,6 +245,12 @@ fn replay(signal: &Path, config: Option<&Path>, events: Option<&Path>) -> anyhow
         summary.samples,
         signal_seconds / seconds.max(1e-9),
         summary.events
+    );
+    let [x, y, z] = summary.final_position;
+    let [rx, ry, rz] = summary.final_rotation_vector;
+    eprintln!(
+        "simulated arm: {} commands at 100 Hz, final position ({x:.4}, {y:.4}, {z:.4}) m, rotation vector ({rx:.4}, {ry:.4}, {rz:.4}) rad, fingers {:.0}, ticks outside the workspace: {}",
+        summary.arm_commands, summary.final_fingers, summary.ticks_outside_workspace
     );
     Ok(())
 }

@@ -1,13 +1,14 @@
-//! The core, stage by stage: detector → matcher → mode machine, one `step`
-//! per sample. Pure and deterministic: the same samples give the same
+//! The core, stage by stage: detector → matcher → mode machine → motion,
+//! one `step` per sample. Pure and deterministic: the same samples give the same
 //! outputs in replay, in tests and on the real-time thread.
 
 use crate::Tick;
 use crate::config::Config;
-use crate::detector::{BurstDetector, DetectorEvent, Held};
+use crate::detector::{BurstDetector, DetectorEvent, DetectorOutput, Held};
 use crate::event::{Event, Events};
 use crate::matcher::{MatchEvent, SequenceIndex, SequenceMatcher, TrieIndex};
 use crate::modes::{ModeMachine, ModeOutput};
+use crate::motion::{Motion, MotionOutput};
 
 /// Everything the core says about one tick. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -20,6 +21,8 @@ pub struct TickOutput {
     pub held: Held,
     /// The sensor is in fault.
     pub faulted: bool,
+    /// The commanded motion (and, every 10 ticks, the arm's command).
+    pub motion: MotionOutput,
     /// What happened on this tick.
     pub events: Events,
     /// Events that did not fit in `events` (always 0; counted, never
@@ -30,11 +33,12 @@ pub struct TickOutput {
 /// The deterministic core. Build with [`Core::new`] at start-up (allocates
 /// the matcher's index); [`Core::step`] is RT-safe: no allocation, no
 /// panic, no clock.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct Core<I: SequenceIndex = TrieIndex> {
     detector: BurstDetector,
     matcher: SequenceMatcher<I>,
     modes: ModeMachine,
+    motion: Motion,
 }
 
 impl<I: SequenceIndex> Core<I> {
@@ -44,7 +48,13 @@ impl<I: SequenceIndex> Core<I> {
             detector: BurstDetector::new(config.detector()),
             matcher: SequenceMatcher::new(config.sequences(), config.matcher().sequence_timeout_ms),
             modes: ModeMachine::new(config.command().inactivity_timeout_ms),
+            motion: Motion::new(config),
         }
+    }
+
+    /// The motion layer (pose estimate, saved point).
+    pub fn motion(&self) -> &Motion {
+        &self.motion
     }
 
     /// The detector (e.g. to read the tracked neutral).
@@ -54,11 +64,24 @@ impl<I: SequenceIndex> Core<I> {
 
     /// Feeds the sample taken at tick `now`. RT-safe.
     pub fn step(&mut self, now: Tick, volts: f64) -> TickOutput {
+        let detected = self.detector.step(now, volts);
+        self.process(now, detected)
+    }
+
+    /// A tick on which no sample arrived (the runtime's sensor had none):
+    /// after `stale_ms` the sensor is in fault and the arm brakes. RT-safe.
+    pub fn step_missing(&mut self, now: Tick) -> TickOutput {
+        let detected = self.detector.step_missing(now);
+        self.process(now, detected)
+    }
+
+    fn process(&mut self, now: Tick, detected: DetectorOutput) -> TickOutput {
         let mut out = TickOutput {
             tick: now,
             command: ModeOutput::default(),
             held: Held::default(),
             faulted: false,
+            motion: self.motion.idle_output(),
             events: Events::default(),
             dropped_events: 0,
         };
@@ -68,7 +91,6 @@ impl<I: SequenceIndex> Core<I> {
             }
         };
 
-        let detected = self.detector.step(now, volts);
         out.held = detected.held;
         out.faulted = detected.faulted;
         let in_detection = self.modes.state() == crate::modes::ModeState::Detection;
@@ -110,6 +132,10 @@ impl<I: SequenceIndex> Core<I> {
         out.command = command;
         if let Some(reason) = left {
             emit(&mut out, Event::Detection { reason });
+        }
+        out.motion = self.motion.step(now, &command);
+        for event in out.motion.events.into_iter().flatten() {
+            emit(&mut out, Event::Motion(event));
         }
         out
     }

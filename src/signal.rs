@@ -374,6 +374,44 @@ pub fn sequences_script(config: &Config, sequences: &[Vec<Action>]) -> Vec<Step>
     script
 }
 
+/// The demo user: selects modes from the configured library and uses
+/// each: forward 1.5 s, save the point, down 1.5 s, rotate 1 s about the
+/// tool's z axis, close the fingers to their end and open them a little,
+/// forward until the reach limit stops the arm, then hold a puff in
+/// `goto_point` until the saved pose is reached. Modes missing from the
+/// library are skipped. Returns the script and the modes selected.
+pub fn demo_script(config: &Config) -> (Vec<Step>, Vec<Mode>) {
+    use Breath::{Puff, Sip};
+    let after = config.matcher().sequence_timeout_ms + 200;
+    let leave = config.command().inactivity_timeout_ms + 500;
+    let plan: [(Mode, &[(Breath, u32)]); 8] = [
+        (Mode::TranslateX, &[(Puff, 1500)]),
+        (Mode::SavePoint, &[(Puff, 300)]),
+        (Mode::TranslateZ, &[(Sip, 1500)]),
+        (Mode::RotateZ, &[(Puff, 1000)]),
+        (Mode::Fingers, &[(Sip, 2700), (Puff, 600)]),
+        (Mode::TranslateX, &[(Puff, 3000)]),
+        (Mode::GotoPoint, &[(Puff, 5000)]),
+        (Mode::TranslateY, &[(Sip, 800)]),
+    ];
+    let mut script = vec![Step::Rest { ms: 1000 }];
+    let mut modes = Vec::new();
+    for (mode, breaths) in plan {
+        let Some(entry) = config.sequences().iter().find(|e| e.mode == mode) else {
+            continue;
+        };
+        script.extend(sequence_steps(entry.actions.as_slice(), Timing::DEFAULT));
+        script.push(Step::Rest { ms: after });
+        for &(breath, ms) in breaths {
+            script.push(Step::Breath { breath, ms });
+            script.push(Step::Rest { ms: 400 });
+        }
+        script.push(Step::Rest { ms: leave });
+        modes.push(mode);
+    }
+    (script, modes)
+}
+
 /// A scripted user session: random library sequences, each followed by a
 /// few moves (holds of 0.2–3 s, with pauses short enough to stay in the
 /// mode) and a wait until the interface returns to detection mode, then

@@ -1,13 +1,18 @@
 //! Zero heap allocation after construction, proven with a counting global
 //! allocator over a long noisy session that exercises every path of the core
-//! (bursts, matches, resets, waits, mode changes, faults and recoveries).
+//! (bursts, matches, resets, waits, mode changes, faults and recoveries) and
+//! of the motion layer (every mode, save and go to point, workspace and
+//! finger limits, braking after faults, the 100 Hz stream) and the
+//! simulated arm.
 
 use sipnpuff::action::Breath;
 use sipnpuff::alloc_counter::{CountingAllocator, thread_allocations};
+use sipnpuff::arm::{ArmBackend, SimulatedJaco};
 use sipnpuff::config::Config;
 use sipnpuff::event::Event;
+use sipnpuff::motion::MotionEvent;
 use sipnpuff::pipeline::Core;
-use sipnpuff::signal::{SignalGenerator, SignalParams, Step, random_session};
+use sipnpuff::signal::{SignalGenerator, SignalParams, Step, demo_script, random_session};
 
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
@@ -19,6 +24,11 @@ fn noisy_script(config: &Config) -> (SignalParams, Vec<Step>) {
     params.drift_volts = 0.3;
     params.spike_every_ms = 100;
     let (mut script, _) = random_session(config, 150, 11);
+    // The demo user, twice: every mode, save, go to, the finger end and the
+    // reach limit.
+    for _ in 0..2 {
+        script.extend(demo_script(config).0);
+    }
     // Faults, a sequence cut short (reset on timeout) and a wrong sequence
     // (reset at once), between the random user's selections.
     script.extend([
@@ -54,11 +64,20 @@ fn core_step_never_allocates() {
     let samples: Vec<f64> = SignalGenerator::new(params, &script).collect();
     assert!(samples.len() >= 100_000, "{} samples", samples.len());
     let mut core: Core = Core::new(&config);
+    let mut arm = SimulatedJaco::new(&config);
 
-    let mut counts = [0usize; 6];
+    let mut counts = [0usize; 11];
     let before = thread_allocations();
     for (t, &v) in samples.iter().enumerate() {
-        let out = core.step(t as u64, v);
+        let out = if t % 5000 == 4999 {
+            core.step_missing(t as u64) // a lost sample now and then
+        } else {
+            core.step(t as u64, v)
+        };
+        if let Some(command) = &out.motion.arm_command {
+            let _ = arm.send(command);
+        }
+        arm.advance_ms();
         for event in out.events.iter() {
             let kind = match event {
                 Event::Burst(_) => 0,
@@ -67,6 +86,11 @@ fn core_step_never_allocates() {
                 Event::Detection { .. } => 3,
                 Event::Fault(_) => 4,
                 Event::Recovered => 5,
+                Event::Motion(MotionEvent::Saved { .. }) => 6,
+                Event::Motion(MotionEvent::GotoStarted { .. }) => 7,
+                Event::Motion(MotionEvent::GotoReached) => 8,
+                Event::Motion(MotionEvent::WorkspaceLimit(_)) => 9,
+                Event::Motion(_) => 10,
             };
             counts[kind] += 1;
         }
@@ -74,7 +98,7 @@ fn core_step_never_allocates() {
     let allocations = thread_allocations() - before;
     assert_eq!(allocations, 0, "{} ticks", samples.len());
     assert!(
-        counts.iter().all(|&n| n > 0),
+        counts[..10].iter().all(|&n| n > 0),
         "every kind of event happened: {counts:?}"
     );
 }

@@ -4,6 +4,7 @@ use sipnpuff::action::Breath;
 use sipnpuff::config::Config;
 use sipnpuff::event::Event;
 use sipnpuff::modes::Mode;
+use sipnpuff::motion::MotionEvent;
 use sipnpuff::pipeline::Core;
 use sipnpuff::signal::Step;
 
@@ -29,10 +30,13 @@ pub fn assert_session(
             match event {
                 Event::Burst(b) => bursts.push(*b),
                 Event::Match { mode, .. } => matched.push(*mode),
-                Event::Reset { .. } | Event::Fault(_) | Event::Recovered => {
+                Event::Reset { .. }
+                | Event::Fault(_)
+                | Event::Recovered
+                | Event::Motion(MotionEvent::TrajectoryError) => {
                     panic!("unexpected {event:?} at tick {t}")
                 }
-                Event::Detection { .. } => {}
+                Event::Detection { .. } | Event::Motion(_) => {}
             }
         }
         n += 1;
