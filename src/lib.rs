@@ -70,6 +70,7 @@ pub mod modes;
 pub mod motion;
 pub mod pipeline;
 pub mod replay;
+pub mod rt;
 pub mod signal;
 
 /// Time in the core: one tick is one millisecond, one sensor sample at 1 kHz.

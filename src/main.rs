@@ -5,6 +5,8 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 use anyhow::Context;
@@ -13,6 +15,7 @@ use clap::{Parser, Subcommand};
 use sipnpuff::alloc_counter::CountingAllocator;
 use sipnpuff::config::Config;
 use sipnpuff::csv_signal::CsvSignal;
+use sipnpuff::rt::run::{RunOptions, SensorSource};
 use sipnpuff::signal::{self, SignalGenerator, SignalParams};
 
 #[global_allocator]
@@ -30,6 +33,29 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// The main job: run the 1 kHz control loop in real time, the built-in
+    /// scripted user on the synthetic sensor driving the simulated arm (or
+    /// a recording), printing events and a final report.
+    Run {
+        /// TOML configuration (default: built-in).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Run this long (default: until the scripted user or recording ends).
+        #[arg(long)]
+        seconds: Option<f64>,
+        /// `synthetic` (the built-in scripted user) or `csv:PATH` (a
+        /// recording played in real time).
+        #[arg(long, default_value = "synthetic")]
+        sensor: String,
+        /// The arm: `sim` (the simulated JACO; the only one so far).
+        #[arg(long, default_value = "sim")]
+        arm: String,
+        /// Write each histogram in HdrHistogram's `.hgrm` text format here.
+        #[arg(long)]
+        histogram_dir: Option<PathBuf>,
+        #[command(flatten)]
+        rt: RtArgs,
+    },
     /// Run the core over a recorded signal as fast as possible; print events
     /// as JSON Lines.
     Replay {
@@ -96,8 +122,58 @@ enum Command {
     },
 }
 
+/// Real-time settings.
+#[derive(clap::Args, Clone)]
+struct RtArgs {
+    /// SCHED_FIFO priority of the control thread (1–99; 0: don't ask).
+    #[arg(long, default_value_t = 80)]
+    priority: i32,
+    /// CPU to pin the control thread to (default: the last one).
+    #[arg(long)]
+    cpu: Option<usize>,
+    /// Don't lock memory (mlockall).
+    #[arg(long)]
+    no_mlock: bool,
+    /// Hybrid wait: sleep until this many µs before each deadline, then spin.
+    #[arg(long)]
+    spin_margin_us: Option<u64>,
+}
+
+impl RtArgs {
+    fn options(&self) -> sipnpuff::rt::setup::RtOptions {
+        let defaults = sipnpuff::rt::setup::RtOptions::default();
+        sipnpuff::rt::setup::RtOptions {
+            fifo_priority: (self.priority > 0).then_some(self.priority.min(99)),
+            cpu: self.cpu.or(defaults.cpu),
+            lock_memory: !self.no_mlock,
+            ..defaults
+        }
+    }
+}
+
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// Wake-up latency of the loop: blocks of bare deadline waits (the
+    /// reference) interleaved with full ticks on the same thread.
+    Latency {
+        /// How long, s.
+        #[arg(long, default_value_t = 20.0)]
+        seconds: f64,
+        /// Ticks per block.
+        #[arg(long, default_value_t = 250)]
+        block: u64,
+        /// TOML configuration (default: built-in).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+        /// Write the histograms in `.hgrm` format here.
+        #[arg(long)]
+        histogram_dir: Option<PathBuf>,
+        #[command(flatten)]
+        rt: RtArgs,
+    },
     /// Cost of each full tick (core + simulated arm), as percentiles, against
     /// two clock reads measured in the same run.
     Tick {
@@ -130,8 +206,100 @@ fn main() -> ExitCode {
     }
 }
 
+/// SIGINT and SIGTERM request a safe stop; a second one exits at once.
+fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register_conditional_shutdown(signal, 130, stop.clone())?;
+        signal_hook::flag::register(signal, stop.clone())?;
+    }
+    Ok(stop)
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Run {
+            config,
+            seconds,
+            sensor,
+            arm,
+            histogram_dir,
+            rt,
+        } => {
+            let config = load_config(config.as_deref())?;
+            anyhow::ensure!(
+                arm == "sim",
+                "unknown arm {arm:?}: the only arm so far is `sim`"
+            );
+            let sensor = match sensor.as_str() {
+                "synthetic" => SensorSource::Synthetic,
+                other => match other.strip_prefix("csv:") {
+                    Some(path) => SensorSource::Csv(PathBuf::from(path)),
+                    None => {
+                        anyhow::bail!("unknown sensor {other:?}: use `synthetic` or `csv:PATH`")
+                    }
+                },
+            };
+            if let Some(s) = seconds {
+                anyhow::ensure!(s > 0.0 && s.is_finite(), "--seconds must be positive");
+            }
+            let options = RunOptions {
+                seconds,
+                sensor,
+                rt: rt.options(),
+                spin_margin_ns: rt.spin_margin_us.map(|us| us * 1000),
+                stop: stop_flag()?,
+                print_events: true,
+                interleave: None,
+            };
+            let report = sipnpuff::rt::run::run(&config, options)?;
+            print!("{}", report.to_text());
+            if let Some(dir) = histogram_dir {
+                for path in report.write_histograms(&dir)? {
+                    println!("wrote {}", path.display());
+                }
+            }
+            Ok(())
+        }
+        Command::Bench {
+            what:
+                BenchCommand::Latency {
+                    seconds,
+                    block,
+                    config,
+                    json,
+                    histogram_dir,
+                    rt,
+                },
+        } => {
+            let config = load_config(config.as_deref())?;
+            anyhow::ensure!(
+                seconds > 0.0 && seconds.is_finite(),
+                "--seconds must be positive"
+            );
+            let options = RunOptions {
+                seconds: Some(seconds),
+                // The built-in scripted user, repeated, in the full blocks.
+                sensor: SensorSource::Synthetic,
+                rt: rt.options(),
+                spin_margin_ns: rt.spin_margin_us.map(|us| us * 1000),
+                stop: stop_flag()?,
+                print_events: false,
+                interleave: Some(block.max(1)),
+            };
+            let report = sipnpuff::rt::run::run(&config, options)?;
+            if json {
+                println!("{}", report.latency_json(seconds));
+            } else {
+                print!("{}", report.latency_text(seconds));
+            }
+            if let Some(dir) = histogram_dir {
+                for path in report.write_histograms(&dir)? {
+                    eprintln!("wrote {}", path.display());
+                }
+            }
+            Ok(())
+        }
         Command::Replay {
             signal,
             config,

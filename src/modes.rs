@@ -110,6 +110,8 @@ pub enum DetectionReason {
     Inactivity,
     /// The sensor signal faulted.
     Fault,
+    /// A stop was requested (SIGINT, end of run).
+    Stop,
 }
 
 impl DetectionReason {
@@ -118,6 +120,7 @@ impl DetectionReason {
         match self {
             DetectionReason::Inactivity => "inactivity",
             DetectionReason::Fault => "fault",
+            DetectionReason::Stop => "stop",
         }
     }
 }
@@ -142,6 +145,8 @@ pub struct ModeMachine {
     /// A breath was already held when the mode was entered (a sip right
     /// after a puff, say): it must be released before anything moves.
     await_release: bool,
+    /// Stopping: back to detection mode for good.
+    stopping: bool,
 }
 
 impl ModeMachine {
@@ -152,7 +157,14 @@ impl ModeMachine {
             state: ModeState::Detection,
             last_activity: 0,
             await_release: false,
+            stopping: false,
         }
+    }
+
+    /// From the next tick on: detection mode, no mode is entered again.
+    /// RT-safe.
+    pub fn stop(&mut self) {
+        self.stopping = true;
     }
 
     /// The current mode.
@@ -174,14 +186,16 @@ impl ModeMachine {
         let mut left = None;
         match self.state {
             ModeState::Detection => {
-                if let Some(mode) = matched {
+                if let Some(mode) = matched.filter(|_| !self.stopping) {
                     self.state = ModeState::Command(mode);
                     self.last_activity = now;
                     self.await_release = held.breath.is_some();
                 }
             }
             ModeState::Command(_) => {
-                if faulted {
+                if self.stopping {
+                    left = Some(DetectionReason::Stop);
+                } else if faulted {
                     left = Some(DetectionReason::Fault);
                 } else if let Some(breath) = held.breath {
                     self.last_activity = now;
@@ -279,6 +293,21 @@ mod tests {
         let (out, left) = m.step(201, REST, None, true);
         assert_eq!(left, Some(DetectionReason::Fault));
         assert_eq!(out, ModeOutput::default());
+    }
+
+    #[test]
+    fn a_stop_leaves_command_mode_for_good() {
+        let mut m = ModeMachine::new(2000);
+        m.step(100, REST, Some(Mode::TranslateX), false);
+        assert_eq!(m.step(101, puff(1.0), None, false).0.direction, 1);
+        m.stop();
+        let (out, left) = m.step(102, puff(1.0), None, false);
+        assert_eq!(
+            (out, left),
+            (ModeOutput::default(), Some(DetectionReason::Stop))
+        );
+        let (out, _) = m.step(103, REST, Some(Mode::Fingers), false);
+        assert_eq!(out.state, ModeState::Detection);
     }
 
     #[test]

@@ -52,6 +52,14 @@ impl<I: SequenceIndex> Core<I> {
         }
     }
 
+    /// Safe stop: from the next tick the interface is in detection mode for
+    /// good, so every target is zero and the arm brakes through Ruckig
+    /// under the usual limits. Keep stepping until the motion is still.
+    /// RT-safe.
+    pub fn begin_stop(&mut self) {
+        self.modes.stop();
+    }
+
     /// The motion layer (pose estimate, saved point).
     pub fn motion(&self) -> &Motion {
         &self.motion

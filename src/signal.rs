@@ -21,7 +21,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-use crate::action::{Action, Breath};
+use crate::action::{Action, ActionSeq, Breath};
 use crate::config::{Config, DetectorConfig};
 use crate::modes::Mode;
 
@@ -382,26 +382,67 @@ pub fn sequences_script(config: &Config, sequences: &[Vec<Action>]) -> Vec<Step>
 /// library are skipped. Returns the script and the modes selected.
 pub fn demo_script(config: &Config) -> (Vec<Step>, Vec<Mode>) {
     use Breath::{Puff, Sip};
-    let after = config.matcher().sequence_timeout_ms + 200;
-    let leave = config.command().inactivity_timeout_ms + 500;
-    let plan: [(Mode, &[(Breath, u32)]); 8] = [
-        (Mode::TranslateX, &[(Puff, 1500)]),
-        (Mode::SavePoint, &[(Puff, 300)]),
-        (Mode::TranslateZ, &[(Sip, 1500)]),
-        (Mode::RotateZ, &[(Puff, 1000)]),
-        (Mode::Fingers, &[(Sip, 2700), (Puff, 600)]),
-        (Mode::TranslateX, &[(Puff, 3000)]),
-        (Mode::GotoPoint, &[(Puff, 5000)]),
-        (Mode::TranslateY, &[(Sip, 800)]),
-    ];
+    scripted_user(
+        config,
+        &[
+            (Mode::TranslateX, &[(Puff, 1500)]),
+            (Mode::SavePoint, &[(Puff, 300)]),
+            (Mode::TranslateZ, &[(Sip, 1500)]),
+            (Mode::RotateZ, &[(Puff, 1000)]),
+            (Mode::Fingers, &[(Sip, 2700), (Puff, 600)]),
+            (Mode::TranslateX, &[(Puff, 3000)]),
+            (Mode::GotoPoint, &[(Puff, 5000)]),
+            (Mode::TranslateY, &[(Sip, 800)]),
+        ],
+    )
+}
+
+/// The built-in user of `sipnpuff run` (about 20 s): saves the home pose,
+/// moves forward 1.5 s, closes the fingers 1.5 s and opens them 1 s, then
+/// holds a puff in `goto_point` until the saved pose is reached.
+pub fn run_script(config: &Config) -> (Vec<Step>, Vec<Mode>) {
+    use Breath::{Puff, Sip};
+    let (mut script, modes) = scripted_user(
+        config,
+        &[
+            (Mode::SavePoint, &[(Puff, 300)]),
+            (Mode::TranslateX, &[(Puff, 1500)]),
+            (Mode::Fingers, &[(Sip, 1200), (Puff, 800)]),
+            (Mode::GotoPoint, &[(Puff, 2200)]),
+        ],
+    );
+    // The run ends with a safe stop: no need to wait for detection mode.
+    script.pop();
+    (script, modes)
+}
+
+/// A user who selects each mode in turn (its first sequence in the
+/// library), makes the given breaths in it, and waits to return to
+/// detection mode. Modes missing from the library are skipped.
+fn scripted_user(config: &Config, plan: &[(Mode, &[(Breath, u32)])]) -> (Vec<Step>, Vec<Mode>) {
+    let library = config.sequences();
+    // A sequence that starts another is matched only at the timeout.
+    let wait = |actions: &ActionSeq| {
+        let prefix = library.iter().any(|e| {
+            e.actions.len() > actions.len() && e.actions.as_slice().starts_with(actions.as_slice())
+        });
+        if prefix {
+            config.matcher().sequence_timeout_ms + 200
+        } else {
+            300
+        }
+    };
+    let leave = config.command().inactivity_timeout_ms + 300;
     let mut script = vec![Step::Rest { ms: 1000 }];
     let mut modes = Vec::new();
-    for (mode, breaths) in plan {
+    for &(mode, breaths) in plan {
         let Some(entry) = config.sequences().iter().find(|e| e.mode == mode) else {
             continue;
         };
         script.extend(sequence_steps(entry.actions.as_slice(), Timing::DEFAULT));
-        script.push(Step::Rest { ms: after });
+        script.push(Step::Rest {
+            ms: wait(&entry.actions),
+        });
         for &(breath, ms) in breaths {
             script.push(Step::Breath { breath, ms });
             script.push(Step::Rest { ms: 400 });

@@ -1,0 +1,232 @@
+//! Real-time set-up of the control thread, once, before its loop. Every
+//! step reports granted, or denied with the reason; nothing aborts, so a
+//! run without privileges works and says what it lacks.
+
+use std::fs::File;
+use std::io::Write;
+
+/// What to ask for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RtOptions {
+    /// SCHED_FIFO priority (1–99); `None`: stay SCHED_OTHER.
+    pub fifo_priority: Option<i32>,
+    /// CPU to pin the control thread to; `None`: no pinning.
+    pub cpu: Option<usize>,
+    /// `mlockall(MCL_CURRENT | MCL_FUTURE)` and a pre-faulted stack.
+    pub lock_memory: bool,
+    /// `PR_SET_TIMERSLACK` of 1 ns (SCHED_OTHER threads get 50 µs).
+    pub timer_slack: bool,
+    /// Hold `/dev/cpu_dma_latency` at 0 while running.
+    pub cpu_dma_latency: bool,
+}
+
+impl Default for RtOptions {
+    /// What cyclictest does: FIFO 80, last CPU, memory locked, 1 ns slack,
+    /// CPU DMA latency 0.
+    fn default() -> Self {
+        RtOptions {
+            fifo_priority: Some(80),
+            cpu: core_affinity::get_core_ids().and_then(|ids| ids.last().map(|id| id.id)),
+            lock_memory: true,
+            timer_slack: true,
+            cpu_dma_latency: true,
+        }
+    }
+}
+
+/// The outcome of one step.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Setting {
+    /// What was asked, e.g. `SCHED_FIFO priority 80`.
+    pub name: String,
+    /// Whether it was granted.
+    pub granted: bool,
+    /// Why not, or a detail.
+    pub detail: String,
+}
+
+/// The settings in force for a run. Keeps `/dev/cpu_dma_latency` open
+/// (closing it restores the default).
+#[derive(Debug, Default)]
+pub struct RtSetup {
+    /// Every step, in order.
+    pub settings: Vec<Setting>,
+    /// The kernel is PREEMPT_RT (`/sys/kernel/realtime` is 1).
+    pub preempt_rt: bool,
+    _dma_latency: Option<File>,
+}
+
+/// Bytes of stack touched up front so the loop never page-faults on it.
+pub const PREFAULT_STACK_BYTES: usize = 256 * 1024;
+
+fn errno_text() -> String {
+    std::io::Error::last_os_error().to_string()
+}
+
+impl RtSetup {
+    /// Whether the setting whose name starts with `prefix` was granted.
+    pub fn granted(&self, prefix: &str) -> bool {
+        self.settings
+            .iter()
+            .any(|s| s.name.starts_with(prefix) && s.granted)
+    }
+
+    fn push(&mut self, name: impl Into<String>, result: Result<String, String>) {
+        let (granted, detail) = match result {
+            Ok(d) => (true, d),
+            Err(d) => (false, d),
+        };
+        self.settings.push(Setting {
+            name: name.into(),
+            granted,
+            detail,
+        });
+    }
+}
+
+/// Applies `options` to the calling thread (and the process, for memory
+/// locking and DMA latency). Not RT-safe: call before the loop.
+pub fn setup_current_thread(options: &RtOptions) -> RtSetup {
+    let mut setup = RtSetup {
+        preempt_rt: std::fs::read_to_string("/sys/kernel/realtime")
+            .map(|s| s.trim() == "1")
+            .unwrap_or(false),
+        ..RtSetup::default()
+    };
+    let kernel = std::fs::read_to_string("/proc/sys/kernel/version").unwrap_or_default();
+    setup.push(
+        "PREEMPT_RT kernel",
+        if setup.preempt_rt {
+            Ok("/sys/kernel/realtime = 1".into())
+        } else {
+            Err(format!(
+                "not an RT kernel ({}); latency tails will be longer",
+                kernel.trim()
+            ))
+        },
+    );
+
+    if options.lock_memory {
+        // SAFETY: mlockall has no memory-safety preconditions.
+        let rc = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
+        setup.push(
+            "mlockall(MCL_CURRENT | MCL_FUTURE)",
+            if rc == 0 {
+                Ok(String::new())
+            } else {
+                Err(format!("{} (needs root or a memlock limit)", errno_text()))
+            },
+        );
+        prefault_stack();
+        setup.push(
+            format!("pre-faulted stack ({} KiB)", PREFAULT_STACK_BYTES / 1024),
+            Ok(String::new()),
+        );
+    }
+
+    if let Some(cpu) = options.cpu {
+        let pinned = core_affinity::set_for_current(core_affinity::CoreId { id: cpu });
+        setup.push(
+            format!("pinned to CPU {cpu}"),
+            if pinned {
+                Ok(String::new())
+            } else {
+                Err("sched_setaffinity refused".into())
+            },
+        );
+    }
+
+    if options.timer_slack {
+        // SAFETY: PR_SET_TIMERSLACK takes one integer argument.
+        let rc = unsafe { libc::prctl(libc::PR_SET_TIMERSLACK, 1 as libc::c_ulong, 0, 0, 0) };
+        setup.push(
+            "timer slack 1 ns",
+            if rc == 0 {
+                Ok(String::new())
+            } else {
+                Err(errno_text())
+            },
+        );
+    }
+
+    if options.cpu_dma_latency {
+        let result = File::options()
+            .write(true)
+            .open("/dev/cpu_dma_latency")
+            .and_then(|mut f| {
+                f.write_all(&0i32.to_ne_bytes())?;
+                Ok(f)
+            });
+        match result {
+            Ok(file) => {
+                setup._dma_latency = Some(file);
+                setup.push("/dev/cpu_dma_latency = 0", Ok("held while running".into()));
+            }
+            Err(e) => setup.push("/dev/cpu_dma_latency = 0", Err(e.to_string())),
+        }
+    }
+
+    if let Some(priority) = options.fifo_priority {
+        let param = libc::sched_param {
+            sched_priority: priority,
+        };
+        // SAFETY: `param` is a valid sched_param; pthread_self() is the
+        // calling thread.
+        let rc =
+            unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
+        setup.push(
+            format!("SCHED_FIFO priority {priority}"),
+            if rc == 0 {
+                Ok(String::new())
+            } else {
+                Err(format!(
+                    "{} (needs root, CAP_SYS_NICE or an rtprio limit)",
+                    std::io::Error::from_raw_os_error(rc)
+                ))
+            },
+        );
+    }
+    setup
+}
+
+/// Touches `PREFAULT_STACK_BYTES` of stack so its pages are mapped (and,
+/// with `mlockall`, locked) before the loop.
+#[inline(never)]
+fn prefault_stack() {
+    let mut buffer = [0u8; PREFAULT_STACK_BYTES];
+    for i in (0..PREFAULT_STACK_BYTES).step_by(4096) {
+        buffer[i] = 1;
+    }
+    std::hint::black_box(&buffer);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_step_reports_and_nothing_aborts() {
+        let options = RtOptions {
+            fifo_priority: Some(10),
+            cpu: Some(0),
+            lock_memory: false,
+            timer_slack: true,
+            cpu_dma_latency: false,
+        };
+        let handle = std::thread::spawn(move || setup_current_thread(&options));
+        let setup = handle.join().unwrap();
+        let names: Vec<&str> = setup.settings.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "PREEMPT_RT kernel",
+                "pinned to CPU 0",
+                "timer slack 1 ns",
+                "SCHED_FIFO priority 10"
+            ]
+        );
+        for s in &setup.settings {
+            assert!(s.granted || !s.detail.is_empty(), "{s:?} says why not");
+        }
+    }
+}

@@ -1,0 +1,218 @@
+//! Measure in the loop, aggregate elsewhere: the control thread pushes one
+//! small `Copy` [`TickRecord`] per tick (and each event) through rtrb rings;
+//! the telemetry side owns the HdrHistograms, logs events and builds the
+//! report.
+
+use std::io::Write;
+
+use hdrhistogram::Histogram;
+
+use crate::Tick;
+use crate::event::Event;
+
+/// Items dropped because a ring was full, cumulative. A full ring never
+/// blocks the control thread: the item is dropped and counted here.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Drops {
+    /// Sensor samples discarded (the sensor ran ahead of the loop).
+    pub samples: u64,
+    /// Arm commands dropped (arm thread not keeping up).
+    pub arm_commands: u64,
+    /// Tick records dropped (telemetry not keeping up).
+    pub records: u64,
+    /// Events dropped.
+    pub events: u64,
+}
+
+/// One tick, as the control thread saw it. `Copy`, 64 bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TickRecord {
+    /// The tick.
+    pub tick: Tick,
+    /// Wake-up minus deadline, ns.
+    pub wake_latency_ns: u64,
+    /// Wake-up to end of the tick's work, ns.
+    pub compute_ns: u64,
+    /// Since the previous wake-up, ns (0 for the first tick).
+    pub period_ns: u64,
+    /// Ticks skipped before this one.
+    pub skipped: u32,
+    /// Events this tick.
+    pub events: u8,
+    /// `bench latency`: a reference tick (bare deadline wait).
+    pub reference: bool,
+    /// Drops so far.
+    pub drops: Drops,
+}
+
+/// An event with its tick, as it crosses the events ring.
+pub type TimedEvent = (Tick, Event);
+
+/// Upper bound of every histogram: 10 s in ns (`saturating_record` clamps
+/// anything longer rather than fail).
+const HISTOGRAM_MAX_NS: u64 = 10_000_000_000;
+
+fn histogram() -> Histogram<u64> {
+    Histogram::new_with_bounds(1, HISTOGRAM_MAX_NS, 3).expect("constant bounds are valid")
+}
+
+/// Histograms of one arm of a run (ns). Not RT-safe: telemetry side.
+#[derive(Debug, Clone)]
+pub struct Latencies {
+    /// Wake-up latency.
+    pub wake: Histogram<u64>,
+    /// Compute time.
+    pub compute: Histogram<u64>,
+    /// Wake-to-wake period.
+    pub period: Histogram<u64>,
+}
+
+impl Default for Latencies {
+    fn default() -> Self {
+        Latencies {
+            wake: histogram(),
+            compute: histogram(),
+            period: histogram(),
+        }
+    }
+}
+
+impl Latencies {
+    /// Adds one record.
+    pub fn record(&mut self, r: &TickRecord) {
+        self.wake.saturating_record(r.wake_latency_ns.max(1));
+        self.compute.saturating_record(r.compute_ns.max(1));
+        if r.period_ns > 0 {
+            self.period.saturating_record(r.period_ns);
+        }
+    }
+}
+
+/// Percentiles reported everywhere, as (label, quantile).
+pub const PERCENTILES: [(&str, f64); 6] = [
+    ("p50", 0.50),
+    ("p90", 0.90),
+    ("p99", 0.99),
+    ("p99.9", 0.999),
+    ("p99.99", 0.9999),
+    ("max", 1.0),
+];
+
+/// A percentile of a histogram (`1.0` is the maximum).
+pub fn at(h: &Histogram<u64>, quantile: f64) -> u64 {
+    if h.is_empty() {
+        0
+    } else if quantile >= 1.0 {
+        h.max()
+    } else {
+        h.value_at_quantile(quantile)
+    }
+}
+
+/// One line of percentiles in µs.
+pub fn percentile_line(name: &str, h: &Histogram<u64>) -> String {
+    let mut s = format!("  {name:<22}");
+    for (label, q) in PERCENTILES {
+        s += &format!(" {label} {:>9.1}", at(h, q) as f64 / 1000.0);
+    }
+    s
+}
+
+/// Writes a histogram in HdrHistogram's percentile-distribution text format
+/// (`.hgrm`, as `outputPercentileDistribution` prints it; the HdrHistogram
+/// plotter reads it), values in µs.
+pub fn write_hgrm(out: &mut impl Write, h: &Histogram<u64>) -> std::io::Result<()> {
+    let scale = 1000.0;
+    writeln!(
+        out,
+        "{:>12} {:>14} {:>10} {:>14}\n",
+        "Value", "Percentile", "TotalCount", "1/(1-Percentile)"
+    )?;
+    let mut total = 0u64;
+    for v in h.iter_quantiles(5) {
+        total += v.count_since_last_iteration();
+        let value = v.value_iterated_to() as f64 / scale;
+        let q = v.quantile_iterated_to();
+        if q < 1.0 {
+            writeln!(
+                out,
+                "{value:12.3} {q:2.12} {total:10} {:14.2}",
+                1.0 / (1.0 - q)
+            )?;
+        } else {
+            writeln!(out, "{value:12.3} {q:2.12} {total:10}")?;
+        }
+    }
+    writeln!(
+        out,
+        "#[Mean    = {:12.3}, StdDeviation   = {:12.3}]",
+        h.mean() / scale,
+        h.stdev() / scale
+    )?;
+    writeln!(
+        out,
+        "#[Max     = {:12.3}, Total count    = {:12}]",
+        h.max() as f64 / scale,
+        h.len()
+    )?;
+    writeln!(
+        out,
+        "#[Buckets = {:12}, SubBuckets     = {:12}]",
+        h.buckets(),
+        2048
+    )?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hgrm_has_the_plotters_columns() {
+        let mut h = histogram();
+        for v in 1..=1000u64 {
+            h.record(v * 1000).unwrap(); // 1 µs … 1 ms
+        }
+        let mut out = Vec::new();
+        write_hgrm(&mut out, &h).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        let mut lines = text.lines();
+        assert!(
+            lines
+                .next()
+                .unwrap()
+                .contains("Value     Percentile TotalCount 1/(1-Percentile)")
+        );
+        assert_eq!(lines.next(), Some(""));
+        let rows: Vec<Vec<f64>> = text
+            .lines()
+            .skip(2)
+            .take_while(|l| !l.starts_with('#'))
+            .map(|l| l.split_whitespace().map(|f| f.parse().unwrap()).collect())
+            .collect();
+        assert!((rows[0][0] - 1.0).abs() < 0.01, "{:?}", rows[0]);
+        let last = rows.last().unwrap();
+        assert_eq!((last[1], last[2]), (1.0, 1000.0));
+        assert!((last[0] - 1000.0).abs() < 1.0);
+        assert!(
+            rows.windows(2)
+                .all(|w| w[0][1] <= w[1][1] && w[0][2] <= w[1][2])
+        );
+        assert!(text.contains("#[Max     =     1000."), "{text}");
+    }
+
+    #[test]
+    fn records_land_in_their_histograms() {
+        let mut l = Latencies::default();
+        l.record(&TickRecord {
+            wake_latency_ns: 25_000,
+            compute_ns: 600,
+            period_ns: 1_000_000,
+            ..TickRecord::default()
+        });
+        assert_eq!(l.wake.len(), 1);
+        assert!((at(&l.wake, 0.5) as f64 - 25_000.0).abs() < 25.0);
+        assert_eq!(l.period.len(), 1);
+    }
+}
