@@ -244,6 +244,7 @@ fn control_loop(
                 .interleave
                 .is_some_and(|block| (wake.tick / block.max(1)).is_multiple_of(2));
         let mut events = 0u8;
+        let mut finished = None;
         if !reference {
             // The core counts its own ticks: in `bench latency` it only
             // runs in the full blocks, as if the reference blocks did not
@@ -305,7 +306,7 @@ fn control_loop(
                         m.angular[2],
                         m.fingers_velocity,
                     ];
-                    break (velocity, wake.woke_ns);
+                    finished = Some((velocity, wake.woke_ns));
                 }
             }
         }
@@ -327,6 +328,9 @@ fn control_loop(
         previous_wake = wake.woke_ns;
         if rings.records.push(record).is_err() {
             drops.records += 1;
+        }
+        if let Some(result) = finished {
+            break result;
         }
     };
     let allocations = crate::alloc_counter::thread_allocations() - allocations_before;

@@ -107,16 +107,25 @@ pub fn setup_current_thread(options: &RtOptions) -> RtSetup {
     );
 
     if options.lock_memory {
-        // SAFETY: mlockall has no memory-safety preconditions.
-        let rc = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
-        setup.push(
-            "mlockall(MCL_CURRENT | MCL_FUTURE)",
-            if rc == 0 {
-                Ok(String::new())
-            } else {
-                Err(format!("{} (needs root or a memlock limit)", errno_text()))
-            },
-        );
+        let name = "mlockall(MCL_CURRENT | MCL_FUTURE)";
+        match memlock_refusal() {
+            Some(why) => setup.push(name, Err(why)),
+            None => {
+                // SAFETY: mlockall has no memory-safety preconditions.
+                let rc = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
+                setup.push(
+                    name,
+                    if rc == 0 {
+                        Ok(String::new())
+                    } else {
+                        Err(format!(
+                            "{} (needs root or an unlimited memlock limit)",
+                            errno_text()
+                        ))
+                    },
+                );
+            }
+        }
         prefault_stack();
         setup.push(
             format!("pre-faulted stack ({} KiB)", PREFAULT_STACK_BYTES / 1024),
@@ -187,6 +196,29 @@ pub fn setup_current_thread(options: &RtOptions) -> RtSetup {
         );
     }
     setup
+}
+
+/// Why memory must not be locked here, if so. Under a finite
+/// `RLIMIT_MEMLOCK` (without root), `MCL_FUTURE` can succeed while the
+/// process is small and then make later allocations fail: refuse instead.
+fn memlock_refusal() -> Option<String> {
+    // SAFETY: geteuid has no preconditions.
+    if unsafe { libc::geteuid() } == 0 {
+        return None;
+    }
+    let mut limit = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: `limit` is a valid, writable rlimit.
+    let rc = unsafe { libc::getrlimit(libc::RLIMIT_MEMLOCK, &mut limit) };
+    if rc == 0 && limit.rlim_cur == libc::RLIM_INFINITY {
+        return None;
+    }
+    Some(format!(
+        "not root and the memlock limit is {} KiB: locking all future memory could make later allocations fail (set memlock unlimited, see README)",
+        limit.rlim_cur / 1024
+    ))
 }
 
 /// Touches `PREFAULT_STACK_BYTES` of stack so its pages are mapped (and,
