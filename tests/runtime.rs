@@ -128,6 +128,24 @@ fn a_short_real_run_reports_its_structure() {
     let report = run(&Config::default(), options(2.0)).unwrap();
     check_structure(&report, 2.0);
     assert_eq!(report.stop_reason, "time");
+
+    // --histogram-dir: one .hgrm per histogram, in the plotter's format,
+    // its total the number of ticks.
+    let dir = std::env::temp_dir().join(format!("sipnpuff-hgrm-{}", std::process::id()));
+    let written = report.write_histograms(&dir).unwrap();
+    let names: Vec<_> = written
+        .iter()
+        .map(|p| p.file_name().unwrap().to_str().unwrap().to_string())
+        .collect();
+    assert_eq!(names, ["wake_latency.hgrm", "compute.hgrm", "period.hgrm"]);
+    let text = std::fs::read_to_string(&written[0]).unwrap();
+    assert!(
+        text.starts_with("       Value     Percentile TotalCount 1/(1-Percentile)"),
+        "{text}"
+    );
+    let total = format!("Total count    = {:>12}]", report.stats.ticks_run);
+    assert!(text.contains(&total), "{text}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
