@@ -91,30 +91,20 @@ fn motion_event_json(tick: Tick, event: &MotionEvent) -> Value {
 /// Writes one trace row: the core's 1 kHz commanded twist (base frame) and
 /// the simulated arm's pose.
 fn trace_row(out: &mut dyn Write, output: &TickOutput, arm: &SimulatedJaco) -> std::io::Result<()> {
-    let m = &output.motion;
     let state = arm.state();
     let p = state.pose.translation.vector;
     let r = state.pose.rotation.scaled_axis();
-    writeln!(
-        out,
-        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-        output.tick,
-        output.command.state.name(),
-        m.linear[0],
-        m.linear[1],
-        m.linear[2],
-        m.angular[0],
-        m.angular[1],
-        m.angular[2],
-        m.fingers_velocity,
-        p.x,
-        p.y,
-        p.z,
-        r.x,
-        r.y,
-        r.z,
-        state.fingers
-    )
+    write!(out, "{},{}", output.tick, output.command.state.name())?;
+    for value in output
+        .motion
+        .velocity()
+        .iter()
+        .chain(p.iter())
+        .chain(r.iter())
+    {
+        write!(out, ",{value}")?;
+    }
+    writeln!(out, ",{}", state.fingers)
 }
 
 /// Replays every sample of `signal` through a fresh core and the simulated

@@ -85,7 +85,7 @@ fn velocities(o: &TickOutput) -> [Vector3<f64>; 2] {
 }
 
 fn still(o: &TickOutput) -> bool {
-    o.motion.linear == [0.0; 3] && o.motion.angular == [0.0; 3] && o.motion.fingers_velocity == 0.0
+    o.motion.is_still()
 }
 
 /// The invariants every trace must satisfy.

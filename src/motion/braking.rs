@@ -4,6 +4,22 @@
 //! target (jerk −J until the acceleration reaches −A or a peak, hold, jerk
 //! +J back to zero). Pure arithmetic, RT-safe.
 
+/// Room needed ahead if braking starts one cycle of `dt` from now, with
+/// the worst case meanwhile (full jerk towards the boundary): the travel in
+/// that cycle plus the stopping distance from where it leaves the motion.
+/// Braking now is due when this reaches the room left.
+pub fn room_to_brake_next_cycle(v: f64, a: f64, a_max: f64, j_max: f64, dt: f64) -> f64 {
+    v * dt
+        + a * dt * dt / 2.0
+        + j_max * dt * dt * dt / 6.0
+        + stopping_distance(
+            v + a * dt + j_max * dt * dt / 2.0,
+            a + j_max * dt,
+            a_max,
+            j_max,
+        )
+}
+
 /// One phase of constant jerk.
 #[derive(Debug, Clone, Copy)]
 struct Phase {

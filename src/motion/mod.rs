@@ -76,6 +76,20 @@ pub enum MotionEvent {
     TrajectoryError,
 }
 
+impl MotionOutput {
+    /// The commanded velocity as `[vx, vy, vz, wx, wy, wz, fingers]`.
+    pub fn velocity(&self) -> [f64; 7] {
+        let [vx, vy, vz] = self.linear;
+        let [wx, wy, wz] = self.angular;
+        [vx, vy, vz, wx, wy, wz, self.fingers_velocity]
+    }
+
+    /// Nothing is commanded to move.
+    pub fn is_still(&self) -> bool {
+        self.velocity() == [0.0; 7]
+    }
+}
+
 /// The motion layer's output for one tick. `Copy`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MotionOutput {
@@ -432,17 +446,7 @@ impl Motion {
         let needed = if speed < 1e-9 && accel <= 0.0 {
             MIN_START_M
         } else {
-            // Worst case of braking one tick later: full jerk towards the
-            // boundary for one more tick.
-            speed * dt
-                + accel * dt * dt / 2.0
-                + j_max * dt * dt * dt / 6.0
-                + braking::stopping_distance(
-                    speed + accel * dt + j_max * dt * dt / 2.0,
-                    accel + j_max * dt,
-                    a_max,
-                    j_max,
-                )
+            braking::room_to_brake_next_cycle(speed, accel, a_max, j_max, dt)
         };
         (needed >= room).then_some(boundary).flatten()
     }
@@ -515,15 +519,7 @@ impl Motion {
         } else if v < 0.0 {
             return None; // reversing
         } else {
-            v * dt
-                + a * dt * dt / 2.0
-                + j_max * dt * dt * dt / 6.0
-                + braking::stopping_distance(
-                    v + a * dt + j_max * dt * dt / 2.0,
-                    a + j_max * dt,
-                    a_max,
-                    j_max,
-                )
+            braking::room_to_brake_next_cycle(v, a, a_max, j_max, dt)
         };
         if needed < room {
             return None;

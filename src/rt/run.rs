@@ -27,7 +27,7 @@ use crate::arm::{ArmBackend, ArmState, SimulatedJaco};
 use crate::config::Config;
 use crate::csv_signal::CsvSignal;
 use crate::motion::stream::ArmCommand;
-use crate::pipeline::{Core, TickOutput};
+use crate::pipeline::Core;
 use crate::rt::clock::{Clock, MonotonicClock};
 use crate::rt::scheduler::{Scheduler, SchedulerStats};
 use crate::rt::setup::{RtOptions, Setting, setup_current_thread};
@@ -200,12 +200,6 @@ impl LoopSensor<'_> {
     }
 }
 
-fn still(out: &TickOutput) -> bool {
-    out.motion.linear == [0.0; 3]
-        && out.motion.angular == [0.0; 3]
-        && out.motion.fingers_velocity == 0.0
-}
-
 struct Rings {
     arm: rtrb::Producer<ArmCommand>,
     records: rtrb::Producer<TickRecord>,
@@ -293,20 +287,14 @@ fn control_loop(
                 }
             }
             if let Some(since) = stopping_since {
-                still_ticks = if still(&out) { still_ticks + 1 } else { 0 };
+                still_ticks = if out.motion.is_still() {
+                    still_ticks + 1
+                } else {
+                    0
+                };
                 let quiet = still_ticks >= STILL_TICKS && last_arm_command.is_zero();
                 if quiet || wake.tick - since >= MAX_STOP_TICKS {
-                    let m = &out.motion;
-                    let velocity = [
-                        m.linear[0],
-                        m.linear[1],
-                        m.linear[2],
-                        m.angular[0],
-                        m.angular[1],
-                        m.angular[2],
-                        m.fingers_velocity,
-                    ];
-                    finished = Some((velocity, wake.woke_ns));
+                    finished = Some((out.motion.velocity(), wake.woke_ns));
                 }
             }
         }
