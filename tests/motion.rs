@@ -4,7 +4,7 @@
 //! and after a sensor fault.
 
 use nalgebra::Vector3;
-use sipnpuff::action::Breath;
+use sipnpuff::action::{Action, Breath};
 use sipnpuff::arm::{ArmBackend, SimulatedJaco};
 use sipnpuff::config::Config;
 use sipnpuff::event::Event;
@@ -12,7 +12,9 @@ use sipnpuff::modes::ModeState;
 use sipnpuff::motion::MotionEvent;
 use sipnpuff::motion::workspace::{self, Boundary};
 use sipnpuff::pipeline::{Core, TickOutput};
-use sipnpuff::signal::{SignalGenerator, SignalParams, Step, demo_script, random_session};
+use sipnpuff::signal::{
+    SignalGenerator, SignalParams, Step, Timing, demo_script, random_session, sequence_steps,
+};
 
 const DT: f64 = 0.001;
 
@@ -259,20 +261,20 @@ fn the_demo_user_under_noise() {
     assert!((settled.out.motion.pose.translation.vector - settled.arm_position).norm() < 1e-9);
 }
 
+/// Rest 0.5 s, enter `actions` (150 ms bursts, 300 ms gaps), rest 0.9 s.
+fn select(actions: &[Action]) -> Vec<Step> {
+    let mut script = vec![Step::Rest { ms: 500 }];
+    script.extend(sequence_steps(actions, Timing::DEFAULT));
+    script.push(Step::Rest { ms: 900 });
+    script
+}
+
 #[test]
 fn a_sensor_fault_mid_motion_brakes_smoothly() {
     let config = Config::default();
     // translate_x (two short puffs), then a 2 s puff cut by a 30 ms
     // dropout after 1 s; the user keeps puffing after the dropout.
-    let mut script = vec![Step::Rest { ms: 500 }];
-    for _ in 0..2 {
-        script.push(Step::Breath {
-            breath: Breath::Puff,
-            ms: 150,
-        });
-        script.push(Step::Rest { ms: 300 });
-    }
-    script.push(Step::Rest { ms: 900 });
+    let mut script = select(&[Action::ShortPuff, Action::ShortPuff]);
     script.push(Step::Breath {
         breath: Breath::Puff,
         ms: 1000,
@@ -303,15 +305,8 @@ fn a_sensor_fault_mid_motion_brakes_smoothly() {
 #[test]
 fn a_stale_sensor_brakes_smoothly() {
     let config = Config::default();
-    let mut script = vec![Step::Rest { ms: 500 }];
-    for _ in 0..2 {
-        script.push(Step::Breath {
-            breath: Breath::Sip,
-            ms: 150,
-        });
-        script.push(Step::Rest { ms: 300 });
-    }
-    script.push(Step::Rest { ms: 900 });
+    // translate_z (two short sips), then a 3 s sip: down.
+    let mut script = select(&[Action::ShortSip, Action::ShortSip]);
     script.push(Step::Breath {
         breath: Breath::Sip,
         ms: 3000,
