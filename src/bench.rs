@@ -14,20 +14,12 @@ use std::time::Instant;
 use hdrhistogram::Histogram;
 use serde_json::{Value, json};
 
+use crate::rt::telemetry::{PERCENTILES, at, histogram, percentiles_json};
+
 use crate::arm::{ArmBackend, SimulatedJaco};
 use crate::config::Config;
 use crate::pipeline::Core;
 use crate::signal::{SignalGenerator, SignalParams, Step, demo_script};
-
-/// Percentiles reported, as (label, quantile).
-pub const PERCENTILES: [(&str, f64); 6] = [
-    ("p50", 0.50),
-    ("p90", 0.90),
-    ("p99", 0.99),
-    ("p999", 0.999),
-    ("p9999", 0.9999),
-    ("max", 1.0),
-];
 
 /// Histograms of one `bench tick` run, in nanoseconds.
 pub struct TickBench {
@@ -43,11 +35,6 @@ pub struct TickBench {
     pub new_target: Histogram<u64>,
     /// Allocations on the measuring thread during the run.
     pub allocations: u64,
-}
-
-fn histogram() -> Histogram<u64> {
-    // 1 ns to 1 s, 3 significant digits.
-    Histogram::new_with_bounds(1, 1_000_000_000, 3).expect("constant bounds are valid")
 }
 
 /// Runs `seconds` of the demo user (repeated) through the full tick.
@@ -108,29 +95,15 @@ pub fn bench_tick(config: &Config, seconds: u64) -> TickBench {
     bench
 }
 
-fn percentiles(h: &Histogram<u64>) -> Value {
-    let mut map = serde_json::Map::new();
-    map.insert("count".into(), json!(h.len()));
-    for (label, q) in PERCENTILES {
-        let v = if q >= 1.0 {
-            h.max()
-        } else {
-            h.value_at_quantile(q)
-        };
-        map.insert(label.into(), json!(v));
-    }
-    Value::Object(map)
-}
-
 impl TickBench {
     /// The figures as one JSON object (nanoseconds).
     pub fn to_json(&self) -> Value {
         json!({
             "ticks": self.ticks,
-            "reference_ns": percentiles(&self.reference),
-            "tick_ns": percentiles(&self.all),
-            "steady_tick_ns": percentiles(&self.steady),
-            "new_target_tick_ns": percentiles(&self.new_target),
+            "reference_ns": percentiles_json(&self.reference),
+            "tick_ns": percentiles_json(&self.all),
+            "steady_tick_ns": percentiles_json(&self.steady),
+            "new_target_tick_ns": percentiles_json(&self.new_target),
             "allocations": self.allocations,
         })
     }
@@ -153,16 +126,11 @@ impl TickBench {
         ] {
             s += &format!("{:<28}", format!("{name} [{}]", h.len()));
             for (_, q) in PERCENTILES {
-                let v = if q >= 1.0 {
-                    h.max()
-                } else {
-                    h.value_at_quantile(q)
-                };
-                s += &format!("{v:>9}");
+                s += &format!("{:>9}", at(h, q));
             }
             s += "\n";
         }
-        let p50 = |h: &Histogram<u64>| h.value_at_quantile(0.5) as f64;
+        let p50 = |h: &Histogram<u64>| at(h, 0.5) as f64;
         s += &format!(
             "full tick p50 / reference p50 = {:.1}; allocations during the run: {}\n",
             p50(&self.all) / p50(&self.reference).max(1.0),

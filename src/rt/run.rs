@@ -590,13 +590,7 @@ impl RunReport {
 
     /// The `bench latency --json` object (all times in ns).
     pub fn latency_json(&self, seconds: f64) -> serde_json::Value {
-        use crate::rt::telemetry::at;
-        let pct = |h: &hdrhistogram::Histogram<u64>| {
-            serde_json::json!({
-                "p50": at(h, 0.5), "p90": at(h, 0.9), "p99": at(h, 0.99),
-                "p999": at(h, 0.999), "p9999": at(h, 0.9999), "max": at(h, 1.0),
-            })
-        };
+        let pct = crate::rt::telemetry::percentiles_json;
         serde_json::json!({
             "seconds": seconds,
             "ticks": self.stats.ticks_run,

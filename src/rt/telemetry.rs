@@ -52,7 +52,8 @@ pub type TimedEvent = (Tick, Event);
 /// anything longer rather than fail).
 const HISTOGRAM_MAX_NS: u64 = 10_000_000_000;
 
-fn histogram() -> Histogram<u64> {
+/// An empty histogram, 1 ns to 10 s at 3 significant digits.
+pub fn histogram() -> Histogram<u64> {
     Histogram::new_with_bounds(1, HISTOGRAM_MAX_NS, 3).expect("constant bounds are valid")
 }
 
@@ -107,6 +108,17 @@ pub fn at(h: &Histogram<u64>, quantile: f64) -> u64 {
     } else {
         h.value_at_quantile(quantile)
     }
+}
+
+/// The percentiles as a JSON object: `count`, `p50`, `p90`, `p99`,
+/// `p999` (99.9 %), `p9999` (99.99 %), `max`, in the histogram's unit.
+pub fn percentiles_json(h: &Histogram<u64>) -> serde_json::Value {
+    let mut map = serde_json::Map::new();
+    map.insert("count".into(), h.len().into());
+    for (label, q) in PERCENTILES {
+        map.insert(label.replace('.', ""), at(h, q).into());
+    }
+    serde_json::Value::Object(map)
 }
 
 /// One line of percentiles in µs.
