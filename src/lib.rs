@@ -57,6 +57,7 @@
 #![deny(unsafe_op_in_unsafe_fn)]
 #![deny(clippy::undocumented_unsafe_blocks)]
 
+pub mod accuracy;
 pub mod action;
 pub mod alloc_counter;
 pub mod arm;

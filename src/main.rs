@@ -187,6 +187,42 @@ enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// Detection accuracy of the whole core against a seeded random user,
+    /// at each level of noise and 50 Hz hum: breaths detected as the right
+    /// action, mode selections matched, largest timing error.
+    Accuracy {
+        /// Length of each session, s.
+        #[arg(long, default_value_t = 600)]
+        seconds: u64,
+        /// Seed of the user and the sensor.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Noise levels (σ, volts), comma-separated.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "0,0.02,0.05,0.1,0.15,0.2"
+        )]
+        noise_volts: Vec<f64>,
+        /// Hum amplitudes (volts), comma-separated.
+        #[arg(long, value_delimiter = ',', default_value = "0,0.1,0.2,0.3")]
+        hum_volts: Vec<f64>,
+        /// Neutral drift amplitude in volts (one-minute period).
+        #[arg(long, default_value_t = 0.0)]
+        drift_volts: f64,
+        /// A one-sample spike to a rail every this many ms (0 = none).
+        #[arg(long, default_value_t = 0)]
+        spike_every_ms: u64,
+        /// A breath counts as correct within this many ms of its length.
+        #[arg(long, default_value_t = 5)]
+        tolerance_ms: u64,
+        /// TOML configuration (default: built-in).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Print one JSON object instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn load_config(path: Option<&Path>) -> anyhow::Result<Config> {
@@ -369,6 +405,74 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{}", bench.to_json());
             } else {
                 print!("{}", bench.to_text());
+            }
+            Ok(())
+        }
+        Command::Bench {
+            what:
+                BenchCommand::Accuracy {
+                    seconds,
+                    seed,
+                    noise_volts,
+                    hum_volts,
+                    drift_volts,
+                    spike_every_ms,
+                    tolerance_ms,
+                    config,
+                    json,
+                },
+        } => {
+            let config = load_config(config.as_deref())?;
+            let levels_ok = |v: &[f64]| v.iter().all(|x| x.is_finite() && *x >= 0.0);
+            anyhow::ensure!(
+                levels_ok(&noise_volts) && levels_ok(&hum_volts) && levels_ok(&[drift_volts]),
+                "noise, hum and drift levels must be finite and non-negative"
+            );
+            let options = sipnpuff::accuracy::GridOptions {
+                seconds,
+                seed,
+                drift_volts,
+                spike_every_ms,
+                tolerance_ms,
+            };
+            let cells = sipnpuff::accuracy::accuracy_grid(
+                &config,
+                &noise_volts,
+                &hum_volts,
+                options,
+                |done, total| eprint!("\r{done}/{total} sessions"),
+            );
+            eprintln!();
+            if json {
+                let rows: Vec<serde_json::Value> = cells
+                    .iter()
+                    .map(|c| {
+                        let t = &c.tally;
+                        serde_json::json!({
+                            "noise_volts": c.noise_volts,
+                            "hum_volts": c.hum_volts,
+                            "scripted": t.scripted,
+                            "correct": t.correct,
+                            "missed": t.missed,
+                            "split_or_merged": t.split_or_merged,
+                            "wrong_breath": t.wrong_breath,
+                            "wrong_class": t.wrong_class,
+                            "mistimed": t.mistimed,
+                            "invented": t.invented,
+                            "max_timing_error_ms": t.max_timing_error_ms,
+                            "selections": t.selections,
+                            "selections_matched": t.selections_matched,
+                            "selections_extra": t.selections_extra,
+                            "faults": t.faults,
+                        })
+                    })
+                    .collect();
+                println!("{}", serde_json::Value::Array(rows));
+            } else {
+                println!(
+                    "breaths detected as the right action (mode selections matched) ±largest timing error [+bursts invented]; {seconds} s per session, seed {seed}, drift {drift_volts} V, spikes every {spike_every_ms} ms, tolerance {tolerance_ms} ms"
+                );
+                print!("{}", sipnpuff::accuracy::grid_table(&cells));
             }
             Ok(())
         }

@@ -142,6 +142,8 @@ struct Shape {
     rise_at: f64,
     /// Samples in the step.
     len: u64,
+    /// Index (in the step) of the first sample past the threshold.
+    first: u64,
 }
 
 impl Shape {
@@ -175,6 +177,7 @@ impl Shape {
             plateau,
             rise_at,
             len: end.ceil() as u64 + 1,
+            first: first as u64,
         }
     }
 
@@ -197,6 +200,17 @@ impl Shape {
     }
 }
 
+/// A breath as the script places it: where the detector should see it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScriptedBreath {
+    /// Sip or puff.
+    pub breath: Breath,
+    /// First sample past the threshold (the burst's `start`).
+    pub start: u64,
+    /// Time past the threshold, in ms (the burst's `end − start`).
+    pub ms: u32,
+}
+
 /// Plays a script as samples, one per ms. Never allocates.
 pub struct SignalGenerator<'a> {
     params: SignalParams,
@@ -210,6 +224,8 @@ pub struct SignalGenerator<'a> {
     /// Global sample index.
     tick: u64,
     spikes: u64,
+    /// The breath of the current step, if it is one.
+    breath: Option<ScriptedBreath>,
 }
 
 impl<'a> SignalGenerator<'a> {
@@ -228,6 +244,7 @@ impl<'a> SignalGenerator<'a> {
             shape: None,
             tick: 0,
             spikes: 0,
+            breath: None,
         };
         g.enter_step();
         g
@@ -241,10 +258,23 @@ impl<'a> SignalGenerator<'a> {
                 let jitter = self.rng.random_range(-1.0..=1.0) * p.breath_jitter;
                 let height = p.breath_volts * (1.0 + jitter);
                 let ramp = self.rng.random_range(p.ramp_ms.0..=p.ramp_ms.1);
-                Some(Shape::new(p, breath, ms, height, ramp))
+                let shape = Shape::new(p, breath, ms, height, ramp);
+                self.breath = Some(ScriptedBreath {
+                    breath,
+                    start: self.tick + shape.first,
+                    ms,
+                });
+                Some(shape)
             }
             _ => None,
         };
+    }
+
+    /// The last breath the script has begun to play (its step may already
+    /// be over): a scorer reads it after each sample to learn where every
+    /// scripted burst lies.
+    pub fn scripted_breath(&self) -> Option<ScriptedBreath> {
+        self.breath
     }
 
     fn step_len(&self) -> u64 {
@@ -461,13 +491,36 @@ fn scripted_user(config: &Config, plan: &[(Mode, &[(Breath, u32)])]) -> (Vec<Ste
 /// lasts at least that long, so cutting it there only shortens the final
 /// rest. Returns the script and the modes selected, in order.
 pub fn random_session(config: &Config, seconds: u64, seed: u64) -> (Vec<Step>, Vec<Mode>) {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_5e55_1011);
     let d = config.detector();
-    let timing = Timing {
-        short_ms: (d.min_burst_ms + d.long_burst_ms) / 2,
-        long_ms: d.long_burst_ms + 300,
-        gap_ms: 300,
+    let style = UserStyle {
+        timing: Timing {
+            short_ms: (d.min_burst_ms + d.long_burst_ms) / 2,
+            long_ms: d.long_burst_ms + 300,
+            gap_ms: 300,
+        },
+        hold_ms: (200, 3000),
     };
+    random_session_with(config, seconds, seed, style)
+}
+
+/// How a scripted user breathes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UserStyle {
+    /// Bursts and gaps while entering a sequence.
+    pub timing: Timing,
+    /// Range of the holds that move the arm, ms.
+    pub hold_ms: (u32, u32),
+}
+
+/// [`random_session`] for a user who breathes in the given style.
+pub fn random_session_with(
+    config: &Config,
+    seconds: u64,
+    seed: u64,
+    style: UserStyle,
+) -> (Vec<Step>, Vec<Mode>) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_5e55_1011);
+    let timing = style.timing;
     let inactivity = config.command().inactivity_timeout_ms;
     // Ramps add up to ~100 ms around a pause; stay well inside the timeout.
     let longest_pause = inactivity.saturating_sub(400).max(201);
@@ -502,7 +555,7 @@ pub fn random_session(config: &Config, seconds: u64, seed: u64) -> (Vec<Step>, V
             };
             steps.push(Step::Breath {
                 breath,
-                ms: rng.random_range(200..=3000),
+                ms: rng.random_range(style.hold_ms.0..=style.hold_ms.1),
             });
             steps.push(Step::Rest {
                 ms: rng.random_range(200..longest_pause),
