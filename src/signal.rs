@@ -580,6 +580,44 @@ pub fn random_session_with(
     (script, modes)
 }
 
+/// A noisy session of about 150 s that takes every path of the core
+/// (bursts, matches, resets on timeout and at once, mode changes, faults
+/// and recoveries) and of the motion layer (every mode, save and go to
+/// point, the finger end and the reach limit, braking after a fault):
+/// a random user, the demo user twice, then faults and broken sequences.
+/// The allocation and RealtimeSanitizer checks run it.
+pub fn every_path_session(config: &Config) -> (SignalParams, Vec<Step>) {
+    let mut params = SignalParams::clean(config.detector(), 11);
+    params.noise_volts = 0.08;
+    params.hum_volts = 0.15;
+    params.drift_volts = 0.3;
+    params.spike_every_ms = 100;
+    let (mut script, _) = random_session(config, 150, 11);
+    // The demo user, twice: every mode, save, go to, the finger end and the
+    // reach limit.
+    for _ in 0..2 {
+        script.extend(demo_script(config).0);
+    }
+    // Faults, a sequence cut short (reset on timeout) and a wrong sequence
+    // (reset at once), between the random user's selections.
+    script.extend([
+        Step::Dropout { ms: 20 },
+        Step::Rest { ms: 1000 },
+        Step::Breath {
+            breath: Breath::Puff,
+            ms: 150,
+        },
+        Step::Rest { ms: 2000 },
+        Step::Breath {
+            breath: Breath::Puff,
+            ms: 150,
+        },
+        Step::Dropout { ms: 3 },
+        Step::Rest { ms: 1000 },
+    ]);
+    (params, script)
+}
+
 /// Writes samples as CSV with a `tick,volts` header (volts to 0.1 mV).
 pub fn write_csv(out: &mut impl Write, samples: impl Iterator<Item = f64>) -> std::io::Result<u64> {
     writeln!(out, "tick,volts")?;

@@ -5,49 +5,16 @@
 //! finger limits, braking after faults, the 100 Hz stream) and the
 //! simulated arm.
 
-use sipnpuff::action::Breath;
 use sipnpuff::alloc_counter::{CountingAllocator, thread_allocations};
 use sipnpuff::arm::{ArmBackend, SimulatedJaco};
 use sipnpuff::config::Config;
 use sipnpuff::event::Event;
 use sipnpuff::motion::MotionEvent;
 use sipnpuff::pipeline::Core;
-use sipnpuff::signal::{SignalGenerator, SignalParams, Step, demo_script, random_session};
+use sipnpuff::signal::{SignalGenerator, every_path_session};
 
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
-
-fn noisy_script(config: &Config) -> (SignalParams, Vec<Step>) {
-    let mut params = SignalParams::clean(config.detector(), 11);
-    params.noise_volts = 0.08;
-    params.hum_volts = 0.15;
-    params.drift_volts = 0.3;
-    params.spike_every_ms = 100;
-    let (mut script, _) = random_session(config, 150, 11);
-    // The demo user, twice: every mode, save, go to, the finger end and the
-    // reach limit.
-    for _ in 0..2 {
-        script.extend(demo_script(config).0);
-    }
-    // Faults, a sequence cut short (reset on timeout) and a wrong sequence
-    // (reset at once), between the random user's selections.
-    script.extend([
-        Step::Dropout { ms: 20 },
-        Step::Rest { ms: 1000 },
-        Step::Breath {
-            breath: Breath::Puff,
-            ms: 150,
-        },
-        Step::Rest { ms: 2000 },
-        Step::Breath {
-            breath: Breath::Puff,
-            ms: 150,
-        },
-        Step::Dropout { ms: 3 },
-        Step::Rest { ms: 1000 },
-    ]);
-    (params, script)
-}
 
 #[test]
 fn counter_sees_allocations() {
@@ -60,7 +27,7 @@ fn counter_sees_allocations() {
 #[test]
 fn core_step_never_allocates() {
     let config = Config::default();
-    let (params, script) = noisy_script(&config);
+    let (params, script) = every_path_session(&config);
     let samples: Vec<f64> = SignalGenerator::new(params, &script).collect();
     assert!(samples.len() >= 100_000, "{} samples", samples.len());
     let mut core: Core = Core::new(&config);
@@ -106,7 +73,7 @@ fn core_step_never_allocates() {
 #[test]
 fn generator_never_allocates() {
     let config = Config::default();
-    let (params, script) = noisy_script(&config);
+    let (params, script) = every_path_session(&config);
     let before = thread_allocations();
     let mut sum = 0.0;
     for v in SignalGenerator::new(params, &script) {

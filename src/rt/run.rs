@@ -28,7 +28,7 @@ use crate::config::Config;
 use crate::csv_signal::CsvSignal;
 use crate::motion::stream::ArmCommand;
 use crate::pipeline::Core;
-use crate::rt::clock::{Clock, MonotonicClock};
+use crate::rt::clock::{Clock, MonotonicClock, SimClock};
 use crate::rt::scheduler::{Scheduler, SchedulerStats};
 use crate::rt::setup::{RtOptions, Setting, setup_current_thread};
 use crate::rt::telemetry::{Drops, Latencies, TickRecord, TimedEvent};
@@ -209,14 +209,14 @@ struct Rings {
 /// The control loop. Everything it needs is built before the first
 /// deadline; inside the loop it neither allocates, locks nor blocks except
 /// in the deadline sleep.
-fn control_loop(
+fn control_loop<C: Clock>(
+    mut clock: C,
     mut core: Core,
     mut sensor: LoopSensor<'_>,
     mut rings: Rings,
     options: &RunOptions,
 ) -> ControlResult {
     let setup = setup_current_thread(&options.rt);
-    let mut clock = MonotonicClock;
     let mut drops = Drops::default();
     let limit_ticks = options.seconds.map(|s| (s * 1000.0).round() as u64);
     let started = Instant::now();
@@ -233,6 +233,11 @@ fn control_loop(
 
     let (final_velocity, last_woke) = loop {
         let wake = scheduler.wait(&mut clock);
+        // From the wake-up to the end of the iteration the thread must
+        // neither allocate, lock nor block: RealtimeSanitizer checks it
+        // when built in (`.ci/run`), and the guard ends the region before
+        // the next deadline sleep.
+        let _realtime = rtsan_standalone::ScopedSanitizeRealtime::default();
         let reference = stopping_since.is_none()
             && options
                 .interleave
@@ -349,6 +354,103 @@ fn cpu_seconds() -> f64 {
     t(usage.ru_utime) + t(usage.ru_stime)
 }
 
+/// What [`run_simulated`] did.
+#[derive(Debug, Clone)]
+pub struct SimulatedRun {
+    /// Ticks the loop ran.
+    pub ticks: u64,
+    /// Events the loop pushed (and a drain thread received).
+    pub events: u64,
+    /// Arm commands pushed.
+    pub arm_commands: u64,
+    /// Ring drops.
+    pub drops: Drops,
+    /// Heap allocations on the loop's thread after start-up.
+    pub allocations: u64,
+    /// Why the loop ended.
+    pub stop_reason: &'static str,
+    /// The last command sent to the arm.
+    pub last_arm_command: ArmCommand,
+}
+
+/// The control loop's own code (the same function [`run`] starts) on a
+/// simulated clock, on this thread, as fast as it goes, with `script`
+/// played by the synthetic sensor until it ends and the arm brakes to a
+/// stop. No real-time settings are asked for. For RealtimeSanitizer and
+/// allocation checks of the loop itself: under RTSan, any allocation,
+/// lock or blocking call inside a tick aborts the process.
+pub fn run_simulated(config: &Config, params: SignalParams, script: &[Step]) -> SimulatedRun {
+    let (arm_tx, mut arm_rx) = RingBuffer::<ArmCommand>::new(ARM_RING);
+    let (record_tx, mut record_rx) = RingBuffer::<TickRecord>::new(RECORD_RING);
+    let (event_tx, mut event_rx) = RingBuffer::<TimedEvent>::new(EVENT_RING);
+    let rings = Rings {
+        arm: arm_tx,
+        records: record_tx,
+        events: event_tx,
+    };
+    let options = RunOptions {
+        seconds: None,
+        sensor: SensorSource::Synthetic,
+        rt: RtOptions {
+            fifo_priority: None,
+            cpu: None,
+            lock_memory: false,
+            timer_slack: false,
+            cpu_dma_latency: false,
+        },
+        spin_margin_ns: None,
+        stop: Arc::new(AtomicBool::new(false)),
+        print_events: false,
+        interleave: None,
+    };
+    let core: Core = Core::new(config);
+    let sensor = LoopSensor::Synthetic {
+        samples: SignalGenerator::new(params, script),
+        again: None,
+        rest_volts: config.detector().neutral_volts,
+        ended: false,
+    };
+    // The loop's rings are drained on another thread, as in `run`.
+    let (result, (ticks, events, arm_commands)) = thread::scope(|scope| {
+        let drain = scope.spawn(move || {
+            let (mut ticks, mut events, mut arm_commands) = (0u64, 0u64, 0u64);
+            loop {
+                let abandoned = record_rx.is_abandoned();
+                let mut popped = false;
+                while let Ok(_record) = record_rx.pop() {
+                    ticks += 1;
+                    popped = true;
+                }
+                while event_rx.pop().is_ok() {
+                    events += 1;
+                    popped = true;
+                }
+                while arm_rx.pop().is_ok() {
+                    arm_commands += 1;
+                    popped = true;
+                }
+                if abandoned {
+                    break (ticks, events, arm_commands);
+                }
+                if !popped {
+                    thread::yield_now();
+                }
+            }
+        });
+        let result = control_loop(SimClock::default(), core, sensor, rings, &options);
+        (result, drain.join().expect("the drain thread"))
+    });
+    SimulatedRun {
+        ticks: ticks + result.drops.records,
+        events: events + result.drops.events,
+        arm_commands: arm_commands + result.drops.arm_commands,
+        drops: result.drops,
+        allocations: result.allocations,
+        stop_reason: result.stop_reason,
+        last_arm_command: result.last_arm_command,
+    }
+}
+
 /// Runs the control loop with its threads until it ends; this thread is
 /// the telemetry thread. Events are printed as they happen if asked.
 pub fn run(config: &Config, options: RunOptions) -> anyhow::Result<RunReport> {
@@ -449,7 +551,7 @@ pub fn run(config: &Config, options: RunOptions) -> anyhow::Result<RunReport> {
                 },
                 (None, None) => unreachable!("a sensor is always chosen"),
             };
-            control_loop(core, sensor, rings, &loop_options)
+            control_loop(MonotonicClock, core, sensor, rings, &loop_options)
         })?;
 
     // Telemetry: this thread.

@@ -1,0 +1,79 @@
+//! RealtimeSanitizer on the control thread.
+//!
+//! The control loop marks each tick, from its wake-up to the next deadline
+//! sleep, as a real-time region. Under `cargo test` the markers are no-ops
+//! and these tests check the loop with the counting allocator. `.ci/run`
+//! builds them again with `RTSAN_ENABLE=1` and Debian's RTSan runtime
+//! (`RTSAN_LIB_PATH`): then any `malloc`, `free`, lock or blocking call
+//! inside a tick aborts the process with a report, so
+//! `control_loop_ticks_are_realtime_safe` passing there means no tick of
+//! the session did any of them; and `rtsan_catches_an_allocating_tick`
+//! shows that a tick that does is caught.
+
+use std::process::Command;
+
+use sipnpuff::alloc_counter::CountingAllocator;
+use sipnpuff::config::Config;
+use sipnpuff::pipeline::Core;
+use sipnpuff::rt::run::run_simulated;
+use sipnpuff::signal::every_path_session;
+
+#[global_allocator]
+static ALLOCATOR: CountingAllocator = CountingAllocator;
+
+/// Built with the sanitizer's runtime linked in (`.ci/run`).
+const RTSAN_BUILD: bool = option_env!("RTSAN_ENABLE").is_some();
+
+/// The loop itself (the function `sipnpuff run` starts) on a simulated
+/// clock: more than 100 000 ticks of a noisy session with every mode,
+/// save and go to point, the finger end and reach limit, faults,
+/// recoveries and resets, then the safe stop.
+#[test]
+fn control_loop_ticks_are_realtime_safe() {
+    let config = Config::default();
+    let (params, script) = every_path_session(&config);
+    let run = run_simulated(&config, params, &script);
+    assert!(run.ticks >= 100_000, "{run:?}");
+    assert_eq!(run.allocations, 0, "{run:?}");
+    assert_eq!(run.stop_reason, "sensor ended", "{run:?}");
+    assert!(run.last_arm_command.is_zero(), "{run:?}");
+    // One command per 10 ticks run.
+    assert_eq!(run.arm_commands, run.ticks / 10, "{run:?}");
+    assert!(run.events > 100, "{run:?}");
+}
+
+/// A tick that does the core's work and then formats a log line, the kind
+/// of slip a code review can miss. Run only as a child of
+/// `rtsan_catches_an_allocating_tick`.
+#[test]
+#[ignore = "run in a child process by rtsan_catches_an_allocating_tick"]
+fn allocating_tick() {
+    let config = Config::default();
+    let mut core: Core = Core::new(&config);
+    let _realtime = rtsan_standalone::ScopedSanitizeRealtime::default();
+    let out = core.step(0, config.detector().neutral_volts);
+    let line = format!("tick {} state {:?}", out.tick, out.command.state);
+    std::hint::black_box(line);
+}
+
+#[test]
+fn rtsan_catches_an_allocating_tick() {
+    if !RTSAN_BUILD {
+        eprintln!("not built with RealtimeSanitizer (RTSAN_ENABLE): nothing to catch here");
+        return;
+    }
+    let output = Command::new(std::env::current_exe().expect("test binary"))
+        .args(["allocating_tick", "--exact", "--ignored", "--nocapture"])
+        .output()
+        .expect("run the allocating tick");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        !output.status.success(),
+        "the allocating tick passed:\n{stderr}"
+    );
+    assert!(
+        stderr.contains("ERROR: RealtimeSanitizer: unsafe-library-call")
+            && stderr.contains("`malloc`"),
+        "no RealtimeSanitizer report of malloc:\n{stderr}"
+    );
+}
