@@ -56,6 +56,14 @@ fn allocating_tick() {
     std::hint::black_box(line);
 }
 
+/// `.ci/run` sets `SIPNPUFF_EXPECT_RTSAN` for its RTSan pass: a build
+/// that silently lost the sanitizer would otherwise pass as a plain one.
+#[test]
+fn the_sanitizer_is_built_in_when_expected() {
+    let expected = std::env::var_os("SIPNPUFF_EXPECT_RTSAN").is_some();
+    assert_eq!(RTSAN_BUILD, expected, "RTSAN_ENABLE at build time");
+}
+
 #[test]
 fn rtsan_catches_an_allocating_tick() {
     if !RTSAN_BUILD {

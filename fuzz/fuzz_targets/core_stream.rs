@@ -1,0 +1,144 @@
+//! Arbitrary sample streams (levels anywhere in and out of 0–5 V, NaN,
+//! infinities, missing samples) through the whole core and motion layer,
+//! with the built-in library or the paper's (with prefixes): never a
+//! panic; matches only from the library; speeds and accelerations within
+//! the configured limits; the pose inside the workspace; nothing but
+//! finite numbers reaching the arm.
+
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use sipnpuff::config::Config;
+use sipnpuff::event::Event;
+use sipnpuff::motion::workspace;
+use sipnpuff::pipeline::{Core, TickOutput};
+
+const PAPER_LIBRARY: &str = include_str!("../../fixtures/paper-example.toml");
+/// Bound on one input's length, so each run stays short.
+const MAX_TICKS: u64 = 200_000;
+
+fn norm(v: &[f64; 3]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// One sample from a 3-byte chunk: what, at which level, for how long.
+enum Sample {
+    Volts(f64),
+    Missing,
+}
+
+fn decode(kind: u8, level: u8) -> Sample {
+    let level = f64::from(level);
+    match kind % 10 {
+        // Mostly inside 0–5 V, where breaths are.
+        0..=5 => Sample::Volts(level / 255.0 * 5.0),
+        6 => Sample::Volts(level / 255.0 * 9.0 - 2.0), // out of range too
+        7 => Sample::Volts(f64::NAN),
+        8 => Sample::Volts(if level < 128.0 {
+            f64::INFINITY
+        } else {
+            f64::NEG_INFINITY
+        }),
+        _ => Sample::Missing,
+    }
+}
+
+fn check(config: &Config, o: &TickOutput, prev: Option<&TickOutput>) {
+    let m = config.motion();
+    let tol = 1.0 + 1e-9;
+    let motion = &o.motion;
+    let p = motion.pose.translation.vector;
+    let finite = motion
+        .linear
+        .iter()
+        .chain(&motion.angular)
+        .chain([&motion.fingers_velocity, &motion.fingers])
+        .chain(p.iter())
+        .all(|v| v.is_finite());
+    assert!(finite, "not finite at tick {}: {motion:?}", o.tick);
+    assert!(
+        workspace::contains(&p, config.workspace()),
+        "pose outside at tick {}",
+        o.tick
+    );
+    assert!((0.0..=config.workspace().finger_closed).contains(&motion.fingers));
+    assert!(
+        norm(&motion.linear) <= m.linear_speed_mps * tol,
+        "linear speed at {}",
+        o.tick
+    );
+    assert!(
+        norm(&motion.angular) <= m.angular_speed_radps * tol,
+        "angular speed at {}",
+        o.tick
+    );
+    assert!(motion.fingers_velocity.abs() <= m.finger_speed * tol);
+    if let Some(prev) = prev {
+        let dv = |a: &[f64; 3], b: &[f64; 3]| {
+            [
+                (a[0] - b[0]) * 1e3,
+                (a[1] - b[1]) * 1e3,
+                (a[2] - b[2]) * 1e3,
+            ]
+        };
+        let linear = norm(&dv(&motion.linear, &prev.motion.linear));
+        assert!(
+            linear <= m.linear_acceleration_mps2 * tol,
+            "linear acceleration {linear} at {}",
+            o.tick
+        );
+        let angular = norm(&dv(&motion.angular, &prev.motion.angular));
+        assert!(
+            angular <= m.angular_acceleration_radps2 * tol,
+            "angular acceleration {angular} at {}",
+            o.tick
+        );
+    }
+    if let Some(c) = &motion.arm_command {
+        let numbers = c.linear.iter().chain(&c.angular).chain([&c.fingers]);
+        assert!(numbers.clone().all(|v| v.is_finite()), "{c:?}");
+        assert!(norm(&c.linear) <= m.linear_speed_mps * tol, "{c:?}");
+        assert!(norm(&c.angular) <= m.angular_speed_radps * tol, "{c:?}");
+    }
+    for event in o.events.iter() {
+        if let Event::Match { sequence, mode } = event {
+            assert!(
+                config
+                    .sequences()
+                    .iter()
+                    .any(|e| e.actions == *sequence && e.mode == *mode),
+                "{sequence:?} → {mode:?} is not in the library"
+            );
+        }
+    }
+}
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&choice, chunks)) = data.split_first() else {
+        return;
+    };
+    let config = if choice % 2 == 0 {
+        Config::default()
+    } else {
+        Config::from_toml_str(PAPER_LIBRARY).expect("the paper's example is valid")
+    };
+    let mut core: Core = Core::new(&config);
+    let mut prev: Option<TickOutput> = None;
+    let mut tick = 0u64;
+    for chunk in chunks.chunks_exact(3) {
+        let (kind, level, len) = (chunk[0], chunk[1], chunk[2]);
+        // Hold each level 4 ms to 1 s, so breaths, sequences and holds form.
+        for _ in 0..(u64::from(len) + 1) * 4 {
+            let out = match decode(kind, level) {
+                Sample::Volts(v) => core.step(tick, v),
+                Sample::Missing => core.step_missing(tick),
+            };
+            check(&config, &out, prev.as_ref());
+            prev = Some(out);
+            tick += 1;
+            if tick >= MAX_TICKS {
+                return;
+            }
+        }
+    }
+});
