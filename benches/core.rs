@@ -1,10 +1,11 @@
 //! Per-sample cost of the core, and the matcher's data structure chosen by
 //! measurement.
 //!
-//! * `per_sample/*`: 10 s of noisy signal through the detector alone and
-//!   through the whole core (detector → matcher → modes), against a
-//!   reference measured in the same run: the bare threshold comparison
-//!   every detector must make.
+//! * `per_sample/*`: 10 s of noisy signal through the detector alone, the
+//!   mode machine alone (fed what the core's detector and matcher made of
+//!   the same signal) and the whole core (detector → matcher → modes →
+//!   motion), against a reference measured in the same run: the bare
+//!   threshold comparison every detector must make.
 //! * `matcher_per_burst/{trie,scan}/{9,64,256}`: bursts entering every
 //!   sequence of a prefix-free library in turn (the built-in 9; all 64
 //!   sequences of 3 actions; all 256 of 4).
@@ -15,6 +16,9 @@
 //!   100 Hz decimation → simulated arm): steady, holding a puff in
 //!   `translate_x`; and on a new target every tick (sip and puff
 //!   alternating each sample, glitch filter off).
+//! * `replay/*`: `sipnpuff replay` end to end on 60 s of noisy recording
+//!   (CSV parsing, core, simulated arm, JSON events to a sink) against the
+//!   core alone on the same samples.
 
 use std::hint::black_box;
 
@@ -22,11 +26,14 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use sipnpuff::action::{Action, ActionSeq};
 use sipnpuff::arm::{ArmBackend, SimulatedJaco};
 use sipnpuff::config::{Config, SequenceEntry};
-use sipnpuff::detector::{Burst, BurstDetector};
+use sipnpuff::csv_signal::CsvSignal;
+use sipnpuff::detector::{Burst, BurstDetector, Held};
+use sipnpuff::event::Event;
 use sipnpuff::matcher::{ScanIndex, SequenceIndex, SequenceMatcher, TrieIndex};
-use sipnpuff::modes::Mode;
+use sipnpuff::modes::{Mode, ModeMachine};
 use sipnpuff::pipeline::Core;
-use sipnpuff::signal::{SignalGenerator, SignalParams, random_session};
+use sipnpuff::replay::replay;
+use sipnpuff::signal::{SignalGenerator, SignalParams, random_session, write_csv};
 
 fn noisy_signal(config: &Config) -> Vec<f64> {
     let mut params = SignalParams::clean(config.detector(), 5);
@@ -63,6 +70,35 @@ fn per_sample(c: &mut Criterion) {
         b.iter(|| {
             for &v in &samples {
                 black_box(detector.step(tick, black_box(v)));
+                tick += 1;
+            }
+        })
+    });
+
+    // What the mode machine sees of this signal, tick by tick.
+    let mut core: Core = Core::new(&config);
+    let inputs: Vec<(Held, Option<Mode>, bool)> = samples
+        .iter()
+        .enumerate()
+        .map(|(t, &v)| {
+            let out = core.step(t as u64, v);
+            let matched = out.events.iter().find_map(|e| match e {
+                Event::Match { mode, .. } => Some(*mode),
+                _ => None,
+            });
+            (out.held, matched, out.faulted)
+        })
+        .collect();
+    assert!(
+        inputs.iter().any(|i| i.1.is_some()),
+        "a selection in the signal"
+    );
+    let mut modes = ModeMachine::new(config.command().inactivity_timeout_ms);
+    let mut tick = 0u64;
+    group.bench_function("mode_machine", |b| {
+        b.iter(|| {
+            for &(held, matched, faulted) in &inputs {
+                black_box(modes.step(tick, black_box(held), matched, faulted));
                 tick += 1;
             }
         })
@@ -266,11 +302,42 @@ fn full_tick(c: &mut Criterion) {
     group.finish();
 }
 
+fn replay_throughput(c: &mut Criterion) {
+    let config = Config::default();
+    let mut params = SignalParams::clean(config.detector(), 9);
+    params.noise_volts = 0.03;
+    params.hum_volts = 0.05;
+    let (script, _) = random_session(&config, 60, 9);
+    let samples: Vec<f64> = SignalGenerator::new(params, &script).take(60_000).collect();
+    let mut csv = Vec::new();
+    write_csv(&mut csv, samples.iter().copied()).expect("CSV in memory");
+    let mut group = c.benchmark_group("replay");
+    group.throughput(Throughput::Elements(samples.len() as u64));
+    group.sample_size(20);
+    group.bench_function("core_only", |b| {
+        b.iter(|| {
+            let mut core: Core = Core::new(&config);
+            for (t, &v) in samples.iter().enumerate() {
+                black_box(core.step(t as u64, v));
+            }
+        })
+    });
+    group.bench_function("csv_core_arm_json", |b| {
+        b.iter(|| {
+            let mut signal = CsvSignal::new(csv.as_slice()).expect("header");
+            let summary = replay(&config, &mut signal, &mut std::io::sink(), None).expect("replay");
+            black_box(summary)
+        })
+    });
+    group.finish();
+}
+
 criterion_group!(
     benches,
     per_sample,
     matcher_per_burst,
     ruckig_updates,
-    full_tick
+    full_tick,
+    replay_throughput
 );
 criterion_main!(benches);

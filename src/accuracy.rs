@@ -135,7 +135,7 @@ pub fn observe(config: &Config, params: SignalParams, script: &[Step]) -> Observ
                 Event::Reset { .. } => seen.resets += 1,
                 Event::Fault(_) => seen.faults += 1,
                 Event::Recovered => seen.recoveries += 1,
-                Event::Detection { .. } | Event::Motion(_) => {}
+                Event::Detection { .. } | Event::Highlight { .. } | Event::Motion(_) => {}
             }
         }
         tick += 1;

@@ -104,6 +104,70 @@ impl Default for CommandConfig {
     }
 }
 
+/// How the user selects a mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Interface {
+    /// Advanced sip-and-puff: sequences matched against the library (the
+    /// paper's interface).
+    #[default]
+    Asp,
+    /// Basic sip-and-puff: the modes scroll on their own and a puff enters
+    /// the highlighted one (Kinova's classic interface, the paper's
+    /// baseline).
+    Bsp,
+}
+
+impl Interface {
+    /// `asp` or `bsp`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Interface::Asp => "asp",
+            Interface::Bsp => "bsp",
+        }
+    }
+
+    /// Parses `asp` or `bsp`.
+    pub fn from_name(name: &str) -> Option<Interface> {
+        match name {
+            "asp" => Some(Interface::Asp),
+            "bsp" => Some(Interface::Bsp),
+            _ => None,
+        }
+    }
+}
+
+/// The scanning interface (`[scanning]`), validated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScanningConfig {
+    /// How long each mode stays highlighted.
+    pub dwell_ms: u32,
+    /// How long the first mode stays highlighted when scanning (re)starts:
+    /// time to see where the scan is.
+    pub first_dwell_ms: u32,
+    /// The modes in scan order (each once), as a fixed array and its length.
+    pub order: [Mode; 9],
+    /// Modes used in `order`.
+    pub order_len: usize,
+}
+
+impl ScanningConfig {
+    /// The modes in scan order.
+    pub fn modes(&self) -> &[Mode] {
+        &self.order[..self.order_len]
+    }
+}
+
+impl Default for ScanningConfig {
+    fn default() -> Self {
+        ScanningConfig {
+            dwell_ms: 1500,
+            first_dwell_ms: 3000,
+            order: Mode::ALL,
+            order_len: Mode::ALL.len(),
+        }
+    }
+}
+
 /// Hard caps no configuration may exceed: the Kinova JACO2's client limits
 /// (ISO 10218's reduced speed, 0.25 m/s, is above them).
 pub mod caps {
@@ -268,6 +332,8 @@ pub struct Config {
     workspace: WorkspaceConfig,
     arm: ArmConfig,
     sequences: Vec<SequenceEntry>,
+    interface: Interface,
+    scanning: ScanningConfig,
 }
 
 impl Default for Config {
@@ -287,6 +353,8 @@ impl Default for Config {
             workspace: WorkspaceConfig::default(),
             arm: ArmConfig::default(),
             sequences,
+            interface: Interface::default(),
+            scanning: ScanningConfig::default(),
         }
     }
 }
@@ -356,10 +424,12 @@ impl Config {
         let workspace = reader.workspace(&mut root, defaults.workspace);
         let arm = reader.arm(&mut root, defaults.arm, &workspace);
         let sequences = reader.sequences(&mut root).unwrap_or(defaults.sequences);
+        let interface = reader.interface(&mut root);
+        let scanning = reader.scanning(&mut root, defaults.scanning);
         for key in root.keys() {
             reader.error(
                 key.clone(),
-                "unknown section or key (known: detector, matcher, command, motion, workspace, arm, sequence)",
+                "unknown section or key (known: detector, matcher, command, motion, workspace, arm, sequence, interface, scanning)",
             );
         }
 
@@ -372,6 +442,8 @@ impl Config {
                 workspace,
                 arm,
                 sequences,
+                interface,
+                scanning,
             })
         } else {
             Err(ConfigErrors(reader.errors))
@@ -411,6 +483,36 @@ impl Config {
     /// The user-defined sequences, in file order.
     pub fn sequences(&self) -> &[SequenceEntry] {
         &self.sequences
+    }
+
+    /// How the user selects a mode.
+    pub fn interface(&self) -> Interface {
+        self.interface
+    }
+
+    /// The scanning interface's settings (used when the interface is BSP).
+    pub fn scanning(&self) -> &ScanningConfig {
+        &self.scanning
+    }
+
+    /// The same configuration with another selection interface (the
+    /// `--interface` option).
+    pub fn with_interface(mut self, interface: Interface) -> Config {
+        self.interface = interface;
+        self
+    }
+
+    /// The same configuration with other scanning settings (the study's
+    /// sweeps); they must be valid (`dwell_ms` > 0, at least one mode).
+    pub fn with_scanning(mut self, scanning: ScanningConfig) -> Config {
+        self.scanning = scanning;
+        self
+    }
+
+    /// The same configuration with another sequence timeout, ms (> 0).
+    pub fn with_sequence_timeout_ms(mut self, ms: u32) -> Config {
+        self.matcher.sequence_timeout_ms = ms;
+        self
     }
 }
 
@@ -593,6 +695,60 @@ impl Reader {
         };
         t.finish();
         self.positive_ms("command.inactivity_timeout_ms", c.inactivity_timeout_ms);
+        c
+    }
+
+    fn interface(&mut self, root: &mut Table) -> Interface {
+        let mut t = self.section(root, "interface");
+        let kind: String = t.get("kind", Interface::default().name().to_string());
+        t.finish();
+        Interface::from_name(&kind).unwrap_or_else(|| {
+            self.error("interface.kind", format!("{kind:?} is not `asp` or `bsp`"));
+            Interface::default()
+        })
+    }
+
+    fn scanning(&mut self, root: &mut Table, d: ScanningConfig) -> ScanningConfig {
+        let mut t = self.section(root, "scanning");
+        let dwell_ms = t.get("dwell_ms", d.dwell_ms);
+        let first_dwell_ms = t.get("first_dwell_ms", d.first_dwell_ms);
+        let names: Vec<String> = t.get(
+            "order",
+            d.modes().iter().map(|m| m.name().to_string()).collect(),
+        );
+        t.finish();
+        self.positive_ms("scanning.dwell_ms", dwell_ms);
+        self.positive_ms("scanning.first_dwell_ms", first_dwell_ms);
+        let mut c = ScanningConfig {
+            dwell_ms,
+            first_dwell_ms,
+            order: d.order,
+            order_len: 0,
+        };
+        for name in &names {
+            match Mode::from_name(name) {
+                None => self.error(
+                    "scanning.order",
+                    format!(
+                        "{name:?} is not a mode (known: {})",
+                        Mode::ALL.map(Mode::name).join(", ")
+                    ),
+                ),
+                Some(mode) if c.modes().contains(&mode) => {
+                    self.error("scanning.order", format!("{name:?} appears twice"))
+                }
+                Some(mode) => {
+                    c.order[c.order_len] = mode;
+                    c.order_len += 1;
+                }
+            }
+        }
+        if names.is_empty() {
+            self.error("scanning.order", "must list at least one mode");
+        }
+        if c.order_len == 0 {
+            c = d;
+        }
         c
     }
 
@@ -981,6 +1137,49 @@ mod tests {
     #[test]
     fn empty_file_is_the_default() {
         assert_eq!(Config::from_toml_str("").unwrap(), Config::default());
+    }
+
+    #[test]
+    fn the_scanning_interface_and_its_errors() {
+        let c = Config::from_toml_str(
+            r#"
+            [interface]
+            kind = "bsp"
+            [scanning]
+            dwell_ms = 1000
+            first_dwell_ms = 2500
+            order = ["fingers", "translate_x"]
+            "#,
+        )
+        .unwrap();
+        assert_eq!(c.interface(), Interface::Bsp);
+        assert_eq!(c.scanning().dwell_ms, 1000);
+        assert_eq!(c.scanning().first_dwell_ms, 2500);
+        assert_eq!(c.scanning().modes(), [Mode::Fingers, Mode::TranslateX]);
+        let e = errors(
+            r#"
+            [interface]
+            kind = "scan"
+            [scanning]
+            dwell_ms = 0
+            order = ["fingers", "fly", "fingers"]
+            speed = 1
+            "#,
+        );
+        let found: Vec<(&str, &str)> = e.iter().map(|e| (e.key.as_str(), e.message.as_str())).collect();
+        assert_eq!(
+            found,
+            [
+                ("interface.kind", "\"scan\" is not `asp` or `bsp`"),
+                ("scanning.speed", "unknown key (known: dwell_ms, first_dwell_ms, order)"),
+                ("scanning.dwell_ms", "must be greater than 0 ms"),
+                (
+                    "scanning.order",
+                    "\"fly\" is not a mode (known: translate_x, translate_y, translate_z, rotate_x, rotate_y, rotate_z, fingers, save_point, goto_point)"
+                ),
+                ("scanning.order", "\"fingers\" appears twice"),
+            ]
+        );
     }
 
     #[test]

@@ -25,6 +25,11 @@ pub enum Event {
         /// Why.
         reason: ResetReason,
     },
+    /// The scanning interface (BSP) highlights this mode.
+    Highlight {
+        /// The mode highlighted.
+        mode: Mode,
+    },
     /// Back to detection mode.
     Detection {
         /// Why.
@@ -39,7 +44,9 @@ pub enum Event {
 }
 
 /// Most events one tick can produce: a fault also resets the sequence and
-/// leaves command mode (3); a burst, a match and two motion events (4).
+/// leaves command mode (3); a burst, a match and two motion events (4);
+/// with scanning, a burst, a selection, a highlight and two motion events
+/// (5).
 pub const MAX_EVENTS_PER_TICK: usize = 6;
 
 /// The events of one tick, inline. `Copy`, RT-safe.

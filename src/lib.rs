@@ -7,7 +7,8 @@
 //! * [`detector`] turns one voltage sample per tick into bursts (short/long
 //!   sip/puff) and reports what breath is held right now;
 //! * [`matcher`] matches bursts against the user's sequence library with the
-//!   paper's waiting rules for prefixes;
+//!   paper's waiting rules for prefixes (ASP); [`scanning`] is the paper's
+//!   baseline instead (BSP): the modes scroll and a puff enters one;
 //! * [`modes`] is the detection/command mode machine of the paper's Fig. 1;
 //! * [`motion`] turns the mode and breath into a jerk-limited Cartesian
 //!   velocity (Ruckig), keeps the tool inside its workspace, saves and goes
@@ -72,7 +73,9 @@ pub mod motion;
 pub mod pipeline;
 pub mod replay;
 pub mod rt;
+pub mod scanning;
 pub mod signal;
+pub mod study;
 
 /// Time in the core: one tick is one millisecond, one sensor sample at 1 kHz.
 pub type Tick = u64;

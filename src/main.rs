@@ -13,7 +13,7 @@ use anyhow::Context;
 use clap::{Parser, Subcommand};
 
 use sipnpuff::alloc_counter::CountingAllocator;
-use sipnpuff::config::Config;
+use sipnpuff::config::{Config, Interface};
 use sipnpuff::csv_signal::CsvSignal;
 use sipnpuff::rt::run::{RunOptions, SensorSource};
 use sipnpuff::signal::{self, SignalGenerator, SignalParams};
@@ -50,6 +50,10 @@ enum Command {
         /// The arm: `sim` (the simulated JACO; the only one so far).
         #[arg(long, default_value = "sim")]
         arm: String,
+        /// Selection interface: `asp` (sequences) or `bsp` (scanning);
+        /// default: the config's `interface.kind` (`asp`).
+        #[arg(long)]
+        interface: Option<String>,
         /// Write each histogram in HdrHistogram's `.hgrm` text format here.
         #[arg(long)]
         histogram_dir: Option<PathBuf>,
@@ -71,6 +75,34 @@ enum Command {
         /// twist in the base frame, simulated arm pose, fingers).
         #[arg(long)]
         trace: Option<PathBuf>,
+        /// Selection interface: `asp` (sequences) or `bsp` (scanning);
+        /// default: the config's `interface.kind` (`asp`).
+        #[arg(long)]
+        interface: Option<String>,
+    },
+    /// The paper's experiment in simulation: simulated participants do its
+    /// three tasks with both interfaces (ASP and BSP) through the
+    /// production core; completion times compared with the paper's.
+    Study {
+        /// Simulated participants.
+        #[arg(long, default_value_t = 8)]
+        users: usize,
+        /// Seed: the same seed gives the same study.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// TOML configuration (default: built-in).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+        /// Draw the completion times per task and interface to this SVG.
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Instead, how the gap moves with one parameter: `bsp-dwell`,
+        /// `asp-timeout`, `error-rate` or `library`.
+        #[arg(long)]
+        sweep: Option<String>,
     },
     /// Write a synthetic recording of a scripted user (seeded, repeatable).
     Generate {
@@ -259,10 +291,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             seconds,
             sensor,
             arm,
+            interface,
             histogram_dir,
             rt,
         } => {
-            let config = load_config(config.as_deref())?;
+            let config = with_interface(load_config(config.as_deref())?, interface.as_deref())?;
             anyhow::ensure!(
                 arm == "sim",
                 "unknown arm {arm:?}: the only arm so far is `sim`"
@@ -341,11 +374,27 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             config,
             events,
             trace,
+            interface,
         } => replay(
             &signal,
-            config.as_deref(),
+            with_interface(load_config(config.as_deref())?, interface.as_deref())?,
             events.as_deref(),
             trace.as_deref(),
+        ),
+        Command::Study {
+            users,
+            seed,
+            config,
+            json,
+            plot,
+            sweep,
+        } => study(
+            load_config(config.as_deref())?,
+            users,
+            seed,
+            json,
+            plot.as_deref(),
+            sweep.as_deref(),
         ),
         Command::Generate {
             out,
@@ -489,13 +538,75 @@ fn create(path: &Path) -> anyhow::Result<BufWriter<File>> {
     Ok(BufWriter::new(file))
 }
 
+/// The config with the `--interface` choice, if given.
+fn with_interface(config: Config, interface: Option<&str>) -> anyhow::Result<Config> {
+    match interface {
+        None => Ok(config),
+        Some(name) => {
+            let interface = Interface::from_name(name).ok_or_else(|| {
+                anyhow::anyhow!(
+                    "unknown interface {name:?}: use `asp` (sequences) or `bsp` (scanning)"
+                )
+            })?;
+            Ok(config.with_interface(interface))
+        }
+    }
+}
+
+fn study(
+    config: Config,
+    users: usize,
+    seed: u64,
+    json: bool,
+    plot: Option<&Path>,
+    sweep: Option<&str>,
+) -> anyhow::Result<()> {
+    use sipnpuff::study;
+    anyhow::ensure!(
+        users >= 2,
+        "--users must be at least 2 (the test pairs them)"
+    );
+    let options = study::StudyOptions {
+        users,
+        seed,
+        ..study::StudyOptions::default()
+    };
+    if let Some(name) = sweep {
+        let param = study::SweepParam::from_name(name).ok_or_else(|| {
+            anyhow::anyhow!(
+                "unknown sweep {name:?}: use bsp-dwell, asp-timeout, error-rate or library"
+            )
+        })?;
+        let rows = study::sweep(&config, &options, param, |label, done, total| {
+            eprint!("\r{label}: {done}/{total} runs   ");
+        })?;
+        eprintln!();
+        print!("{}", study::sweep_text(name, &rows));
+        return Ok(());
+    }
+    let results = study::run_study(&config, &options, |done, total| {
+        eprint!("\r{done}/{total} runs");
+    });
+    eprintln!();
+    if json {
+        println!("{}", study::study_json(&results));
+    } else {
+        print!("{}", study::study_text(&results, &options));
+    }
+    if let Some(path) = plot {
+        std::fs::write(path, study::plot::completion_svg(&results))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
 fn replay(
     signal: &Path,
-    config: Option<&Path>,
+    config: Config,
     events: Option<&Path>,
     trace: Option<&Path>,
 ) -> anyhow::Result<()> {
-    let config = load_config(config)?;
     let mut input = CsvSignal::open(signal)?;
     let mut out: Box<dyn Write> = match events {
         Some(path) => Box::new(create(path)?),
@@ -547,6 +658,13 @@ fn print_config(config: &Config) {
     println!(
         "\n[command]\ninactivity_timeout_ms = {}",
         config.command().inactivity_timeout_ms
+    );
+    println!("\n[interface]\nkind = {:?}", config.interface().name());
+    let scan = config.scanning();
+    let order: Vec<&str> = scan.modes().iter().map(|m| m.name()).collect();
+    println!(
+        "\n[scanning]\ndwell_ms = {}\nfirst_dwell_ms = {}\norder = {order:?}",
+        scan.dwell_ms, scan.first_dwell_ms
     );
     for entry in config.sequences() {
         let words: Vec<String> = entry

@@ -3,12 +3,14 @@
 //! outputs in replay, in tests and on the real-time thread.
 
 use crate::Tick;
-use crate::config::Config;
+use crate::action::ActionSeq;
+use crate::config::{Config, Interface};
 use crate::detector::{BurstDetector, DetectorEvent, DetectorOutput, Held};
 use crate::event::{Event, Events};
 use crate::matcher::{MatchEvent, SequenceIndex, SequenceMatcher, TrieIndex};
 use crate::modes::{ModeMachine, ModeOutput};
 use crate::motion::{Motion, MotionOutput};
+use crate::scanning::Scanner;
 
 /// Everything the core says about one tick. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -36,9 +38,18 @@ pub struct TickOutput {
 #[derive(Debug)]
 pub struct Core<I: SequenceIndex = TrieIndex> {
     detector: BurstDetector,
-    matcher: SequenceMatcher<I>,
+    selector: Selector<I>,
     modes: ModeMachine,
     motion: Motion,
+}
+
+/// How a mode is selected in detection mode.
+#[derive(Debug)]
+enum Selector<I: SequenceIndex> {
+    /// ASP: sequences matched against the library.
+    Sequences(SequenceMatcher<I>),
+    /// BSP: the modes scroll; a puff enters the highlighted one.
+    Scanning(Scanner),
 }
 
 impl<I: SequenceIndex> Core<I> {
@@ -46,7 +57,13 @@ impl<I: SequenceIndex> Core<I> {
     pub fn new(config: &Config) -> Self {
         Core {
             detector: BurstDetector::new(config.detector()),
-            matcher: SequenceMatcher::new(config.sequences(), config.matcher().sequence_timeout_ms),
+            selector: match config.interface() {
+                Interface::Asp => Selector::Sequences(SequenceMatcher::new(
+                    config.sequences(),
+                    config.matcher().sequence_timeout_ms,
+                )),
+                Interface::Bsp => Selector::Scanning(Scanner::new(config.scanning())),
+            },
             modes: ModeMachine::new(config.command().inactivity_timeout_ms),
             motion: Motion::new(config),
         }
@@ -104,22 +121,45 @@ impl<I: SequenceIndex> Core<I> {
         let in_detection = self.modes.state() == crate::modes::ModeState::Detection;
 
         let mut decision = None;
+        let mut scan_burst = None;
         match detected.event {
             Some(DetectorEvent::Burst(burst)) => {
                 emit(&mut out, Event::Burst(burst));
                 if in_detection {
-                    decision = self.matcher.on_burst(&burst);
+                    match &mut self.selector {
+                        Selector::Sequences(matcher) => decision = matcher.on_burst(&burst),
+                        Selector::Scanning(_) => scan_burst = Some(burst),
+                    }
                 }
             }
             Some(DetectorEvent::Fault(reason)) => {
                 emit(&mut out, Event::Fault(reason));
-                decision = self.matcher.interrupt();
+                if let Selector::Sequences(matcher) = &mut self.selector {
+                    decision = matcher.interrupt();
+                }
             }
             Some(DetectorEvent::Recovered) => emit(&mut out, Event::Recovered),
             None => {}
         }
-        if decision.is_none() {
-            decision = self.matcher.on_tick(now, detected.in_progress);
+        match &mut self.selector {
+            Selector::Sequences(matcher) => {
+                if decision.is_none() {
+                    decision = matcher.on_tick(now, detected.in_progress);
+                }
+            }
+            Selector::Scanning(scanner) => {
+                let scan =
+                    scanner.step(now, in_detection && !detected.faulted, scan_burst.as_ref());
+                if let Some(mode) = scan.highlight {
+                    emit(&mut out, Event::Highlight { mode });
+                }
+                if let (Some(mode), Some(burst)) = (scan.selected, scan_burst) {
+                    let mut sequence = ActionSeq::default();
+                    // One action always fits.
+                    let _ = sequence.try_push(burst.action);
+                    decision = Some(MatchEvent::Match { sequence, mode });
+                }
+            }
         }
 
         let matched = match decision {

@@ -51,6 +51,9 @@ pub fn event_json(tick: Tick, event: &Event) -> Value {
             "tick": tick, "event": "reset",
             "sequence": sequence.codes().collect::<Vec<_>>(), "reason": reason.name(),
         }),
+        Event::Highlight { mode } => json!({
+            "tick": tick, "event": "highlight", "mode": mode.name(),
+        }),
         Event::Detection { reason } => json!({
             "tick": tick, "event": "detection", "reason": reason.name(),
         }),

@@ -12,8 +12,11 @@
 //! rails, and clipping to the sensor's 0–5 V.
 //!
 //! The generator is an iterator that borrows its script and never
-//! allocates, so a real-time loop may use it as its sensor.
+//! allocates, so a real-time loop may use it as its sensor. A live
+//! generator owns a script its caller extends as it plays (the study's
+//! simulated users).
 
+use std::borrow::Cow;
 use std::f64::consts::PI;
 use std::io::Write;
 
@@ -214,7 +217,7 @@ pub struct ScriptedBreath {
 /// Plays a script as samples, one per ms. Never allocates.
 pub struct SignalGenerator<'a> {
     params: SignalParams,
-    script: &'a [Step],
+    script: Cow<'a, [Step]>,
     rng: ChaCha8Rng,
     noise: Option<Normal<f64>>,
     step: usize,
@@ -236,7 +239,7 @@ impl<'a> SignalGenerator<'a> {
             .flatten();
         let mut g = SignalGenerator {
             params,
-            script,
+            script: Cow::Borrowed(script),
             rng: ChaCha8Rng::seed_from_u64(params.seed),
             noise,
             step: 0,
@@ -268,6 +271,47 @@ impl<'a> SignalGenerator<'a> {
             }
             _ => None,
         };
+    }
+
+    /// A generator with an empty script that the caller extends as it
+    /// plays: a simulated user who reacts to what the interface does.
+    /// Adding steps allocates: not for the control thread.
+    pub fn live(params: SignalParams) -> SignalGenerator<'static> {
+        SignalGenerator::new(params, &[]).into_owned()
+    }
+
+    fn into_owned(self) -> SignalGenerator<'static> {
+        SignalGenerator {
+            script: Cow::Owned(self.script.into_owned()),
+            params: self.params,
+            rng: self.rng,
+            noise: self.noise,
+            step: self.step,
+            at: self.at,
+            shape: self.shape,
+            tick: self.tick,
+            spikes: self.spikes,
+            breath: self.breath,
+        }
+    }
+
+    /// Appends a step; a generator that had run out plays it next.
+    pub fn push(&mut self, step: Step) {
+        let ran_out = self.step >= self.script.len();
+        self.script.to_mut().push(step);
+        if ran_out {
+            self.enter_step();
+        }
+    }
+
+    /// The script so far (for a live generator, every step pushed).
+    pub fn script(&self) -> &[Step] {
+        &self.script
+    }
+
+    /// Samples played so far.
+    pub fn tick(&self) -> u64 {
+        self.tick
     }
 
     /// The last breath the script has begun to play (its step may already

@@ -7,7 +7,8 @@
 
 use sipnpuff::alloc_counter::{CountingAllocator, thread_allocations};
 use sipnpuff::arm::{ArmBackend, SimulatedJaco};
-use sipnpuff::config::Config;
+use sipnpuff::config::{Config, Interface};
+use sipnpuff::study::user::{RUN_STEPS, scripted_session};
 use sipnpuff::event::Event;
 use sipnpuff::motion::MotionEvent;
 use sipnpuff::pipeline::Core;
@@ -57,7 +58,7 @@ fn core_step_never_allocates() {
                 Event::Motion(MotionEvent::GotoStarted { .. }) => 7,
                 Event::Motion(MotionEvent::GotoReached) => 8,
                 Event::Motion(MotionEvent::WorkspaceLimit(_)) => 9,
-                Event::Motion(_) => 10,
+                Event::Highlight { .. } | Event::Motion(_) => 10,
             };
             counts[kind] += 1;
         }
@@ -68,6 +69,31 @@ fn core_step_never_allocates() {
         counts[..10].iter().all(|&n| n > 0),
         "every kind of event happened: {counts:?}"
     );
+}
+
+/// The scanning interface (BSP): the run user's session and the noisy
+/// every-path session (whose puffs enter whatever is highlighted).
+#[test]
+fn bsp_core_step_never_allocates() {
+    let config = Config::default().with_interface(Interface::Bsp);
+    let (run_params, run_script) = scripted_session(&config, &RUN_STEPS, 1);
+    let (params, script) = every_path_session(&config);
+    let mut samples: Vec<f64> = SignalGenerator::new(run_params, &run_script).collect();
+    samples.extend(SignalGenerator::new(params, &script));
+    let mut core: Core = Core::new(&config);
+    let (mut highlights, mut matches) = (0, 0);
+    let before = thread_allocations();
+    for (t, &v) in samples.iter().enumerate() {
+        for event in core.step(t as u64, v).events.iter() {
+            match event {
+                Event::Highlight { .. } => highlights += 1,
+                Event::Match { .. } => matches += 1,
+                _ => {}
+            }
+        }
+    }
+    assert_eq!(thread_allocations() - before, 0, "{} ticks", samples.len());
+    assert!(highlights > 100 && matches > 10, "{highlights} highlights, {matches} matches");
 }
 
 #[test]

@@ -15,7 +15,7 @@ use sipnpuff::pipeline::{Core, TickOutput};
 
 const PAPER_LIBRARY: &str = include_str!("../../fixtures/paper-example.toml");
 /// Bound on one input's length, so each run stays short.
-const MAX_TICKS: u64 = 200_000;
+const MAX_TICKS: u64 = 30_000;
 
 fn norm(v: &[f64; 3]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()

@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 use rtrb::RingBuffer;
 
 use crate::arm::{ArmBackend, ArmState, SimulatedJaco};
-use crate::config::Config;
+use crate::config::{Config, Interface};
 use crate::csv_signal::CsvSignal;
 use crate::motion::stream::ArmCommand;
 use crate::pipeline::Core;
@@ -467,12 +467,21 @@ pub fn run(config: &Config, options: RunOptions) -> anyhow::Result<RunReport> {
     // The sensor: the scripted user in the loop, or a CSV sensor thread.
     let mut sensor_thread = None;
     let (script, params) = match &options.sensor {
-        SensorSource::Synthetic => {
-            let mut params = SignalParams::clean(config.detector(), 1);
-            params.noise_volts = 0.02;
-            params.hum_volts = 0.03;
-            (run_script(config).0, Some(params))
-        }
+        SensorSource::Synthetic => match config.interface() {
+            Interface::Asp => {
+                let mut params = SignalParams::clean(config.detector(), 1);
+                params.noise_volts = 0.02;
+                params.hum_volts = 0.03;
+                (run_script(config).0, Some(params))
+            }
+            // The scanning user reacts to the highlight: their breaths come
+            // from a closed-loop session on a simulated core.
+            Interface::Bsp => {
+                let (params, script) =
+                    crate::study::user::scripted_session(config, &crate::study::user::RUN_STEPS, 1);
+                (script, Some(params))
+            }
+        },
         SensorSource::Csv(path) => {
             let mut input = CsvSignal::open(path)?;
             let (mut tx, rx) = RingBuffer::<f64>::new(SAMPLE_RING);

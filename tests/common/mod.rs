@@ -36,7 +36,7 @@ pub fn assert_session(
                 | Event::Motion(MotionEvent::TrajectoryError) => {
                     panic!("unexpected {event:?} at tick {t}")
                 }
-                Event::Detection { .. } | Event::Motion(_) => {}
+                Event::Detection { .. } | Event::Highlight { .. } | Event::Motion(_) => {}
             }
         }
         n += 1;
