@@ -509,6 +509,13 @@ impl Config {
         self
     }
 
+    /// The same configuration with another library; it must be valid (as
+    /// a validated config's is).
+    pub fn with_sequences(mut self, sequences: Vec<SequenceEntry>) -> Config {
+        self.sequences = sequences;
+        self
+    }
+
     /// The same configuration with another sequence timeout, ms (> 0).
     pub fn with_sequence_timeout_ms(mut self, ms: u32) -> Config {
         self.matcher.sequence_timeout_ms = ms;

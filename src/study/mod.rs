@@ -312,6 +312,13 @@ actions = [2, 2]
 mode = "goto_point"
 "#;
 
+/// `config` with [`PREFIX_LIBRARY`] as its library.
+fn prefix_library(config: &Config) -> anyhow::Result<Config> {
+    let library = Config::from_toml_str(PREFIX_LIBRARY)
+        .map_err(|e| anyhow::anyhow!("the prefix library: {e}"))?;
+    Ok(config.clone().with_sequences(library.sequences().to_vec()))
+}
+
 /// One row of a sweep: the value and each task's summary.
 #[derive(Debug, Clone)]
 pub struct SweepRow {
@@ -345,10 +352,13 @@ pub fn sweep(
             }
         }
         SweepParam::AspTimeout => {
+            // On the library with prefixes: with a prefix-free one the
+            // timeout only matters after a mistake.
+            let prefixes = prefix_library(config)?;
             for ms in [500, 750, 1000, 1500, 2000] {
                 settings.push((
-                    format!("{ms} ms"),
-                    config.clone().with_sequence_timeout_ms(ms),
+                    format!("{ms} ms (library with prefixes)"),
+                    prefixes.clone().with_sequence_timeout_ms(ms),
                     *options,
                 ));
             }
@@ -361,10 +371,8 @@ pub fn sweep(
             }
         }
         SweepParam::Library => {
-            let prefixes = Config::from_toml_str(PREFIX_LIBRARY)
-                .map_err(|e| anyhow::anyhow!("the prefix library: {e}"))?;
             settings.push(("prefix-free (built-in)".into(), config.clone(), *options));
-            settings.push(("with prefixes".into(), prefixes, *options));
+            settings.push(("with prefixes".into(), prefix_library(config)?, *options));
         }
     }
     let count = settings.len();
