@@ -222,8 +222,10 @@ pub fn score(config: &Config, seen: &Observed, modes: &[Mode], tolerance_ms: u64
         let error = burst.duration_ms().abs_diff(ms);
         t.max_timing_error_ms = t.max_timing_error_ms.max(error);
         let right_breath = burst.action.breath() == s.breath;
-        let right_class =
-            burst.action.is_long() == (ms >= long) || ms.abs_diff(long) <= tolerance_ms;
+        // Measured within `tolerance_ms`, a breath scripted in
+        // [long − tolerance, long + tolerance) may land either side.
+        let either = ms + tolerance_ms >= long && ms < long + tolerance_ms;
+        let right_class = burst.action.is_long() == (ms >= long) || either;
         let on_time = error <= tolerance_ms;
         t.wrong_breath += u64::from(!right_breath);
         t.wrong_class += u64::from(right_breath && !right_class);
@@ -277,6 +279,8 @@ pub struct GridOptions {
     pub seed: u64,
     /// Neutral drift amplitude, volts.
     pub drift_volts: f64,
+    /// Period of the drift, ms.
+    pub drift_period_ms: f64,
     /// A rail spike every this many ms (0: none).
     pub spike_every_ms: u64,
     /// Timing tolerance, ms.
@@ -301,6 +305,7 @@ pub fn accuracy_grid(
             params.noise_volts = noise_volts;
             params.hum_volts = hum_volts;
             params.drift_volts = options.drift_volts;
+            params.drift_period_ms = options.drift_period_ms;
             params.spike_every_ms = options.spike_every_ms;
             let seen = observe(config, params, &script);
             cells.push(GridCell {

@@ -239,9 +239,13 @@ enum BenchCommand {
         /// Hum amplitudes (volts), comma-separated.
         #[arg(long, value_delimiter = ',', default_value = "0,0.1,0.2,0.3")]
         hum_volts: Vec<f64>,
-        /// Neutral drift amplitude in volts (one-minute period).
+        /// Neutral drift amplitude in volts.
         #[arg(long, default_value_t = 0.0)]
         drift_volts: f64,
+        /// Period of the drift (a sine), ms; its steepest slope is
+        /// 2π·amplitude/period (0.5 V a minute: 0.5 V over 376991 ms).
+        #[arg(long, default_value_t = 60_000.0)]
+        drift_period_ms: f64,
         /// A one-sample spike to a rail every this many ms (0 = none).
         #[arg(long, default_value_t = 0)]
         spike_every_ms: u64,
@@ -465,6 +469,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     noise_volts,
                     hum_volts,
                     drift_volts,
+                    drift_period_ms,
                     spike_every_ms,
                     tolerance_ms,
                     config,
@@ -477,10 +482,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 levels_ok(&noise_volts) && levels_ok(&hum_volts) && levels_ok(&[drift_volts]),
                 "noise, hum and drift levels must be finite and non-negative"
             );
+            anyhow::ensure!(
+                drift_period_ms.is_finite() && drift_period_ms > 0.0,
+                "--drift-period-ms must be positive"
+            );
             let options = sipnpuff::accuracy::GridOptions {
                 seconds,
                 seed,
                 drift_volts,
+                drift_period_ms,
                 spike_every_ms,
                 tolerance_ms,
             };
@@ -519,7 +529,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 println!("{}", serde_json::Value::Array(rows));
             } else {
                 println!(
-                    "breaths detected as the right action (mode selections matched) ±largest timing error [+bursts invented]; {seconds} s per session, seed {seed}, drift {drift_volts} V, spikes every {spike_every_ms} ms, tolerance {tolerance_ms} ms"
+                    "breaths detected as the right action (mode selections matched) ±largest timing error [+bursts invented]; {seconds} s per session, seed {seed}, drift {drift_volts} V over a {drift_period_ms} ms period, spikes every {spike_every_ms} ms, tolerance {tolerance_ms} ms"
                 );
                 print!("{}", sipnpuff::accuracy::grid_table(&cells));
             }
