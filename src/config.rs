@@ -1173,12 +1173,18 @@ mod tests {
             speed = 1
             "#,
         );
-        let found: Vec<(&str, &str)> = e.iter().map(|e| (e.key.as_str(), e.message.as_str())).collect();
+        let found: Vec<(&str, &str)> = e
+            .iter()
+            .map(|e| (e.key.as_str(), e.message.as_str()))
+            .collect();
         assert_eq!(
             found,
             [
                 ("interface.kind", "\"scan\" is not `asp` or `bsp`"),
-                ("scanning.speed", "unknown key (known: dwell_ms, first_dwell_ms, order)"),
+                (
+                    "scanning.speed",
+                    "unknown key (known: dwell_ms, first_dwell_ms, order)"
+                ),
                 ("scanning.dwell_ms", "must be greater than 0 ms"),
                 (
                     "scanning.order",

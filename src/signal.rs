@@ -535,16 +535,12 @@ fn scripted_user(config: &Config, plan: &[(Mode, &[(Breath, u32)])]) -> (Vec<Ste
 /// lasts at least that long, so cutting it there only shortens the final
 /// rest. Returns the script and the modes selected, in order.
 pub fn random_session(config: &Config, seconds: u64, seed: u64) -> (Vec<Step>, Vec<Mode>) {
-    let d = config.detector();
-    let style = UserStyle {
-        timing: Timing {
-            short_ms: (d.min_burst_ms + d.long_burst_ms) / 2,
-            long_ms: d.long_burst_ms + 300,
-            gap_ms: 300,
-        },
-        hold_ms: (200, 3000),
-    };
-    random_session_with(config, seconds, seed, style)
+    random_session_with(
+        config,
+        seconds,
+        seed,
+        UserStyle::for_detector(config.detector()),
+    )
 }
 
 /// How a scripted user breathes.
@@ -554,6 +550,22 @@ pub struct UserStyle {
     pub timing: Timing,
     /// Range of the holds that move the arm, ms.
     pub hold_ms: (u32, u32),
+}
+
+impl UserStyle {
+    /// The random user's style: short bursts halfway between the class
+    /// boundaries, long ones 300 ms past `long_burst_ms`, 300 ms gaps,
+    /// holds of 0.2–3 s.
+    pub fn for_detector(d: &DetectorConfig) -> UserStyle {
+        UserStyle {
+            timing: Timing {
+                short_ms: (d.min_burst_ms + d.long_burst_ms) / 2,
+                long_ms: d.long_burst_ms + 300,
+                gap_ms: 300,
+            },
+            hold_ms: (200, 3000),
+        }
+    }
 }
 
 /// [`random_session`] for a user who breathes in the given style.

@@ -8,11 +8,11 @@
 use sipnpuff::alloc_counter::{CountingAllocator, thread_allocations};
 use sipnpuff::arm::{ArmBackend, SimulatedJaco};
 use sipnpuff::config::{Config, Interface};
-use sipnpuff::study::user::{RUN_STEPS, scripted_session};
 use sipnpuff::event::Event;
 use sipnpuff::motion::MotionEvent;
 use sipnpuff::pipeline::Core;
 use sipnpuff::signal::{SignalGenerator, every_path_session};
+use sipnpuff::study::user::{RUN_STEPS, scripted_session};
 
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
@@ -93,7 +93,10 @@ fn bsp_core_step_never_allocates() {
         }
     }
     assert_eq!(thread_allocations() - before, 0, "{} ticks", samples.len());
-    assert!(highlights > 100 && matches > 10, "{highlights} highlights, {matches} matches");
+    assert!(
+        highlights > 100 && matches > 10,
+        "{highlights} highlights, {matches} matches"
+    );
 }
 
 #[test]

@@ -93,6 +93,15 @@ fn saturating(mut p: SignalParams) -> SignalParams {
     p
 }
 
+/// The harsh signal; on even seeds with saturating breaths too.
+fn harsh_and_every_other_saturating(config: &Config, seed: u64) -> SignalParams {
+    if seed.is_multiple_of(2) {
+        saturating(harsh(config, seed))
+    } else {
+        harsh(config, seed)
+    }
+}
+
 fn paper_config() -> Config {
     Config::from_file(concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/paper-example.toml").as_ref())
         .expect("paper example config")
@@ -192,23 +201,14 @@ fn fast_trains_on_a_harsh_signal() {
 #[test]
 fn ten_second_holds_and_saturation() {
     let config = Config::default();
-    let d = config.detector();
     let style = UserStyle {
-        timing: Timing {
-            short_ms: (d.min_burst_ms + d.long_burst_ms) / 2,
-            long_ms: d.long_burst_ms + 300,
-            gap_ms: 300,
-        },
         hold_ms: (10_000, 10_000),
+        ..UserStyle::for_detector(config.detector())
     };
     let mut ticks = 0;
     for seed in 20..26 {
         let (script, modes) = random_session_with(&config, 500, seed, style);
-        let params = if seed % 2 == 0 {
-            saturating(harsh(&config, seed))
-        } else {
-            harsh(&config, seed)
-        };
+        let params = harsh_and_every_other_saturating(&config, seed);
         let t = assert_perfect(
             "ten-second holds",
             &config,
@@ -256,11 +256,7 @@ fn nan_dropouts_fault_and_recover() {
                 inserted += 1;
             }
         }
-        let params = if seed % 2 == 0 {
-            saturating(harsh(&config, seed))
-        } else {
-            harsh(&config, seed)
-        };
+        let params = harsh_and_every_other_saturating(&config, seed);
         let t = assert_perfect(
             "NaN dropouts",
             &config,

@@ -57,7 +57,7 @@ fn the_scan_highlights_each_mode_on_time() {
 fn a_puff_enters_the_highlighted_mode_and_inactivity_restarts_the_scan() {
     let config = bsp();
     // translate_z is highlighted 4500–5999: puff in the middle of it, then
-    // move forward 1 s, then rest past the inactivity timeout.
+    // sip 1 s (down), then rest past the inactivity timeout.
     let script = [
         Step::Rest { ms: 5000 },
         Step::Breath {

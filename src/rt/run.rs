@@ -206,6 +206,31 @@ struct Rings {
     events: rtrb::Producer<TimedEvent>,
 }
 
+impl Rings {
+    /// The control thread's output rings, allocated before the loop, and
+    /// their consumers: arm commands, tick records, events.
+    fn new() -> (
+        Rings,
+        rtrb::Consumer<ArmCommand>,
+        rtrb::Consumer<TickRecord>,
+        rtrb::Consumer<TimedEvent>,
+    ) {
+        let (arm, arm_rx) = RingBuffer::new(ARM_RING);
+        let (records, record_rx) = RingBuffer::new(RECORD_RING);
+        let (events, event_rx) = RingBuffer::new(EVENT_RING);
+        (
+            Rings {
+                arm,
+                records,
+                events,
+            },
+            arm_rx,
+            record_rx,
+            event_rx,
+        )
+    }
+}
+
 /// The control loop. Everything it needs is built before the first
 /// deadline; inside the loop it neither allocates, locks nor blocks except
 /// in the deadline sleep.
@@ -380,14 +405,7 @@ pub struct SimulatedRun {
 /// allocation checks of the loop itself: under RTSan, any allocation,
 /// lock or blocking call inside a tick aborts the process.
 pub fn run_simulated(config: &Config, params: SignalParams, script: &[Step]) -> SimulatedRun {
-    let (arm_tx, mut arm_rx) = RingBuffer::<ArmCommand>::new(ARM_RING);
-    let (record_tx, mut record_rx) = RingBuffer::<TickRecord>::new(RECORD_RING);
-    let (event_tx, mut event_rx) = RingBuffer::<TimedEvent>::new(EVENT_RING);
-    let rings = Rings {
-        arm: arm_tx,
-        records: record_tx,
-        events: event_tx,
-    };
+    let (rings, mut arm_rx, mut record_rx, mut event_rx) = Rings::new();
     let options = RunOptions {
         seconds: None,
         sensor: SensorSource::Synthetic,
@@ -454,14 +472,7 @@ pub fn run_simulated(config: &Config, params: SignalParams, script: &[Step]) -> 
 /// Runs the control loop with its threads until it ends; this thread is
 /// the telemetry thread. Events are printed as they happen if asked.
 pub fn run(config: &Config, options: RunOptions) -> anyhow::Result<RunReport> {
-    let (arm_tx, mut arm_rx) = RingBuffer::<ArmCommand>::new(ARM_RING);
-    let (record_tx, mut record_rx) = RingBuffer::<TickRecord>::new(RECORD_RING);
-    let (event_tx, mut event_rx) = RingBuffer::<TimedEvent>::new(EVENT_RING);
-    let rings = Rings {
-        arm: arm_tx,
-        records: record_tx,
-        events: event_tx,
-    };
+    let (rings, mut arm_rx, mut record_rx, mut event_rx) = Rings::new();
     let core: Core = Core::new(config);
 
     // The sensor: the scripted user in the loop, or a CSV sensor thread.

@@ -238,7 +238,7 @@ impl Agent<'_> {
                         Interface::Bsp => {
                             let skip = u32::from(self.rng.random_bool(self.user.miss_rate));
                             if self.highlighted == Some(step.mode) && skip == 0 {
-                                self.puff_for(step.mode, signal);
+                                self.puff(signal);
                                 self.phase = Phase::AwaitMatch {
                                     target: step.mode,
                                     deadline: None,
@@ -278,7 +278,7 @@ impl Agent<'_> {
                     };
                     return wait(signal);
                 }
-                self.puff_for(target, signal);
+                self.puff(signal);
                 self.phase = Phase::AwaitMatch {
                     target,
                     deadline: None,
@@ -348,7 +348,7 @@ impl Agent<'_> {
 
     /// BSP: a short puff after a reaction to the highlight; sometimes one
     /// dwell late.
-    fn puff_for(&mut self, _target: Mode, signal: &mut SignalGenerator) {
+    fn puff(&mut self, signal: &mut SignalGenerator) {
         let mut reaction = self.reaction();
         if self.rng.random_bool(self.user.error_rate) {
             reaction += self.config.scanning().dwell_ms;
