@@ -43,6 +43,11 @@ pub fn completion_svg(results: &[TaskResults]) -> String {
         svg,
         r#"<line x1="{LEFT}" y1="{TOP}" x2="{LEFT}" y2="{BOTTOM}" stroke="black"/>"#
     );
+    // Grid every 10, 20, 30, 50 or 100 s: the first that gives at most 8 lines.
+    let step = [10.0, 20.0, 30.0, 50.0, 100.0]
+        .into_iter()
+        .find(|step| y_max / step <= 8.0)
+        .unwrap_or(y_max / 5.0);
     let mut tick = 0.0;
     while tick <= y_max + 1e-9 {
         let _ = writeln!(
@@ -53,7 +58,7 @@ pub fn completion_svg(results: &[TaskResults]) -> String {
             LEFT - 6.0,
             y(tick) + 4.0
         );
-        tick += y_max / 5.0;
+        tick += step;
     }
     let _ = writeln!(
         svg,
