@@ -420,6 +420,28 @@ mod tests {
     }
 
     #[test]
+    fn the_boundary_band_is_the_tolerance_around_long_burst_ms() {
+        // 500 ms is the default long boundary; a 500 ms breath measured
+        // short is wrong with no tolerance and may be either with 5 ms, as
+        // may a 495 ms one measured long; 505 ms is outside the band.
+        let config = Config::default();
+        let judge = |ms: u32, measured: Action, tolerance: u64| {
+            let seen = Observed {
+                scripted: vec![scripted(Breath::Puff, 1000, ms)],
+                bursts: vec![burst(measured, 1000, 1000 + u64::from(ms))],
+                ..Observed::default()
+            };
+            score(&config, &seen, &[], tolerance).wrong_class
+        };
+        assert_eq!(judge(500, Action::ShortPuff, 0), 1);
+        assert_eq!(judge(500, Action::LongPuff, 0), 0);
+        assert_eq!(judge(500, Action::ShortPuff, 5), 0);
+        assert_eq!(judge(495, Action::LongPuff, 5), 0);
+        assert_eq!(judge(494, Action::LongPuff, 5), 1);
+        assert_eq!(judge(505, Action::ShortPuff, 5), 1);
+    }
+
+    #[test]
     fn a_clean_session_is_perfect() {
         let config = Config::default();
         let (script, modes) = random_session(&config, 120, 3);
