@@ -61,6 +61,19 @@ fn assert_perfect(
     t
 }
 
+/// [`assert_perfect`] with the timing bound the signal allows.
+fn assert_noisy_session(
+    what: &str,
+    config: &Config,
+    params: SignalParams,
+    script: &[Step],
+    modes: &[Mode],
+    expect: Expect,
+) -> Tally {
+    let bound = timing_bound_ms(config, &params);
+    assert_perfect(what, config, params, script, modes, bound, expect)
+}
+
 /// The worst signal the issue asks the detector to handle.
 fn harsh(config: &Config, seed: u64) -> SignalParams {
     let mut p = SignalParams::clean(config.detector(), seed);
@@ -181,13 +194,12 @@ fn fast_trains_on_a_harsh_signal() {
         for seed in seeds {
             let (script, modes) = random_session_with(&config, 400, seed, style);
             let params = harsh(&config, seed);
-            let t = assert_perfect(
+            let t = assert_noisy_session(
                 "fast trains",
                 &config,
                 params,
                 &script,
                 &modes,
-                timing_bound_ms(&config, &params),
                 Expect::default(),
             );
             ticks += t.ticks;
@@ -209,13 +221,12 @@ fn ten_second_holds_and_saturation() {
     for seed in 20..26 {
         let (script, modes) = random_session_with(&config, 500, seed, style);
         let params = harsh_and_every_other_saturating(&config, seed);
-        let t = assert_perfect(
+        let t = assert_noisy_session(
             "ten-second holds",
             &config,
             params,
             &script,
             &modes,
-            timing_bound_ms(&config, &params),
             Expect::default(),
         );
         ticks += t.ticks;
@@ -257,13 +268,12 @@ fn nan_dropouts_fault_and_recover() {
             }
         }
         let params = harsh_and_every_other_saturating(&config, seed);
-        let t = assert_perfect(
+        let t = assert_noisy_session(
             "NaN dropouts",
             &config,
             params,
             &script,
             &modes,
-            timing_bound_ms(&config, &params),
             Expect {
                 resets: 0,
                 faults: inserted as u64,
