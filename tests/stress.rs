@@ -177,6 +177,26 @@ fn boundary_lengths_are_classified_to_the_millisecond() {
     assert!(ticks >= 700_000, "{ticks} ticks");
 }
 
+/// One random session of `seconds` in `style` per seed, on the signal
+/// `signal` makes for the seed, each held to [`assert_noisy_session`];
+/// returns the ticks played.
+fn random_sessions(
+    what: &str,
+    config: &Config,
+    seeds: std::ops::Range<u64>,
+    seconds: u64,
+    style: UserStyle,
+    signal: fn(&Config, u64) -> SignalParams,
+) -> u64 {
+    seeds
+        .map(|seed| {
+            let (script, modes) = random_session_with(config, seconds, seed, style);
+            let params = signal(config, seed);
+            assert_noisy_session(what, config, params, &script, &modes, Expect::default()).ticks
+        })
+        .sum()
+}
+
 /// Five short bursts a second (100 ms breaths, 100 ms gaps) and long ones
 /// of 600 ms, through both libraries, on the harsh signal.
 #[test]
@@ -189,22 +209,8 @@ fn fast_trains_on_a_harsh_signal() {
         },
         hold_ms: (200, 1500),
     };
-    let mut ticks = 0;
-    for (config, seeds) in [(Config::default(), 0..6), (paper_config(), 6..10)] {
-        for seed in seeds {
-            let (script, modes) = random_session_with(&config, 400, seed, style);
-            let params = harsh(&config, seed);
-            let t = assert_noisy_session(
-                "fast trains",
-                &config,
-                params,
-                &script,
-                &modes,
-                Expect::default(),
-            );
-            ticks += t.ticks;
-        }
-    }
+    let ticks = random_sessions("fast trains", &Config::default(), 0..6, 400, style, harsh)
+        + random_sessions("fast trains", &paper_config(), 6..10, 400, style, harsh);
     assert!(ticks >= 4_000_000, "{ticks} ticks");
 }
 
@@ -217,20 +223,14 @@ fn ten_second_holds_and_saturation() {
         hold_ms: (10_000, 10_000),
         ..UserStyle::for_detector(config.detector())
     };
-    let mut ticks = 0;
-    for seed in 20..26 {
-        let (script, modes) = random_session_with(&config, 500, seed, style);
-        let params = harsh_and_every_other_saturating(&config, seed);
-        let t = assert_noisy_session(
-            "ten-second holds",
-            &config,
-            params,
-            &script,
-            &modes,
-            Expect::default(),
-        );
-        ticks += t.ticks;
-    }
+    let ticks = random_sessions(
+        "ten-second holds",
+        &config,
+        20..26,
+        500,
+        style,
+        harsh_and_every_other_saturating,
+    );
     assert!(ticks >= 3_000_000, "{ticks} ticks");
 }
 
