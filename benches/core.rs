@@ -23,20 +23,24 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use sipnpuff::action::{Action, ActionSeq};
-use sipnpuff::arm::{ArmBackend, SimulatedJaco};
-use sipnpuff::config::{Config, SequenceEntry};
-use sipnpuff::csv_signal::CsvSignal;
-use sipnpuff::detector::{Burst, BurstDetector, Held};
-use sipnpuff::event::Event;
-use sipnpuff::matcher::{ScanIndex, SequenceIndex, SequenceMatcher, TrieIndex};
-use sipnpuff::modes::{Mode, ModeMachine};
-use sipnpuff::pipeline::Core;
-use sipnpuff::replay::replay;
-use sipnpuff::signal::{SignalGenerator, SignalParams, random_session, write_csv};
+use sipnpuff::arm::sim::SimulatedJaco;
+use sipnpuff::config::Config;
+use sipnpuff::control::action::{Action, ActionSeq};
+use sipnpuff::control::detector::{Burst, BurstDetector};
+use sipnpuff::control::event::Event;
+use sipnpuff::control::mode::{Held, Mode};
+use sipnpuff::control::modes::ModeMachine;
+use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::selection::SequenceEntry;
+use sipnpuff::control::selection::index::{ScanIndex, SequenceIndex, TrieIndex};
+use sipnpuff::control::selection::matcher::SequenceMatcher;
+use sipnpuff::sensor::csv::CsvSignal;
+use sipnpuff::sim::script::random_session;
+use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, write_csv};
+use sipnpuff::tools::replay::replay;
 
 fn noisy_signal(config: &Config) -> Vec<f64> {
-    let mut params = SignalParams::clean(config.detector(), 5);
+    let mut params = SignalParams::clean(config.core().detector(), 5);
     params.noise_volts = 0.05;
     params.hum_volts = 0.1;
     params.spike_every_ms = 100;
@@ -51,8 +55,8 @@ fn per_sample(c: &mut Criterion) {
     group.throughput(Throughput::Elements(samples.len() as u64));
 
     let (low, high) = (
-        config.detector().sip_threshold_volts,
-        config.detector().puff_threshold_volts,
+        config.core().detector().sip_threshold_volts,
+        config.core().detector().puff_threshold_volts,
     );
     group.bench_function("reference_threshold_compare", |b| {
         b.iter(|| {
@@ -64,7 +68,7 @@ fn per_sample(c: &mut Criterion) {
         })
     });
 
-    let mut detector = BurstDetector::new(config.detector());
+    let mut detector = BurstDetector::new(config.core().detector());
     let mut tick = 0u64;
     group.bench_function("detector", |b| {
         b.iter(|| {
@@ -76,7 +80,7 @@ fn per_sample(c: &mut Criterion) {
     });
 
     // What the mode machine sees of this signal, tick by tick.
-    let mut core: Core = Core::new(&config);
+    let mut core: Pipeline = Pipeline::new(config.core());
     let inputs: Vec<(Held, Option<Mode>, bool)> = samples
         .iter()
         .enumerate()
@@ -93,7 +97,7 @@ fn per_sample(c: &mut Criterion) {
         inputs.iter().any(|i| i.1.is_some()),
         "a selection in the signal"
     );
-    let mut modes = ModeMachine::new(config.command().inactivity_timeout_ms);
+    let mut modes = ModeMachine::new(config.core().command());
     let mut tick = 0u64;
     group.bench_function("mode_machine", |b| {
         b.iter(|| {
@@ -104,7 +108,7 @@ fn per_sample(c: &mut Criterion) {
         })
     });
 
-    let mut core: Core = Core::new(&config);
+    let mut core: Pipeline = Pipeline::new(config.core());
     let mut tick = 0u64;
     group.bench_function("core", |b| {
         b.iter(|| {
@@ -163,7 +167,7 @@ fn bench_matcher<I: SequenceIndex>(
 fn matcher_per_burst(c: &mut Criterion) {
     let mut group = c.benchmark_group("matcher_per_burst");
     let libraries = [
-        Config::default().sequences().to_vec(),
+        Config::default().core().sequences().to_vec(),
         all_sequences(3),
         all_sequences(4),
     ];
@@ -242,18 +246,15 @@ fn ruckig_updates(c: &mut Criterion) {
 }
 
 /// A core (and arm) in `translate_x` command mode, after `warm_up` ticks.
-fn in_translate_x(config: &Config) -> (Core, SimulatedJaco, u64) {
-    let mut core: Core = Core::new(config);
-    let mut arm = SimulatedJaco::new(config);
+fn in_translate_x(config: &Config) -> (Pipeline, SimulatedJaco, u64) {
+    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut arm = SimulatedJaco::new(config.core());
     let mut tick = 0u64;
     // Two short puffs select translate_x in the built-in library.
-    let mut feed = |volts: f64, ms: u64, core: &mut Core, arm: &mut SimulatedJaco| {
+    let mut feed = |volts: f64, ms: u64, core: &mut Pipeline, arm: &mut SimulatedJaco| {
         for _ in 0..ms {
             let out = core.step(tick, volts);
-            if let Some(c) = &out.motion.arm_command {
-                let _ = arm.send(c);
-            }
-            arm.advance_ms();
+            arm.tick(out.motion.arm_command.as_ref());
             tick += 1;
         }
     };
@@ -275,10 +276,7 @@ fn full_tick(c: &mut Criterion) {
     group.bench_function("steady", |b| {
         b.iter(|| {
             let out = core.step(tick, black_box(3.8));
-            if let Some(c) = &out.motion.arm_command {
-                let _ = arm.send(c);
-            }
-            arm.advance_ms();
+            arm.tick(out.motion.arm_command.as_ref());
             tick += 1;
             black_box(out)
         })
@@ -291,10 +289,7 @@ fn full_tick(c: &mut Criterion) {
             let volts = if tick % 2 == 0 { 3.8 } else { 1.2 };
             let out = core.step(tick, black_box(volts));
             debug_assert!(out.motion.recalculated);
-            if let Some(c) = &out.motion.arm_command {
-                let _ = arm.send(c);
-            }
-            arm.advance_ms();
+            arm.tick(out.motion.arm_command.as_ref());
             tick += 1;
             black_box(out)
         })
@@ -304,7 +299,7 @@ fn full_tick(c: &mut Criterion) {
 
 fn replay_throughput(c: &mut Criterion) {
     let config = Config::default();
-    let mut params = SignalParams::clean(config.detector(), 9);
+    let mut params = SignalParams::clean(config.core().detector(), 9);
     params.noise_volts = 0.03;
     params.hum_volts = 0.05;
     let (script, _) = random_session(&config, 60, 9);
@@ -316,7 +311,7 @@ fn replay_throughput(c: &mut Criterion) {
     group.sample_size(20);
     group.bench_function("core_only", |b| {
         b.iter(|| {
-            let mut core: Core = Core::new(&config);
+            let mut core: Pipeline = Pipeline::new(config.core());
             for (t, &v) in samples.iter().enumerate() {
                 black_box(core.step(t as u64, v));
             }
@@ -325,7 +320,8 @@ fn replay_throughput(c: &mut Criterion) {
     group.bench_function("csv_core_arm_json", |b| {
         b.iter(|| {
             let mut signal = CsvSignal::new(csv.as_slice()).expect("header");
-            let summary = replay(&config, &mut signal, &mut std::io::sink(), None).expect("replay");
+            let summary =
+                replay(config.core(), &mut signal, &mut std::io::sink(), None).expect("replay");
             black_box(summary)
         })
     });

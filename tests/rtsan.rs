@@ -12,11 +12,14 @@
 
 use std::process::Command;
 
-use sipnpuff::alloc_counter::CountingAllocator;
 use sipnpuff::config::Config;
-use sipnpuff::pipeline::Core;
-use sipnpuff::rt::run::run_simulated;
-use sipnpuff::signal::every_path_session;
+use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::rt::alloc_counter::CountingAllocator;
+use sipnpuff::rt::control_loop::StopReason;
+use sipnpuff::rt::threads::run_simulated;
+use sipnpuff::sensor::Sensor;
+use sipnpuff::sensor::synthetic::SyntheticSensor;
+use sipnpuff::sim::script::every_path_session;
 
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
@@ -24,7 +27,7 @@ static ALLOCATOR: CountingAllocator = CountingAllocator;
 /// Built with the sanitizer's runtime linked in (`.ci/run`).
 const RTSAN_BUILD: bool = option_env!("RTSAN_ENABLE").is_some();
 
-/// The loop itself (the function `sipnpuff run` starts) on a simulated
+/// The loop itself (the functions `sipnpuff run` starts) on a simulated
 /// clock: more than 100 000 ticks of a noisy session with every mode,
 /// save and go to point, the finger end and reach limit, faults,
 /// recoveries and resets, then the safe stop.
@@ -32,10 +35,11 @@ const RTSAN_BUILD: bool = option_env!("RTSAN_ENABLE").is_some();
 fn control_loop_ticks_are_realtime_safe() {
     let config = Config::default();
     let (params, script) = every_path_session(&config);
-    let run = run_simulated(&config, params, &script);
+    let sensor = SyntheticSensor::new(params, script).start().unwrap();
+    let run = run_simulated(config.core(), sensor.samples);
     assert!(run.ticks >= 100_000, "{run:?}");
     assert_eq!(run.allocations, 0, "{run:?}");
-    assert_eq!(run.stop_reason, "sensor ended", "{run:?}");
+    assert_eq!(run.stop_reason, StopReason::SensorEnded, "{run:?}");
     assert!(run.last_arm_command.is_zero(), "{run:?}");
     // One command per 10 ticks run.
     assert_eq!(run.arm_commands, run.ticks / 10, "{run:?}");
@@ -49,9 +53,9 @@ fn control_loop_ticks_are_realtime_safe() {
 #[ignore = "run in a child process by rtsan_catches_an_allocating_tick"]
 fn allocating_tick() {
     let config = Config::default();
-    let mut core: Core = Core::new(&config);
+    let mut core: Pipeline = Pipeline::new(config.core());
     let _realtime = rtsan_standalone::ScopedSanitizeRealtime::default();
-    let out = core.step(0, config.detector().neutral_volts);
+    let out = core.step(0, config.core().detector().neutral_volts);
     let line = format!("tick {} state {:?}", out.tick, out.command.state);
     std::hint::black_box(line);
 }

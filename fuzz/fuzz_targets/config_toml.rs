@@ -9,7 +9,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use sipnpuff::config::Config;
-use sipnpuff::pipeline::Core;
+use sipnpuff::control::pipeline::Pipeline;
 
 /// Numeric keys, by section.
 const KEYS: [(&str, &str); 22] = [
@@ -78,11 +78,11 @@ fuzz_target!(|data: &[u8]| {
     };
     match Config::from_toml_str(&text) {
         Ok(config) => {
-            let d = config.detector();
+            let d = config.core().detector();
             assert!(d.min_burst_ms < d.long_burst_ms && d.glitch_ms < d.min_burst_ms);
             assert!(d.sip_threshold_volts < d.neutral_volts);
             assert!(d.neutral_volts < d.puff_threshold_volts);
-            let m = config.motion();
+            let m = config.core().motion();
             for limit in [
                 m.linear_speed_mps,
                 m.angular_speed_radps,
@@ -94,13 +94,13 @@ fuzz_target!(|data: &[u8]| {
                 assert!(limit.is_finite() && limit > 0.0, "limit {limit}");
             }
             // Every sequence distinct: a match must name one mode.
-            let entries = config.sequences();
+            let entries = config.core().sequences();
             for (i, a) in entries.iter().enumerate() {
                 for b in &entries[i + 1..] {
                     assert!(a.actions != b.actions, "duplicate sequence accepted");
                 }
             }
-            let mut core: Core = Core::new(&config);
+            let mut core: Pipeline = Pipeline::new(config.core());
             for tick in 0..200 {
                 let out = core.step(tick, d.neutral_volts);
                 assert!(out.motion.arm_command.is_none_or(|c| c.is_zero()));

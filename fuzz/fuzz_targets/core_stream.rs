@@ -9,9 +9,9 @@
 
 use libfuzzer_sys::fuzz_target;
 use sipnpuff::config::Config;
-use sipnpuff::event::Event;
-use sipnpuff::motion::workspace;
-use sipnpuff::pipeline::{Core, TickOutput};
+use sipnpuff::control::event::Event;
+use sipnpuff::control::motion::workspace;
+use sipnpuff::control::pipeline::{Pipeline, TickOutput};
 
 const PAPER_LIBRARY: &str = include_str!("../../fixtures/paper-example.toml");
 /// Bound on one input's length, so each run stays short.
@@ -44,7 +44,7 @@ fn decode(kind: u8, level: u8) -> Sample {
 }
 
 fn check(config: &Config, o: &TickOutput, prev: Option<&TickOutput>) {
-    let m = config.motion();
+    let m = config.core().motion();
     let tol = 1.0 + 1e-9;
     let motion = &o.motion;
     let p = motion.pose.translation.vector;
@@ -57,11 +57,11 @@ fn check(config: &Config, o: &TickOutput, prev: Option<&TickOutput>) {
         .all(|v| v.is_finite());
     assert!(finite, "not finite at tick {}: {motion:?}", o.tick);
     assert!(
-        workspace::contains(&p, config.workspace()),
+        workspace::contains(&p, config.core().workspace()),
         "pose outside at tick {}",
         o.tick
     );
-    assert!((0.0..=config.workspace().finger_closed).contains(&motion.fingers));
+    assert!((0.0..=config.core().workspace().finger_closed).contains(&motion.fingers));
     assert!(
         norm(&motion.linear) <= m.linear_speed_mps * tol,
         "linear speed at {}",
@@ -104,6 +104,7 @@ fn check(config: &Config, o: &TickOutput, prev: Option<&TickOutput>) {
         if let Event::Match { sequence, mode } = event {
             assert!(
                 config
+                    .core()
                     .sequences()
                     .iter()
                     .any(|e| e.actions == *sequence && e.mode == *mode),
@@ -122,7 +123,7 @@ fuzz_target!(|data: &[u8]| {
     } else {
         Config::from_toml_str(PAPER_LIBRARY).expect("the paper's example is valid")
     };
-    let mut core: Core = Core::new(&config);
+    let mut core: Pipeline = Pipeline::new(config.core());
     let mut prev: Option<TickOutput> = None;
     let mut tick = 0u64;
     for chunk in chunks.chunks_exact(3) {

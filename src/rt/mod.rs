@@ -1,9 +1,24 @@
 //! The real-time runtime: the thin shell around the core that runs it at
 //! 1 kHz on a Linux controller. Threads, clocks, priorities, affinity,
-//! files: everything the core must not do lives here.
+//! rings: everything the core must not do lives here. It knows the core
+//! (`control`) and the sensor and arm seams, never a concrete backend,
+//! the simulator, the tools or the command line.
+//!
+//! * [`clock`], [`scheduler`]: absolute deadlines, skip accounting;
+//! * [`setup`]: SCHED_FIFO, affinity, mlockall, each step reported;
+//! * [`control_loop`]: the 1 kHz loop and the production tick;
+//! * [`arm_thread`]: the 100 Hz arm stream;
+//! * [`threads`]: `run`, wiring the threads and rings;
+//! * [`telemetry`], [`report`]: histograms and the run report;
+//! * [`alloc_counter`]: the counting allocator that proves the control
+//!   thread allocates nothing.
 
+pub mod alloc_counter;
+pub mod arm_thread;
 pub mod clock;
-pub mod run;
+pub mod control_loop;
+pub mod report;
 pub mod scheduler;
 pub mod setup;
 pub mod telemetry;
+pub mod threads;

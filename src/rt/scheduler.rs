@@ -12,7 +12,7 @@
 //! spin on the clock (trades CPU for wake-up latency; never spins longer
 //! than the margin, since a SCHED_FIFO thread that spins is throttled).
 
-use crate::Tick;
+use crate::control::Tick;
 use crate::rt::clock::Clock;
 
 /// One wake-up of the loop.
@@ -29,7 +29,7 @@ pub struct Wake {
 }
 
 /// Counts kept by the scheduler.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct SchedulerStats {
     /// Ticks run.
     pub ticks_run: u64,

@@ -35,7 +35,7 @@ impl Default for RtOptions {
 }
 
 /// The outcome of one step.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct Setting {
     /// What was asked, e.g. `SCHED_FIFO priority 80`.
     pub name: String,

@@ -6,13 +6,13 @@
 use std::io::Write;
 
 use hdrhistogram::Histogram;
+use serde::{Serialize, Serializer};
 
-use crate::Tick;
-use crate::event::Event;
+use crate::control::Tick;
 
 /// Items dropped because a ring was full, cumulative. A full ring never
 /// blocks the control thread: the item is dropped and counted here.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub struct Drops {
     /// Sensor samples discarded (the sensor ran ahead of the loop).
     pub samples: u64,
@@ -45,19 +45,19 @@ pub struct TickRecord {
     pub drops: Drops,
 }
 
-/// An event with its tick, as it crosses the events ring.
-pub type TimedEvent = (Tick, Event);
-
 /// Upper bound of every histogram: 10 s in ns (`saturating_record` clamps
 /// anything longer rather than fail).
 const HISTOGRAM_MAX_NS: u64 = 10_000_000_000;
 
 /// An empty histogram, 1 ns to 10 s at 3 significant digits.
 pub fn histogram() -> Histogram<u64> {
+    // Constant bounds that hdrhistogram accepts (low ≥ 1, high ≥ 2 × low,
+    // 3 digits): it cannot fail (the unit tests build one).
     Histogram::new_with_bounds(1, HISTOGRAM_MAX_NS, 3).expect("constant bounds are valid")
 }
 
 /// Histograms of one arm of a run (ns). Not RT-safe: telemetry side.
+/// Serialized as their percentiles.
 #[derive(Debug, Clone)]
 pub struct Latencies {
     /// Wake-up latency.
@@ -110,22 +110,83 @@ pub fn at(h: &Histogram<u64>, quantile: f64) -> u64 {
     }
 }
 
-/// The percentiles as a JSON object: `count`, `p50`, `p90`, `p99`,
-/// `p999` (99.9 %), `p9999` (99.99 %), `max`, in the histogram's unit.
-pub fn percentiles_json(h: &Histogram<u64>) -> serde_json::Value {
-    let mut map = serde_json::Map::new();
-    map.insert("count".into(), h.len().into());
-    for (label, q) in PERCENTILES {
-        map.insert(label.replace('.', ""), at(h, q).into());
+/// A histogram's count and percentiles, in its unit: what the reports
+/// show (`p999` is 99.9 %, `p9999` 99.99 %).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct Percentiles {
+    /// Values recorded.
+    pub count: u64,
+    /// Median.
+    pub p50: u64,
+    /// 90th percentile.
+    pub p90: u64,
+    /// 99th percentile.
+    pub p99: u64,
+    /// 99.9th percentile.
+    pub p999: u64,
+    /// 99.99th percentile.
+    pub p9999: u64,
+    /// Largest.
+    pub max: u64,
+}
+
+impl Percentiles {
+    /// The percentiles of `h`.
+    pub fn of(h: &Histogram<u64>) -> Percentiles {
+        Percentiles {
+            count: h.len(),
+            p50: at(h, 0.5),
+            p90: at(h, 0.9),
+            p99: at(h, 0.99),
+            p999: at(h, 0.999),
+            p9999: at(h, 0.9999),
+            max: at(h, 1.0),
+        }
     }
-    serde_json::Value::Object(map)
+
+    /// In the order of [`PERCENTILES`].
+    pub fn values(&self) -> [u64; 6] {
+        [
+            self.p50, self.p90, self.p99, self.p999, self.p9999, self.max,
+        ]
+    }
+}
+
+/// A histogram serialized as its [`Percentiles`].
+pub fn serialize_percentiles<S: Serializer>(
+    h: &Histogram<u64>,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    Percentiles::of(h).serialize(serializer)
+}
+
+impl Serialize for Latencies {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        #[derive(Serialize)]
+        struct Fields {
+            wake_latency_ns: Percentiles,
+            compute_ns: Percentiles,
+            period_ns: Percentiles,
+        }
+        Fields {
+            wake_latency_ns: Percentiles::of(&self.wake),
+            compute_ns: Percentiles::of(&self.compute),
+            period_ns: Percentiles::of(&self.period),
+        }
+        .serialize(serializer)
+    }
 }
 
 /// One line of percentiles in µs.
 pub fn percentile_line(name: &str, h: &Histogram<u64>) -> String {
+    percentiles_line(name, &Percentiles::of(h))
+}
+
+/// One line of percentiles (ns) in µs.
+pub fn percentiles_line(name: &str, p: &Percentiles) -> String {
     let mut s = format!("  {name:<22}");
-    for (label, q) in PERCENTILES {
-        s += &format!(" {label} {:>9.1}", at(h, q) as f64 / 1000.0);
+    for ((label, _), value) in PERCENTILES.iter().zip(p.values()) {
+        s += &format!(" {label} {:>9.1}", value as f64 / 1000.0);
     }
     s
 }

@@ -1,0 +1,202 @@
+//! Options several commands share, parsed and checked before anything
+//! runs: a bad value is an error at start, naming the choices or the
+//! range, never a surprise after a 20 s run.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::ValueEnum;
+
+use crate::config::Config;
+use crate::control::selection::Interface;
+use crate::rt::setup::RtOptions;
+
+/// `--config FILE`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct ConfigArg {
+    /// TOML configuration (default: built-in; `sipnpuff config` prints it).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+}
+
+impl ConfigArg {
+    /// The file's configuration, or the built-in one.
+    pub fn load(&self) -> anyhow::Result<Config> {
+        match &self.config {
+            Some(path) => Ok(Config::from_file(path)?),
+            None => Ok(Config::default()),
+        }
+    }
+}
+
+/// `--interface asp|bsp`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InterfaceArg {
+    /// Sequences matched against the library (the paper's interface).
+    Asp,
+    /// The modes scroll; a puff enters the highlighted one (the baseline).
+    Bsp,
+}
+
+impl From<InterfaceArg> for Interface {
+    fn from(arg: InterfaceArg) -> Interface {
+        match arg {
+            InterfaceArg::Asp => Interface::Asp,
+            InterfaceArg::Bsp => Interface::Bsp,
+        }
+    }
+}
+
+/// The config with the `--interface` choice, if given.
+pub fn with_interface(config: Config, interface: Option<InterfaceArg>) -> anyhow::Result<Config> {
+    match interface {
+        None => Ok(config),
+        Some(arg) => Ok(config.with_interface(arg.into())?),
+    }
+}
+
+/// Where samples come from (`--sensor`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SensorSpec {
+    /// `synthetic`: the built-in scripted user on the seeded sensor model.
+    Synthetic,
+    /// `csv:PATH`: a recording played in real time.
+    Csv(PathBuf),
+}
+
+/// The forms `--sensor` takes, for messages.
+pub const SENSOR_FORMS: &str = "`synthetic` or `csv:PATH`";
+
+/// Parses `--sensor`.
+pub fn parse_sensor(text: &str) -> Result<SensorSpec, String> {
+    match text.split_once(':') {
+        None if text == "synthetic" => Ok(SensorSpec::Synthetic),
+        Some(("csv", path)) if !path.is_empty() => Ok(SensorSpec::Csv(PathBuf::from(path))),
+        Some(("csv", _)) => Err("`csv:` needs a path, e.g. `csv:fixtures/demo.csv`".into()),
+        _ => Err(format!("unknown sensor {text:?}: choose {SENSOR_FORMS}")),
+    }
+}
+
+/// Which arm (`--arm`).
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ArmSpec {
+    /// The simulated JACO2.
+    Sim,
+}
+
+/// A positive, finite number of seconds.
+pub fn parse_seconds(text: &str) -> Result<f64, String> {
+    let seconds: f64 = text
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number of seconds"))?;
+    if seconds.is_finite() && seconds > 0.0 {
+        Ok(seconds)
+    } else {
+        Err(format!("{text} s: must be a positive number of seconds"))
+    }
+}
+
+/// A finite level in volts, 0 or more.
+pub fn parse_volts(text: &str) -> Result<f64, String> {
+    let volts: f64 = text
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number of volts"))?;
+    if volts.is_finite() && volts >= 0.0 {
+        Ok(volts)
+    } else {
+        Err(format!("{text} V: must be finite and 0 or more"))
+    }
+}
+
+/// Real-time settings of the control thread.
+#[derive(clap::Args, Clone, Debug)]
+pub struct RtArgs {
+    /// SCHED_FIFO priority of the control thread (1–99; 0: don't ask).
+    #[arg(long, default_value_t = 80, value_parser = clap::value_parser!(i32).range(0..=99))]
+    pub priority: i32,
+    /// CPU to pin the control thread to (default: the last one).
+    #[arg(long)]
+    pub cpu: Option<usize>,
+    /// Don't lock memory (mlockall).
+    #[arg(long)]
+    pub no_mlock: bool,
+    /// Hybrid wait: sleep until this many µs before each deadline, then
+    /// spin (1–999: less than the 1 ms period).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..1000))]
+    pub spin_margin_us: Option<u64>,
+}
+
+impl RtArgs {
+    /// The settings to ask for; an error if the CPU does not exist.
+    pub fn options(&self) -> anyhow::Result<RtOptions> {
+        let defaults = RtOptions::default();
+        if let Some(cpu) = self.cpu {
+            let ids: Vec<usize> = core_affinity::get_core_ids()
+                .unwrap_or_default()
+                .into_iter()
+                .map(|c| c.id)
+                .collect();
+            anyhow::ensure!(
+                ids.contains(&cpu),
+                "--cpu {cpu}: no such CPU (this machine has CPUs {ids:?})"
+            );
+        }
+        Ok(RtOptions {
+            fifo_priority: (self.priority > 0).then_some(self.priority),
+            cpu: self.cpu.or(defaults.cpu),
+            lock_memory: !self.no_mlock,
+            ..defaults
+        })
+    }
+
+    /// The hybrid-wait margin, ns.
+    pub fn spin_margin_ns(&self) -> Option<u64> {
+        self.spin_margin_us.map(|us| us * 1000)
+    }
+}
+
+/// Checks, before a run, that histograms can be written into `dir`
+/// (created if missing).
+pub fn writable_dir(dir: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("--histogram-dir {}: cannot create it", dir.display()))?;
+    let probe = dir.join(format!(".sipnpuff-write-test-{}", std::process::id()));
+    std::fs::write(&probe, b"")
+        .with_context(|| format!("--histogram-dir {}: cannot write into it", dir.display()))?;
+    std::fs::remove_file(&probe).ok();
+    Ok(())
+}
+
+/// Creates `path` for writing, buffered.
+pub fn create(path: &Path) -> anyhow::Result<std::io::BufWriter<std::fs::File>> {
+    let file =
+        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
+    Ok(std::io::BufWriter::new(file))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sensor_forms_parse_and_errors_name_the_choices() {
+        assert_eq!(parse_sensor("synthetic"), Ok(SensorSpec::Synthetic));
+        assert_eq!(
+            parse_sensor("csv:a/b.csv"),
+            Ok(SensorSpec::Csv(PathBuf::from("a/b.csv")))
+        );
+        let e = parse_sensor("evdev").unwrap_err();
+        assert!(e.contains("`synthetic` or `csv:PATH`"), "{e}");
+        assert!(parse_sensor("csv:").unwrap_err().contains("needs a path"));
+    }
+
+    #[test]
+    fn numbers_are_checked() {
+        assert_eq!(parse_seconds("2.5"), Ok(2.5));
+        for bad in ["0", "-1", "inf", "NaN", "x"] {
+            assert!(parse_seconds(bad).is_err(), "{bad}");
+        }
+        assert_eq!(parse_volts("0"), Ok(0.0));
+        assert!(parse_volts("-0.1").is_err());
+    }
+}

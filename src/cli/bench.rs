@@ -1,0 +1,186 @@
+//! `sipnpuff bench latency | tick | accuracy`: the project's own
+//! measurements, each against a reference measured in the same run.
+
+use std::path::PathBuf;
+
+use crate::cli::args::{ConfigArg, RtArgs, parse_seconds, parse_volts, writable_dir};
+use crate::cli::run::stop_flag;
+use crate::rt::threads::RunOptions;
+use crate::tools::accuracy::{GridOptions, accuracy_grid, grid_table};
+use crate::tools::bench_tick::bench_tick;
+use crate::tools::latency::{LatencyReport, bench_latency};
+
+/// What to measure.
+#[derive(clap::Subcommand, Debug)]
+pub enum BenchCommand {
+    /// Wake-up latency of the loop: blocks of bare deadline waits (the
+    /// reference) interleaved with full ticks on the same thread.
+    Latency {
+        /// How long, s.
+        #[arg(long, default_value_t = 20.0, value_parser = parse_seconds)]
+        seconds: f64,
+        /// Ticks per block.
+        #[arg(long, default_value_t = 250, value_parser = clap::value_parser!(u64).range(1..))]
+        block: u64,
+        /// The configuration.
+        #[command(flatten)]
+        config: ConfigArg,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+        /// Write the histograms in `.hgrm` format here.
+        #[arg(long)]
+        histogram_dir: Option<PathBuf>,
+        /// Real-time settings.
+        #[command(flatten)]
+        rt: RtArgs,
+    },
+    /// Cost of each full tick (core + simulated arm), as percentiles, against
+    /// two clock reads measured in the same run.
+    Tick {
+        /// Seconds of signal to run (1000 ticks each).
+        #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u64).range(1..))]
+        seconds: u64,
+        /// The configuration.
+        #[command(flatten)]
+        config: ConfigArg,
+        /// Print one JSON object instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Detection accuracy of the whole core against a seeded random user,
+    /// at each level of noise and 50 Hz hum: breaths detected as the right
+    /// action, mode selections matched, largest timing error.
+    Accuracy {
+        /// Length of each session, s.
+        #[arg(long, default_value_t = 600, value_parser = clap::value_parser!(u64).range(1..))]
+        seconds: u64,
+        /// Seed of the user and the sensor.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Noise levels (σ, volts), comma-separated.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "0,0.02,0.05,0.1,0.15,0.2",
+            value_parser = parse_volts
+        )]
+        noise_volts: Vec<f64>,
+        /// Hum amplitudes (volts), comma-separated.
+        #[arg(long, value_delimiter = ',', default_value = "0,0.1,0.2,0.3", value_parser = parse_volts)]
+        hum_volts: Vec<f64>,
+        /// Neutral drift amplitude in volts.
+        #[arg(long, default_value_t = 0.0, value_parser = parse_volts)]
+        drift_volts: f64,
+        /// Period of the drift (a sine), ms; its steepest slope is
+        /// 2π·amplitude/period (0.5 V a minute: 0.5 V over 376991 ms).
+        #[arg(long, default_value_t = 60_000.0, value_parser = parse_period_ms)]
+        drift_period_ms: f64,
+        /// A one-sample spike to a rail every this many ms (0 = none).
+        #[arg(long, default_value_t = 0)]
+        spike_every_ms: u64,
+        /// A breath counts as correct within this many ms of its length.
+        #[arg(long, default_value_t = 5)]
+        tolerance_ms: u64,
+        /// The configuration.
+        #[command(flatten)]
+        config: ConfigArg,
+        /// Print one JSON object instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// A positive, finite period in ms.
+fn parse_period_ms(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(ms) if ms.is_finite() && ms > 0.0 => Ok(ms),
+        _ => Err(format!("{text:?}: must be a positive number of ms")),
+    }
+}
+
+/// Runs one bench and prints its figures.
+pub fn bench(what: BenchCommand) -> anyhow::Result<()> {
+    match what {
+        BenchCommand::Latency {
+            seconds,
+            block,
+            config,
+            json,
+            histogram_dir,
+            rt,
+        } => {
+            let config = config.load()?;
+            if let Some(dir) = &histogram_dir {
+                writable_dir(dir)?;
+            }
+            let options = RunOptions {
+                seconds: Some(seconds),
+                rt: rt.options()?,
+                spin_margin_ns: rt.spin_margin_ns(),
+                stop: stop_flag()?,
+            };
+            let run = bench_latency(&config, seconds, block, options)?;
+            let report = LatencyReport::of(&run, seconds);
+            if json {
+                println!("{}", serde_json::to_string(&report)?);
+            } else {
+                print!("{}", report.to_text());
+            }
+            if let Some(dir) = histogram_dir {
+                for path in run.write_histograms(&dir)? {
+                    eprintln!("wrote {}", path.display());
+                }
+            }
+            Ok(())
+        }
+        BenchCommand::Tick {
+            seconds,
+            config,
+            json,
+        } => {
+            let report = bench_tick(&config.load()?, seconds).report();
+            if json {
+                println!("{}", serde_json::to_string(&report)?);
+            } else {
+                print!("{}", report.to_text());
+            }
+            Ok(())
+        }
+        BenchCommand::Accuracy {
+            seconds,
+            seed,
+            noise_volts,
+            hum_volts,
+            drift_volts,
+            drift_period_ms,
+            spike_every_ms,
+            tolerance_ms,
+            config,
+            json,
+        } => {
+            let config = config.load()?;
+            let options = GridOptions {
+                seconds,
+                seed,
+                drift_volts,
+                drift_period_ms,
+                spike_every_ms,
+                tolerance_ms,
+            };
+            let cells = accuracy_grid(&config, &noise_volts, &hum_volts, options, |done, total| {
+                eprint!("\r{done}/{total} sessions")
+            });
+            eprintln!();
+            if json {
+                println!("{}", serde_json::to_string(&cells)?);
+            } else {
+                println!(
+                    "breaths detected as the right action (mode selections matched) ±largest timing error [+bursts invented]; {seconds} s per session, seed {seed}, drift {drift_volts} V over a {drift_period_ms} ms period, spikes every {spike_every_ms} ms, tolerance {tolerance_ms} ms"
+                );
+                print!("{}", grid_table(&cells));
+            }
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,65 @@
+//! `sipnpuff study`: the paper's experiment in simulation.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+use crate::cli::args::ConfigArg;
+use crate::sim::study::{
+    StudyOptions, StudyReport, SweepParam, plot, run_study, study_text, sweep, sweep_text,
+};
+
+/// `study`'s options.
+#[derive(clap::Args, Debug)]
+pub struct StudyArgs {
+    /// Simulated participants (at least 2: the test pairs them).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(2..))]
+    users: u64,
+    /// Seed: the same seed gives the same study.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    #[command(flatten)]
+    config: ConfigArg,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+    /// Draw the completion times per task and interface to this SVG.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Instead, how the gap moves with one parameter.
+    #[arg(long, value_enum)]
+    sweep: Option<SweepParam>,
+}
+
+/// Runs the study (or a sweep) and prints it.
+pub fn study(args: StudyArgs) -> anyhow::Result<()> {
+    let config = args.config.load()?;
+    let options = StudyOptions {
+        users: usize::try_from(args.users)?,
+        seed: args.seed,
+        ..StudyOptions::default()
+    };
+    if let Some(param) = args.sweep {
+        let rows = sweep(&config, &options, param, |label, done, total| {
+            eprint!("\r{label}: {done}/{total} runs   ");
+        })?;
+        eprintln!();
+        print!("{}", sweep_text(param, &rows));
+        return Ok(());
+    }
+    let results = run_study(&config, &options, |done, total| {
+        eprint!("\r{done}/{total} runs");
+    })?;
+    eprintln!();
+    if args.json {
+        println!("{}", serde_json::to_string(&StudyReport::of(&results))?);
+    } else {
+        print!("{}", study_text(&results, &options));
+    }
+    if let Some(path) = args.plot {
+        std::fs::write(&path, plot::completion_svg(&results))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,108 @@
+//! Where things are in the file: the line and column of each key (and of
+//! each `[[sequence]]`), and of a syntax error, so every message can point
+//! at the line to fix.
+
+use std::collections::HashMap;
+
+use toml::de::{DeTable, DeValue};
+
+use crate::config::error::ConfigError;
+
+/// 1-based line and column of each dotted key in a file, keyed as the
+/// errors name them (`detector.min_burst_ms`, `sequence #2`,
+/// `sequence #2.mode`).
+pub(super) struct KeyLines {
+    lines: HashMap<String, (usize, usize)>,
+}
+
+impl KeyLines {
+    /// Indexes a file that parsed (an unparsable one has no keys).
+    pub(super) fn of(text: &str) -> KeyLines {
+        let mut lines = HashMap::new();
+        if let Ok(root) = DeTable::parse(text) {
+            let at = |offset: usize| line_column(text, offset);
+            for (key, value) in root.get_ref() {
+                let name = key.get_ref().to_string();
+                lines.insert(name.clone(), at(key.span().start));
+                match value.get_ref() {
+                    DeValue::Table(table) => {
+                        for (sub, _) in table {
+                            lines.insert(format!("{name}.{}", sub.get_ref()), at(sub.span().start));
+                        }
+                    }
+                    DeValue::Array(items) => {
+                        for (i, item) in items.iter().enumerate() {
+                            let entry = format!("{name} #{}", i + 1);
+                            lines.insert(entry.clone(), at(item.span().start));
+                            if let DeValue::Table(table) = item.get_ref() {
+                                for (sub, _) in table {
+                                    lines.insert(
+                                        format!("{entry}.{}", sub.get_ref()),
+                                        at(sub.span().start),
+                                    );
+                                }
+                            }
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        KeyLines { lines }
+    }
+
+    /// Line and column of `key`, if it is in the file.
+    pub(super) fn find(&self, key: &str) -> Option<(usize, usize)> {
+        self.lines.get(key).copied()
+    }
+}
+
+/// A syntax error, with its line and column.
+pub(super) fn syntax_error(text: &str, error: &toml::de::Error) -> ConfigError {
+    let (line, column) = error
+        .span()
+        .map(|span| line_column(text, span.start))
+        .unzip();
+    ConfigError {
+        key: String::new(),
+        line,
+        column,
+        message: format!("not valid TOML: {}", error.message().trim()),
+    }
+}
+
+/// 1-based line and column (in characters) of a byte offset.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = text.get(..offset).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_and_sequences_have_their_lines() {
+        let text = "# a comment\n[detector]\nmin_burst_ms = 0\n\n[[sequence]]\nactions = [1]\n  mode = \"fingers\"\n";
+        let lines = KeyLines::of(text);
+        assert_eq!(lines.find("detector.min_burst_ms"), Some((3, 1)));
+        assert_eq!(lines.find("sequence #1.mode"), Some((7, 3)));
+        assert_eq!(lines.find("sequence #1.actions"), Some((6, 1)));
+        assert_eq!(lines.find("detector.glitch_ms"), None);
+    }
+
+    #[test]
+    fn a_syntax_error_has_its_line_and_column() {
+        let text = "[detector]\nmin_burst_ms = 40\nmin_burst_ms = 50\n";
+        let error = text.parse::<toml::Table>().unwrap_err();
+        let e = syntax_error(text, &error);
+        assert_eq!(e.line, Some(3));
+        assert_eq!(e.column, Some(1));
+        assert!(
+            e.message.starts_with("not valid TOML: duplicate key"),
+            "{e}"
+        );
+    }
+}

@@ -1,0 +1,442 @@
+//! Configuration: TOML read once, key by key, into validated types.
+//!
+//! Every problem is collected with its key (and its line in the file) and
+//! reported at once, so a clinician fitting the interface fixes a file in
+//! one pass. Unknown keys are errors (a misspelt key must never be silently
+//! ignored). The key names are a contract: keys are added, never renamed.
+//! Nothing here runs on the control thread: it may allocate.
+//!
+//! * [`read`]: TOML → typed sections, with defaults for missing keys;
+//! * [`validate`]: the checks, on typed values;
+//! * [`defaults`]: the built-in configuration;
+//! * [`print`]: the effective configuration back as TOML.
+
+pub mod defaults;
+pub mod error;
+mod lines;
+pub mod print;
+pub mod read;
+pub mod validate;
+
+use std::path::Path;
+
+use toml::Table;
+
+use crate::control::core_config::{CoreConfig, InterfaceSection};
+use crate::control::selection::scanning::ScanningConfig;
+use crate::control::selection::{Interface, SequenceEntry};
+pub use error::{ConfigError, ConfigErrors, ConfigFileError};
+use validate::Problems;
+
+/// The whole validated configuration. Only [`Config::default`],
+/// [`Config::from_toml_str`] (and [`Config::from_file`]) and the `with_*`
+/// methods make one, and each validates it, so every `Config` is valid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Config {
+    core: CoreConfig,
+}
+
+impl Config {
+    /// Reads and validates a configuration file.
+    pub fn from_file(path: &Path) -> Result<Config, ConfigFileError> {
+        let text = std::fs::read_to_string(path).map_err(|error| ConfigFileError::Read {
+            path: path.to_path_buf(),
+            error,
+        })?;
+        Config::from_toml_str(&text).map_err(|errors| ConfigFileError::Invalid {
+            path: path.to_path_buf(),
+            errors,
+        })
+    }
+
+    /// Parses and validates TOML text. Missing keys take the built-in
+    /// defaults; a `[[sequence]]` list, if present, replaces the built-in
+    /// library entirely.
+    pub fn from_toml_str(text: &str) -> Result<Config, ConfigErrors> {
+        let mut root: Table = text
+            .parse()
+            .map_err(|e: toml::de::Error| ConfigErrors(vec![lines::syntax_error(text, &e)]))?;
+        let mut problems = Problems::default();
+        let core = read::core(&mut root, Config::default().core(), &mut problems);
+        if problems.errors.is_empty() {
+            Ok(Config { core })
+        } else {
+            let lines = lines::KeyLines::of(text);
+            for error in &mut problems.errors {
+                (error.line, error.column) = lines.find(&error.key).unzip();
+            }
+            Err(ConfigErrors(problems.errors))
+        }
+    }
+
+    /// Validates settings built in code.
+    fn validated(core: CoreConfig) -> Result<Config, ConfigErrors> {
+        let mut problems = Problems::default();
+        validate::core(&mut problems, &core);
+        if problems.errors.is_empty() {
+            Ok(Config { core })
+        } else {
+            Err(ConfigErrors(problems.errors))
+        }
+    }
+
+    /// The core's settings: what the pipeline and the runtime are built
+    /// from.
+    pub fn core(&self) -> &CoreConfig {
+        &self.core
+    }
+
+    /// The same configuration with another selection interface (the
+    /// `--interface` option).
+    pub fn with_interface(mut self, interface: Interface) -> Result<Config, ConfigErrors> {
+        self.core.interface = InterfaceSection { kind: interface };
+        Config::validated(self.core)
+    }
+
+    /// The same configuration with other scanning settings (the study's
+    /// sweeps), checked as the file's would be.
+    pub fn with_scanning(mut self, scanning: ScanningConfig) -> Result<Config, ConfigErrors> {
+        self.core.scanning = scanning;
+        Config::validated(self.core)
+    }
+
+    /// The same configuration with another library, checked as the file's
+    /// would be.
+    pub fn with_sequences(mut self, sequences: Vec<SequenceEntry>) -> Result<Config, ConfigErrors> {
+        self.core.sequences = sequences;
+        Config::validated(self.core)
+    }
+
+    /// The same configuration with another sequence timeout, ms.
+    pub fn with_sequence_timeout_ms(mut self, ms: u32) -> Result<Config, ConfigErrors> {
+        self.core.matcher.sequence_timeout_ms = ms;
+        Config::validated(self.core)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::action::{Action, MAX_SEQUENCE_LEN};
+    use crate::control::mode::Mode;
+
+    fn errors(text: &str) -> Vec<ConfigError> {
+        Config::from_toml_str(text).unwrap_err().0
+    }
+
+    fn keys(text: &str) -> Vec<String> {
+        errors(text).into_iter().map(|e| e.key).collect()
+    }
+
+    #[test]
+    fn empty_file_is_the_default() {
+        assert_eq!(Config::from_toml_str("").unwrap(), Config::default());
+    }
+
+    #[test]
+    fn the_scanning_interface_and_its_errors() {
+        let c = Config::from_toml_str(
+            r#"
+            [interface]
+            kind = "bsp"
+            [scanning]
+            dwell_ms = 1000
+            first_dwell_ms = 2500
+            order = ["fingers", "translate_x"]
+            "#,
+        )
+        .unwrap();
+        assert_eq!(c.core().interface(), Interface::Bsp);
+        assert_eq!(c.core().scanning().dwell_ms, 1000);
+        assert_eq!(c.core().scanning().first_dwell_ms, 2500);
+        assert_eq!(
+            c.core().scanning().modes(),
+            [Mode::Fingers, Mode::TranslateX]
+        );
+        let e = errors(
+            r#"
+            [interface]
+            kind = "scan"
+            [scanning]
+            dwell_ms = 0
+            order = ["fingers", "fly", "fingers"]
+            speed = 1
+            "#,
+        );
+        let found: Vec<(&str, &str)> = e
+            .iter()
+            .map(|e| (e.key.as_str(), e.message.as_str()))
+            .collect();
+        assert_eq!(
+            found,
+            [
+                ("interface.kind", "\"scan\" is not `asp` or `bsp`"),
+                (
+                    "scanning.speed",
+                    "unknown key (known: dwell_ms, first_dwell_ms, order)"
+                ),
+                ("scanning.dwell_ms", "must be greater than 0 ms"),
+                (
+                    "scanning.order",
+                    "\"fly\" is not a mode (known: translate_x, translate_y, translate_z, rotate_x, rotate_y, rotate_z, fingers, save_point, goto_point)"
+                ),
+                ("scanning.order", "\"fingers\" appears twice"),
+            ]
+        );
+    }
+
+    #[test]
+    fn issue_example_parses() {
+        let c = Config::from_toml_str(
+            r#"
+            [detector]
+            neutral_volts = 2.5
+            puff_threshold_volts = 3.0
+            sip_threshold_volts = 2.0
+            hysteresis_volts = 0.1
+            min_burst_ms = 40
+            long_burst_ms = 500
+
+            [matcher]
+            sequence_timeout_ms = 1000
+
+            [command]
+            inactivity_timeout_ms = 2000
+
+            [[sequence]]
+            actions = [1, 1]
+            mode = "translate_x"
+            "#,
+        )
+        .unwrap();
+        assert_eq!(c.core().sequences().len(), 1);
+        assert_eq!(c.core().sequences()[0].mode, Mode::TranslateX);
+        assert_eq!(
+            c.core().sequences()[0].actions.as_slice(),
+            &[Action::ShortSip, Action::ShortSip]
+        );
+        assert_eq!(c.core().matcher().sequence_timeout_ms, 1000);
+    }
+
+    #[test]
+    fn integer_volts_are_accepted() {
+        let c = Config::from_toml_str("[detector]\npuff_threshold_volts = 4\n").unwrap();
+        assert_eq!(c.core().detector().puff_threshold_volts, 4.0);
+    }
+
+    #[test]
+    fn every_error_is_reported_at_once_with_its_key() {
+        let e = keys(
+            r#"
+            colour = "red"
+            [detector]
+            puff_threshold_volts = 2.0
+            sip_threshold_volts = 2.6
+            min_burst_ms = 0
+            long_burst_ms = "long"
+            typo_ms = 3
+            [matcher]
+            sequence_timeout_ms = -5
+            [command]
+            inactivity_timeout_ms = 0
+            [[sequence]]
+            actions = [1, 3]
+            mode = "translate_x"
+            [[sequence]]
+            actions = []
+            mode = "dance"
+            [[sequence]]
+            actions = [1, 1]
+            mode = "fingers"
+            [[sequence]]
+            actions = [1, 1]
+            mode = "rotate_z"
+            speed = 2
+            [[sequence]]
+            mode = "rotate_y"
+            "#,
+        );
+        let expected = [
+            "detector.long_burst_ms",
+            "detector.typo_ms",
+            "detector.puff_threshold_volts",
+            "detector.sip_threshold_volts",
+            "detector.min_burst_ms",
+            "detector.glitch_ms",
+            "matcher.sequence_timeout_ms",
+            "command.inactivity_timeout_ms",
+            "sequence #1.actions",
+            "sequence #2.actions",
+            "sequence #2.mode",
+            "sequence #4.speed",
+            "sequence #4.actions",
+            "sequence #5.actions",
+            "colour",
+        ];
+        for key in expected {
+            assert!(e.iter().any(|k| k == key), "no error for {key}: {e:?}");
+        }
+        assert_eq!(e.len(), expected.len(), "{e:?}");
+    }
+
+    #[test]
+    fn messages_say_what_is_wrong() {
+        let e = errors(
+            "[detector]\nhysteresis_volts = 0.6\n[[sequence]]\nactions = [1, 7]\nmode = \"fingers\"\n",
+        );
+        assert_eq!(e.len(), 2, "{e:?}");
+        assert_eq!(e[0].key, "detector.hysteresis_volts");
+        assert!(e[0].message.contains("0.500"), "{}", e[0].message);
+        assert_eq!(e[1].key, "sequence #1.actions");
+        assert!(
+            e[1].message.starts_with("7 not an action"),
+            "{}",
+            e[1].message
+        );
+        let text = ConfigErrors(e).to_string();
+        assert!(
+            text.starts_with("2 problems in the configuration:"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn long_must_exceed_min_and_glitch_must_be_shorter() {
+        let e = errors("[detector]\nmin_burst_ms = 40\nlong_burst_ms = 40\nglitch_ms = 40\n");
+        let keys: Vec<_> = e.iter().map(|e| e.key.as_str()).collect();
+        assert_eq!(keys, ["detector.long_burst_ms", "detector.glitch_ms"]);
+    }
+
+    #[test]
+    fn too_long_sequence_is_rejected() {
+        let codes = vec!["1"; MAX_SEQUENCE_LEN + 1].join(", ");
+        let e = errors(&format!(
+            "[[sequence]]\nactions = [{codes}]\nmode = \"fingers\"\n"
+        ));
+        assert_eq!(e.len(), 1);
+        assert!(e[0].message.contains("at most 16"), "{}", e[0].message);
+    }
+
+    #[test]
+    fn nan_and_infinite_settings_are_rejected() {
+        let e = keys(
+            "[detector]\nneutral_volts = nan\nhysteresis_volts = nan\nfault_margin_volts = inf\n",
+        );
+        assert_eq!(
+            e,
+            [
+                "detector.neutral_volts",
+                "detector.hysteresis_volts",
+                "detector.fault_margin_volts"
+            ]
+        );
+    }
+
+    #[test]
+    fn a_syntax_error_names_its_line_and_column() {
+        let e = errors("[detector]\nmin_burst_ms = 40\n[detector\n");
+        assert_eq!(e.len(), 1);
+        assert_eq!((e[0].line, e[0].column), (Some(3), Some(10)), "{}", e[0]);
+        assert!(e[0].message.starts_with("not valid TOML"), "{}", e[0]);
+        assert!(
+            e[0].to_string()
+                .starts_with("line 3, column 10: not valid TOML")
+        );
+    }
+
+    #[test]
+    fn errors_name_the_line_of_their_key() {
+        let e =
+            errors("[detector]\n\nmin_burst_ms = 0\n[[sequence]]\nactions = [1]\nmode = \"fly\"\n");
+        let found: Vec<(&str, Option<usize>)> =
+            e.iter().map(|e| (e.key.as_str(), e.line)).collect();
+        assert_eq!(
+            found,
+            [
+                ("detector.min_burst_ms", Some(3)),
+                // Left at its default (5 ms), not in the file.
+                ("detector.glitch_ms", None),
+                ("sequence #1.mode", Some(6)),
+            ]
+        );
+        assert!(
+            e[0].to_string()
+                .starts_with("line 3, column 1: detector.min_burst_ms: ")
+        );
+    }
+
+    #[test]
+    fn a_file_error_names_the_file() {
+        let dir = std::env::temp_dir().join(format!("sipnpuff-config-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("bad.toml");
+        std::fs::write(&path, "[matcher]\nsequence_timeout_ms = 0\n").unwrap();
+        let text = Config::from_file(&path).unwrap_err().to_string();
+        assert!(
+            text.starts_with(&format!("{}: 1 problem", path.display())),
+            "{text}"
+        );
+        assert!(
+            text.contains("line 2, column 1: matcher.sequence_timeout_ms"),
+            "{text}"
+        );
+        let missing = Config::from_file(&dir.join("missing.toml")).unwrap_err();
+        assert!(
+            missing.to_string().starts_with("cannot read config"),
+            "{missing}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn every_with_setter_validates() {
+        let c = Config::default();
+        let empty = ScanningConfig {
+            order_len: 0,
+            ..ScanningConfig::default()
+        };
+        let e = c.clone().with_scanning(empty).unwrap_err().0;
+        assert_eq!(e[0].key, "scanning.order");
+        assert_eq!(e[0].message, "must list at least one mode");
+        let twice = ScanningConfig {
+            order: [Mode::Fingers; 9],
+            order_len: 2,
+            dwell_ms: 0,
+            ..ScanningConfig::default()
+        };
+        let keys: Vec<String> = c
+            .clone()
+            .with_scanning(twice)
+            .unwrap_err()
+            .0
+            .into_iter()
+            .map(|e| format!("{}: {}", e.key, e.message))
+            .collect();
+        assert_eq!(
+            keys,
+            [
+                "scanning.dwell_ms: must be greater than 0 ms",
+                "scanning.order: \"fingers\" appears twice"
+            ]
+        );
+        assert_eq!(
+            c.clone().with_sequences(Vec::new()).unwrap_err().0[0].key,
+            "sequence"
+        );
+        let entry = c.core().sequences()[0];
+        let e = c.clone().with_sequences(vec![entry, entry]).unwrap_err().0;
+        assert_eq!(e[0].key, "sequence #2.actions");
+        assert!(c.clone().with_sequence_timeout_ms(0).is_err());
+        let bsp = c.clone().with_interface(Interface::Bsp).unwrap();
+        assert_eq!(bsp.core().interface(), Interface::Bsp);
+    }
+
+    #[test]
+    fn a_mode_may_have_several_sequences() {
+        let c = Config::from_toml_str(
+            "[[sequence]]\nactions = [1]\nmode = \"fingers\"\n[[sequence]]\nactions = [2]\nmode = \"fingers\"\n",
+        )
+        .unwrap();
+        assert_eq!(c.core().sequences().len(), 2);
+    }
+}

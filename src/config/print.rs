@@ -1,0 +1,41 @@
+//! The effective configuration as TOML: every section and key, derived from
+//! the typed settings through serde (so nothing can be left out), with the
+//! sequence table as comments. `--config` reads it back to the same
+//! configuration.
+
+use crate::config::Config;
+use crate::control::selection::SequenceEntry;
+
+impl Config {
+    /// The complete configuration as TOML that [`Config::from_toml_str`]
+    /// reads back to an equal `Config`.
+    pub fn to_toml(&self) -> Result<String, toml::ser::Error> {
+        let text = toml::to_string(self.core())?;
+        let mut entries = self.core().sequences().iter();
+        let mut out = String::from(
+            "# sipnpuff configuration: every setting in effect (defaults filled in).\n\n",
+        );
+        for line in text.lines() {
+            out += line;
+            if line == "[[sequence]]"
+                && let Some(entry) = entries.next()
+            {
+                out += "  # ";
+                out += &describe(entry);
+            }
+            out.push('\n');
+        }
+        Ok(out)
+    }
+}
+
+/// A sequence for people: its bursts and what its mode does.
+fn describe(entry: &SequenceEntry) -> String {
+    let bursts: Vec<String> = entry
+        .actions
+        .as_slice()
+        .iter()
+        .map(|a| a.to_string())
+        .collect();
+    format!("{}: {}", bursts.join(", "), entry.mode.description())
+}

@@ -1,0 +1,405 @@
+//! Reading: TOML text into typed sections, key by key. A missing key takes
+//! its default; a value of the wrong type, an unknown key or section is an
+//! error naming its key; each section is checked (`super::validate`) as
+//! soon as it is read, so every problem is found in one pass, in file
+//! order.
+
+use std::collections::HashSet;
+
+use serde::de::DeserializeOwned;
+use toml::{Table, Value};
+
+use crate::config::validate::{self, Problems};
+use crate::control::action::{Action, ActionSeq, MAX_SEQUENCE_LEN};
+use crate::control::core_config::{CoreConfig, InterfaceSection};
+use crate::control::detector::DetectorConfig;
+use crate::control::mode::Mode;
+use crate::control::modes::CommandConfig;
+use crate::control::motion::home::HomeConfig;
+use crate::control::motion::limits::MotionConfig;
+use crate::control::motion::workspace::WorkspaceConfig;
+use crate::control::selection::matcher::MatcherConfig;
+use crate::control::selection::scanning::ScanningConfig;
+use crate::control::selection::{Interface, SequenceEntry};
+
+/// The sections a file may have, in the order they are read.
+pub const SECTIONS: [&str; 9] = [
+    "detector",
+    "matcher",
+    "command",
+    "motion",
+    "workspace",
+    "arm",
+    "sequence",
+    "interface",
+    "scanning",
+];
+
+/// Reads a parsed file over `defaults`. Every problem is in `problems`;
+/// the result is only meaningful when there are none.
+pub(super) fn core(root: &mut Table, defaults: &CoreConfig, problems: &mut Problems) -> CoreConfig {
+    let mut reader = Reader { problems };
+    let detector = reader.detector(root, defaults.detector);
+    let matcher = reader.matcher(root, defaults.matcher);
+    let command = reader.command(root, defaults.command);
+    let motion = reader.motion(root, defaults.motion);
+    let workspace = reader.workspace(root, defaults.workspace);
+    let home = reader.home(root, defaults.home, &workspace);
+    let sequences = reader
+        .sequences(root)
+        .unwrap_or_else(|| defaults.sequences.clone());
+    let interface = reader.interface(root);
+    let scanning = reader.scanning(root, defaults.scanning);
+    for key in root.keys() {
+        reader.problems.add(
+            key.clone(),
+            format!("unknown section or key (known: {})", SECTIONS.join(", ")),
+        );
+    }
+    CoreConfig {
+        detector,
+        matcher,
+        command,
+        motion,
+        workspace,
+        home,
+        interface: InterfaceSection { kind: interface },
+        scanning,
+        sequences,
+    }
+}
+
+/// Walks the TOML table, taking known keys out.
+struct Reader<'p> {
+    problems: &'p mut Problems,
+}
+
+impl Reader<'_> {
+    /// Opens a section of `root`; an absent section is empty.
+    fn section<'r>(&'r mut self, root: &mut Table, name: &'static str) -> Section<'r> {
+        let table = match root.remove(name) {
+            None => Table::new(),
+            Some(Value::Table(table)) => table,
+            Some(other) => {
+                self.problems
+                    .add(name, format!("must be a table, found {}", other.type_str()));
+                Table::new()
+            }
+        };
+        Section {
+            problems: &mut *self.problems,
+            table,
+            path: name.to_string(),
+            known: Vec::new(),
+        }
+    }
+
+    fn detector(&mut self, root: &mut Table, d: DetectorConfig) -> DetectorConfig {
+        let mut t = self.section(root, "detector");
+        let c = DetectorConfig {
+            neutral_volts: t.get("neutral_volts", d.neutral_volts),
+            puff_threshold_volts: t.get("puff_threshold_volts", d.puff_threshold_volts),
+            sip_threshold_volts: t.get("sip_threshold_volts", d.sip_threshold_volts),
+            hysteresis_volts: t.get("hysteresis_volts", d.hysteresis_volts),
+            min_burst_ms: t.get("min_burst_ms", d.min_burst_ms),
+            long_burst_ms: t.get("long_burst_ms", d.long_burst_ms),
+            glitch_ms: t.get("glitch_ms", d.glitch_ms),
+            neutral_tracking_ms: t.get("neutral_tracking_ms", d.neutral_tracking_ms),
+            fault_margin_volts: t.get("fault_margin_volts", d.fault_margin_volts),
+            fault_recovery_ms: t.get("fault_recovery_ms", d.fault_recovery_ms),
+            stale_ms: t.get("stale_ms", d.stale_ms),
+        };
+        t.finish();
+        validate::detector(self.problems, &c);
+        c
+    }
+
+    fn matcher(&mut self, root: &mut Table, d: MatcherConfig) -> MatcherConfig {
+        let mut t = self.section(root, "matcher");
+        let c = MatcherConfig {
+            sequence_timeout_ms: t.get("sequence_timeout_ms", d.sequence_timeout_ms),
+        };
+        t.finish();
+        validate::matcher(self.problems, &c);
+        c
+    }
+
+    fn command(&mut self, root: &mut Table, d: CommandConfig) -> CommandConfig {
+        let mut t = self.section(root, "command");
+        let c = CommandConfig {
+            inactivity_timeout_ms: t.get("inactivity_timeout_ms", d.inactivity_timeout_ms),
+        };
+        t.finish();
+        validate::command(self.problems, &c);
+        c
+    }
+
+    fn interface(&mut self, root: &mut Table) -> Interface {
+        let mut t = self.section(root, "interface");
+        let kind: String = t.get("kind", Interface::default().name().to_string());
+        t.finish();
+        Interface::from_name(&kind).unwrap_or_else(|| {
+            self.problems
+                .add("interface.kind", format!("{kind:?} is not `asp` or `bsp`"));
+            Interface::default()
+        })
+    }
+
+    fn scanning(&mut self, root: &mut Table, d: ScanningConfig) -> ScanningConfig {
+        let mut t = self.section(root, "scanning");
+        let dwell_ms = t.get("dwell_ms", d.dwell_ms);
+        let first_dwell_ms = t.get("first_dwell_ms", d.first_dwell_ms);
+        let names: Vec<String> = t.get(
+            "order",
+            d.modes().iter().map(|m| m.name().to_string()).collect(),
+        );
+        t.finish();
+        validate::scanning_dwell(self.problems, dwell_ms, first_dwell_ms);
+        let mut modes = Vec::new();
+        for name in &names {
+            match Mode::from_name(name) {
+                Some(mode) => modes.push(mode),
+                None => self.problems.add(
+                    "scanning.order",
+                    format!(
+                        "{name:?} is not a mode (known: {})",
+                        Mode::ALL.map(Mode::name).join(", ")
+                    ),
+                ),
+            }
+        }
+        validate::scan_order(self.problems, &modes);
+        let mut c = ScanningConfig {
+            dwell_ms,
+            first_dwell_ms,
+            order: d.order,
+            order_len: 0,
+        };
+        // Each mode once (duplicates were reported): at most nine.
+        for mode in modes {
+            if !c.modes().contains(&mode)
+                && let Some(slot) = c.order.get_mut(c.order_len)
+            {
+                *slot = mode;
+                c.order_len += 1;
+            }
+        }
+        c
+    }
+
+    fn motion(&mut self, root: &mut Table, d: MotionConfig) -> MotionConfig {
+        let mut t = self.section(root, "motion");
+        let c = MotionConfig {
+            linear_speed_mps: t.get("linear_speed_mps", d.linear_speed_mps),
+            angular_speed_radps: t.get("angular_speed_radps", d.angular_speed_radps),
+            linear_acceleration_mps2: t.get("linear_acceleration_mps2", d.linear_acceleration_mps2),
+            angular_acceleration_radps2: t
+                .get("angular_acceleration_radps2", d.angular_acceleration_radps2),
+            linear_jerk_mps3: t.get("linear_jerk_mps3", d.linear_jerk_mps3),
+            angular_jerk_radps3: t.get("angular_jerk_radps3", d.angular_jerk_radps3),
+            finger_speed: t.get("finger_speed", d.finger_speed),
+            finger_acceleration: t.get("finger_acceleration", d.finger_acceleration),
+            finger_jerk: t.get("finger_jerk", d.finger_jerk),
+            proportional_speed: t.get("proportional_speed", d.proportional_speed),
+            proportional_full_scale_volts: t.get(
+                "proportional_full_scale_volts",
+                d.proportional_full_scale_volts,
+            ),
+            proportional_min_fraction: t
+                .get("proportional_min_fraction", d.proportional_min_fraction),
+        };
+        t.finish();
+        validate::motion(self.problems, &c);
+        c
+    }
+
+    fn workspace(&mut self, root: &mut Table, d: WorkspaceConfig) -> WorkspaceConfig {
+        let mut t = self.section(root, "workspace");
+        let c = WorkspaceConfig {
+            reach_m: t.get("reach_m", d.reach_m),
+            min_radius_m: t.get("min_radius_m", d.min_radius_m),
+            table_z_m: t.get("table_z_m", d.table_z_m),
+            stop_margin_m: t.get("stop_margin_m", d.stop_margin_m),
+            finger_closed: t.get("finger_closed", d.finger_closed),
+        };
+        t.finish();
+        validate::workspace(self.problems, &c);
+        c
+    }
+
+    fn home(&mut self, root: &mut Table, d: HomeConfig, workspace: &WorkspaceConfig) -> HomeConfig {
+        let mut t = self.section(root, "arm");
+        let c = HomeConfig {
+            home_position_m: t.get("home_position_m", d.home_position_m),
+            home_rotation_vector_rad: t.get("home_rotation_vector_rad", d.home_rotation_vector_rad),
+            home_fingers: t.get("home_fingers", d.home_fingers),
+        };
+        t.finish();
+        validate::home(self.problems, &c, workspace);
+        c
+    }
+
+    /// `[[sequence]]` entries; `None` when the file has none (use defaults).
+    fn sequences(&mut self, root: &mut Table) -> Option<Vec<SequenceEntry>> {
+        let list = match root.remove("sequence")? {
+            Value::Array(list) => list,
+            other => {
+                self.problems.add(
+                    "sequence",
+                    format!(
+                        "must be an array of tables ([[sequence]]), found {}",
+                        other.type_str()
+                    ),
+                );
+                return None;
+            }
+        };
+        validate::library_size(self.problems, list.len());
+        let mut entries = Vec::with_capacity(list.len());
+        let mut seen: HashSet<ActionSeq> = HashSet::new();
+        for (i, item) in list.into_iter().enumerate() {
+            let path = format!("sequence #{}", i + 1);
+            let table = match item {
+                Value::Table(t) => t,
+                other => {
+                    self.problems
+                        .add(path, format!("must be a table, found {}", other.type_str()));
+                    continue;
+                }
+            };
+            let mut t = Section {
+                problems: &mut *self.problems,
+                table,
+                path: path.clone(),
+                known: Vec::new(),
+            };
+            let codes = t.require::<Vec<i64>>("actions");
+            let mode_name = t.require::<String>("mode");
+            t.finish();
+
+            let actions = codes.and_then(|codes| self.actions(&path, &codes));
+            let mode = mode_name.and_then(|name| {
+                let mode = Mode::from_name(&name);
+                if mode.is_none() {
+                    self.problems.add(
+                        format!("{path}.mode"),
+                        format!(
+                            "unknown mode {name:?} (known: {})",
+                            Mode::ALL.map(Mode::name).join(", ")
+                        ),
+                    );
+                }
+                mode
+            });
+            if let Some(seq) = actions {
+                if !seen.insert(seq) {
+                    self.problems
+                        .add(format!("{path}.actions"), validate::listed_twice(&seq));
+                }
+                if let Some(mode) = mode {
+                    entries.push(SequenceEntry { actions: seq, mode });
+                }
+            }
+        }
+        Some(entries)
+    }
+
+    fn actions(&mut self, path: &str, codes: &[i64]) -> Option<ActionSeq> {
+        let key = format!("{path}.actions");
+        if codes.is_empty() {
+            self.problems.add(key, "must hold at least one action");
+            return None;
+        }
+        if codes.len() > MAX_SEQUENCE_LEN {
+            self.problems.add(
+                key,
+                format!(
+                    "{} actions, at most {MAX_SEQUENCE_LEN} allowed",
+                    codes.len()
+                ),
+            );
+            return None;
+        }
+        let bad: Vec<String> = codes
+            .iter()
+            .filter(|&&c| Action::from_code(c).is_none())
+            .map(|c| c.to_string())
+            .collect();
+        if !bad.is_empty() {
+            self.problems.add(
+                key,
+                format!(
+                    "{} not an action (1 = short sip, 2 = long sip, -1 = short puff, -2 = long puff)",
+                    bad.join(", ")
+                ),
+            );
+            return None;
+        }
+        let actions: Vec<Action> = codes.iter().filter_map(|&c| Action::from_code(c)).collect();
+        ActionSeq::from_slice(&actions)
+    }
+}
+
+/// One TOML table being read: takes known keys out, typed, with defaults,
+/// and reports whatever is left as unknown.
+struct Section<'r> {
+    problems: &'r mut Problems,
+    table: Table,
+    path: String,
+    known: Vec<&'static str>,
+}
+
+impl Section<'_> {
+    /// The value of `key`, or `default` if absent; a value of the wrong type
+    /// is reported and replaced by the default so that the remaining checks
+    /// still run.
+    fn get<T: DeserializeOwned>(&mut self, key: &'static str, default: T) -> T {
+        self.known.push(key);
+        let Some(value) = self.table.remove(key) else {
+            return default;
+        };
+        let found = value.type_str();
+        match value.try_into::<T>() {
+            Ok(v) => v,
+            Err(e) => {
+                self.problems.add(
+                    format!("{}.{key}", self.path),
+                    format!("wrong type ({found}): {}", e.message().trim()),
+                );
+                default
+            }
+        }
+    }
+
+    /// Like [`Section::get`] for a required key: `None` (and an error) if absent.
+    fn require<T: DeserializeOwned>(&mut self, key: &'static str) -> Option<T> {
+        if !self.table.contains_key(key) {
+            self.known.push(key);
+            self.problems.add(format!("{}.{key}", self.path), "missing");
+            return None;
+        }
+        let found = self.table.get(key).map(Value::type_str).unwrap_or("?");
+        let value = self.table.remove(key)?;
+        self.known.push(key);
+        match value.try_into::<T>() {
+            Ok(v) => Some(v),
+            Err(e) => {
+                self.problems.add(
+                    format!("{}.{key}", self.path),
+                    format!("wrong type ({found}): {}", e.message().trim()),
+                );
+                None
+            }
+        }
+    }
+
+    /// Reports every key that was not read.
+    fn finish(self) {
+        for key in self.table.keys() {
+            self.problems.add(
+                format!("{}.{key}", self.path),
+                format!("unknown key (known: {})", self.known.join(", ")),
+            );
+        }
+    }
+}

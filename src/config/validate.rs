@@ -1,0 +1,396 @@
+//! The checks a configuration must pass, on typed values, each error with
+//! its key. The reader runs them section by section as it reads the file
+//! (so errors come in file order); [`core`] runs them all again on a
+//! changed configuration (`Config::with_*`), so no way of building a
+//! `Config` skips them.
+
+use std::collections::HashSet;
+
+use crate::config::error::ConfigError;
+use crate::control::action::ActionSeq;
+use crate::control::core_config::CoreConfig;
+use crate::control::detector::DetectorConfig;
+use crate::control::mode::Mode;
+use crate::control::modes::CommandConfig;
+use crate::control::motion::home::HomeConfig;
+use crate::control::motion::limits::{MotionConfig, caps};
+use crate::control::motion::workspace::WorkspaceConfig;
+use crate::control::selection::SequenceEntry;
+use crate::control::selection::matcher::MatcherConfig;
+use crate::control::selection::scanning::ScanningConfig;
+
+/// Largest library the matcher accepts.
+pub const MAX_SEQUENCES: usize = 256;
+
+/// Upper bound for every timer, to catch unit mistakes (seconds typed as
+/// milliseconds ×1000) and keep tick arithmetic far from overflow.
+pub const MAX_TIMER_MS: u32 = 600_000;
+
+/// The problems found so far, in the order found.
+#[derive(Debug, Default)]
+pub(super) struct Problems {
+    pub(super) errors: Vec<ConfigError>,
+}
+
+impl Problems {
+    /// Records a problem with `key`.
+    pub(super) fn add(&mut self, key: impl Into<String>, message: impl Into<String>) {
+        self.errors.push(ConfigError {
+            key: key.into(),
+            line: None,
+            column: None,
+            message: message.into(),
+        });
+    }
+
+    /// Checks `low < value ≤ high` (or `low ≤ value` when `low_inclusive`).
+    pub(super) fn range(
+        &mut self,
+        key: &str,
+        value: f64,
+        low: f64,
+        low_inclusive: bool,
+        high: f64,
+        unit: &str,
+    ) {
+        let above_low = if low_inclusive {
+            value >= low
+        } else {
+            value > low
+        };
+        if !(above_low && value <= high) {
+            let bound = if low_inclusive { "at least" } else { "above" };
+            self.add(
+                key,
+                format!("{value} {unit} must be {bound} {low} {unit} and at most {high} {unit}"),
+            );
+        }
+    }
+
+    pub(super) fn positive_ms(&mut self, key: &str, value: u32) {
+        if value == 0 {
+            self.add(key, "must be greater than 0 ms");
+        } else if value > MAX_TIMER_MS {
+            self.add(
+                key,
+                format!("{value} ms is more than the {MAX_TIMER_MS} ms allowed"),
+            );
+        }
+    }
+}
+
+/// Every check, in the order the reader runs them.
+pub(super) fn core(p: &mut Problems, c: &CoreConfig) {
+    detector(p, &c.detector);
+    matcher(p, &c.matcher);
+    command(p, &c.command);
+    motion(p, &c.motion);
+    workspace(p, &c.workspace);
+    home(p, &c.home, &c.workspace);
+    library(p, &c.sequences);
+    scanning(p, &c.scanning);
+}
+
+/// `[detector]`: every level inside 0–5 V and on the right side of the
+/// neutral, the hysteresis inside the band, timers positive and ordered.
+pub(super) fn detector(p: &mut Problems, c: &DetectorConfig) {
+    for (key, v) in [
+        ("detector.neutral_volts", c.neutral_volts),
+        ("detector.puff_threshold_volts", c.puff_threshold_volts),
+        ("detector.sip_threshold_volts", c.sip_threshold_volts),
+    ] {
+        if !(0.0..=5.0).contains(&v) {
+            p.add(key, format!("{v} V is outside the sensor's 0–5 V range"));
+        }
+    }
+    if c.puff_threshold_volts <= c.neutral_volts {
+        p.add(
+            "detector.puff_threshold_volts",
+            format!(
+                "{} V must be above detector.neutral_volts ({} V): a puff raises the voltage",
+                c.puff_threshold_volts, c.neutral_volts
+            ),
+        );
+    }
+    if c.sip_threshold_volts >= c.neutral_volts {
+        p.add(
+            "detector.sip_threshold_volts",
+            format!(
+                "{} V must be below detector.neutral_volts ({} V): a sip lowers the voltage",
+                c.sip_threshold_volts, c.neutral_volts
+            ),
+        );
+    }
+    let nearest =
+        (c.puff_threshold_volts - c.neutral_volts).min(c.neutral_volts - c.sip_threshold_volts);
+    if c.hysteresis_volts.is_nan() || c.hysteresis_volts < 0.0 {
+        p.add("detector.hysteresis_volts", "must be 0 V or more");
+    } else if nearest > 0.0 && c.hysteresis_volts >= nearest {
+        p.add(
+            "detector.hysteresis_volts",
+            format!(
+                "{} V must be smaller than the distance from the neutral to the nearest threshold ({nearest:.3} V)",
+                c.hysteresis_volts
+            ),
+        );
+    }
+    if !(c.fault_margin_volts > 0.0 && c.fault_margin_volts <= 5.0) {
+        p.add(
+            "detector.fault_margin_volts",
+            format!(
+                "{} V must be above 0 V and at most 5 V",
+                c.fault_margin_volts
+            ),
+        );
+    }
+    p.positive_ms("detector.min_burst_ms", c.min_burst_ms);
+    p.positive_ms("detector.long_burst_ms", c.long_burst_ms);
+    p.positive_ms("detector.neutral_tracking_ms", c.neutral_tracking_ms);
+    p.positive_ms("detector.fault_recovery_ms", c.fault_recovery_ms);
+    p.positive_ms("detector.stale_ms", c.stale_ms);
+    if c.long_burst_ms <= c.min_burst_ms {
+        p.add(
+            "detector.long_burst_ms",
+            format!(
+                "{} ms must be greater than detector.min_burst_ms ({} ms)",
+                c.long_burst_ms, c.min_burst_ms
+            ),
+        );
+    }
+    if c.glitch_ms >= c.min_burst_ms {
+        p.add(
+            "detector.glitch_ms",
+            format!(
+                "{} ms must be smaller than detector.min_burst_ms ({} ms): a glitch is shorter than any burst",
+                c.glitch_ms, c.min_burst_ms
+            ),
+        );
+    }
+}
+
+/// `[matcher]`.
+pub(super) fn matcher(p: &mut Problems, c: &MatcherConfig) {
+    p.positive_ms("matcher.sequence_timeout_ms", c.sequence_timeout_ms);
+}
+
+/// `[command]`.
+pub(super) fn command(p: &mut Problems, c: &CommandConfig) {
+    p.positive_ms("command.inactivity_timeout_ms", c.inactivity_timeout_ms);
+}
+
+/// `[scanning]`: positive dwell times, each mode at most once, at least one.
+pub(super) fn scanning(p: &mut Problems, c: &ScanningConfig) {
+    scanning_dwell(p, c.dwell_ms, c.first_dwell_ms);
+    scan_order(p, c.modes());
+}
+
+/// `[scanning]`'s timers.
+pub(super) fn scanning_dwell(p: &mut Problems, dwell_ms: u32, first_dwell_ms: u32) {
+    p.positive_ms("scanning.dwell_ms", dwell_ms);
+    p.positive_ms("scanning.first_dwell_ms", first_dwell_ms);
+}
+
+/// `[scanning] order`: each mode at most once, at least one.
+pub(super) fn scan_order(p: &mut Problems, modes: &[Mode]) {
+    let mut seen = HashSet::new();
+    for mode in modes {
+        if !seen.insert(mode) {
+            p.add("scanning.order", format!("{:?} appears twice", mode.name()));
+        }
+    }
+    if modes.is_empty() {
+        p.add("scanning.order", "must list at least one mode");
+    }
+}
+
+/// `[motion]`: every limit positive and within the JACO2's caps.
+pub(super) fn motion(p: &mut Problems, c: &MotionConfig) {
+    let speed_note = "m/s (the JACO2 executes 0.04–0.20 m/s)";
+    p.range(
+        "motion.linear_speed_mps",
+        c.linear_speed_mps,
+        caps::MIN_LINEAR_SPEED_MPS,
+        true,
+        caps::LINEAR_SPEED_MPS,
+        speed_note,
+    );
+    p.range(
+        "motion.angular_speed_radps",
+        c.angular_speed_radps,
+        caps::MIN_ANGULAR_SPEED_RADPS,
+        true,
+        caps::ANGULAR_SPEED_RADPS,
+        "rad/s",
+    );
+    for (key, value, cap, unit) in [
+        (
+            "motion.linear_acceleration_mps2",
+            c.linear_acceleration_mps2,
+            caps::LINEAR_ACCELERATION_MPS2,
+            "m/s²",
+        ),
+        (
+            "motion.angular_acceleration_radps2",
+            c.angular_acceleration_radps2,
+            caps::ANGULAR_ACCELERATION_RADPS2,
+            "rad/s²",
+        ),
+        (
+            "motion.linear_jerk_mps3",
+            c.linear_jerk_mps3,
+            caps::LINEAR_JERK_MPS3,
+            "m/s³",
+        ),
+        (
+            "motion.angular_jerk_radps3",
+            c.angular_jerk_radps3,
+            caps::ANGULAR_JERK_RADPS3,
+            "rad/s³",
+        ),
+        (
+            "motion.finger_speed",
+            c.finger_speed,
+            caps::FINGER_SPEED,
+            "units/s",
+        ),
+        (
+            "motion.finger_acceleration",
+            c.finger_acceleration,
+            caps::FINGER_ACCELERATION,
+            "units/s²",
+        ),
+        (
+            "motion.finger_jerk",
+            c.finger_jerk,
+            caps::FINGER_JERK,
+            "units/s³",
+        ),
+        (
+            "motion.proportional_full_scale_volts",
+            c.proportional_full_scale_volts,
+            5.0,
+            "V",
+        ),
+    ] {
+        p.range(key, value, 0.0, false, cap, unit);
+    }
+    p.range(
+        "motion.proportional_min_fraction",
+        c.proportional_min_fraction,
+        0.0,
+        true,
+        1.0,
+        "",
+    );
+}
+
+/// `[workspace]`: a reach within the arm's, the other bounds inside it.
+pub(super) fn workspace(p: &mut Problems, c: &WorkspaceConfig) {
+    p.range(
+        "workspace.reach_m",
+        c.reach_m,
+        0.0,
+        false,
+        caps::REACH_M,
+        "m",
+    );
+    p.range(
+        "workspace.min_radius_m",
+        c.min_radius_m,
+        0.0,
+        true,
+        c.reach_m,
+        "m",
+    );
+    p.range(
+        "workspace.table_z_m",
+        c.table_z_m,
+        -c.reach_m,
+        true,
+        c.reach_m,
+        "m",
+    );
+    p.range(
+        "workspace.stop_margin_m",
+        c.stop_margin_m,
+        0.0,
+        false,
+        0.1,
+        "m",
+    );
+    p.range(
+        "workspace.finger_closed",
+        c.finger_closed,
+        0.0,
+        false,
+        10_000.0,
+        "units",
+    );
+}
+
+/// `[arm]`: the power-up pose inside the workspace.
+pub(super) fn home(p: &mut Problems, c: &HomeConfig, workspace: &WorkspaceConfig) {
+    let [x, y, z] = c.home_position_m;
+    let r = (x * x + y * y + z * z).sqrt();
+    let w = workspace;
+    if !(r.is_finite()
+        && r <= w.reach_m - w.stop_margin_m
+        && r >= w.min_radius_m + w.stop_margin_m
+        && z >= w.table_z_m + w.stop_margin_m)
+    {
+        p.add(
+            "arm.home_position_m",
+            format!(
+                "{:?} is not inside the workspace (distance from the base {r:.3} m must be within {:.3}–{:.3} m, z at least {:.3} m)",
+                c.home_position_m,
+                w.min_radius_m + w.stop_margin_m,
+                w.reach_m - w.stop_margin_m,
+                w.table_z_m + w.stop_margin_m
+            ),
+        );
+    }
+    if !c.home_rotation_vector_rad.iter().all(|v| v.is_finite()) {
+        p.add("arm.home_rotation_vector_rad", "must be finite");
+    }
+    p.range(
+        "arm.home_fingers",
+        c.home_fingers,
+        0.0,
+        true,
+        w.finger_closed,
+        "units",
+    );
+}
+
+/// `[[sequence]]`: how many.
+pub(super) fn library_size(p: &mut Problems, count: usize) {
+    if count == 0 {
+        p.add("sequence", "the library has no sequence");
+    }
+    if count > MAX_SEQUENCES {
+        p.add(
+            "sequence",
+            format!("{count} sequences, at most {MAX_SEQUENCES} allowed"),
+        );
+    }
+}
+
+/// The message for a sequence listed a second time.
+pub(super) fn listed_twice(sequence: &ActionSeq) -> String {
+    format!("{sequence:?} is listed twice")
+}
+
+/// `[[sequence]]` as typed entries: the size, no empty sequence, none
+/// listed twice.
+pub(super) fn library(p: &mut Problems, entries: &[SequenceEntry]) {
+    library_size(p, entries.len());
+    let mut seen = HashSet::new();
+    for (i, entry) in entries.iter().enumerate() {
+        let key = format!("sequence #{}.actions", i + 1);
+        if entry.actions.is_empty() {
+            p.add(&key, "must hold at least one action");
+        } else if !seen.insert(entry.actions) {
+            p.add(&key, listed_twice(&entry.actions));
+        }
+    }
+}

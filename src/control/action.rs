@@ -1,0 +1,267 @@
+//! The vocabulary of the interface: breaths, the four burst actions of the
+//! paper and fixed-capacity sequences of them.
+
+use std::fmt;
+
+use serde::{Serialize, Serializer};
+
+/// Longest sequence the matcher accepts. The issue asks for at least 8; 16
+/// leaves room for large personal libraries while keeping [`ActionSeq`] a
+/// 17-byte `Copy` value.
+pub const MAX_SEQUENCE_LEN: usize = 16;
+
+/// Which way the user is breathing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Breath {
+    /// Inhale: the sensor voltage falls below the neutral.
+    Sip,
+    /// Exhale: the sensor voltage rises above the neutral.
+    Puff,
+}
+
+/// One detected burst, coded as in the paper: short sip = 1, long sip = 2,
+/// short puff = −1, long puff = −2.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Action {
+    /// Short inhale (code 1).
+    ShortSip,
+    /// Long inhale (code 2).
+    LongSip,
+    /// Short exhale (code −1).
+    ShortPuff,
+    /// Long exhale (code −2).
+    LongPuff,
+}
+
+impl Action {
+    /// All four actions, in the order of their trie child index.
+    pub const ALL: [Action; 4] = [
+        Action::ShortSip,
+        Action::LongSip,
+        Action::ShortPuff,
+        Action::LongPuff,
+    ];
+
+    /// The paper's integer code.
+    pub const fn code(self) -> i8 {
+        match self {
+            Action::ShortSip => 1,
+            Action::LongSip => 2,
+            Action::ShortPuff => -1,
+            Action::LongPuff => -2,
+        }
+    }
+
+    /// The action for one of the paper's codes, or `None` for any other value.
+    pub const fn from_code(code: i64) -> Option<Action> {
+        match code {
+            1 => Some(Action::ShortSip),
+            2 => Some(Action::LongSip),
+            -1 => Some(Action::ShortPuff),
+            -2 => Some(Action::LongPuff),
+            _ => None,
+        }
+    }
+
+    /// The action for a burst of this breath and length.
+    pub const fn new(breath: Breath, long: bool) -> Action {
+        match (breath, long) {
+            (Breath::Sip, false) => Action::ShortSip,
+            (Breath::Sip, true) => Action::LongSip,
+            (Breath::Puff, false) => Action::ShortPuff,
+            (Breath::Puff, true) => Action::LongPuff,
+        }
+    }
+
+    /// Sip or puff.
+    pub const fn breath(self) -> Breath {
+        match self {
+            Action::ShortSip | Action::LongSip => Breath::Sip,
+            Action::ShortPuff | Action::LongPuff => Breath::Puff,
+        }
+    }
+
+    /// Whether this is a long burst.
+    pub const fn is_long(self) -> bool {
+        matches!(self, Action::LongSip | Action::LongPuff)
+    }
+
+    /// Dense index 0..4, used by the trie's child table.
+    pub const fn index(self) -> usize {
+        match self {
+            Action::ShortSip => 0,
+            Action::LongSip => 1,
+            Action::ShortPuff => 2,
+            Action::LongPuff => 3,
+        }
+    }
+}
+
+/// An action is written as its paper code (events, config printing).
+impl Serialize for Action {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_i8(self.code())
+    }
+}
+
+impl fmt::Display for Action {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let name = match self {
+            Action::ShortSip => "short sip",
+            Action::LongSip => "long sip",
+            Action::ShortPuff => "short puff",
+            Action::LongPuff => "long puff",
+        };
+        f.write_str(name)
+    }
+}
+
+/// A sequence of at most [`MAX_SEQUENCE_LEN`] actions, stored inline so it is
+/// `Copy` and never touches the heap. RT-safe. Equality and hashing look
+/// only at the actions held, never at the unused tail of the array.
+#[derive(Clone, Copy)]
+pub struct ActionSeq {
+    actions: [Action; MAX_SEQUENCE_LEN],
+    len: u8,
+}
+
+/// Returned by [`ActionSeq::try_push`] when the sequence is full; hands the
+/// action back.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SequenceFull(pub Action);
+
+impl ActionSeq {
+    /// The empty sequence.
+    pub const EMPTY: ActionSeq = ActionSeq {
+        actions: [Action::ShortSip; MAX_SEQUENCE_LEN],
+        len: 0,
+    };
+
+    /// Builds a sequence from a slice; `None` if it is longer than
+    /// [`MAX_SEQUENCE_LEN`].
+    pub fn from_slice(actions: &[Action]) -> Option<ActionSeq> {
+        let mut seq = ActionSeq::EMPTY;
+        for &action in actions {
+            seq.try_push(action).ok()?;
+        }
+        Some(seq)
+    }
+
+    /// Appends an action. RT-safe.
+    pub fn try_push(&mut self, action: Action) -> Result<(), SequenceFull> {
+        let slot = self
+            .actions
+            .get_mut(usize::from(self.len))
+            .ok_or(SequenceFull(action))?;
+        *slot = action;
+        self.len += 1;
+        Ok(())
+    }
+
+    /// The actions, oldest first.
+    pub fn as_slice(&self) -> &[Action] {
+        // `len` never exceeds the capacity (`try_push` checks).
+        self.actions.get(..usize::from(self.len)).unwrap_or(&[])
+    }
+
+    /// Number of actions.
+    pub fn len(&self) -> usize {
+        usize::from(self.len)
+    }
+
+    /// Whether the sequence holds no action.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Empties the sequence. RT-safe.
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// The paper's codes, e.g. `[1, 2, -1]`.
+    pub fn codes(&self) -> impl Iterator<Item = i8> + '_ {
+        self.as_slice().iter().map(|a| a.code())
+    }
+}
+
+impl PartialEq for ActionSeq {
+    fn eq(&self, other: &Self) -> bool {
+        self.as_slice() == other.as_slice()
+    }
+}
+
+impl Eq for ActionSeq {}
+
+impl std::hash::Hash for ActionSeq {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.as_slice().hash(state);
+    }
+}
+
+impl Default for ActionSeq {
+    fn default() -> Self {
+        ActionSeq::EMPTY
+    }
+}
+
+/// A sequence is written as its list of paper codes, e.g. `[1, 2, -1]`.
+impl Serialize for ActionSeq {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_seq(self.as_slice())
+    }
+}
+
+impl fmt::Debug for ActionSeq {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_list().entries(self.codes()).finish()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn codes_are_the_papers() {
+        assert_eq!(Action::ShortSip.code(), 1);
+        assert_eq!(Action::LongSip.code(), 2);
+        assert_eq!(Action::ShortPuff.code(), -1);
+        assert_eq!(Action::LongPuff.code(), -2);
+        for action in Action::ALL {
+            assert_eq!(Action::from_code(action.code().into()), Some(action));
+            assert_eq!(Action::new(action.breath(), action.is_long()), action);
+            assert_eq!(Action::ALL[action.index()], action);
+        }
+        assert_eq!(Action::from_code(0), None);
+        assert_eq!(Action::from_code(3), None);
+    }
+
+    #[test]
+    fn sequence_is_bounded() {
+        let mut seq = ActionSeq::EMPTY;
+        for _ in 0..MAX_SEQUENCE_LEN {
+            seq.try_push(Action::LongPuff).unwrap();
+        }
+        assert_eq!(
+            seq.try_push(Action::ShortSip),
+            Err(SequenceFull(Action::ShortSip))
+        );
+        assert_eq!(seq.len(), MAX_SEQUENCE_LEN);
+        assert!(ActionSeq::from_slice(&[Action::ShortSip; MAX_SEQUENCE_LEN + 1]).is_none());
+        seq.clear();
+        assert!(seq.is_empty());
+    }
+
+    #[test]
+    fn equality_ignores_what_was_cleared() {
+        let mut reused = ActionSeq::from_slice(&[Action::LongPuff, Action::LongPuff]).unwrap();
+        reused.clear();
+        reused.try_push(Action::LongSip).unwrap();
+        let fresh = ActionSeq::from_slice(&[Action::LongSip]).unwrap();
+        assert_eq!(reused, fresh);
+        use std::hash::BuildHasher;
+        let state = std::hash::RandomState::new();
+        assert_eq!(state.hash_one(reused), state.hash_one(fresh));
+    }
+}

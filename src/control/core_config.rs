@@ -1,0 +1,88 @@
+//! Everything the core needs to run, validated: the settings of each stage
+//! and the user's library.
+//!
+//! Only `crate::config` builds one (from TOML or the built-in defaults,
+//! after checking every value), so a [`CoreConfig`] in hand is valid: the
+//! limits are within the JACO2's caps, the thresholds on the right sides of
+//! the neutral, the library non-empty and free of duplicates.
+
+use serde::Serialize;
+
+use crate::control::detector::DetectorConfig;
+use crate::control::modes::CommandConfig;
+use crate::control::motion::home::HomeConfig;
+use crate::control::motion::limits::MotionConfig;
+use crate::control::motion::workspace::WorkspaceConfig;
+use crate::control::selection::matcher::MatcherConfig;
+use crate::control::selection::scanning::ScanningConfig;
+use crate::control::selection::{Interface, SequenceEntry};
+
+/// The validated settings of the whole core. Serialized with the config
+/// file's section and key names.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CoreConfig {
+    pub(crate) detector: DetectorConfig,
+    pub(crate) matcher: MatcherConfig,
+    pub(crate) command: CommandConfig,
+    pub(crate) motion: MotionConfig,
+    pub(crate) workspace: WorkspaceConfig,
+    #[serde(rename = "arm")]
+    pub(crate) home: HomeConfig,
+    pub(crate) interface: InterfaceSection,
+    pub(crate) scanning: ScanningConfig,
+    #[serde(rename = "sequence")]
+    pub(crate) sequences: Vec<SequenceEntry>,
+}
+
+/// The `[interface]` section.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub(crate) struct InterfaceSection {
+    pub(crate) kind: Interface,
+}
+
+impl CoreConfig {
+    /// Burst detector settings.
+    pub fn detector(&self) -> &DetectorConfig {
+        &self.detector
+    }
+
+    /// Sequence matcher settings.
+    pub fn matcher(&self) -> &MatcherConfig {
+        &self.matcher
+    }
+
+    /// Command mode settings.
+    pub fn command(&self) -> &CommandConfig {
+        &self.command
+    }
+
+    /// Motion limits.
+    pub fn motion(&self) -> &MotionConfig {
+        &self.motion
+    }
+
+    /// Workspace limits.
+    pub fn workspace(&self) -> &WorkspaceConfig {
+        &self.workspace
+    }
+
+    /// The arm at power-up (the `[arm]` section).
+    pub fn home(&self) -> &HomeConfig {
+        &self.home
+    }
+
+    /// The user-defined sequences, in file order.
+    pub fn sequences(&self) -> &[SequenceEntry] {
+        &self.sequences
+    }
+
+    /// How the user selects a mode.
+    pub fn interface(&self) -> Interface {
+        self.interface.kind
+    }
+
+    /// The scanning interface's settings (used when the interface is BSP).
+    pub fn scanning(&self) -> &ScanningConfig {
+        &self.scanning
+    }
+}

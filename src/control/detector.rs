@@ -1,0 +1,805 @@
+//! Burst detector (the paper's Fig. 2, blocks 8–10): one voltage sample per
+//! tick in, bursts out.
+//!
+//! * A puff raises the voltage above the neutral, a sip lowers it. A breath
+//!   starts when the signal passes its threshold and ends when it comes back
+//!   past it by the hysteresis.
+//! * Every change of state must last more than `glitch_ms` samples, so a
+//!   spike or dropout of a few samples neither creates a burst nor splits one.
+//!   Start and end are dated to the first sample of the confirming run, so
+//!   durations are exact; the burst is emitted on the tick its end is
+//!   confirmed (`glitch_ms` ticks after the signal crossed back).
+//! * The neutral is tracked (exponential average, time constant
+//!   `neutral_tracking_ms`) only while the signal is at rest, and the
+//!   thresholds move with it by their configured offsets.
+//! * A NaN, infinite or out-of-range sample is a sensor fault: any breath in
+//!   progress is dropped (never turned into a burst) and detection resumes
+//!   only after `fault_recovery_ms` of valid samples at rest.
+
+use std::fmt;
+
+use serde::{Serialize, Serializer};
+
+use crate::control::Tick;
+use crate::control::action::{Action, Breath};
+use crate::control::mode::Held;
+
+/// Burst detector settings (`[detector]` in the config file).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DetectorConfig {
+    /// Sensor output at rest, in volts. The detector starts from it and then
+    /// tracks slow drift.
+    pub neutral_volts: f64,
+    /// A puff starts above this voltage (relative to the tracked neutral, it
+    /// moves with the neutral by the same offset).
+    pub puff_threshold_volts: f64,
+    /// A sip starts below this voltage (moves with the neutral likewise).
+    pub sip_threshold_volts: f64,
+    /// A burst ends when the signal is back past its threshold by this much.
+    pub hysteresis_volts: f64,
+    /// Bursts shorter than this are ignored.
+    pub min_burst_ms: u32,
+    /// Bursts at least this long are long; shorter ones are short.
+    pub long_burst_ms: u32,
+    /// Longest glitch (spike, dropout) ignored: a change of state must last
+    /// longer than this to count.
+    pub glitch_ms: u32,
+    /// Time constant of the neutral tracker (exponential average of the
+    /// resting signal, updated only while no breath is in progress).
+    pub neutral_tracking_ms: u32,
+    /// Samples further than this outside 0–5 V are sensor faults.
+    pub fault_margin_volts: f64,
+    /// After a fault, the signal must be valid and at rest this long before
+    /// detection resumes.
+    pub fault_recovery_ms: u32,
+    /// No sample for this long is a sensor fault (stale sensor).
+    pub stale_ms: u32,
+}
+
+impl Default for DetectorConfig {
+    fn default() -> Self {
+        DetectorConfig {
+            neutral_volts: 2.5,
+            puff_threshold_volts: 3.0,
+            sip_threshold_volts: 2.0,
+            hysteresis_volts: 0.1,
+            min_burst_ms: 40,
+            long_burst_ms: 500,
+            glitch_ms: 5,
+            neutral_tracking_ms: 1000,
+            fault_margin_volts: 0.5,
+            fault_recovery_ms: 250,
+            stale_ms: 50,
+        }
+    }
+}
+
+/// A finished burst.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Burst {
+    /// Short/long sip/puff.
+    pub action: Action,
+    /// First tick past the threshold.
+    pub start: Tick,
+    /// First tick back past the threshold by the hysteresis.
+    pub end: Tick,
+}
+
+impl Burst {
+    /// Length in ticks (ms).
+    pub fn duration_ms(&self) -> u64 {
+        self.end.saturating_sub(self.start)
+    }
+}
+
+/// A burst is written as its paper code, first tick and length (the event
+/// log's `action`, `start_tick`, `duration_ms`).
+impl Serialize for Burst {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        #[derive(Serialize)]
+        struct Fields {
+            action: Action,
+            start_tick: Tick,
+            duration_ms: u64,
+        }
+        Fields {
+            action: self.action,
+            start_tick: self.start,
+            duration_ms: self.duration_ms(),
+        }
+        .serialize(serializer)
+    }
+}
+
+/// Why the sensor signal was rejected.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FaultReason {
+    /// The sample is NaN (e.g. a dropped reading).
+    NotANumber,
+    /// The sample is ±infinity.
+    Infinite,
+    /// The sample is further outside 0–5 V than `fault_margin_volts`.
+    OutOfRange {
+        /// The offending sample.
+        volts: f64,
+    },
+    /// No sample arrived for `stale_ms`.
+    Stale {
+        /// How long without a sample, ms.
+        ms: u64,
+    },
+    /// A tick no later than the previous one: time must increase, so the
+    /// runtime feeding the core is broken. Everything stops.
+    TickNotIncreasing {
+        /// The tick given.
+        tick: Tick,
+        /// The tick before it.
+        previous: Tick,
+    },
+}
+
+/// The reason in plain words, as the event log and the report show it.
+impl fmt::Display for FaultReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FaultReason::NotANumber => f.write_str("sensor sample is NaN"),
+            FaultReason::Infinite => f.write_str("sensor sample is infinite"),
+            FaultReason::OutOfRange { volts } => {
+                write!(f, "sensor sample {volts:.3} V is outside the 0–5 V range")
+            }
+            FaultReason::Stale { ms } => write!(f, "no sensor sample for {ms} ms"),
+            FaultReason::TickNotIncreasing { tick, previous } => write!(
+                f,
+                "tick {tick} is not after the previous tick {previous}: the runtime's clock is broken"
+            ),
+        }
+    }
+}
+
+/// Serialized as its plain words.
+impl Serialize for FaultReason {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
+
+/// Something the detector reports on one tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DetectorEvent {
+    /// A burst ended and was long enough to count.
+    Burst(Burst),
+    /// The sensor signal became invalid.
+    Fault(FaultReason),
+    /// The signal has been valid and at rest for `fault_recovery_ms`.
+    Recovered,
+}
+
+/// The detector's output for one tick. `Copy`, RT-safe.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DetectorOutput {
+    /// The breath held right now (confirmed, so glitches never show here).
+    pub held: Held,
+    /// A breath is held or may be starting (a crossing not yet confirmed):
+    /// the matcher's timeout must not run out meanwhile.
+    pub in_progress: bool,
+    /// The sensor is in fault: nothing is detected.
+    pub faulted: bool,
+    /// At most one event per tick.
+    pub event: Option<DetectorEvent>,
+}
+
+/// Which side of the thresholds a sample is on, given the current state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Zone {
+    Rest,
+    Breath(Breath),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum State {
+    Rest,
+    Held {
+        breath: Breath,
+        start: Tick,
+    },
+    /// Sensor fault; `rest_since` is the first tick of the current run of
+    /// valid samples at rest (glitches allowed), `away_since` the first of
+    /// the current run of samples away from rest.
+    Faulted {
+        rest_since: Option<Tick>,
+        away_since: Option<Tick>,
+    },
+}
+
+/// How far behind the signal the neutral tracker reads. Longer than the
+/// part of a breath's rise that stays below the threshold, so a sample is
+/// used only once it is known not to be the start of a breath; after a
+/// breath, tracking resumes this long after its end, past the fall.
+pub const TRACKING_DELAY_MS: usize = 100;
+
+/// The burst detector. Construct once; [`BurstDetector::step`] is RT-safe
+/// (no allocation, no panic, O(1)).
+#[derive(Debug, Clone)]
+pub struct BurstDetector {
+    puff_offset: f64,
+    sip_offset: f64,
+    hysteresis: f64,
+    min_burst: u64,
+    long_burst: u64,
+    glitch: u64,
+    tracking_alpha: f64,
+    low_limit: f64,
+    high_limit: f64,
+    recovery: u64,
+    stale: u64,
+
+    /// Tick of the last sample received.
+    last_sample: Option<Tick>,
+    /// The last tick stepped (sample or not): ticks must increase.
+    last_tick: Option<Tick>,
+    neutral: f64,
+    /// The last [`TRACKING_DELAY_MS`] resting samples, indexed by tick.
+    recent: [f64; TRACKING_DELAY_MS],
+    /// Ticks at rest since the last confirmed breath (or fault) ended.
+    quiet_ticks: u64,
+    state: State,
+    /// A zone differing from the state's, and the tick its run began.
+    candidate: Option<(Zone, Tick)>,
+    strength: f64,
+}
+
+impl BurstDetector {
+    /// Builds a detector from validated settings. Not RT-safe (call at
+    /// start-up), though it does not allocate either.
+    pub fn new(config: &DetectorConfig) -> Self {
+        let puff_offset = config.puff_threshold_volts - config.neutral_volts;
+        let sip_offset = config.sip_threshold_volts - config.neutral_volts;
+        BurstDetector {
+            puff_offset,
+            sip_offset,
+            hysteresis: config.hysteresis_volts,
+            min_burst: config.min_burst_ms.into(),
+            long_burst: config.long_burst_ms.into(),
+            glitch: config.glitch_ms.into(),
+            tracking_alpha: 1.0 / f64::from(config.neutral_tracking_ms),
+            low_limit: -config.fault_margin_volts,
+            high_limit: 5.0 + config.fault_margin_volts,
+            recovery: config.fault_recovery_ms.into(),
+            stale: config.stale_ms.into(),
+            last_sample: None,
+            last_tick: None,
+            neutral: config.neutral_volts,
+            recent: [config.neutral_volts; TRACKING_DELAY_MS],
+            quiet_ticks: 0,
+            state: State::Rest,
+            candidate: None,
+            strength: 0.0,
+        }
+    }
+
+    /// The neutral voltage as currently tracked.
+    pub fn neutral_volts(&self) -> f64 {
+        self.neutral
+    }
+
+    /// A tick on which no sample arrived: nothing changes until `stale_ms`
+    /// have passed since the last one (or since start), then the sensor is
+    /// in fault. RT-safe.
+    pub fn step_missing(&mut self, now: Tick) -> DetectorOutput {
+        if let Err(reason) = self.advance_to(now) {
+            let event = self.fault(reason);
+            return self.output(event);
+        }
+        let since = self
+            .last_sample
+            .map_or(now.saturating_add(1), |t| now.saturating_sub(t));
+        let event = if since >= self.stale {
+            // Restart the count so recovery needs fresh samples.
+            self.fault(FaultReason::Stale { ms: since })
+        } else {
+            None
+        };
+        self.output(event)
+    }
+
+    /// Feeds one sample taken at tick `now`. Ticks must increase: a tick
+    /// that does not is a fault ([`FaultReason::TickNotIncreasing`]), never
+    /// an overflow. RT-safe.
+    pub fn step(&mut self, now: Tick, volts: f64) -> DetectorOutput {
+        if let Err(reason) = self.advance_to(now) {
+            let event = self.fault(reason);
+            return self.output(event);
+        }
+        self.last_sample = Some(now);
+        let event = match Self::check(volts, self.low_limit, self.high_limit) {
+            Err(reason) => self.fault(reason),
+            Ok(()) => match self.state {
+                State::Faulted {
+                    rest_since,
+                    away_since,
+                } => self.recover(now, volts, rest_since, away_since),
+                State::Rest | State::Held { .. } => self.detect(now, volts),
+            },
+        };
+        self.output(event)
+    }
+
+    /// Checks that `now` comes after the last tick, and records it.
+    fn advance_to(&mut self, now: Tick) -> Result<(), FaultReason> {
+        match self.last_tick {
+            Some(previous) if now <= previous => Err(FaultReason::TickNotIncreasing {
+                tick: now,
+                previous,
+            }),
+            _ => {
+                self.last_tick = Some(now);
+                Ok(())
+            }
+        }
+    }
+
+    fn output(&self, event: Option<DetectorEvent>) -> DetectorOutput {
+        let held = match self.state {
+            State::Held { breath, .. } => Held {
+                breath: Some(breath),
+                strength_volts: self.strength,
+            },
+            _ => Held::default(),
+        };
+        let starting = matches!(self.candidate, Some((Zone::Breath(_), _)));
+        DetectorOutput {
+            held,
+            in_progress: held.breath.is_some() || starting,
+            faulted: matches!(self.state, State::Faulted { .. }),
+            event,
+        }
+    }
+
+    fn check(volts: f64, low: f64, high: f64) -> Result<(), FaultReason> {
+        if volts.is_nan() {
+            Err(FaultReason::NotANumber)
+        } else if volts.is_infinite() {
+            Err(FaultReason::Infinite)
+        } else if volts < low || volts > high {
+            Err(FaultReason::OutOfRange { volts })
+        } else {
+            Ok(())
+        }
+    }
+
+    fn fault(&mut self, reason: FaultReason) -> Option<DetectorEvent> {
+        let already = matches!(self.state, State::Faulted { .. });
+        self.state = State::Faulted {
+            rest_since: None,
+            away_since: None,
+        };
+        self.quiet_ticks = 0;
+        self.candidate = None;
+        self.strength = 0.0;
+        (!already).then_some(DetectorEvent::Fault(reason))
+    }
+
+    /// Counts valid samples at rest; a glitch (at most `glitch_ms` away from
+    /// rest) does not break the count, a longer excursion restarts it.
+    fn recover(
+        &mut self,
+        now: Tick,
+        volts: f64,
+        rest_since: Option<Tick>,
+        away_since: Option<Tick>,
+    ) -> Option<DetectorEvent> {
+        if self.zone(volts, None) != Zone::Rest {
+            let away = away_since.unwrap_or(now);
+            let glitch = run_length(away, now) <= self.glitch;
+            self.state = State::Faulted {
+                rest_since: rest_since.filter(|_| glitch),
+                away_since: Some(away),
+            };
+            return None;
+        }
+        let since = rest_since.unwrap_or(now);
+        if run_length(since, now) >= self.recovery {
+            self.state = State::Rest;
+            Some(DetectorEvent::Recovered)
+        } else {
+            self.state = State::Faulted {
+                rest_since: Some(since),
+                away_since: None,
+            };
+            None
+        }
+    }
+
+    /// Classifies a sample; `held` selects the hysteresis side.
+    fn zone(&self, volts: f64, held: Option<Breath>) -> Zone {
+        let puff_on = self.neutral + self.puff_offset;
+        let sip_on = self.neutral + self.sip_offset;
+        let (puff_off, sip_off) = match held {
+            Some(Breath::Puff) => (puff_on - self.hysteresis, sip_on),
+            Some(Breath::Sip) => (puff_on, sip_on + self.hysteresis),
+            None => (puff_on, sip_on),
+        };
+        if volts > puff_off {
+            Zone::Breath(Breath::Puff)
+        } else if volts < sip_off {
+            Zone::Breath(Breath::Sip)
+        } else {
+            Zone::Rest
+        }
+    }
+
+    fn detect(&mut self, now: Tick, volts: f64) -> Option<DetectorEvent> {
+        let held = match self.state {
+            State::Held { breath, .. } => Some(breath),
+            _ => None,
+        };
+        let current = held.map_or(Zone::Rest, Zone::Breath);
+        let zone = self.zone(volts, held);
+
+        if zone == current {
+            self.candidate = None;
+            match held {
+                Some(breath) => self.strength = self.past_threshold(breath, volts),
+                None => self.track_neutral(now, volts),
+            }
+            return None;
+        }
+        if held.is_none() {
+            // A crossing not yet confirmed (maybe a glitch): keep the delay
+            // line going with the current estimate, which moves nothing.
+            self.track_neutral(now, self.neutral);
+        }
+
+        let since = match self.candidate {
+            Some((z, since)) if z == zone => since,
+            _ => now,
+        };
+        self.candidate = Some((zone, since));
+        if run_length(since, now) <= self.glitch {
+            return None; // not (yet) longer than a glitch
+        }
+        self.candidate = None;
+
+        let finished = match self.state {
+            State::Held { breath, start } => self.finish(breath, start, since),
+            _ => None,
+        };
+        self.quiet_ticks = 0;
+        self.state = match zone {
+            Zone::Breath(breath) => {
+                self.strength = self.past_threshold(breath, volts);
+                State::Held {
+                    breath,
+                    start: since,
+                }
+            }
+            Zone::Rest => {
+                self.strength = 0.0;
+                State::Rest
+            }
+        };
+        finished.map(DetectorEvent::Burst)
+    }
+
+    fn finish(&self, breath: Breath, start: Tick, end: Tick) -> Option<Burst> {
+        let duration = end.saturating_sub(start);
+        (duration >= self.min_burst).then(|| Burst {
+            action: Action::new(breath, duration >= self.long_burst),
+            start,
+            end,
+        })
+    }
+
+    fn past_threshold(&self, breath: Breath, volts: f64) -> f64 {
+        let past = match breath {
+            Breath::Puff => volts - (self.neutral + self.puff_offset),
+            Breath::Sip => (self.neutral + self.sip_offset) - volts,
+        };
+        past.max(0.0)
+    }
+
+    /// Called only for samples at rest (between the thresholds, no crossing
+    /// pending): every such sample is ambient pressure. A narrower band
+    /// would let the estimate fall outside it during fast drift and stop
+    /// tracking for good.
+    ///
+    /// Samples go through a delay line; one is used once the signal has
+    /// been at rest for a whole delay before it and a whole delay after it.
+    fn track_neutral(&mut self, now: Tick, volts: f64) {
+        let slot = (now % TRACKING_DELAY_MS as u64) as usize;
+        self.quiet_ticks += 1;
+        let Some(recent) = self.recent.get_mut(slot) else {
+            return; // unreachable: the slot is taken modulo the length
+        };
+        if self.quiet_ticks > 2 * TRACKING_DELAY_MS as u64 {
+            self.neutral += (*recent - self.neutral) * self.tracking_alpha;
+        }
+        *recent = volts;
+    }
+}
+
+/// Samples in the run from `since` to `now`, both included.
+fn run_length(since: Tick, now: Tick) -> u64 {
+    now.saturating_add(1).saturating_sub(since)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Runs a detector over samples, returning (tick, event) pairs.
+    fn run(config: &DetectorConfig, samples: &[f64]) -> Vec<(Tick, DetectorEvent)> {
+        let mut d = BurstDetector::new(config);
+        samples
+            .iter()
+            .enumerate()
+            .filter_map(|(t, &v)| d.step(t as Tick, v).event.map(|e| (t as Tick, e)))
+            .collect()
+    }
+
+    /// `rest` ms at 2.5 V, `len` ms at `level`, `after` ms at 2.5 V.
+    fn square(rest: usize, level: f64, len: usize, after: usize) -> Vec<f64> {
+        let mut s = vec![2.5; rest];
+        s.extend(std::iter::repeat_n(level, len));
+        s.extend(std::iter::repeat_n(2.5, after));
+        s
+    }
+
+    fn burst(action: Action, start: Tick, end: Tick) -> DetectorEvent {
+        DetectorEvent::Burst(Burst { action, start, end })
+    }
+
+    #[test]
+    fn short_and_long_with_exact_durations() {
+        let c = DetectorConfig::default(); // min 40, long 500, glitch 5
+        // A 100 ms puff from tick 10: ends at 110, confirmed at 115.
+        assert_eq!(
+            run(&c, &square(10, 4.0, 100, 50)),
+            [(115, burst(Action::ShortPuff, 10, 110))]
+        );
+        assert_eq!(
+            run(&c, &square(10, 1.0, 500, 50)),
+            [(515, burst(Action::LongSip, 10, 510))]
+        );
+        assert_eq!(
+            run(&c, &square(10, 1.0, 499, 50)),
+            [(514, burst(Action::ShortSip, 10, 509))]
+        );
+        assert_eq!(
+            run(&c, &square(0, 4.0, 40, 50)),
+            [(45, burst(Action::ShortPuff, 0, 40))]
+        );
+        assert_eq!(run(&c, &square(0, 4.0, 39, 50)), []);
+    }
+
+    #[test]
+    fn threshold_and_hysteresis() {
+        let c = DetectorConfig::default(); // puff 3.0, hysteresis 0.1
+        // Exactly at the threshold is not past it.
+        assert_eq!(run(&c, &square(5, 3.0, 200, 50)), []);
+        // Dropping to 2.95 is inside the hysteresis band: the puff goes on.
+        let mut s = square(5, 3.5, 100, 0);
+        s.extend(std::iter::repeat_n(2.95, 100));
+        s.extend(std::iter::repeat_n(2.5, 50));
+        assert_eq!(run(&c, &s), [(210, burst(Action::ShortPuff, 5, 205))]);
+    }
+
+    #[test]
+    fn glitches_neither_create_nor_split_bursts() {
+        let c = DetectorConfig::default();
+        // Spikes of 1..=5 samples to both rails at rest: nothing.
+        for len in 1..=5 {
+            for level in [0.0, 5.0] {
+                assert_eq!(run(&c, &square(20, level, len, 50)), [], "{len} at {level}");
+            }
+        }
+        // The same spikes inside a long puff, and a dropout to 0 V: one burst.
+        for len in 1..=5 {
+            let mut s = square(10, 4.0, 300, 0);
+            s[150..150 + len].fill(0.0);
+            s[250..250 + len].fill(5.0);
+            s.extend(std::iter::repeat_n(2.5, 50));
+            assert_eq!(
+                run(&c, &s),
+                [(315, burst(Action::ShortPuff, 10, 310))],
+                "{len}"
+            );
+        }
+        // Six samples is longer than a glitch: the puff is split.
+        let mut s = square(10, 4.0, 300, 0);
+        s[150..156].fill(2.5);
+        s.extend(std::iter::repeat_n(2.5, 50));
+        assert_eq!(run(&c, &s).len(), 2);
+    }
+
+    #[test]
+    fn direct_reversal_ends_one_burst_and_starts_the_other() {
+        let c = DetectorConfig::default();
+        let mut s = square(10, 4.0, 100, 0);
+        s.extend(std::iter::repeat_n(1.0, 100));
+        s.extend(std::iter::repeat_n(2.5, 20));
+        assert_eq!(
+            run(&c, &s),
+            [
+                (115, burst(Action::ShortPuff, 10, 110)),
+                (215, burst(Action::ShortSip, 110, 210)),
+            ]
+        );
+    }
+
+    #[test]
+    fn held_and_strength_follow_the_breath() {
+        let c = DetectorConfig::default();
+        let mut d = BurstDetector::new(&c);
+        for t in 0..10 {
+            assert_eq!(d.step(t, 2.5).held, Held::default());
+        }
+        let mut out = DetectorOutput::default();
+        for t in 10..20 {
+            out = d.step(t, 3.7);
+        }
+        assert_eq!(out.held.breath, Some(Breath::Puff));
+        assert!((out.held.strength_volts - 0.7).abs() < 1e-12);
+        // A one-sample spike keeps the held state and its strength.
+        let spike = d.step(20, 0.0);
+        assert_eq!(spike.held, out.held);
+        assert!(spike.in_progress);
+    }
+
+    #[test]
+    fn slow_drift_neither_creates_nor_loses_bursts() {
+        let c = DetectorConfig::default();
+        let mut d = BurstDetector::new(&c);
+        let mut bursts = 0;
+        // +0.3 V over one minute, with a 150 ms puff of 0.9 V every 2 s.
+        for t in 0..60_000u64 {
+            let neutral = 2.5 + 0.3 * t as f64 / 60_000.0;
+            let phase = t % 2000;
+            let v = if (1000..1150).contains(&phase) {
+                neutral + 0.9
+            } else {
+                neutral
+            };
+            if let Some(DetectorEvent::Burst(b)) = d.step(t, v).event {
+                assert_eq!(b.action, Action::ShortPuff);
+                assert_eq!(b.duration_ms(), 150);
+                bursts += 1;
+            }
+        }
+        assert_eq!(bursts, 30);
+        // An exponential tracker lags a ramp by rate × (τ + delay) =
+        // 0.005 V/s × 1.1 s, a little more for the pauses during breaths.
+        let lag = 2.8 - d.neutral_volts();
+        assert!((0.005..0.008).contains(&lag), "lag {lag}");
+        // Then back down −0.3 V below the start with sips.
+        for t in 60_000..180_000u64 {
+            let neutral = 2.8 - 0.6 * (t - 60_000) as f64 / 120_000.0;
+            let phase = t % 2000;
+            let v = if (1000..1150).contains(&phase) {
+                neutral - 0.9
+            } else {
+                neutral
+            };
+            if let Some(DetectorEvent::Burst(b)) = d.step(t, v).event {
+                assert_eq!(b.action, Action::ShortSip);
+                bursts += 1;
+            }
+        }
+        assert_eq!(bursts, 90);
+    }
+
+    #[test]
+    fn neutral_is_tracked_at_rest_only() {
+        let c = DetectorConfig::default();
+        let mut d = BurstDetector::new(&c);
+        // A 10 s breath, then a one-sample spike and the start of another
+        // breath (crossings pending): none of it moves the neutral.
+        for t in 0..10_000 {
+            d.step(t, 4.0);
+        }
+        for t in 10_000..10_100 {
+            d.step(t, 2.5);
+        }
+        assert_eq!(d.neutral_volts(), 2.5);
+        d.step(10_100, 0.0);
+        for t in 10_101..10_104 {
+            d.step(t, 4.0);
+        }
+        assert_eq!(d.neutral_volts(), 2.5);
+        // A resting level that moved by 0.2 V is followed with the
+        // configured time constant: 1 − e⁻¹ of the way after 1 s.
+        // Tracking starts once the signal has been at rest for twice the
+        // delay; each tick then consumes the sample one delay old.
+        let mut d = BurstDetector::new(&c);
+        let start = 2 * TRACKING_DELAY_MS as u64;
+        for t in 0..start + 1000 {
+            d.step(t, 2.7);
+        }
+        let followed = (d.neutral_volts() - 2.5) / 0.2;
+        let expected = 1.0 - (1.0 - 1.0 / 1000.0f64).powi(1000);
+        assert!((followed - expected).abs() < 1e-9, "{followed}");
+    }
+
+    #[test]
+    fn faults_are_never_bursts_and_recover_at_rest() {
+        let c = DetectorConfig::default(); // recovery 250 ms, margin 0.5 V
+        let mut s = square(10, 4.0, 100, 0); // puff in progress …
+        s.push(f64::NAN); // … dropped by a fault
+        s.extend(std::iter::repeat_n(4.0, 100));
+        s.extend(std::iter::repeat_n(2.5, 300));
+        let events = run(&c, &s);
+        assert_eq!(
+            events,
+            [
+                (110, DetectorEvent::Fault(FaultReason::NotANumber)),
+                // At rest from 211; 250 samples later.
+                (460, DetectorEvent::Recovered),
+            ]
+        );
+        assert_eq!(
+            run(&c, &[2.5, f64::INFINITY])[0].1,
+            DetectorEvent::Fault(FaultReason::Infinite)
+        );
+        assert_eq!(
+            run(&c, &[2.5, 5.6])[0].1,
+            DetectorEvent::Fault(FaultReason::OutOfRange { volts: 5.6 })
+        );
+        assert_eq!(run(&c, &[5.5, -0.5, 0.0, 5.0]), []); // within the margin
+    }
+
+    #[test]
+    fn recovery_ignores_glitches_but_not_breaths() {
+        let c = DetectorConfig::default(); // recovery 250 ms, glitch 5 ms
+        // Spikes to the rails every 100 ms do not hold recovery off.
+        let mut s = vec![f64::NAN];
+        s.extend(std::iter::repeat_n(2.5, 400));
+        for i in (60..400).step_by(100) {
+            s[i] = 5.0;
+        }
+        assert_eq!(run(&c, &s)[1], (250, DetectorEvent::Recovered));
+        // A breath (longer than a glitch) restarts the count.
+        let mut s = vec![f64::NAN];
+        s.extend(std::iter::repeat_n(2.5, 100));
+        s.extend(std::iter::repeat_n(4.0, 6));
+        s.extend(std::iter::repeat_n(2.5, 400));
+        assert_eq!(run(&c, &s)[1], (356, DetectorEvent::Recovered));
+    }
+
+    #[test]
+    fn a_stale_sensor_faults_and_a_fresh_one_recovers() {
+        let c = DetectorConfig::default(); // stale 50 ms, recovery 250 ms
+        let mut d = BurstDetector::new(&c);
+        for t in 0..100 {
+            d.step(t, 3.8); // puff held …
+        }
+        for t in 100..149 {
+            let out = d.step_missing(t); // … then the sensor goes quiet
+            assert_eq!(out.held.breath, Some(Breath::Puff), "held until stale");
+            assert!(out.event.is_none());
+        }
+        let out = d.step_missing(149);
+        assert_eq!(
+            out.event,
+            Some(DetectorEvent::Fault(FaultReason::Stale { ms: 50 }))
+        );
+        assert!(out.faulted);
+        assert_eq!(out.held, Held::default());
+        assert_eq!(d.step_missing(500).event, None, "one event per fault");
+        let events: Vec<_> = (501..800).filter_map(|t| d.step(t, 2.5).event).collect();
+        assert_eq!(events, [DetectorEvent::Recovered]);
+        // Never a sample from start: stale too.
+        let mut d = BurstDetector::new(&c);
+        assert!(d.step_missing(48).event.is_none());
+        assert!(d.step_missing(49).event.is_some());
+    }
+
+    #[test]
+    fn output_reports_fault_state() {
+        let c = DetectorConfig::default();
+        let mut d = BurstDetector::new(&c);
+        let out = d.step(0, f64::NEG_INFINITY);
+        assert!(out.faulted);
+        assert_eq!(out.held, Held::default());
+        assert!(d.step(1, f64::NAN).event.is_none(), "one event per fault");
+    }
+}

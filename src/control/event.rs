@@ -1,0 +1,116 @@
+//! Events the core reports, and the fixed-capacity list one tick carries.
+//!
+//! The event log (`replay`, `run`) is derived from these types through
+//! serde: one JSON object per event, `{"tick":N,"event":"<name>",…}` (see
+//! [`TimedEvent`]).
+
+use serde::Serialize;
+
+use crate::control::Tick;
+use crate::control::action::ActionSeq;
+use crate::control::detector::{Burst, FaultReason};
+use crate::control::mode::Mode;
+use crate::control::modes::DetectionReason;
+use crate::control::motion::MotionEvent;
+use crate::control::selection::matcher::ResetReason;
+
+/// Something worth telling the user, the clinician or the log. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum Event {
+    /// A burst was detected.
+    Burst(Burst),
+    /// A sequence matched: command mode for `mode` starts.
+    Match {
+        /// The matched sequence.
+        sequence: ActionSeq,
+        /// The mode entered.
+        mode: Mode,
+    },
+    /// The current sequence was dropped.
+    Reset {
+        /// The dropped sequence.
+        sequence: ActionSeq,
+        /// Why.
+        reason: ResetReason,
+    },
+    /// The scanning interface (BSP) highlights this mode.
+    Highlight {
+        /// The mode highlighted.
+        mode: Mode,
+    },
+    /// Back to detection mode.
+    Detection {
+        /// Why.
+        reason: DetectionReason,
+    },
+    /// The sensor signal became invalid; motion stops.
+    Fault {
+        /// Why, in plain words in the log.
+        reason: FaultReason,
+    },
+    /// The sensor signal is valid again; detection resumes.
+    Recovered,
+    /// From the motion layer (save, go to, workspace limits), logged under
+    /// its own event name.
+    #[serde(untagged)]
+    Motion(MotionEvent),
+}
+
+/// An event and the tick it happened on: one line of the event log.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TimedEvent {
+    /// The tick.
+    pub tick: Tick,
+    /// What happened.
+    #[serde(flatten)]
+    pub event: Event,
+}
+
+/// Most events one tick can produce: a fault also resets the sequence and
+/// leaves command mode (3); a burst, a match and two motion events (4);
+/// with scanning, a burst, a selection, a highlight and two motion events
+/// (5).
+pub const MAX_EVENTS_PER_TICK: usize = 6;
+
+/// The events of one tick, inline. `Copy`, RT-safe.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Events {
+    items: [Option<Event>; MAX_EVENTS_PER_TICK],
+    len: u8,
+}
+
+impl Default for Events {
+    fn default() -> Self {
+        Events {
+            items: [None; MAX_EVENTS_PER_TICK],
+            len: 0,
+        }
+    }
+}
+
+impl Events {
+    /// Adds an event; returns it back if the list is full (cannot happen
+    /// with the core's event sources, see [`MAX_EVENTS_PER_TICK`]).
+    pub fn push(&mut self, event: Event) -> Result<(), Event> {
+        let slot = self.items.get_mut(usize::from(self.len)).ok_or(event)?;
+        *slot = Some(event);
+        self.len += 1;
+        Ok(())
+    }
+
+    /// The events, in the order they happened.
+    pub fn iter(&self) -> impl Iterator<Item = &Event> {
+        self.items.iter().flatten()
+    }
+
+    /// Number of events.
+    pub fn len(&self) -> usize {
+        usize::from(self.len)
+    }
+
+    /// Whether nothing happened.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}

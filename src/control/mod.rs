@@ -1,0 +1,43 @@
+//! The deterministic core: one voltage sample per tick in, events and a
+//! jerk-limited Cartesian velocity out.
+//!
+//! ```text
+//! volts ─► detector ─► selection ─► modes ─► motion ─► twist (1 kHz) ─► ArmCommand (100 Hz)
+//!          (bursts)    (ASP: matcher,  (Fig. 1)  (Ruckig,
+//!                       BSP: scanning)            limits)
+//! ```
+//!
+//! * [`detector`] turns samples into bursts (short/long sip/puff) and says
+//!   what breath is held right now;
+//! * [`selection`] picks a mode: the paper's sequence matcher (ASP) or the
+//!   scanning baseline (BSP);
+//! * [`modes`] is the detection/command mode machine of the paper's Fig. 1;
+//! * [`motion`] makes the smooth, limited velocity and the arm's stream;
+//! * [`pipeline`] wires them into one [`Pipeline::step`] per tick.
+//!
+//! Everything here is pure: time enters as a [`Tick`] argument; nothing
+//! reads a clock, sleeps, locks, does I/O or allocates after construction.
+//! This module imports nothing else of the crate (each stage's settings
+//! live with the stage; `crate::config` reads them from TOML), and no
+//! code path may panic: unwraps, `expect`, `panic!` and unchecked
+//! indexing are denied below.
+//!
+//! [`Pipeline::step`]: pipeline::Pipeline::step
+
+#![deny(clippy::unwrap_used)]
+#![deny(clippy::expect_used)]
+#![deny(clippy::panic)]
+#![deny(clippy::indexing_slicing)]
+
+pub mod action;
+pub mod core_config;
+pub mod detector;
+pub mod event;
+pub mod mode;
+pub mod modes;
+pub mod motion;
+pub mod pipeline;
+pub mod selection;
+
+/// Time in the core: one tick is one millisecond, one sensor sample at 1 kHz.
+pub type Tick = u64;

@@ -1,0 +1,789 @@
+//! Motion: the mode machine's command becomes a jerk-limited Cartesian
+//! velocity for the JACO, every tick, without allocating.
+//!
+//! * **Modes.** A held puff or sip gives ± the configured speed on the
+//!   mode's axis (translations in the base frame, rotations about the tool's
+//!   axes, fingers in JACO2 finger units); release gives zero. Optionally
+//!   the speed scales with the pressure.
+//! * **Smoothing.** `rsruckig`'s velocity interface, six axes, 1 ms cycle,
+//!   `Synchronization::None` (each axis reaches its target on its own); the
+//!   target changes only when the request does and the output is fed back
+//!   every tick. Targets are clamped to the speed limits (the velocity
+//!   interface ignores `max_velocity`). Fingers have their own one-axis
+//!   Ruckig.
+//! * **Save and go to point.** A puff in `save_point` stores the pose; a
+//!   puff held in `goto_point` moves there with the position interface
+//!   (position and rotation vector, `Synchronization::Time`). Per-axis
+//!   limits are scaled by each axis's share of the distance, so from rest
+//!   the profiles are proportional: a straight line, and the norms of
+//!   velocity, acceleration and jerk stay within the limits. Release brakes
+//!   along the same line.
+//! * **Workspace.** Before each tick, if braking one tick later could no
+//!   longer stop the tool short of a boundary (reach sphere, base sphere,
+//!   table) by `stop_margin_m`, the target becomes zero: Ruckig brakes
+//!   within the limits and the tool stops at the boundary, never jumps.
+//! * **Faults.** A sensor fault returns the mode machine to detection mode,
+//!   whose target is zero: the arm brakes through Ruckig like any release.
+
+mod boundaries;
+pub mod braking;
+mod goto;
+pub mod home;
+pub mod limits;
+pub mod stream;
+mod targets;
+pub mod workspace;
+
+use nalgebra::{Isometry3, UnitQuaternion, Vector3};
+use rsruckig::prelude::*;
+use serde::{Serialize, Serializer};
+
+use crate::control::Tick;
+use crate::control::mode::{Direction, Mode, ModeState};
+use crate::control::modes::ModeOutput;
+use home::HomeConfig;
+use limits::MotionConfig;
+use stream::{ArmCommand, Decimator};
+use workspace::{Boundary, WorkspaceConfig};
+
+/// The control cycle, s.
+pub const CYCLE_S: f64 = 0.001;
+/// Finger travel kept at each end, units.
+pub const FINGER_MARGIN: f64 = 10.0;
+/// From rest, the tool does not start towards a boundary with less room
+/// than this past the stop margin, m (no creeping by fractions of a mm).
+pub const MIN_START_M: f64 = 0.002;
+/// Closer than this to the saved point (m and rad) counts as there.
+pub const AT_POINT: (f64, f64) = (1e-4, 1e-3);
+
+/// Something the motion layer reports. Serialized as an event-log entry
+/// (`{"event":"saved",…}`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum MotionEvent {
+    /// The pose was saved.
+    Saved {
+        /// Saved position, m.
+        position: [f64; 3],
+    },
+    /// Moving to the saved pose.
+    GotoStarted {
+        /// Straight-line distance, m.
+        distance_m: f64,
+        /// Rotation, rad.
+        angle_rad: f64,
+    },
+    /// The saved pose was reached.
+    GotoReached,
+    /// `goto_point` with nothing saved: nothing moves.
+    #[serde(serialize_with = "no_saved_point")]
+    NoSavedPoint,
+    /// `goto_point` while already at the saved pose.
+    #[serde(rename = "at_saved_point")]
+    AlreadyAtSavedPoint,
+    /// Motion stopped at a boundary.
+    WorkspaceLimit {
+        /// Which one.
+        boundary: Boundary,
+    },
+    /// The trajectory generator failed (unreachable with a validated
+    /// config): the arm brakes with acceleration limits alone.
+    #[serde(serialize_with = "trajectory_error")]
+    TrajectoryError,
+}
+
+/// The event log says why nothing moves.
+fn no_saved_point<S: Serializer>(serializer: S) -> Result<S::Ok, S::Error> {
+    Reason {
+        reason: "goto_point: no pose has been saved",
+    }
+    .serialize(serializer)
+}
+
+/// The event log says what the arm does instead.
+fn trajectory_error<S: Serializer>(serializer: S) -> Result<S::Ok, S::Error> {
+    Reason {
+        reason: "trajectory generator failed; braking with acceleration limits",
+    }
+    .serialize(serializer)
+}
+
+/// A constant explanation beside an event's name.
+#[derive(Serialize)]
+struct Reason {
+    reason: &'static str,
+}
+
+impl MotionOutput {
+    /// The commanded velocity as `[vx, vy, vz, wx, wy, wz, fingers]`.
+    pub fn velocity(&self) -> [f64; 7] {
+        let [vx, vy, vz] = self.linear;
+        let [wx, wy, wz] = self.angular;
+        [vx, vy, vz, wx, wy, wz, self.fingers_velocity]
+    }
+
+    /// Nothing is commanded to move.
+    pub fn is_still(&self) -> bool {
+        self.velocity() == [0.0; 7]
+    }
+}
+
+/// The motion layer's output for one tick. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionOutput {
+    /// Commanded linear velocity, m/s, base frame.
+    pub linear: [f64; 3],
+    /// Commanded angular velocity, rad/s, base frame.
+    pub angular: [f64; 3],
+    /// Commanded finger velocity, units/s (positive closes).
+    pub fingers_velocity: f64,
+    /// The pose the commands lead to (integrated), base frame.
+    pub pose: Isometry3<f64>,
+    /// The finger position the commands lead to, units.
+    pub fingers: f64,
+    /// A command for the arm, every 10 ticks.
+    pub arm_command: Option<ArmCommand>,
+    /// Ruckig computed a new trajectory on this tick (a new target).
+    pub recalculated: bool,
+    /// At most two events per tick.
+    pub events: [Option<MotionEvent>; 2],
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Plan {
+    /// State: linear velocity in the base frame, angular in the tool frame.
+    Velocity,
+    /// State: position and rotation vector relative to `start`, base frame.
+    Goto { start: UnitQuaternion<f64> },
+}
+
+type Otg<const N: usize> = Ruckig<N, ThrowErrorHandler>;
+
+/// The motion layer. Construct at start-up; [`Motion::step`] is RT-safe
+/// (no allocation, no panic, no clock).
+pub struct Motion {
+    limits: MotionConfig,
+    workspace: WorkspaceConfig,
+    otg: Otg<6>,
+    input: InputParameter<6>,
+    output: OutputParameter<6>,
+    finger_otg: Otg<1>,
+    finger_input: InputParameter<1>,
+    finger_output: OutputParameter<1>,
+    plan: Plan,
+    /// The per-axis limits are a goto's scaled ones.
+    scaled_limits: bool,
+    pose: Isometry3<f64>,
+    fingers: f64,
+    /// Last tick's commanded velocity `[v (3), ω base (3), fingers]`.
+    last: [f64; 7],
+    saved: Option<Isometry3<f64>>,
+    /// A requested linear direction held off by a boundary.
+    linear_blocked: Option<Vector3<f64>>,
+    /// A requested finger direction held off by an end.
+    finger_blocked: Option<f64>,
+    /// The current goto puff is done with (reached, blocked, nothing saved).
+    goto_done: bool,
+    previous_direction: Direction,
+    decimator: Decimator,
+}
+
+impl std::fmt::Debug for Motion {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Motion")
+            .field("plan", &self.plan)
+            .field("pose", &self.pose)
+            .field("fingers", &self.fingers)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Motion {
+    /// At the configured home pose, at rest. Not RT-safe (call at start-up).
+    pub fn new(limits: &MotionConfig, workspace: &WorkspaceConfig, home: &HomeConfig) -> Self {
+        let limits = *limits;
+        let mut input = InputParameter::new(None);
+        input.control_interface = ControlInterface::Velocity;
+        input.synchronization = Synchronization::None;
+        let mut finger_input = InputParameter::new(None);
+        finger_input.control_interface = ControlInterface::Velocity;
+        finger_input.synchronization = Synchronization::None;
+        finger_input.max_velocity.fill(limits.finger_speed);
+        finger_input
+            .max_acceleration
+            .fill(limits.finger_acceleration);
+        finger_input.max_jerk.fill(limits.finger_jerk);
+        let mut motion = Motion {
+            limits,
+            workspace: *workspace,
+            otg: Otg::new(None, CYCLE_S),
+            input,
+            output: OutputParameter::new(None),
+            finger_otg: Otg::new(None, CYCLE_S),
+            finger_input,
+            finger_output: OutputParameter::new(None),
+            plan: Plan::Velocity,
+            scaled_limits: false,
+            pose: home.pose(),
+            fingers: home.home_fingers,
+            last: [0.0; 7],
+            saved: None,
+            linear_blocked: None,
+            finger_blocked: None,
+            goto_done: false,
+            previous_direction: Direction::Still,
+            decimator: Decimator::default(),
+        };
+        motion.set_axis_limits([1.0; 6]);
+        motion
+    }
+
+    /// An output with no motion at the current pose (a placeholder before
+    /// [`Motion::step`] fills the real one).
+    pub fn idle_output(&self) -> MotionOutput {
+        MotionOutput {
+            linear: [0.0; 3],
+            angular: [0.0; 3],
+            fingers_velocity: 0.0,
+            pose: self.pose,
+            fingers: self.fingers,
+            arm_command: None,
+            recalculated: false,
+            events: [None; 2],
+        }
+    }
+
+    /// The pose the commands lead to.
+    pub fn pose(&self) -> Isometry3<f64> {
+        self.pose
+    }
+
+    /// The saved pose, if any.
+    pub fn saved(&self) -> Option<Isometry3<f64>> {
+        self.saved
+    }
+
+    /// The configured limits.
+    pub fn limits(&self) -> &MotionConfig {
+        &self.limits
+    }
+
+    /// One tick. RT-safe.
+    pub fn step(&mut self, now: Tick, command: &ModeOutput) -> MotionOutput {
+        let mut events = [None; 2];
+        let mut emit = |e: MotionEvent| {
+            if let Some(slot) = events.iter_mut().find(|s| s.is_none()) {
+                *slot = Some(e);
+            }
+        };
+
+        let mode = match command.state {
+            ModeState::Command(mode) => Some(mode),
+            ModeState::Detection => None,
+        };
+        let direction = command.direction.sign();
+        let pressed = command.direction == Direction::Positive
+            && self.previous_direction != Direction::Positive;
+        self.previous_direction = command.direction;
+        let scale = self.speed_scale(command.strength_volts);
+
+        let mut linear = Vector3::zeros();
+        let mut angular = Vector3::zeros();
+        let mut fingers = 0.0;
+        let l = self.limits;
+        match (mode, command.direction) {
+            (_, Direction::Still) | (None, _) => {}
+            (Some(Mode::TranslateX), _) => linear.x = direction * l.linear_speed_mps * scale,
+            (Some(Mode::TranslateY), _) => linear.y = direction * l.linear_speed_mps * scale,
+            (Some(Mode::TranslateZ), _) => linear.z = direction * l.linear_speed_mps * scale,
+            (Some(Mode::RotateX), _) => angular.x = direction * l.angular_speed_radps * scale,
+            (Some(Mode::RotateY), _) => angular.y = direction * l.angular_speed_radps * scale,
+            (Some(Mode::RotateZ), _) => angular.z = direction * l.angular_speed_radps * scale,
+            // Puff opens (towards 0), sip closes.
+            (Some(Mode::Fingers), _) => fingers = -direction * l.finger_speed * scale,
+            (Some(Mode::SavePoint), _) => {
+                if pressed {
+                    self.saved = Some(self.pose);
+                    emit(MotionEvent::Saved {
+                        position: self.pose.translation.vector.into(),
+                    });
+                }
+            }
+            (Some(Mode::GotoPoint), _) => {
+                if pressed {
+                    self.goto_done = false;
+                    if let Some(event) = self.start_goto() {
+                        emit(event);
+                    }
+                }
+            }
+        }
+        let goto_held = mode == Some(Mode::GotoPoint) && command.direction == Direction::Positive;
+        if let Plan::Goto { .. } = self.plan {
+            if !goto_held {
+                self.brake_goto(); // released: brake along the line
+            } else if let Some(boundary) = self.goto_blocked() {
+                self.brake_goto();
+                self.goto_done = true;
+                emit(MotionEvent::WorkspaceLimit { boundary });
+            }
+        }
+
+        if self.plan == Plan::Velocity {
+            if let Some(boundary) = self.hold_linear_at_boundary(&mut linear) {
+                emit(MotionEvent::WorkspaceLimit { boundary });
+            }
+            self.set_velocity_target(linear, angular);
+        }
+        if let Some(boundary) = self.hold_fingers_at_end(&mut fingers) {
+            emit(MotionEvent::WorkspaceLimit { boundary });
+        }
+        self.finger_input
+            .target_velocity
+            .fill(fingers.clamp(-l.finger_speed, l.finger_speed));
+
+        if let Some(event) = self.update_trajectories() {
+            emit(event);
+        }
+        if let Plan::Goto { .. } = self.plan
+            && self.goto_done
+        {
+            emit(MotionEvent::GotoReached);
+        }
+
+        let twist = self.twist();
+        let mut mean = [0.0; 7];
+        for ((m, last), now) in mean.iter_mut().zip(self.last).zip(twist) {
+            *m = (last + now) / 2.0;
+        }
+        self.last = twist;
+        self.integrate(&mean);
+        if let Plan::Goto { .. } = self.plan
+            && self.goto_done
+        {
+            self.switch_to_velocity_plan();
+        }
+        MotionOutput {
+            linear: [twist[0], twist[1], twist[2]],
+            angular: [twist[3], twist[4], twist[5]],
+            fingers_velocity: twist[6],
+            pose: self.pose,
+            fingers: self.fingers,
+            arm_command: self.decimator.push(now, mean),
+            recalculated: self.output.new_calculation || self.finger_output.new_calculation,
+            events,
+        }
+    }
+
+    /// Runs both Ruckig instances one cycle and feeds their output back.
+    fn update_trajectories(&mut self) -> Option<MotionEvent> {
+        let mut failed = false;
+        match self.otg.update(&self.input, &mut self.output) {
+            Ok(RuckigResult::Working) => self.output.pass_to_input(&mut self.input),
+            Ok(RuckigResult::Finished) => {
+                self.output.pass_to_input(&mut self.input);
+                settle(&mut self.input);
+                if let Plan::Goto { .. } = self.plan {
+                    self.goto_done = true;
+                }
+            }
+            _ => failed = true,
+        }
+        match self
+            .finger_otg
+            .update(&self.finger_input, &mut self.finger_output)
+        {
+            Ok(RuckigResult::Working) => self.finger_output.pass_to_input(&mut self.finger_input),
+            Ok(RuckigResult::Finished) => {
+                self.finger_output.pass_to_input(&mut self.finger_input);
+                settle(&mut self.finger_input);
+            }
+            _ => failed = true,
+        }
+        if failed {
+            self.emergency_brake();
+            return Some(MotionEvent::TrajectoryError);
+        }
+        None
+    }
+
+    /// Brakes every axis with the acceleration limits alone (no jerk
+    /// limit): only if Ruckig fails, which validated limits prevent.
+    fn emergency_brake(&mut self) {
+        self.switch_to_velocity_plan();
+        let l = self.limits;
+        let brake = |v: &mut f64, a: f64| {
+            let step = a * CYCLE_S;
+            *v = if v.is_finite() {
+                *v - v.clamp(-step, step)
+            } else {
+                0.0
+            };
+        };
+        for (i, v) in self.input.current_velocity.iter_mut().enumerate() {
+            let a = if i < 3 {
+                l.linear_acceleration_mps2
+            } else {
+                l.angular_acceleration_radps2
+            };
+            brake(v, a);
+        }
+        self.input.current_acceleration.fill(0.0);
+        self.input.target_velocity.fill(0.0);
+        for v in self.finger_input.current_velocity.iter_mut() {
+            brake(v, l.finger_acceleration);
+        }
+        self.finger_input.current_acceleration.fill(0.0);
+        self.finger_input.target_velocity.fill(0.0);
+    }
+
+    /// This tick's commanded velocity: `[v (3), ω base (3), fingers]`.
+    fn twist(&self) -> [f64; 7] {
+        let v = vec3(&self.input.current_velocity, 0);
+        let w = vec3(&self.input.current_velocity, 3);
+        let w_base = match self.plan {
+            Plan::Velocity => self.pose.rotation * w,
+            Plan::Goto { start } => start * w,
+        };
+        [
+            v.x,
+            v.y,
+            v.z,
+            w_base.x,
+            w_base.y,
+            w_base.z,
+            self.finger_input
+                .current_velocity
+                .first()
+                .copied()
+                .unwrap_or(0.0),
+        ]
+    }
+
+    /// Integrates the tick's mean velocity into the pose estimate.
+    fn integrate(&mut self, mean: &[f64; 7]) {
+        let v = Vector3::new(mean[0], mean[1], mean[2]);
+        let w = Vector3::new(mean[3], mean[4], mean[5]);
+        self.pose.translation.vector += v * CYCLE_S;
+        self.pose.rotation = UnitQuaternion::from_scaled_axis(w * CYCLE_S) * self.pose.rotation;
+        self.fingers += mean[6] * CYCLE_S;
+    }
+}
+
+/// A finished trajectory is at its target: drop the last ulps of rounding
+/// so that "stopped" means exactly zero velocity.
+fn settle<const N: usize>(input: &mut InputParameter<N>) {
+    let copy = |to: &mut [f64], from: &[f64]| {
+        for (t, f) in to.iter_mut().zip(from) {
+            *t = *f;
+        }
+    };
+    if let ControlInterface::Position = input.control_interface {
+        copy(&mut input.current_position, &input.target_position);
+    }
+    copy(&mut input.current_velocity, &input.target_velocity);
+    copy(&mut input.current_acceleration, &input.target_acceleration);
+}
+
+/// Fills `slots` with `values` (as many as both have).
+fn set_all<const N: usize>(slots: &mut [f64], values: [f64; N]) {
+    for (slot, value) in slots.iter_mut().zip(values) {
+        *slot = value;
+    }
+}
+
+/// The three values from `from` on (0 past the end).
+fn vec3(values: &[f64], from: usize) -> Vector3<f64> {
+    let mut next = values.iter().skip(from).copied();
+    let mut take = || next.next().unwrap_or(0.0);
+    Vector3::new(take(), take(), take())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn command(mode: Mode, direction: Direction) -> ModeOutput {
+        ModeOutput {
+            state: ModeState::Command(mode),
+            direction,
+            strength_volts: 1.0,
+        }
+    }
+
+    /// Runs `ticks` ticks of one command, returning the outputs.
+    fn run(m: &mut Motion, tick: &mut Tick, c: ModeOutput, ticks: u64) -> Vec<MotionOutput> {
+        (0..ticks)
+            .map(|_| {
+                *tick += 1;
+                m.step(*tick, &c)
+            })
+            .collect()
+    }
+
+    fn events(outputs: &[MotionOutput]) -> Vec<MotionEvent> {
+        outputs
+            .iter()
+            .flat_map(|o| o.events.into_iter().flatten())
+            .collect()
+    }
+
+    /// Motion with the default limits, workspace and home pose.
+    fn motion() -> Motion {
+        motion_with(|_, _| {})
+    }
+
+    /// Motion with the defaults changed by `edit`.
+    fn motion_with(edit: impl FnOnce(&mut MotionConfig, &mut HomeConfig)) -> Motion {
+        let (mut limits, mut home) = (MotionConfig::default(), HomeConfig::default());
+        edit(&mut limits, &mut home);
+        Motion::new(&limits, &WorkspaceConfig::default(), &home)
+    }
+
+    const PUFF: Direction = Direction::Positive;
+    const SIP: Direction = Direction::Negative;
+    const STILL: Direction = Direction::Still;
+
+    #[test]
+    fn power_up_is_still() {
+        let mut m = motion();
+        let mut t = 0;
+        let out = run(&mut m, &mut t, ModeOutput::default(), 100);
+        assert!(
+            out.iter()
+                .all(|o| o.linear == [0.0; 3] && o.angular == [0.0; 3])
+        );
+        assert_eq!(out[99].pose, HomeConfig::default().pose());
+    }
+
+    #[test]
+    fn translation_ramps_holds_and_brakes_within_the_limits() {
+        // A = 0.64 m/s², J = 3.2 m/s³: 0 → 0.2 m/s takes 0.2 + 0.1125 + 0.2
+        // = 0.5125 s, and braking from 0.2 m/s covers 0.05125 m.
+        let mut m = motion();
+        let mut t = 0;
+        let held = run(&mut m, &mut t, command(Mode::TranslateX, PUFF), 2000);
+        assert!(held[511].linear[0] < 0.2);
+        assert!(
+            (held[512].linear[0] - 0.2).abs() < 1e-12,
+            "{}",
+            held[512].linear[0]
+        );
+        assert_eq!(held[1999].linear, [0.2, 0.0, 0.0]);
+        let x_at_release = held[1999].pose.translation.x;
+        let released = run(&mut m, &mut t, command(Mode::TranslateX, STILL), 600);
+        assert!(released[511].linear[0] > 0.0);
+        assert_eq!(released[512].linear, [0.0; 3]);
+        let travelled = released[599].pose.translation.x - x_at_release;
+        assert!((travelled - 0.05125).abs() < 1e-6, "{travelled}");
+    }
+
+    #[test]
+    fn rotation_is_about_the_tool_axis() {
+        // Tool rotated 90° about base z: its x axis is the base y axis.
+        let mut m = motion_with(|_, home| {
+            home.home_rotation_vector_rad = [0.0, 0.0, std::f64::consts::FRAC_PI_2];
+        });
+        let mut t = 0;
+        let out = run(&mut m, &mut t, command(Mode::RotateX, PUFF), 1000);
+        let w = out[999].angular;
+        assert!(
+            w[0].abs() < 1e-12 && (w[1] - 1.07).abs() < 1e-12 && w[2].abs() < 1e-12,
+            "{w:?}"
+        );
+        // The tool point does not move.
+        assert_eq!(out[999].pose.translation, m.pose().translation);
+        assert_eq!(
+            out[999].pose.translation.vector,
+            Vector3::new(0.21, -0.26, 0.48)
+        );
+    }
+
+    #[test]
+    fn fingers_stop_at_their_ends() {
+        let mut m = motion();
+        let mut t = 0;
+        let out = run(&mut m, &mut t, command(Mode::Fingers, SIP), 4000);
+        assert_eq!(
+            events(&out),
+            [MotionEvent::WorkspaceLimit {
+                boundary: Boundary::FingersClosed
+            }]
+        );
+        let closed = out[3999].fingers;
+        assert!(
+            closed <= 6800.0 - FINGER_MARGIN && closed > 6800.0 - FINGER_MARGIN - 5.0,
+            "{closed}"
+        );
+        assert_eq!(out[3999].fingers_velocity, 0.0);
+        // Puff opens from there.
+        let out = run(&mut m, &mut t, command(Mode::Fingers, PUFF), 500);
+        assert!(out[499].fingers < closed - 500.0);
+    }
+
+    #[test]
+    fn the_table_stops_the_tool_at_the_margin() {
+        let mut m = motion(); // z = 0.48, margin 5 mm
+        let mut t = 0;
+        let out = run(&mut m, &mut t, command(Mode::TranslateZ, SIP), 4000);
+        assert_eq!(
+            events(&out),
+            [MotionEvent::WorkspaceLimit {
+                boundary: Boundary::Table
+            }]
+        );
+        let z = out[3999].pose.translation.z;
+        assert!((0.005..0.006).contains(&z), "stopped at z = {z}");
+        assert_eq!(out[3999].linear, [0.0; 3]);
+        // Holding on moves nothing more; the other way is free.
+        let out = run(&mut m, &mut t, command(Mode::TranslateZ, SIP), 500);
+        assert_eq!(out[499].pose.translation.z, z);
+        assert!(events(&out).is_empty(), "one event per hold");
+        let out = run(&mut m, &mut t, command(Mode::TranslateZ, PUFF), 500);
+        assert!(out[499].pose.translation.z > z + 0.01);
+    }
+
+    #[test]
+    fn the_base_sphere_stops_the_tool() {
+        let mut m = motion_with(|_, home| home.home_position_m = [0.35, 0.0, 0.1]);
+        let mut t = 0;
+        let out = run(&mut m, &mut t, command(Mode::TranslateX, SIP), 3000);
+        assert_eq!(
+            events(&out),
+            [MotionEvent::WorkspaceLimit {
+                boundary: Boundary::Base
+            }]
+        );
+        let p = out[2999].pose.translation.vector;
+        let to_sphere = p.norm() - 0.2;
+        assert!(
+            to_sphere > 0.0 && (0.005..0.006).contains(&(p.x - 0.03f64.sqrt())),
+            "{p:?}"
+        );
+    }
+
+    #[test]
+    fn save_and_go_to_point() {
+        let mut m = motion();
+        let mut t = 0;
+        // Nothing saved: nothing moves, and an event says why.
+        let out = run(&mut m, &mut t, command(Mode::GotoPoint, PUFF), 200);
+        assert_eq!(events(&out), [MotionEvent::NoSavedPoint]);
+        assert!(out.iter().all(|o| o.linear == [0.0; 3]));
+        run(&mut m, &mut t, command(Mode::GotoPoint, STILL), 10);
+        let out = run(&mut m, &mut t, command(Mode::SavePoint, PUFF), 10);
+        assert!(matches!(events(&out)[..], [MotionEvent::Saved { .. }]));
+        let saved = m.saved().unwrap();
+        run(&mut m, &mut t, command(Mode::SavePoint, STILL), 10);
+        for (mode, ticks) in [
+            (Mode::TranslateX, 1200),
+            (Mode::TranslateY, 800),
+            (Mode::RotateZ, 700),
+            (Mode::RotateX, 500),
+        ] {
+            run(&mut m, &mut t, command(mode, PUFF), ticks);
+            run(&mut m, &mut t, command(mode, STILL), 1000);
+        }
+        // Hold a puff: a straight line back, all axes arriving together.
+        let out = run(&mut m, &mut t, command(Mode::GotoPoint, PUFF), 6000);
+        let ev = events(&out);
+        assert!(matches!(ev[0], MotionEvent::GotoStarted { .. }), "{ev:?}");
+        assert_eq!(ev[1], MotionEvent::GotoReached);
+        let end = out[5999].pose;
+        assert!((end.translation.vector - saved.translation.vector).norm() < 1e-6);
+        assert!(end.rotation.angle_to(&saved.rotation) < 1e-6);
+        let start = out[0].pose.translation.vector;
+        for o in &out {
+            // On the line from start to goal.
+            let p = o.pose.translation.vector - start;
+            let line = saved.translation.vector - start;
+            assert!(p.cross(&line).norm() / line.norm() < 1e-6);
+            assert!(Vector3::from(o.linear).norm() <= 0.2 * (1.0 + 1e-9));
+        }
+        // At the point: a new puff says so and moves nothing.
+        run(&mut m, &mut t, command(Mode::GotoPoint, STILL), 10);
+        let out = run(&mut m, &mut t, command(Mode::GotoPoint, PUFF), 100);
+        assert_eq!(events(&out), [MotionEvent::AlreadyAtSavedPoint]);
+    }
+
+    #[test]
+    fn releasing_a_goto_brakes_along_the_line() {
+        let mut m = motion();
+        let mut t = 0;
+        run(&mut m, &mut t, command(Mode::SavePoint, PUFF), 5);
+        run(&mut m, &mut t, command(Mode::SavePoint, STILL), 5);
+        run(&mut m, &mut t, command(Mode::TranslateX, PUFF), 1500);
+        run(&mut m, &mut t, command(Mode::TranslateX, STILL), 1000);
+        run(&mut m, &mut t, command(Mode::TranslateZ, SIP), 1000);
+        run(&mut m, &mut t, command(Mode::TranslateZ, STILL), 1000);
+        let start = m.pose().translation.vector;
+        let goal = m.saved().unwrap().translation.vector;
+        run(&mut m, &mut t, command(Mode::GotoPoint, PUFF), 800);
+        let out = run(&mut m, &mut t, command(Mode::GotoPoint, STILL), 1000);
+        assert_eq!(out[999].linear, [0.0; 3]);
+        let p = out[999].pose.translation.vector;
+        assert!(
+            (p - start).cross(&(goal - start)).norm() < 1e-9,
+            "stopped on the line"
+        );
+        assert!((p - goal).norm() > 0.01, "short of the goal");
+    }
+
+    #[test]
+    fn a_goto_through_the_base_sphere_stops_at_it() {
+        // Save at (0.3, 0, 0.05), go round the base to (−0.3, 0, 0.05)
+        // (0.2 m/s held T seconds moves 0.2·T m), then go back: the straight
+        // line passes 0.05 m from the base, inside its 0.2 m sphere, which it
+        // meets at x = −√(0.2² − 0.05²).
+        let mut m = motion_with(|_, home| home.home_position_m = [0.3, 0.0, 0.05]);
+        let mut t = 0;
+        run(&mut m, &mut t, command(Mode::SavePoint, PUFF), 5);
+        run(&mut m, &mut t, command(Mode::SavePoint, STILL), 5);
+        for (mode, direction, ticks) in [
+            (Mode::TranslateY, PUFF, 2000),
+            (Mode::TranslateX, SIP, 3000),
+            (Mode::TranslateY, SIP, 2000),
+        ] {
+            let out = run(&mut m, &mut t, command(mode, direction), ticks);
+            assert!(events(&out).is_empty(), "{:?}", events(&out));
+            run(&mut m, &mut t, command(mode, STILL), 1000);
+        }
+        let p = m.pose().translation.vector;
+        assert!((p - Vector3::new(-0.3, 0.0, 0.05)).norm() < 1e-6, "{p:?}");
+        let out = run(&mut m, &mut t, command(Mode::GotoPoint, PUFF), 3000);
+        let ev = events(&out);
+        assert!(matches!(ev[0], MotionEvent::GotoStarted { .. }), "{ev:?}");
+        assert_eq!(
+            ev[1..],
+            [MotionEvent::WorkspaceLimit {
+                boundary: Boundary::Base
+            }]
+        );
+        let p = m.pose().translation.vector;
+        let sphere_x = -(0.2f64 * 0.2 - 0.05 * 0.05).sqrt();
+        let gap = sphere_x - p.x;
+        assert!(
+            (0.005..0.006).contains(&gap),
+            "{p:?}, {gap} m from the sphere"
+        );
+        assert_eq!(out[2999].linear, [0.0; 3]);
+    }
+
+    #[test]
+    fn proportional_speed_follows_the_pressure() {
+        let mut m = motion_with(|limits, _| {
+            limits.proportional_speed = true;
+            limits.proportional_full_scale_volts = 1.0;
+            limits.proportional_min_fraction = 0.25;
+        });
+        let mut t = 0;
+        let mut half = command(Mode::TranslateX, PUFF);
+        half.strength_volts = 0.5; // 0.25 + 0.75 · 0.5 = 62.5 % of 0.2 m/s
+        let out = run(&mut m, &mut t, half, 2000);
+        assert!(
+            (out[1999].linear[0] - 0.125).abs() < 1e-12,
+            "{}",
+            out[1999].linear[0]
+        );
+    }
+}

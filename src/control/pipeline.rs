@@ -1,0 +1,194 @@
+//! The pipeline: the core's stages wired together, detector → selection →
+//! mode machine → motion, one [`Pipeline::step`] per sample. Pure and
+//! deterministic: the same samples give the same outputs in replay, in
+//! tests and on the real-time thread.
+
+use crate::control::Tick;
+use crate::control::action::ActionSeq;
+use crate::control::core_config::CoreConfig;
+use crate::control::detector::{BurstDetector, DetectorEvent, DetectorOutput};
+use crate::control::event::{Event, Events};
+use crate::control::mode::{Held, ModeState};
+use crate::control::modes::{ModeMachine, ModeOutput};
+use crate::control::motion::{Motion, MotionOutput};
+use crate::control::selection::Interface;
+use crate::control::selection::index::{SequenceIndex, TrieIndex};
+use crate::control::selection::matcher::{MatchEvent, SequenceMatcher};
+use crate::control::selection::scanning::Scanner;
+
+/// Everything the core says about one tick. `Copy`, RT-safe.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TickOutput {
+    /// The tick this output belongs to.
+    pub tick: Tick,
+    /// Mode, direction and strength for the motion layer.
+    pub command: ModeOutput,
+    /// The breath held right now, whatever the mode.
+    pub held: Held,
+    /// The sensor is in fault.
+    pub faulted: bool,
+    /// The commanded motion (and, every 10 ticks, the arm's command).
+    pub motion: MotionOutput,
+    /// What happened on this tick.
+    pub events: Events,
+    /// Events that did not fit in `events` (always 0; counted, never
+    /// silently lost).
+    pub dropped_events: u8,
+}
+
+/// The deterministic core's pipeline. Build with [`Pipeline::new`] at
+/// start-up (allocates the matcher's index); [`Pipeline::step`] is RT-safe:
+/// no allocation, no panic, no clock.
+#[derive(Debug)]
+pub struct Pipeline<I: SequenceIndex = TrieIndex> {
+    detector: BurstDetector,
+    selector: Selector<I>,
+    modes: ModeMachine,
+    motion: Motion,
+}
+
+/// How a mode is selected in detection mode.
+#[derive(Debug)]
+enum Selector<I: SequenceIndex> {
+    /// ASP: sequences matched against the library.
+    Sequences(SequenceMatcher<I>),
+    /// BSP: the modes scroll; a puff enters the highlighted one.
+    Scanning(Scanner),
+}
+
+impl<I: SequenceIndex> Pipeline<I> {
+    /// Builds the pipeline from a validated config.
+    pub fn new(config: &CoreConfig) -> Self {
+        Pipeline {
+            detector: BurstDetector::new(config.detector()),
+            selector: match config.interface() {
+                Interface::Asp => Selector::Sequences(SequenceMatcher::new(
+                    config.sequences(),
+                    config.matcher().sequence_timeout_ms,
+                )),
+                Interface::Bsp => Selector::Scanning(Scanner::new(config.scanning())),
+            },
+            modes: ModeMachine::new(config.command()),
+            motion: Motion::new(config.motion(), config.workspace(), config.home()),
+        }
+    }
+
+    /// Safe stop: from the next tick the interface is in detection mode for
+    /// good, so every target is zero and the arm brakes through Ruckig
+    /// under the usual limits. Keep stepping until the motion is still.
+    /// RT-safe.
+    pub fn begin_stop(&mut self) {
+        self.modes.stop();
+    }
+
+    /// The motion layer (pose estimate, saved point).
+    pub fn motion(&self) -> &Motion {
+        &self.motion
+    }
+
+    /// The detector (e.g. to read the tracked neutral).
+    pub fn detector(&self) -> &BurstDetector {
+        &self.detector
+    }
+
+    /// Feeds the sample taken at tick `now`. RT-safe.
+    pub fn step(&mut self, now: Tick, volts: f64) -> TickOutput {
+        let detected = self.detector.step(now, volts);
+        self.process(now, detected)
+    }
+
+    /// A tick on which no sample arrived (the runtime's sensor had none):
+    /// after `stale_ms` the sensor is in fault and the arm brakes. RT-safe.
+    pub fn step_missing(&mut self, now: Tick) -> TickOutput {
+        let detected = self.detector.step_missing(now);
+        self.process(now, detected)
+    }
+
+    fn process(&mut self, now: Tick, detected: DetectorOutput) -> TickOutput {
+        let mut out = TickOutput {
+            tick: now,
+            command: ModeOutput::default(),
+            held: Held::default(),
+            faulted: false,
+            motion: self.motion.idle_output(),
+            events: Events::default(),
+            dropped_events: 0,
+        };
+        let emit = |out: &mut TickOutput, event: Event| {
+            if out.events.push(event).is_err() {
+                out.dropped_events = out.dropped_events.saturating_add(1);
+            }
+        };
+
+        out.held = detected.held;
+        out.faulted = detected.faulted;
+        let in_detection = self.modes.state() == ModeState::Detection;
+
+        let mut decision = None;
+        let mut scan_burst = None;
+        match detected.event {
+            Some(DetectorEvent::Burst(burst)) => {
+                emit(&mut out, Event::Burst(burst));
+                if in_detection {
+                    match &mut self.selector {
+                        Selector::Sequences(matcher) => decision = matcher.on_burst(&burst),
+                        Selector::Scanning(_) => scan_burst = Some(burst),
+                    }
+                }
+            }
+            Some(DetectorEvent::Fault(reason)) => {
+                emit(&mut out, Event::Fault { reason });
+                if let Selector::Sequences(matcher) = &mut self.selector {
+                    decision = matcher.interrupt();
+                }
+            }
+            Some(DetectorEvent::Recovered) => emit(&mut out, Event::Recovered),
+            None => {}
+        }
+        match &mut self.selector {
+            Selector::Sequences(matcher) => {
+                if decision.is_none() {
+                    decision = matcher.on_tick(now, detected.in_progress);
+                }
+            }
+            Selector::Scanning(scanner) => {
+                let scan =
+                    scanner.step(now, in_detection && !detected.faulted, scan_burst.as_ref());
+                if let Some(mode) = scan.highlight {
+                    emit(&mut out, Event::Highlight { mode });
+                }
+                if let (Some(mode), Some(burst)) = (scan.selected, scan_burst) {
+                    let mut sequence = ActionSeq::default();
+                    // One action always fits.
+                    let _ = sequence.try_push(burst.action);
+                    decision = Some(MatchEvent::Match { sequence, mode });
+                }
+            }
+        }
+
+        let matched = match decision {
+            Some(MatchEvent::Match { sequence, mode }) => {
+                emit(&mut out, Event::Match { sequence, mode });
+                Some(mode)
+            }
+            Some(MatchEvent::Reset { sequence, reason }) => {
+                emit(&mut out, Event::Reset { sequence, reason });
+                None
+            }
+            None => None,
+        };
+
+        let (command, left) = self
+            .modes
+            .step(now, detected.held, matched, detected.faulted);
+        out.command = command;
+        if let Some(reason) = left {
+            emit(&mut out, Event::Detection { reason });
+        }
+        out.motion = self.motion.step(now, &command);
+        for event in out.motion.events.into_iter().flatten() {
+            emit(&mut out, Event::Motion(event));
+        }
+        out
+    }
+}

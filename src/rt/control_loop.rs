@@ -1,0 +1,352 @@
+//! The control loop: at each 1 ms deadline, one tick of work, measured and
+//! recorded. Everything it needs is built before the first deadline;
+//! inside the loop it neither allocates, locks nor blocks except in the
+//! deadline sleep (RealtimeSanitizer checks this in CI).
+//!
+//! The loop is generic over its [`TickWork`]. The work a deployment runs is
+//! [`ControlTick`]: read the sensor, step the pipeline, push the arm's
+//! command and the events into their rings, and bring the arm to a safe
+//! stop when asked. `bench latency` wraps the same `ControlTick` (see
+//! `tools::latency`), so the loop measured is the loop deployed, and the
+//! loop RealtimeSanitizer and the allocation tests check
+//! ([`run_simulated`](super::threads::run_simulated)) is the same code on a
+//! simulated clock.
+
+use std::fmt;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use serde::{Serialize, Serializer};
+
+use crate::control::event::TimedEvent;
+use crate::control::motion::stream::ArmCommand;
+use crate::control::pipeline::Pipeline;
+use crate::rt::alloc_counter;
+use crate::rt::clock::Clock;
+use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
+use crate::rt::setup::{RtOptions, Setting, setup_current_thread};
+use crate::rt::telemetry::{Drops, TickRecord};
+use crate::sensor::Samples;
+
+/// The control period: 1 ms.
+pub const PERIOD_NS: u64 = 1_000_000;
+/// Still ticks (zero command) after a stop before the stream ends: two
+/// full 10 ms arm windows.
+pub const STILL_TICKS: u64 = 20;
+/// Longest a safe stop may take before the loop ends anyway, ticks.
+pub const MAX_STOP_TICKS: u64 = 5000;
+
+/// Why a run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StopReason {
+    /// Not stopped (yet).
+    #[default]
+    Running,
+    /// SIGINT or SIGTERM.
+    Signal,
+    /// The requested run time passed.
+    Time,
+    /// The sensor's recording or script ended.
+    SensorEnded,
+}
+
+impl fmt::Display for StopReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            StopReason::Running => "running",
+            StopReason::Signal => "signal",
+            StopReason::Time => "time",
+            StopReason::SensorEnded => "sensor ended",
+        })
+    }
+}
+
+/// Written as its words.
+impl Serialize for StopReason {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
+
+/// What one tick of work says to the loop. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TickOutcome {
+    /// Events the tick produced.
+    pub events: u8,
+    /// A bare reference tick (`bench latency`), recorded apart.
+    pub reference: bool,
+    /// Ring drops so far.
+    pub drops: Drops,
+    /// The work is done: the loop ends after this tick.
+    pub finished: bool,
+}
+
+/// What the work reports when the loop ends.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct WorkSummary {
+    /// Ring drops.
+    pub drops: Drops,
+    /// Why it stopped.
+    pub stop_reason: StopReason,
+    /// The last commanded twist `[v (3), ω (3), fingers]`.
+    pub final_velocity: [f64; 7],
+    /// The last command pushed to the arm.
+    pub last_arm_command: ArmCommand,
+}
+
+/// One tick of work at each deadline. RT-safe: implementations must not
+/// allocate, lock or block.
+pub trait TickWork: Send {
+    /// Runs the tick the scheduler woke for. `stop` is set on every tick
+    /// the run should end (a signal arrived, the time is up): the work
+    /// begins a safe stop and runs on until [`TickOutcome::finished`].
+    fn tick(&mut self, wake: &Wake, stop: Option<StopReason>) -> TickOutcome;
+
+    /// Stopping has begun.
+    fn stopping(&self) -> bool;
+
+    /// The work's figures at the end.
+    fn summary(&self) -> WorkSummary;
+}
+
+/// The rings the control tick pushes into, allocated before the loop. A
+/// full ring never blocks: the item is dropped and counted.
+pub struct OutputRings {
+    /// The 100 Hz commands, to the arm thread.
+    pub arm: rtrb::Producer<ArmCommand>,
+    /// Events, to the telemetry side.
+    pub events: rtrb::Producer<TimedEvent>,
+}
+
+/// The production tick: sensor → pipeline → rings, with the safe stop.
+pub struct ControlTick<S: Samples> {
+    core: Pipeline,
+    sensor: S,
+    rings: OutputRings,
+    /// End the run when the sensor ends (no time limit given).
+    stop_when_sensor_ends: bool,
+    /// Number the pipeline's ticks consecutively, ignoring the scheduler's
+    /// skips (`bench latency`, where reference ticks are not the core's).
+    own_ticks: Option<u64>,
+    drops: Drops,
+    stop_reason: StopReason,
+    stopping_since: Option<u64>,
+    still_ticks: u64,
+    final_velocity: [f64; 7],
+    last_arm_command: ArmCommand,
+}
+
+impl<S: Samples> ControlTick<S> {
+    /// The tick for `core` fed by `sensor`. With `stop_when_sensor_ends`
+    /// the run stops safely when the sensor's samples end.
+    pub fn new(core: Pipeline, sensor: S, rings: OutputRings, stop_when_sensor_ends: bool) -> Self {
+        ControlTick {
+            core,
+            sensor,
+            rings,
+            stop_when_sensor_ends,
+            own_ticks: None,
+            drops: Drops::default(),
+            stop_reason: StopReason::Running,
+            stopping_since: None,
+            still_ticks: 0,
+            final_velocity: [0.0; 7],
+            last_arm_command: ArmCommand::default(),
+        }
+    }
+
+    /// Numbers the pipeline's ticks 0, 1, 2, … whatever the scheduler's
+    /// tick, and reads no skipped samples: for a wrapper that runs this
+    /// work only on some of the scheduler's ticks.
+    pub fn with_own_tick_count(mut self) -> Self {
+        self.own_ticks = Some(0);
+        self
+    }
+}
+
+impl<S: Samples> TickWork for ControlTick<S> {
+    fn tick(&mut self, wake: &Wake, stop: Option<StopReason>) -> TickOutcome {
+        // In `run` the core's ticks are the scheduler's, skips included, so
+        // its timers stay true to the wall clock.
+        let (tick, skipped) = match &mut self.own_ticks {
+            Some(count) => {
+                *count += 1;
+                (*count, 0)
+            }
+            None => (wake.tick, wake.skipped),
+        };
+        let reading = self.sensor.try_read(skipped);
+        self.drops.samples += reading.discarded;
+        let out = match reading.volts {
+            Some(volts) => self.core.step(tick, volts),
+            None => self.core.step_missing(tick),
+        };
+        if let Some(command) = out.motion.arm_command {
+            self.last_arm_command = command;
+            if self.rings.arm.push(command).is_err() {
+                self.drops.arm_commands += 1;
+            }
+        }
+        let mut events = 0u8;
+        for event in out.events.iter() {
+            events = events.saturating_add(1);
+            let timed = TimedEvent {
+                tick: out.tick,
+                event: *event,
+            };
+            if self.rings.events.push(timed).is_err() {
+                self.drops.events += 1;
+            }
+        }
+        if self.stopping_since.is_none() {
+            let sensor_ended = self.stop_when_sensor_ends && self.sensor.ended();
+            if let Some(reason) = stop.or(sensor_ended.then_some(StopReason::SensorEnded)) {
+                // From the next tick the core is in detection mode for
+                // good: every target is zero and the arm brakes through
+                // Ruckig under the usual limits.
+                self.stop_reason = reason;
+                self.stopping_since = Some(wake.tick);
+                self.core.begin_stop();
+            }
+        }
+        self.final_velocity = out.motion.velocity();
+        let mut finished = false;
+        if let Some(since) = self.stopping_since {
+            self.still_ticks = if out.motion.is_still() {
+                self.still_ticks + 1
+            } else {
+                0
+            };
+            let quiet = self.still_ticks >= STILL_TICKS && self.last_arm_command.is_zero();
+            finished = quiet || wake.tick.saturating_sub(since) >= MAX_STOP_TICKS;
+        }
+        TickOutcome {
+            events,
+            reference: false,
+            drops: self.drops,
+            finished,
+        }
+    }
+
+    fn stopping(&self) -> bool {
+        self.stopping_since.is_some()
+    }
+
+    fn summary(&self) -> WorkSummary {
+        WorkSummary {
+            drops: self.drops,
+            stop_reason: self.stop_reason,
+            final_velocity: self.final_velocity,
+            last_arm_command: self.last_arm_command,
+        }
+    }
+}
+
+/// When and how the loop runs.
+#[derive(Debug, Clone)]
+pub struct LoopOptions {
+    /// End after this many scheduler ticks (`None`: when the work ends).
+    pub limit_ticks: Option<u64>,
+    /// Real-time settings to ask for.
+    pub rt: RtOptions,
+    /// Hybrid wait: sleep until this long before each deadline, then spin.
+    pub spin_margin_ns: Option<u64>,
+    /// Set (by a signal handler) to request a safe stop.
+    pub stop: Arc<AtomicBool>,
+}
+
+/// What the loop did.
+#[derive(Debug, Clone)]
+pub struct LoopResult {
+    /// The work's figures.
+    pub work: WorkSummary,
+    /// Ring drops, tick records included.
+    pub drops: Drops,
+    /// Real-time settings, granted or denied.
+    pub settings: Vec<Setting>,
+    /// The kernel is PREEMPT_RT.
+    pub preempt_rt: bool,
+    /// Scheduler counts.
+    pub stats: SchedulerStats,
+    /// Periods elapsed by the clock minus ticks run and skipped.
+    pub drift_ticks: i64,
+    /// Heap allocations on the loop's thread after start-up.
+    pub allocations: u64,
+    /// Wall time of the loop, s.
+    pub wall_seconds: f64,
+}
+
+/// Runs `work` at each deadline of `clock` until it finishes, pushing one
+/// [`TickRecord`] per tick into `records`. Sets up the calling thread
+/// first (priority, affinity, memory locking) as `options.rt` asks.
+pub fn control_loop<C: Clock, W: TickWork>(
+    mut clock: C,
+    work: &mut W,
+    records: &mut rtrb::Producer<TickRecord>,
+    options: &LoopOptions,
+) -> LoopResult {
+    let setup = setup_current_thread(&options.rt);
+    let started = Instant::now();
+    let allocations_before = alloc_counter::thread_allocations();
+    let mut record_drops = 0u64;
+
+    let start = clock.now_ns() + PERIOD_NS;
+    let mut scheduler = Scheduler::new(start, PERIOD_NS, options.spin_margin_ns);
+    let mut previous_wake = 0u64;
+    let last_woke = loop {
+        let wake = scheduler.wait(&mut clock);
+        // From the wake-up to the end of the iteration the thread must
+        // neither allocate, lock nor block: RealtimeSanitizer checks it
+        // when built in (`.ci/run`), and the guard ends the region before
+        // the next deadline sleep.
+        let _realtime = rtsan_standalone::ScopedSanitizeRealtime::default();
+        let stop = if options.stop.load(Ordering::Relaxed) {
+            Some(StopReason::Signal)
+        } else if options.limit_ticks.is_some_and(|n| wake.tick + 1 >= n) {
+            Some(StopReason::Time)
+        } else {
+            None
+        };
+        let outcome = work.tick(&wake, stop);
+        let end = clock.now_ns();
+        let mut drops = outcome.drops;
+        drops.records = record_drops;
+        let record = TickRecord {
+            tick: wake.tick,
+            wake_latency_ns: wake.latency_ns,
+            compute_ns: end.saturating_sub(wake.woke_ns),
+            period_ns: if previous_wake == 0 {
+                0
+            } else {
+                wake.woke_ns - previous_wake
+            },
+            skipped: u32::try_from(wake.skipped).unwrap_or(u32::MAX),
+            events: outcome.events,
+            reference: outcome.reference,
+            drops,
+        };
+        previous_wake = wake.woke_ns;
+        if records.push(record).is_err() {
+            record_drops += 1;
+        }
+        if outcome.finished {
+            break wake.woke_ns;
+        }
+    };
+    let allocations = alloc_counter::thread_allocations() - allocations_before;
+    let summary = work.summary();
+    LoopResult {
+        drops: Drops {
+            records: record_drops,
+            ..summary.drops
+        },
+        work: summary,
+        settings: setup.settings.clone(),
+        preempt_rt: setup.preempt_rt,
+        stats: scheduler.stats(),
+        drift_ticks: scheduler.drift_ticks(last_woke),
+        allocations,
+        wall_seconds: started.elapsed().as_secs_f64(),
+    }
+}

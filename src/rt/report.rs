@@ -1,0 +1,179 @@
+//! The run report: what a run did, for people (`to_text`) and as JSON
+//! (`run --json`, derived from the struct through serde: nothing is left
+//! out).
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::arm::ArmState;
+use crate::control::motion::stream::ArmCommand;
+use crate::rt::control_loop::StopReason;
+use crate::rt::scheduler::SchedulerStats;
+use crate::rt::setup::Setting;
+use crate::rt::telemetry::{Drops, Latencies, at, percentile_line, write_hgrm};
+
+/// What a run did.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunReport {
+    /// The sensor, as it describes itself.
+    pub sensor: String,
+    /// The arm, as it describes itself.
+    #[serde(rename = "arm_backend")]
+    pub arm_name: String,
+    /// Real-time settings, granted or denied.
+    pub settings: Vec<Setting>,
+    /// The kernel is PREEMPT_RT.
+    pub preempt_rt: bool,
+    /// Scheduler counts.
+    pub stats: SchedulerStats,
+    /// Periods elapsed by the clock minus ticks run and skipped.
+    pub drift_ticks: i64,
+    /// Full ticks (ns).
+    pub full: Latencies,
+    /// Reference ticks (`bench latency` only; ns).
+    pub reference: Latencies,
+    /// Ring drops.
+    pub drops: Drops,
+    /// Heap allocations on the control thread after start-up.
+    pub control_thread_allocations: u64,
+    /// Events logged.
+    pub events: u64,
+    /// Why the run ended.
+    pub stop_reason: StopReason,
+    /// The arm at the end, if it reports its state.
+    pub arm: Option<ArmState>,
+    /// Commands the arm received.
+    pub arm_commands: u64,
+    /// The stream ended with a zero command and the arm was stopped.
+    pub stream_ended_with_zero: bool,
+    /// The last command the core sent to the arm.
+    pub last_arm_command: ArmCommand,
+    /// The last commanded twist `[v (3), ω (3), fingers]`.
+    pub final_velocity: [f64; 7],
+    /// Wall time of the loop, s.
+    pub wall_seconds: f64,
+    /// Process CPU time over wall time, %.
+    pub cpu_percent: f64,
+    /// What went wrong at the edges during the run (a sensor that failed,
+    /// an arm that refused a command): the run was stopped safely.
+    pub errors: Vec<String>,
+}
+
+impl RunReport {
+    /// Full-tick over reference-tick wake-up latency at `quantile` (0 with
+    /// no reference ticks).
+    pub fn ratio(&self, quantile: f64) -> f64 {
+        let reference = at(&self.reference.wake, quantile) as f64;
+        let full = at(&self.full.wake, quantile) as f64;
+        if reference > 0.0 {
+            full / reference
+        } else {
+            0.0
+        }
+    }
+
+    /// Whether the setting whose name starts with `prefix` was granted.
+    pub fn granted(&self, prefix: &str) -> bool {
+        self.settings
+            .iter()
+            .any(|s| s.name.starts_with(prefix) && s.granted)
+    }
+
+    /// The final report of `run`, for people.
+    pub fn to_text(&self) -> String {
+        let mut s = String::from("\n== sipnpuff run report\n");
+        s += &format!("sensor: {}; arm: {}\n", self.sensor, self.arm_name);
+        s += "real-time settings:\n";
+        for setting in &self.settings {
+            let state = if setting.granted { "granted" } else { "DENIED" };
+            let detail = if setting.detail.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", setting.detail)
+            };
+            s += &format!("  {:<36} {state}{detail}\n", setting.name);
+        }
+        let st = &self.stats;
+        s += &format!(
+            "ticks: {} run, {} skipped after {} missed deadlines, drift {} ticks, {:.2} s, stopped by: {}\n",
+            st.ticks_run,
+            st.skipped_ticks,
+            st.missed_deadlines,
+            self.drift_ticks,
+            self.wall_seconds,
+            self.stop_reason
+        );
+        s += "per tick, µs:\n";
+        s += &(percentile_line("wake-up latency", &self.full.wake) + "\n");
+        s += &(percentile_line("compute", &self.full.compute) + "\n");
+        s += &(percentile_line("period", &self.full.period) + "\n");
+        let d = &self.drops;
+        s += &format!(
+            "rings: dropped {} samples, {} arm commands, {} tick records, {} events\n",
+            d.samples, d.arm_commands, d.records, d.events
+        );
+        s += &format!(
+            "control thread heap allocations after start: {}\nevents: {}; process CPU: {:.1} %\n",
+            self.control_thread_allocations, self.events, self.cpu_percent
+        );
+        match &self.arm {
+            Some(arm) => {
+                let p = arm.pose.translation.vector;
+                let r = arm.pose.rotation.scaled_axis();
+                s += &format!(
+                    "arm: {} commands at 100 Hz; final position ({:.4}, {:.4}, {:.4}) m, rotation vector ({:.4}, {:.4}, {:.4}) rad, fingers {:.0}\n",
+                    self.arm_commands, p.x, p.y, p.z, r.x, r.y, r.z, arm.fingers
+                );
+            }
+            None => {
+                s += &format!(
+                    "arm: {} commands at 100 Hz; it reports no state\n",
+                    self.arm_commands
+                );
+            }
+        }
+        let v = self.final_velocity;
+        s += &format!(
+            "final commanded velocity: linear ({}, {}, {}) m/s, angular ({}, {}, {}) rad/s, fingers {} units/s; last arm command zero: {}\n",
+            v[0],
+            v[1],
+            v[2],
+            v[3],
+            v[4],
+            v[5],
+            v[6],
+            self.last_arm_command.is_zero()
+        );
+        s += &format!(
+            "stream ended with a zero command and the arm stopped: {}\n",
+            self.stream_ended_with_zero
+        );
+        for error in &self.errors {
+            s += &format!("ERROR: {error}\n");
+        }
+        s
+    }
+
+    /// Writes each histogram as `.hgrm` (µs) into `dir`.
+    pub fn write_histograms(&self, dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+        std::fs::create_dir_all(dir)?;
+        let mut written = Vec::new();
+        for (name, h) in [
+            ("wake_latency", &self.full.wake),
+            ("compute", &self.full.compute),
+            ("period", &self.full.period),
+            ("reference_wake_latency", &self.reference.wake),
+        ] {
+            if h.is_empty() {
+                continue;
+            }
+            let path = dir.join(format!("{name}.hgrm"));
+            let mut file = std::io::BufWriter::new(std::fs::File::create(&path)?);
+            write_hgrm(&mut file, h)?;
+            std::io::Write::flush(&mut file)?;
+            written.push(path);
+        }
+        Ok(written)
+    }
+}

@@ -1,0 +1,339 @@
+//! `run`: the control loop on its own real-time thread, and the threads
+//! around it.
+//!
+//! ```text
+//! sensor (producer thread, or computed in the loop)
+//!    │ rtrb
+//!    ▼
+//! control thread (SCHED_FIFO, pinned, no allocation) ─rtrb─► arm thread (100 Hz, zero command at the end)
+//!    │ rtrb: tick records, events
+//!    ▼
+//! telemetry (the calling thread): histograms, events, the report
+//! ```
+//!
+//! Every ring is bounded and allocated before the loop; a full ring never
+//! blocks the control thread: the item is dropped and counted (see
+//! [`Drops`]), and the counts are in the report. Safe stop (SIGINT,
+//! SIGTERM, the end of the run, an arm error): the core goes to detection
+//! mode for good, the arm brakes through Ruckig, and the loop runs on until
+//! the motion has been still for two arm cycles; then the command stream
+//! ends with a zero command and the arm is stopped.
+
+use std::fmt;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::thread;
+use std::time::{Duration, Instant};
+
+use rtrb::RingBuffer;
+
+use crate::arm::{Arm, ArmError};
+use crate::control::core_config::CoreConfig;
+use crate::control::event::TimedEvent;
+use crate::control::motion::stream::ArmCommand;
+use crate::control::pipeline::Pipeline;
+use crate::rt::arm_thread::run_arm;
+use crate::rt::clock::{MonotonicClock, SimClock};
+use crate::rt::control_loop::{
+    ControlTick, LoopOptions, OutputRings, StopReason, TickWork, control_loop,
+};
+use crate::rt::report::RunReport;
+use crate::rt::setup::RtOptions;
+use crate::rt::telemetry::{Drops, Latencies, TickRecord};
+use crate::sensor::{Samples, Sensor, SensorError};
+
+const ARM_RING: usize = 256;
+const RECORD_RING: usize = 16_384;
+const EVENT_RING: usize = 1024;
+
+/// How to run.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Run this long; `None`: until the sensor's script or file ends.
+    pub seconds: Option<f64>,
+    /// Real-time settings to ask for.
+    pub rt: RtOptions,
+    /// Hybrid wait: sleep until this long before each deadline, then spin.
+    pub spin_margin_ns: Option<u64>,
+    /// Set (by a signal handler, or the arm thread on an arm error) to
+    /// request a safe stop.
+    pub stop: Arc<AtomicBool>,
+}
+
+/// Why a run could not start or finish.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum RunError {
+    /// The sensor could not start.
+    Sensor(SensorError),
+    /// The arm could not connect.
+    Arm(ArmError),
+    /// A thread could not be started, or died.
+    Thread(String),
+}
+
+impl fmt::Display for RunError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RunError::Sensor(e) => write!(f, "sensor: {e}"),
+            RunError::Arm(e) => write!(f, "{e}"),
+            RunError::Thread(what) => f.write_str(what),
+        }
+    }
+}
+
+impl std::error::Error for RunError {}
+
+/// The control thread's output rings and their consumers.
+struct Rings {
+    outputs: OutputRings,
+    arm_rx: rtrb::Consumer<ArmCommand>,
+    event_rx: rtrb::Consumer<TimedEvent>,
+    records: rtrb::Producer<TickRecord>,
+    record_rx: rtrb::Consumer<TickRecord>,
+}
+
+impl Rings {
+    /// Allocated once, before the loop.
+    fn new() -> Rings {
+        let (arm, arm_rx) = RingBuffer::new(ARM_RING);
+        let (events, event_rx) = RingBuffer::new(EVENT_RING);
+        let (records, record_rx) = RingBuffer::new(RECORD_RING);
+        Rings {
+            outputs: OutputRings { arm, events },
+            arm_rx,
+            event_rx,
+            records,
+            record_rx,
+        }
+    }
+}
+
+/// Runs the control loop with its threads until it ends; this thread is
+/// the telemetry thread and calls `on_event` for each event as it
+/// arrives.
+pub fn run<S: Sensor>(
+    config: &CoreConfig,
+    sensor: S,
+    arm: Box<dyn Arm>,
+    options: &RunOptions,
+    on_event: impl FnMut(&TimedEvent),
+) -> Result<RunReport, RunError> {
+    run_with(config, sensor, arm, options, on_event, |tick| tick)
+}
+
+/// [`run`], with the production tick wrapped by `wrap` (as `bench
+/// latency` interleaves reference ticks).
+pub fn run_with<S: Sensor, W: TickWork + 'static>(
+    config: &CoreConfig,
+    sensor: S,
+    mut arm: Box<dyn Arm>,
+    options: &RunOptions,
+    mut on_event: impl FnMut(&TimedEvent),
+    wrap: impl FnOnce(ControlTick<S::Samples>) -> W + Send + 'static,
+) -> Result<RunReport, RunError> {
+    let Rings {
+        outputs,
+        mut arm_rx,
+        mut event_rx,
+        mut records,
+        mut record_rx,
+    } = Rings::new();
+    let sensor_name = sensor.describe();
+    let arm_name = arm.describe();
+    arm.connect().map_err(RunError::Arm)?;
+    let started = sensor.start().map_err(RunError::Sensor)?;
+    let core = Pipeline::new(config);
+    let limit_ticks = options.seconds.map(|s| (s * 1000.0).round() as u64);
+    let work = ControlTick::new(core, started.samples, outputs, limit_ticks.is_none());
+    let producer = started.producer;
+
+    let stop = options.stop.clone();
+    let arm_thread = thread::Builder::new()
+        .name("arm".into())
+        .spawn(move || run_arm(arm.as_mut(), &mut arm_rx, &stop))
+        .map_err(|e| RunError::Thread(format!("cannot start the arm thread: {e}")))?;
+
+    let cpu_before = cpu_seconds();
+    let wall = Instant::now();
+    let loop_options = LoopOptions {
+        limit_ticks,
+        rt: options.rt,
+        spin_margin_ns: options.spin_margin_ns,
+        stop: options.stop.clone(),
+    };
+    let control = thread::Builder::new()
+        .name("control".into())
+        .spawn(move || {
+            let mut work = wrap(work);
+            control_loop(MonotonicClock, &mut work, &mut records, &loop_options)
+        })
+        .map_err(|e| RunError::Thread(format!("cannot start the control thread: {e}")))?;
+
+    // Telemetry: this thread.
+    let mut full = Latencies::default();
+    let mut reference = Latencies::default();
+    let mut events = 0u64;
+    let mut drain = |record_rx: &mut rtrb::Consumer<TickRecord>,
+                     event_rx: &mut rtrb::Consumer<TimedEvent>| {
+        while let Ok(event) = event_rx.pop() {
+            events += 1;
+            on_event(&event);
+        }
+        while let Ok(record) = record_rx.pop() {
+            if record.reference {
+                reference.record(&record);
+            } else {
+                full.record(&record);
+            }
+        }
+    };
+    while !control.is_finished() {
+        drain(&mut record_rx, &mut event_rx);
+        thread::sleep(Duration::from_millis(5));
+    }
+    let result = control
+        .join()
+        .map_err(|_| RunError::Thread("the control thread panicked".into()))?;
+    drain(&mut record_rx, &mut event_rx);
+    let wall_seconds = wall.elapsed().as_secs_f64();
+    let cpu_percent = 100.0 * (cpu_seconds() - cpu_before) / wall_seconds.max(1e-9);
+    let sensor_error = producer.stop().err();
+    let arm = arm_thread
+        .join()
+        .map_err(|_| RunError::Thread("the arm thread panicked".into()))?;
+
+    let mut errors = Vec::new();
+    if let Some(e) = sensor_error {
+        errors.push(format!("sensor: {e}"));
+    }
+    if let Some(e) = &arm.error {
+        errors.push(e.to_string());
+    }
+    Ok(RunReport {
+        sensor: sensor_name,
+        arm_name,
+        settings: result.settings,
+        preempt_rt: result.preempt_rt,
+        stats: result.stats,
+        drift_ticks: result.drift_ticks,
+        full,
+        reference,
+        drops: result.drops,
+        control_thread_allocations: result.allocations,
+        events,
+        stop_reason: result.work.stop_reason,
+        arm: arm.state,
+        arm_commands: arm.commands,
+        stream_ended_with_zero: arm.ended_with_zero,
+        last_arm_command: result.work.last_arm_command,
+        final_velocity: result.work.final_velocity,
+        wall_seconds: result.wall_seconds,
+        cpu_percent,
+        errors,
+    })
+}
+
+/// Process CPU time (user + system), s.
+fn cpu_seconds() -> f64 {
+    // SAFETY: `usage` is a valid, writable rusage for getrusage to fill.
+    let usage = unsafe {
+        let mut usage: libc::rusage = std::mem::zeroed();
+        libc::getrusage(libc::RUSAGE_SELF, &mut usage);
+        usage
+    };
+    let t = |tv: libc::timeval| tv.tv_sec as f64 + tv.tv_usec as f64 / 1e6;
+    t(usage.ru_utime) + t(usage.ru_stime)
+}
+
+/// What [`run_simulated`] did.
+#[derive(Debug, Clone)]
+pub struct SimulatedRun {
+    /// Ticks the loop ran.
+    pub ticks: u64,
+    /// Events the loop pushed (and a drain thread received).
+    pub events: u64,
+    /// Arm commands pushed.
+    pub arm_commands: u64,
+    /// Ring drops.
+    pub drops: Drops,
+    /// Heap allocations on the loop's thread after start-up.
+    pub allocations: u64,
+    /// Why the loop ended.
+    pub stop_reason: StopReason,
+    /// The last command sent to the arm.
+    pub last_arm_command: ArmCommand,
+}
+
+/// The production control loop and tick (the same functions [`run`]
+/// starts) on a simulated clock, on this thread, as fast as it goes, fed
+/// by `samples` until they end and the arm brakes to a stop. No real-time
+/// settings are asked for. For RealtimeSanitizer and allocation checks of
+/// the loop itself: under RTSan, any allocation, lock or blocking call
+/// inside a tick aborts the process.
+pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRun {
+    let Rings {
+        outputs,
+        mut arm_rx,
+        mut event_rx,
+        mut records,
+        mut record_rx,
+    } = Rings::new();
+    let options = LoopOptions {
+        limit_ticks: None,
+        rt: RtOptions {
+            fifo_priority: None,
+            cpu: None,
+            lock_memory: false,
+            timer_slack: false,
+            cpu_dma_latency: false,
+        },
+        spin_margin_ns: None,
+        stop: Arc::new(AtomicBool::new(false)),
+    };
+    let mut work = ControlTick::new(Pipeline::new(config), samples, outputs, true);
+    // The loop's rings are drained on another thread, as in `run`.
+    let (result, (ticks, events, arm_commands)) = thread::scope(|scope| {
+        let drain = scope.spawn(move || {
+            let (mut ticks, mut events, mut arm_commands) = (0u64, 0u64, 0u64);
+            loop {
+                let abandoned = record_rx.is_abandoned();
+                let mut popped = false;
+                while record_rx.pop().is_ok() {
+                    ticks += 1;
+                    popped = true;
+                }
+                while event_rx.pop().is_ok() {
+                    events += 1;
+                    popped = true;
+                }
+                while arm_rx.pop().is_ok() {
+                    arm_commands += 1;
+                    popped = true;
+                }
+                if abandoned {
+                    break (ticks, events, arm_commands);
+                }
+                if !popped {
+                    thread::yield_now();
+                }
+            }
+        });
+        let result = control_loop(SimClock::default(), &mut work, &mut records, &options);
+        // The rings' producers go with the work and the record ring: the
+        // drain thread sees them abandoned and ends.
+        drop(work);
+        drop(records);
+        let counts = drain.join().unwrap_or_default();
+        (result, counts)
+    });
+    SimulatedRun {
+        ticks: ticks + result.drops.records,
+        events: events + result.drops.events,
+        arm_commands: arm_commands + result.drops.arm_commands,
+        drops: result.drops,
+        allocations: result.allocations,
+        stop_reason: result.work.stop_reason,
+        last_arm_command: result.work.last_arm_command,
+    }
+}

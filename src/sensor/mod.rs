@@ -1,0 +1,206 @@
+//! The sensor seam: where samples come from, and how they reach the
+//! control thread without ever blocking it.
+//!
+//! A backend's life: **open** (its constructor: find the device or file,
+//! say clearly what is wrong) → [`Sensor::start`] (spawn its producer
+//! thread, if it has one) → **samples** ([`Samples::try_read`], once per
+//! tick on the control thread) → **stop** ([`Producer::stop`]: the thread
+//! ends and is joined, and reports any error it met).
+//!
+//! How samples reach the control thread: a backend that reads a device or
+//! file runs a producer thread that pushes into a bounded rtrb ring
+//! ([`ring`]); the control thread pops the newest sample each tick, never
+//! waits, and counts what it throws away. A backend that can compute its
+//! samples without I/O (the synthetic sensor) computes them in the loop.
+//! A tick with no sample is `Pipeline::step_missing`: after `stale_ms` the
+//! core faults and the arm brakes.
+//!
+//! Backends: [`synthetic`] (the built-in scripted user) and [`csv`]
+//! (recordings played in real time).
+
+pub mod csv;
+pub mod ring;
+pub mod synthetic;
+
+use std::fmt;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+
+/// One tick's read of a sensor. `Copy`, RT-safe.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Reading {
+    /// The newest sample, volts; `None` if none arrived for this tick.
+    pub volts: Option<f64>,
+    /// Older samples thrown away to catch up (the producer ran ahead).
+    pub discarded: u64,
+}
+
+/// The control thread's side of a sensor. RT-safe: never blocks, never
+/// allocates, never panics.
+pub trait Samples: Send {
+    /// The sample for the tick about to run, after `skipped` ticks the loop
+    /// missed (their samples are stale: only the newest counts).
+    fn try_read(&mut self, skipped: u64) -> Reading;
+
+    /// No sample will ever come again (a recording or script ended).
+    fn ended(&self) -> bool;
+}
+
+/// A sensor backend. Not RT-safe: opened and started before the loop.
+pub trait Sensor {
+    /// What the control thread reads.
+    type Samples: Samples + 'static;
+
+    /// What this sensor is, for the report (e.g. `csv:fixtures/demo.csv`).
+    fn describe(&self) -> String;
+
+    /// Starts delivering samples: spawns the producer thread, if any.
+    fn start(self) -> Result<Started<Self::Samples>, SensorError>;
+}
+
+/// A started sensor: the control thread's side and the producer's handle.
+pub struct Started<S> {
+    /// For the control thread.
+    pub samples: S,
+    /// For whoever stops the run.
+    pub producer: Producer,
+}
+
+/// The producer thread of a started sensor, if it has one.
+#[derive(Debug)]
+pub struct Producer {
+    thread: Option<JoinHandle<Result<(), SensorError>>>,
+    stop: Arc<AtomicBool>,
+}
+
+impl Producer {
+    /// A sensor without a thread.
+    pub fn none() -> Producer {
+        Producer {
+            thread: None,
+            stop: Arc::new(AtomicBool::new(false)),
+        }
+    }
+
+    /// Spawns a producer thread named `name`; `body` gets the flag that
+    /// asks it to end.
+    pub fn spawn(
+        name: &str,
+        body: impl FnOnce(Arc<AtomicBool>) -> Result<(), SensorError> + Send + 'static,
+    ) -> Result<Producer, SensorError> {
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let thread = std::thread::Builder::new()
+            .name(name.into())
+            .spawn(move || body(flag))
+            .map_err(|error| SensorError::Io {
+                what: format!("cannot start the {name} thread"),
+                error,
+            })?;
+        Ok(Producer {
+            thread: Some(thread),
+            stop,
+        })
+    }
+
+    /// Asks the thread to end, waits for it, and returns what it met.
+    pub fn stop(mut self) -> Result<(), SensorError> {
+        self.stop.store(true, Ordering::Relaxed);
+        match self.thread.take() {
+            None => Ok(()),
+            Some(thread) => thread.join().unwrap_or(Err(SensorError::Disconnected {
+                what: "the sensor thread".into(),
+                detail: "it stopped unexpectedly (panicked)".into(),
+            })),
+        }
+    }
+}
+
+impl Drop for Producer {
+    /// A producer dropped without [`Producer::stop`] is still told to end.
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+}
+
+/// Why a sensor cannot deliver, in words that say what to do.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum SensorError {
+    /// The device or file does not exist.
+    NotFound {
+        /// What was looked for.
+        path: PathBuf,
+    },
+    /// The device or file exists but may not be opened.
+    Permission {
+        /// The device or file.
+        path: PathBuf,
+    },
+    /// The sensor went away while running.
+    Disconnected {
+        /// Which sensor.
+        what: String,
+        /// What happened.
+        detail: String,
+    },
+    /// The sensor delivered something that is not a sample.
+    BadData {
+        /// Where: file and line, or device.
+        context: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// Any other I/O problem.
+    Io {
+        /// What was being done.
+        what: String,
+        /// The system's error.
+        error: std::io::Error,
+    },
+}
+
+impl SensorError {
+    /// The error for a failed open of `path`: not found, permission, or
+    /// another I/O problem.
+    pub fn opening(path: &std::path::Path, error: std::io::Error) -> SensorError {
+        match error.kind() {
+            std::io::ErrorKind::NotFound => SensorError::NotFound {
+                path: path.to_path_buf(),
+            },
+            std::io::ErrorKind::PermissionDenied => SensorError::Permission {
+                path: path.to_path_buf(),
+            },
+            _ => SensorError::Io {
+                what: format!("cannot open {}", path.display()),
+                error,
+            },
+        }
+    }
+}
+
+impl fmt::Display for SensorError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SensorError::NotFound { path } => write!(
+                f,
+                "{}: no such file or device (check the path; for a device, that it is plugged in)",
+                path.display()
+            ),
+            SensorError::Permission { path } => write!(
+                f,
+                "{}: permission denied (run as a user who may read it, e.g. in the device's group, or add a udev rule)",
+                path.display()
+            ),
+            SensorError::Disconnected { what, detail } => {
+                write!(f, "{what} disconnected: {detail}")
+            }
+            SensorError::BadData { context, message } => write!(f, "{context}: {message}"),
+            SensorError::Io { what, error } => write!(f, "{what}: {error}"),
+        }
+    }
+}
+
+impl std::error::Error for SensorError {}

@@ -1,0 +1,120 @@
+//! The synthetic sensor: a scripted user played by the seeded sensor model
+//! (`sim::sensor_model`), computed in the control loop itself (no thread,
+//! no I/O, no allocation), so a run is repeatable sample for sample.
+
+use crate::config::Config;
+use crate::control::selection::Interface;
+use crate::sensor::{Producer, Reading, Samples, Sensor, SensorError, Started};
+use crate::sim::script::run_script;
+use crate::sim::sensor_model::{SignalGenerator, SignalParams, Step};
+use crate::sim::user::{RUN_STEPS, scripted_session};
+
+/// A script on the seeded sensor model.
+#[derive(Debug, Clone)]
+pub struct SyntheticSensor {
+    params: SignalParams,
+    script: Vec<Step>,
+    repeat: bool,
+}
+
+impl SyntheticSensor {
+    /// Plays `script` once; after it ends the sensor reads the resting
+    /// level and says it has [ended](Samples::ended).
+    pub fn new(params: SignalParams, script: Vec<Step>) -> SyntheticSensor {
+        SyntheticSensor {
+            params,
+            script,
+            repeat: false,
+        }
+    }
+
+    /// The built-in user of `sipnpuff run` (about 20 s, light noise and
+    /// hum): saves the home pose, moves forward, closes and opens the
+    /// fingers, goes back to the saved pose. On the scanning interface the
+    /// user reacts to the highlight (a closed-loop session with the same
+    /// moves).
+    pub fn built_in_user(config: &Config) -> SyntheticSensor {
+        match config.core().interface() {
+            Interface::Asp => {
+                let params = SignalParams::clean(config.core().detector(), 1)
+                    .with_noise(0.02)
+                    .with_hum(0.03);
+                SyntheticSensor::new(params, run_script(config).0)
+            }
+            Interface::Bsp => {
+                let (params, script) = scripted_session(config, &RUN_STEPS, 1);
+                SyntheticSensor::new(params, script)
+            }
+        }
+    }
+
+    /// Starts the script again whenever it ends (never ends).
+    pub fn repeating(mut self) -> SyntheticSensor {
+        self.repeat = true;
+        self
+    }
+}
+
+impl Sensor for SyntheticSensor {
+    type Samples = SyntheticSamples;
+
+    fn describe(&self) -> String {
+        let seconds = self
+            .script
+            .iter()
+            .map(|s| match *s {
+                Step::Breath { ms, .. } | Step::Rest { ms } | Step::Dropout { ms } => u64::from(ms),
+            })
+            .sum::<u64>() as f64
+            / 1000.0;
+        format!(
+            "synthetic (a scripted user, {} steps, at least {seconds:.1} s{})",
+            self.script.len(),
+            if self.repeat { ", repeated" } else { "" }
+        )
+    }
+
+    fn start(self) -> Result<Started<SyntheticSamples>, SensorError> {
+        Ok(Started {
+            samples: SyntheticSamples {
+                rest_volts: self.params.neutral_volts,
+                samples: SignalGenerator::owned(self.params, self.script),
+                repeat: self.repeat,
+                ended: false,
+            },
+            producer: Producer::none(),
+        })
+    }
+}
+
+/// The control thread's side: the generator itself.
+pub struct SyntheticSamples {
+    samples: SignalGenerator<'static>,
+    repeat: bool,
+    rest_volts: f64,
+    ended: bool,
+}
+
+impl Samples for SyntheticSamples {
+    /// A sample every tick; the samples of skipped ticks are played and
+    /// thrown away, as a real sensor's would be.
+    fn try_read(&mut self, skipped: u64) -> Reading {
+        for _ in 0..skipped {
+            self.samples.next();
+        }
+        let mut volts = self.samples.next();
+        if volts.is_none() && self.repeat {
+            self.samples.rewind();
+            volts = self.samples.next();
+        }
+        self.ended |= volts.is_none();
+        Reading {
+            volts: Some(volts.unwrap_or(self.rest_volts)),
+            discarded: 0,
+        }
+    }
+
+    fn ended(&self) -> bool {
+        self.ended
+    }
+}

@@ -1,0 +1,9 @@
+//! Simulation: the seeded sensor model, the scripts and simulated users
+//! that breathe into it, and the paper's study run with them through the
+//! production core. Set-up and tooling code: it may allocate, and neither
+//! the core nor the runtime imports it.
+
+pub mod script;
+pub mod sensor_model;
+pub mod study;
+pub mod user;

@@ -1,0 +1,464 @@
+//! `sipnpuff study`: the paper's experiment in simulation. Simulated
+//! participants do the paper's three tasks with both selection interfaces
+//! (ASP, sequence matching; BSP, Kinova-style scanning), through the same
+//! production core and simulated arm; completion and moving times are
+//! compared as the paper did, with Wilcoxon signed-rank tests on the paired
+//! times, side by side with the paper's figures.
+
+pub mod plot;
+pub mod stats;
+pub mod tasks;
+
+use serde::Serialize;
+
+use crate::config::{Config, ConfigErrors};
+use crate::control::selection::Interface;
+use crate::control::selection::scanning::ScanningConfig;
+use crate::sim::user::{TaskRun, UserModel, run_task};
+use stats::{Tail, mean, sample_sd, wilcoxon_signed_rank};
+use tasks::{TASKS, Task};
+
+/// What the paper reports (8 participants).
+pub mod paper {
+    /// Participants.
+    pub const PARTICIPANTS: usize = 8;
+    /// ASP completion times lower than BSP's, percent, tasks 1–3.
+    pub const REDUCTION_PCT: [f64; 3] = [35.0, 30.0, 42.0];
+    /// One-tailed Wilcoxon signed-rank p-value, each task.
+    pub const P_VALUE: f64 = 5.86e-3;
+    /// Two-tailed Wilcoxon p-value on the moving times.
+    pub const MOVING_TIME_P_VALUE: f64 = 0.433;
+}
+
+/// How to run the study.
+#[derive(Debug, Clone, Copy)]
+pub struct StudyOptions {
+    /// Simulated participants.
+    pub users: usize,
+    /// Seed: the same seed gives the same study.
+    pub seed: u64,
+    /// The population the participants are drawn from.
+    pub population: UserModel,
+}
+
+impl Default for StudyOptions {
+    fn default() -> Self {
+        StudyOptions {
+            users: paper::PARTICIPANTS,
+            seed: 1,
+            population: UserModel::POPULATION,
+        }
+    }
+}
+
+/// One task's runs, one per participant and interface (same order).
+#[derive(Debug, Clone)]
+pub struct TaskResults {
+    /// The task.
+    pub task: Task,
+    /// ASP runs, by participant.
+    pub asp: Vec<TaskRun>,
+    /// BSP runs, by participant.
+    pub bsp: Vec<TaskRun>,
+}
+
+/// One task's comparison.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TaskSummary {
+    /// 1, 2 or 3.
+    pub task: u8,
+    /// ASP completion time, mean and SD, s.
+    pub asp_mean_s: f64,
+    /// See `asp_mean_s`.
+    pub asp_sd_s: f64,
+    /// BSP completion time, mean and SD, s.
+    pub bsp_mean_s: f64,
+    /// See `bsp_mean_s`.
+    pub bsp_sd_s: f64,
+    /// ASP's mean completion time lower than BSP's by this, percent.
+    pub reduction_pct: f64,
+    /// One-tailed Wilcoxon signed-rank p-value (BSP > ASP), the normal
+    /// approximation as the paper's figures are.
+    pub p_value: f64,
+    /// The same test, exact.
+    pub p_exact: f64,
+    /// Two-tailed Wilcoxon p-value on the moving times (normal
+    /// approximation).
+    pub moving_time_p_value: f64,
+    /// Mean moving time with ASP, s.
+    pub asp_moving_mean_s: f64,
+    /// Mean moving time with BSP, s.
+    pub bsp_moving_mean_s: f64,
+    /// Runs that hit the simulation's time cap (never expected).
+    pub timed_out: usize,
+}
+
+impl TaskResults {
+    /// The comparison, as the paper made it.
+    pub fn summary(&self) -> TaskSummary {
+        let times = |runs: &[TaskRun]| runs.iter().map(|r| r.completion_s).collect::<Vec<_>>();
+        let moving = |runs: &[TaskRun]| runs.iter().map(|r| r.moving_s).collect::<Vec<_>>();
+        let (asp, bsp) = (times(&self.asp), times(&self.bsp));
+        let completion = wilcoxon_signed_rank(&bsp, &asp, Tail::Greater);
+        let moved = wilcoxon_signed_rank(&moving(&self.asp), &moving(&self.bsp), Tail::TwoSided);
+        TaskSummary {
+            task: self.task.number,
+            asp_mean_s: mean(&asp),
+            asp_sd_s: sample_sd(&asp),
+            bsp_mean_s: mean(&bsp),
+            bsp_sd_s: sample_sd(&bsp),
+            reduction_pct: 100.0 * (1.0 - mean(&asp) / mean(&bsp)),
+            p_value: completion.map_or(1.0, |t| t.p_normal),
+            p_exact: completion.and_then(|t| t.p_exact).unwrap_or(1.0),
+            moving_time_p_value: moved.map_or(1.0, |t| t.p_normal),
+            asp_moving_mean_s: mean(&moving(&self.asp)),
+            bsp_moving_mean_s: mean(&moving(&self.bsp)),
+            timed_out: self
+                .asp
+                .iter()
+                .chain(&self.bsp)
+                .filter(|r| r.timed_out)
+                .count(),
+        }
+    }
+}
+
+/// The seed of one run: participant, task and interface apart.
+fn run_seed(seed: u64, user: usize, task: u8, interface: Interface) -> u64 {
+    let i = match interface {
+        Interface::Asp => 1,
+        Interface::Bsp => 2,
+    };
+    seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ (user as u64) << 20 ^ u64::from(task) << 8 ^ i
+}
+
+/// Runs every participant through every task with both interfaces.
+/// `progress(done, total)` after each run.
+pub fn run_study(
+    config: &Config,
+    options: &StudyOptions,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<Vec<TaskResults>, ConfigErrors> {
+    let asp = config.clone().with_interface(Interface::Asp)?;
+    let bsp = config.clone().with_interface(Interface::Bsp)?;
+    let participants: Vec<UserModel> = (0..options.users)
+        .map(|u| {
+            options
+                .population
+                .participant(options.seed ^ (u as u64 + 1) << 32)
+        })
+        .collect();
+    let total = TASKS.len() * options.users * 2;
+    let mut done = 0;
+    Ok(TASKS
+        .iter()
+        .map(|task| {
+            let mut results = TaskResults {
+                task: *task,
+                asp: Vec::new(),
+                bsp: Vec::new(),
+            };
+            for (u, user) in participants.iter().enumerate() {
+                for (interface, config) in [(Interface::Asp, &asp), (Interface::Bsp, &bsp)] {
+                    let run = run_task(
+                        config,
+                        task,
+                        user,
+                        run_seed(options.seed, u, task.number, interface),
+                    );
+                    match interface {
+                        Interface::Asp => results.asp.push(run),
+                        Interface::Bsp => results.bsp.push(run),
+                    }
+                    done += 1;
+                    progress(done, total);
+                }
+            }
+            results
+        })
+        .collect())
+}
+
+/// The `--json` report: each task's comparison and every run, beside the
+/// paper's figures.
+#[derive(Debug, Clone, Serialize)]
+pub struct StudyReport {
+    /// Tasks 1–3.
+    pub tasks: Vec<TaskReport>,
+    /// What the paper reports.
+    pub paper: PaperFigures,
+}
+
+/// One task in the `--json` report.
+#[derive(Debug, Clone, Serialize)]
+pub struct TaskReport {
+    /// The comparison.
+    #[serde(flatten)]
+    pub summary: TaskSummary,
+    /// ASP completion times by participant, s.
+    pub asp_completion_s: Vec<f64>,
+    /// BSP completion times by participant, s.
+    pub bsp_completion_s: Vec<f64>,
+    /// Every ASP run, by participant.
+    pub asp_runs: Vec<TaskRun>,
+    /// Every BSP run, by participant.
+    pub bsp_runs: Vec<TaskRun>,
+}
+
+/// The paper's figures, as [`paper`] has them.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct PaperFigures {
+    /// Participants.
+    pub participants: usize,
+    /// ASP completion times lower than BSP's, percent, tasks 1–3.
+    pub reduction_pct: [f64; 3],
+    /// One-tailed Wilcoxon signed-rank p-value, each task.
+    pub p_value: f64,
+    /// Two-tailed Wilcoxon p-value on the moving times.
+    pub moving_time_p_value: f64,
+}
+
+impl StudyReport {
+    /// The report of a study's results.
+    pub fn of(results: &[TaskResults]) -> StudyReport {
+        let completion = |runs: &[TaskRun]| runs.iter().map(|t| t.completion_s).collect();
+        StudyReport {
+            tasks: results
+                .iter()
+                .map(|r| TaskReport {
+                    summary: r.summary(),
+                    asp_completion_s: completion(&r.asp),
+                    bsp_completion_s: completion(&r.bsp),
+                    asp_runs: r.asp.clone(),
+                    bsp_runs: r.bsp.clone(),
+                })
+                .collect(),
+            paper: PaperFigures {
+                participants: paper::PARTICIPANTS,
+                reduction_pct: paper::REDUCTION_PCT,
+                p_value: paper::P_VALUE,
+                moving_time_p_value: paper::MOVING_TIME_P_VALUE,
+            },
+        }
+    }
+}
+
+/// The text report: per task, the simulation beside the paper.
+pub fn study_text(results: &[TaskResults], options: &StudyOptions) -> String {
+    let users = options.users;
+    let mut out = format!(
+        "{users} simulated participants (seed {}), both interfaces through the production core and simulated arm\n\n",
+        options.seed
+    );
+    out += "| task | ASP s (mean ± SD) | BSP s (mean ± SD) | ASP lower by | paper | p one-tailed (exact) | paper p | moving time ASP / BSP s | p two-tailed | paper p |\n";
+    out += "|---|---|---|---|---|---|---|---|---|---|\n";
+    for (r, paper_pct) in results.iter().zip(paper::REDUCTION_PCT) {
+        let s = r.summary();
+        out += &format!(
+            "| {} | {:.1} ± {:.1} | {:.1} ± {:.1} | {:.0} % | {paper_pct:.0} % | {:.2e} ({:.2e}) | {:.2e} | {:.1} / {:.1} | {:.3} | {:.3} |\n",
+            s.task,
+            s.asp_mean_s,
+            s.asp_sd_s,
+            s.bsp_mean_s,
+            s.bsp_sd_s,
+            s.reduction_pct,
+            s.p_value,
+            s.p_exact,
+            paper::P_VALUE,
+            s.asp_moving_mean_s,
+            s.bsp_moving_mean_s,
+            s.moving_time_p_value,
+            paper::MOVING_TIME_P_VALUE,
+        );
+        if s.timed_out > 0 {
+            out += &format!("  ({} runs hit the time cap)\n", s.timed_out);
+        }
+    }
+    let errors = |pick: fn(&TaskResults) -> &Vec<TaskRun>| {
+        let runs: Vec<&TaskRun> = results.iter().flat_map(|r| pick(r).iter()).collect();
+        let wrong: u32 = runs.iter().map(|r| r.wrong_selections).sum();
+        let retries: u32 = runs.iter().map(|r| r.retries).sum();
+        let selections: u32 = runs.iter().map(|r| r.selections).sum();
+        (selections, wrong, retries)
+    };
+    let (s, w, r) = errors(|t| &t.asp);
+    out += &format!("\nASP: {s} modes entered, {w} wrong, {r} sequences reset and entered again\n");
+    let (s, w, r) = errors(|t| &t.bsp);
+    out += &format!("BSP: {s} modes entered, {w} wrong, {r} target highlights let pass\n");
+    out
+}
+
+/// A parameter `study --sweep` varies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum SweepParam {
+    /// BSP's dwell per mode (the first mode twice as long).
+    BspDwell,
+    /// ASP's sequence timeout.
+    AspTimeout,
+    /// The users' error rate.
+    ErrorRate,
+    /// The sequence library: prefix-free (built-in) or with prefixes.
+    Library,
+}
+
+impl SweepParam {
+    /// `bsp-dwell`, `asp-timeout`, `error-rate` or `library`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            SweepParam::BspDwell => "bsp-dwell",
+            SweepParam::AspTimeout => "asp-timeout",
+            SweepParam::ErrorRate => "error-rate",
+            SweepParam::Library => "library",
+        }
+    }
+}
+
+/// A 9-mode library in the style of the paper's example, where short
+/// sequences are prefixes of longer ones (so each needs the timeout).
+pub const PREFIX_LIBRARY: &str = r#"
+[[sequence]]
+actions = [-1]
+mode = "translate_x"
+[[sequence]]
+actions = [-1, -1]
+mode = "translate_y"
+[[sequence]]
+actions = [-1, 1]
+mode = "translate_z"
+[[sequence]]
+actions = [1]
+mode = "rotate_x"
+[[sequence]]
+actions = [1, 1]
+mode = "rotate_y"
+[[sequence]]
+actions = [1, -1]
+mode = "rotate_z"
+[[sequence]]
+actions = [-2]
+mode = "fingers"
+[[sequence]]
+actions = [2]
+mode = "save_point"
+[[sequence]]
+actions = [2, 2]
+mode = "goto_point"
+"#;
+
+/// `config` with [`PREFIX_LIBRARY`] as its library.
+fn prefix_library(config: &Config) -> Result<Config, ConfigErrors> {
+    let library = Config::from_toml_str(PREFIX_LIBRARY)?;
+    config
+        .clone()
+        .with_sequences(library.core().sequences().to_vec())
+}
+
+/// One row of a sweep: the value and each task's summary.
+#[derive(Debug, Clone)]
+pub struct SweepRow {
+    /// The value, as printed.
+    pub value: String,
+    /// Tasks 1–3.
+    pub tasks: Vec<TaskSummary>,
+}
+
+/// Runs the study at each value of `param`.
+pub fn sweep(
+    config: &Config,
+    options: &StudyOptions,
+    param: SweepParam,
+    mut progress: impl FnMut(&str, usize, usize),
+) -> Result<Vec<SweepRow>, ConfigErrors> {
+    let mut settings: Vec<(String, Config, StudyOptions)> = Vec::new();
+    match param {
+        SweepParam::BspDwell => {
+            for dwell in [750, 1000, 1500, 2000, 2500] {
+                let scanning = ScanningConfig {
+                    dwell_ms: dwell,
+                    first_dwell_ms: 2 * dwell,
+                    ..*config.core().scanning()
+                };
+                settings.push((
+                    format!("{dwell} ms"),
+                    config.clone().with_scanning(scanning)?,
+                    *options,
+                ));
+            }
+        }
+        SweepParam::AspTimeout => {
+            // On the library with prefixes: with a prefix-free one the
+            // timeout only matters after a mistake.
+            let prefixes = prefix_library(config)?;
+            for ms in [500, 750, 1000, 1500, 2000] {
+                settings.push((
+                    format!("{ms} ms (library with prefixes)"),
+                    prefixes.clone().with_sequence_timeout_ms(ms)?,
+                    *options,
+                ));
+            }
+        }
+        SweepParam::ErrorRate => {
+            for rate in [0.0, 0.05, 0.1, 0.2, 0.3] {
+                let mut o = *options;
+                o.population.error_rate = rate;
+                settings.push((format!("{rate:.2}"), config.clone(), o));
+            }
+        }
+        SweepParam::Library => {
+            settings.push(("prefix-free (built-in)".into(), config.clone(), *options));
+            settings.push(("with prefixes".into(), prefix_library(config)?, *options));
+        }
+    }
+    let count = settings.len();
+    let mut rows = Vec::with_capacity(count);
+    for (i, (value, config, o)) in settings.into_iter().enumerate() {
+        let label = format!("{} ({}/{count})", value, i + 1);
+        let results = run_study(&config, &o, |done, total| progress(&label, done, total))?;
+        rows.push(SweepRow {
+            value,
+            tasks: results.iter().map(TaskResults::summary).collect(),
+        });
+    }
+    Ok(rows)
+}
+
+/// The sweep as a Markdown table.
+pub fn sweep_text(param: SweepParam, rows: &[SweepRow]) -> String {
+    let param_name = param.name();
+    let mut out = format!(
+        "| {param_name} | task 1 ASP / BSP s | lower by | task 2 ASP / BSP s | lower by | task 3 ASP / BSP s | lower by |\n|---|---|---|---|---|---|---|\n"
+    );
+    for row in rows {
+        out += &format!("| {} |", row.value);
+        for s in &row.tasks {
+            out += &format!(
+                " {:.1} / {:.1} | {:.0} % |",
+                s.asp_mean_s, s.bsp_mean_s, s.reduction_pct
+            );
+        }
+        out.push('\n');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_prefix_library_is_valid_and_has_prefixes() {
+        let config = Config::from_toml_str(PREFIX_LIBRARY).unwrap();
+        assert_eq!(config.core().sequences().len(), 9);
+        let seqs = config.core().sequences();
+        let prefixes = seqs
+            .iter()
+            .filter(|a| {
+                seqs.iter().any(|b| {
+                    b.actions.len() > a.actions.len()
+                        && b.actions.as_slice().starts_with(a.actions.as_slice())
+                })
+            })
+            .count();
+        assert_eq!(prefixes, 3);
+    }
+}

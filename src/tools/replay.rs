@@ -1,0 +1,131 @@
+//! `replay`: runs the core over a recording as fast as the machine allows,
+//! drives the simulated JACO with the core's 100 Hz stream, writes events
+//! as JSON Lines and, optionally, a per-tick motion trace as CSV.
+
+use std::io::{Read, Write};
+
+use crate::arm::sim::SimulatedJaco;
+use crate::control::core_config::CoreConfig;
+use crate::control::event::TimedEvent;
+use crate::control::pipeline::{Pipeline, TickOutput};
+use crate::sensor::csv::{CsvError, CsvSignal};
+
+/// Why a replay stopped early.
+#[derive(Debug)]
+pub enum ReplayError {
+    /// A row of the recording is not a sample (its line is named).
+    Recording(CsvError),
+    /// The events or the trace could not be written.
+    Write(std::io::Error),
+}
+
+impl std::fmt::Display for ReplayError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ReplayError::Recording(e) => write!(f, "{e}"),
+            ReplayError::Write(e) => write!(f, "cannot write the output: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for ReplayError {}
+
+impl From<CsvError> for ReplayError {
+    fn from(e: CsvError) -> Self {
+        ReplayError::Recording(e)
+    }
+}
+
+impl From<std::io::Error> for ReplayError {
+    fn from(e: std::io::Error) -> Self {
+        ReplayError::Write(e)
+    }
+}
+
+/// What a replay did.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ReplaySummary {
+    /// Samples (ticks) processed.
+    pub samples: u64,
+    /// Events written.
+    pub events: u64,
+    /// Commands sent to the arm (100 Hz).
+    pub arm_commands: u64,
+    /// Ticks on which the simulated arm was outside its workspace.
+    pub ticks_outside_workspace: u64,
+    /// The simulated arm's final position, m.
+    pub final_position: [f64; 3],
+    /// Its final orientation as a rotation vector, rad.
+    pub final_rotation_vector: [f64; 3],
+    /// Its final finger position, units.
+    pub final_fingers: f64,
+}
+
+/// Header of the `--trace` CSV.
+pub const TRACE_HEADER: &str = "tick,mode,vx,vy,vz,wx,wy,wz,fingers_vel,x,y,z,rx,ry,rz,fingers";
+
+/// Writes one trace row: the core's 1 kHz commanded twist (base frame) and
+/// the simulated arm's pose.
+fn trace_row(out: &mut dyn Write, output: &TickOutput, arm: &SimulatedJaco) -> std::io::Result<()> {
+    let state = arm.state();
+    let p = state.pose.translation.vector;
+    let r = state.pose.rotation.scaled_axis();
+    write!(out, "{},{}", output.tick, output.command.state.name())?;
+    for value in output
+        .motion
+        .velocity()
+        .iter()
+        .chain(p.iter())
+        .chain(r.iter())
+    {
+        write!(out, ",{value}")?;
+    }
+    writeln!(out, ",{}", state.fingers)
+}
+
+/// Replays every sample of `signal` through a fresh core and the simulated
+/// arm, writing one JSON line per event to `out` and, if given, one trace
+/// row per tick. Stops at the first malformed row, with its line.
+pub fn replay<R: Read>(
+    config: &CoreConfig,
+    signal: &mut CsvSignal<R>,
+    out: &mut dyn Write,
+    mut trace: Option<&mut dyn Write>,
+) -> Result<ReplaySummary, ReplayError> {
+    let mut core: Pipeline = Pipeline::new(config);
+    let mut arm = SimulatedJaco::new(config);
+    let mut summary = ReplaySummary::default();
+    if let Some(trace) = trace.as_deref_mut() {
+        writeln!(trace, "{TRACE_HEADER}")?;
+    }
+    while let Some(volts) = signal.next_sample()? {
+        let output = core.step(summary.samples, volts);
+        for &event in output.events.iter() {
+            let line = TimedEvent {
+                tick: output.tick,
+                event,
+            };
+            serde_json::to_writer(&mut *out, &line).map_err(std::io::Error::from)?;
+            out.write_all(b"\n")?;
+            summary.events += 1;
+        }
+        summary.arm_commands += u64::from(output.motion.arm_command.is_some());
+        arm.tick(output.motion.arm_command.as_ref());
+        if !arm.inside_workspace() {
+            summary.ticks_outside_workspace += 1;
+        }
+        if let Some(trace) = trace.as_deref_mut() {
+            trace_row(trace, &output, &arm)?;
+        }
+        summary.samples += 1;
+    }
+    out.flush()?;
+    if let Some(trace) = trace {
+        trace.flush()?;
+    }
+    let state = arm.state();
+    summary.final_position = state.pose.translation.vector.into();
+    summary.final_rotation_vector = state.pose.rotation.scaled_axis().into();
+    summary.final_fingers = state.fingers;
+    Ok(summary)
+}

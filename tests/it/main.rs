@@ -1,0 +1,23 @@
+//! The integration tests, in one binary (one link of the crate): golden
+//! replays, motion invariants, properties, stress, sessions, the runtime,
+//! the study, the Ruckig oracle, allocations and the import rules.
+//! RealtimeSanitizer's tests are their own binary (`tests/rtsan.rs`): CI
+//! builds it again with the sanitizer's runtime.
+
+use sipnpuff::rt::alloc_counter::CountingAllocator;
+
+/// Every test can count its allocations.
+#[global_allocator]
+static ALLOCATOR: CountingAllocator = CountingAllocator;
+
+mod allocations;
+mod architecture;
+mod common;
+mod golden;
+mod motion;
+mod properties;
+mod ruckig_oracle;
+mod runtime;
+mod sessions;
+mod stress;
+mod study;

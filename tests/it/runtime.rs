@@ -1,0 +1,264 @@
+//! The real-time runtime: scheduler logic on simulated time, then short
+//! real runs that assert structure, never timing (these machines are shared
+//! and noisy).
+
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+use std::sync::Mutex;
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, mpsc};
+use std::time::Duration;
+
+use sipnpuff::arm::sim::SimArm;
+use sipnpuff::config::Config;
+use sipnpuff::control::event::Event;
+use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::rt::clock::SimClock;
+use sipnpuff::rt::control_loop::StopReason;
+use sipnpuff::rt::report::RunReport;
+use sipnpuff::rt::scheduler::Scheduler;
+use sipnpuff::rt::setup::RtOptions;
+use sipnpuff::rt::threads::{RunOptions, run};
+use sipnpuff::sensor::synthetic::SyntheticSensor;
+use sipnpuff::sim::script::run_script;
+use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams};
+
+const P: u64 = 1_000_000;
+
+/// Real runs one at a time: they share the pinned CPU.
+static REAL_RUN: Mutex<()> = Mutex::new(());
+
+/// The scripted user through the core, paced by a scheduler on simulated
+/// time; `stall` = (tick after which the machine stalls, ns). Returns the
+/// events with their ticks, and the ticks skipped.
+fn simulated_run(stall: Option<(u64, u64)>) -> (Vec<(u64, Event)>, u64) {
+    let config = Config::default();
+    let (script, _) = run_script(&config);
+    let mut samples =
+        SignalGenerator::new(SignalParams::clean(config.core().detector(), 3), &script);
+    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut clock = SimClock::default();
+    let mut scheduler = Scheduler::new(0, P, None);
+    let mut events = Vec::new();
+    loop {
+        if let Some((at, ns)) = stall
+            && scheduler.stats().ticks_run == at
+        {
+            clock.lateness.push_back(ns);
+        }
+        let wake = scheduler.wait(&mut clock);
+        // Samples of skipped ticks are gone; the core is told the tick.
+        for _ in 0..wake.skipped {
+            samples.next();
+        }
+        let Some(volts) = samples.next() else { break };
+        let out = core.step(wake.tick, volts);
+        events.extend(out.events.iter().map(|e| (out.tick, *e)));
+        clock.advance(5_000);
+    }
+    (events, scheduler.stats().skipped_ticks)
+}
+
+#[test]
+fn skipped_ticks_keep_the_cores_timers_true() {
+    let (reference, skipped) = simulated_run(None);
+    assert_eq!(skipped, 0);
+    // The point is saved (the puff in save_point); 600 ms later, while
+    // command mode waits for another breath, the machine stalls for 700 ms:
+    // the inactivity timeout still ends command mode at the same tick.
+    let saved = reference
+        .iter()
+        .find(|(_, e)| matches!(e, Event::Motion(_)))
+        .unwrap()
+        .0;
+    let (stalled, skipped) = simulated_run(Some((saved + 600, 700 * P + 300_000)));
+    assert_eq!(skipped, 700);
+    let detection = |events: &[(u64, Event)]| {
+        events
+            .iter()
+            .find(|(_, e)| matches!(e, Event::Detection { .. }))
+            .unwrap()
+            .0
+    };
+    assert_eq!(detection(&stalled), detection(&reference));
+    assert_eq!(stalled[..4], reference[..4]);
+}
+
+fn options(seconds: f64) -> RunOptions {
+    RunOptions {
+        seconds: Some(seconds),
+        rt: RtOptions::default(),
+        spin_margin_ns: None,
+        stop: Arc::new(AtomicBool::new(false)),
+    }
+}
+
+/// `run` for `seconds` with the built-in user and the simulated arm.
+fn real_run(seconds: f64) -> RunReport {
+    let config = Config::default();
+    let sensor = SyntheticSensor::built_in_user(&config);
+    let arm = Box::new(SimArm::new(config.core()));
+    run(config.core(), sensor, arm, &options(seconds), |_| {}).unwrap()
+}
+
+fn check_structure(report: &RunReport, seconds: f64) {
+    let st = report.stats;
+    let ticks = (seconds * 1000.0) as u64;
+    // Ticks run and skipped cover the run (plus the safe stop's ticks).
+    assert!(st.ticks_run + st.skipped_ticks >= ticks, "{st:?}");
+    assert!(st.skipped_ticks >= st.missed_deadlines);
+    assert_eq!(report.drift_ticks, 0);
+    assert_eq!(report.full.wake.len(), st.ticks_run);
+    assert_eq!(report.control_thread_allocations, 0);
+    assert_eq!(report.final_velocity, [0.0; 7]);
+    assert!(report.last_arm_command.is_zero());
+    // One command per 10 ticks run: motion advances only on ticks run, and
+    // through a stall the arm gets nothing (a JACO2 stops when its stream
+    // stops), so the arm and the core's pose estimate stay in step.
+    assert_eq!(report.arm_commands, st.ticks_run / 10);
+    let text = report.to_text();
+    for section in [
+        "real-time settings:",
+        "SCHED_FIFO priority 80",
+        "ticks: ",
+        "wake-up latency",
+        "compute",
+        "period",
+        "rings: dropped",
+        "control thread heap allocations after start: 0",
+        "arm: ",
+        "final commanded velocity",
+    ] {
+        assert!(text.contains(section), "no {section:?} in\n{text}");
+    }
+}
+
+#[test]
+fn a_short_real_run_reports_its_structure() {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let report = real_run(2.0);
+    check_structure(&report, 2.0);
+    assert_eq!(report.stop_reason, StopReason::Time);
+
+    // --histogram-dir: one .hgrm per histogram, in the plotter's format,
+    // its total the number of ticks.
+    let dir = std::env::temp_dir().join(format!("sipnpuff-hgrm-{}", std::process::id()));
+    let written = report.write_histograms(&dir).unwrap();
+    let names: Vec<_> = written
+        .iter()
+        .map(|p| p.file_name().unwrap().to_str().unwrap().to_string())
+        .collect();
+    assert_eq!(names, ["wake_latency.hgrm", "compute.hgrm", "period.hgrm"]);
+    let text = std::fs::read_to_string(&written[0]).unwrap();
+    assert!(
+        text.starts_with("       Value     Percentile TotalCount 1/(1-Percentile)"),
+        "{text}"
+    );
+    let total = format!("Total count    = {:>12}]", report.stats.ticks_run);
+    assert!(text.contains(&total), "{text}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn ten_seconds_of_running_allocate_nothing_on_the_control_thread() {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let report = real_run(10.0);
+    check_structure(&report, 10.0);
+    // It did real work: selections, a save, motion.
+    assert!(report.events >= 8, "{} events", report.events);
+    let arm = report.arm.expect("the simulated arm reports its state");
+    assert!(arm.pose.translation.x > 0.3, "moved forward");
+}
+
+fn binary() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+}
+
+#[test]
+fn sigint_stops_safely_with_a_report() {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let mut child = binary()
+        .args(["run", "--seconds", "60"])
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let (lines_tx, lines_rx) = mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines() {
+            let _ = lines_tx.send(line.unwrap());
+        }
+    });
+    // Wait for translate_x, then interrupt 0.9 s later, mid-puff.
+    let mut seen = Vec::new();
+    loop {
+        let line = lines_rx
+            .recv_timeout(Duration::from_secs(30))
+            .expect("translate_x selected");
+        let found = line.contains("\"mode\":\"translate_x\"");
+        seen.push(line);
+        if found {
+            break;
+        }
+    }
+    std::thread::sleep(Duration::from_millis(900));
+    // SAFETY: kill with a valid pid and signal number has no memory effects.
+    unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) };
+    let status = child.wait().unwrap();
+    reader.join().unwrap();
+    seen.extend(lines_rx.try_iter());
+    let text = seen.join("\n");
+    assert!(status.success(), "{status}\n{text}");
+    assert!(text.contains("stopped by: signal"), "{text}");
+    assert!(
+        text.contains("\"event\":\"detection\",\"reason\":\"stop\""),
+        "{text}"
+    );
+    assert!(
+        text.contains("final commanded velocity: linear (0, 0, 0) m/s, angular (0, 0, 0) rad/s, fingers 0 units/s; last arm command zero: true"),
+        "{text}"
+    );
+    assert!(
+        text.contains("control thread heap allocations after start: 0"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_user_without_privileges_runs_and_is_told_what_it_lacks() {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    // SAFETY: geteuid has no preconditions.
+    let root = unsafe { libc::geteuid() } == 0;
+    let mut command = if root {
+        let mut c = Command::new("setpriv");
+        c.args(["--reuid=65534", "--regid=65534", "--clear-groups", "--"]);
+        c.arg(env!("CARGO_BIN_EXE_sipnpuff"));
+        c
+    } else {
+        binary()
+    };
+    let output = command.args(["run", "--seconds", "1.5"]).output().unwrap();
+    let text = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}\n{text}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let line = |name: &str| {
+        text.lines()
+            .find(|l| l.trim_start().starts_with(name))
+            .unwrap_or("")
+            .to_string()
+    };
+    assert!(line("SCHED_FIFO priority 80").contains("DENIED"), "{text}");
+    assert!(line("mlockall").contains("DENIED"), "{text}");
+    assert!(line("/dev/cpu_dma_latency").contains("DENIED"), "{text}");
+    assert!(
+        text.contains("final commanded velocity: linear (0, 0, 0)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("control thread heap allocations after start: 0"),
+        "{text}"
+    );
+}

@@ -1,0 +1,212 @@
+//! The scanning interface (BSP) through the whole core, the simulated
+//! users and the study: which mode is highlighted when, a puff enters it,
+//! inactivity returns to scanning from the first mode; the study is
+//! deterministic for a seed and its comparison behaves as the design says.
+
+use sipnpuff::config::Config;
+use sipnpuff::control::action::Breath;
+use sipnpuff::control::event::Event;
+use sipnpuff::control::mode::{Mode, ModeState};
+use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::selection::Interface;
+use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
+use sipnpuff::sim::study::{StudyOptions, StudyReport, run_study};
+use sipnpuff::sim::user::{RUN_STEPS, scripted_session};
+
+fn bsp() -> Config {
+    Config::default().with_interface(Interface::Bsp).unwrap()
+}
+
+/// Every event of a clean script through a BSP core, with its tick.
+fn events(config: &Config, script: &[Step]) -> Vec<(u64, Event)> {
+    let mut core: Pipeline = Pipeline::new(config.core());
+    let params = SignalParams::clean(config.core().detector(), 7);
+    let mut out = Vec::new();
+    for (t, v) in SignalGenerator::new(params, script).enumerate() {
+        for e in core.step(t as u64, v).events.iter() {
+            out.push((t as u64, *e));
+        }
+    }
+    out
+}
+
+fn highlights(events: &[(u64, Event)]) -> Vec<(u64, Mode)> {
+    events
+        .iter()
+        .filter_map(|(t, e)| match e {
+            Event::Highlight { mode } => Some((*t, *mode)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn the_scan_highlights_each_mode_on_time() {
+    // At rest: 3 s on translate_x, then 1.5 s on each next mode, round.
+    let config = bsp();
+    let seen = highlights(&events(&config, &[Step::Rest { ms: 20_000 }]));
+    let expected: Vec<(u64, Mode)> = [(0, Mode::TranslateX)]
+        .into_iter()
+        .chain((1..9).map(|k| (3000 + (k as u64 - 1) * 1500, Mode::ALL[k])))
+        .chain([(15_000, Mode::TranslateX), (16_500, Mode::TranslateY)])
+        .chain([(18_000, Mode::TranslateZ), (19_500, Mode::RotateX)])
+        .collect();
+    assert_eq!(seen, expected);
+}
+
+#[test]
+fn a_puff_enters_the_highlighted_mode_and_inactivity_restarts_the_scan() {
+    let config = bsp();
+    // translate_z is highlighted 4500–5999: puff in the middle of it, then
+    // sip 1 s (down), then rest past the inactivity timeout.
+    let script = [
+        Step::Rest { ms: 5000 },
+        Step::Breath {
+            breath: Breath::Puff,
+            ms: 150,
+        },
+        Step::Rest { ms: 500 },
+        Step::Breath {
+            breath: Breath::Sip,
+            ms: 1000,
+        },
+        Step::Rest { ms: 6000 },
+    ];
+    let all = events(&config, &script);
+    let matches: Vec<(u64, Mode)> = all
+        .iter()
+        .filter_map(|(t, e)| match e {
+            Event::Match { mode, sequence } => {
+                assert_eq!(sequence.codes().collect::<Vec<_>>(), [-1]);
+                Some((*t, *mode))
+            }
+            _ => None,
+        })
+        .collect();
+    assert_eq!(matches.len(), 1, "{all:?}");
+    assert_eq!(matches[0].1, Mode::TranslateZ);
+    // No highlight in command mode; after the inactivity timeout the scan
+    // starts again from translate_x.
+    let back = all
+        .iter()
+        .find(|(_, e)| matches!(e, Event::Detection { .. }))
+        .expect("back to scanning")
+        .0;
+    let after: Vec<(u64, Mode)> = highlights(&all)
+        .into_iter()
+        .filter(|(t, _)| *t > matches[0].0)
+        .collect();
+    // (The scanner runs before the mode machine within a tick, so the scan
+    // starts on the tick after the return.)
+    assert_eq!(after[0], (back + 1, Mode::TranslateX), "{after:?}");
+    assert_eq!(after[1], (back + 1 + 3000, Mode::TranslateY));
+    // The sip moved the arm down (translate_z, negative) while in the mode.
+    let mut core: Pipeline = Pipeline::new(config.core());
+    let params = SignalParams::clean(config.core().detector(), 7);
+    let moved_down = SignalGenerator::new(params, &script)
+        .enumerate()
+        .map(|(t, v)| core.step(t as u64, v))
+        .any(|o| {
+            o.command.state == ModeState::Command(Mode::TranslateZ) && o.motion.linear[2] < 0.0
+        });
+    assert!(moved_down);
+}
+
+#[test]
+fn sips_select_nothing_while_scanning() {
+    let config = bsp();
+    let script = [
+        Step::Rest { ms: 1000 },
+        Step::Breath {
+            breath: Breath::Sip,
+            ms: 150,
+        },
+        Step::Rest { ms: 1000 },
+        Step::Breath {
+            breath: Breath::Sip,
+            ms: 800,
+        },
+        Step::Rest { ms: 3000 },
+    ];
+    let all = events(&config, &script);
+    assert!(!all.iter().any(|(_, e)| matches!(e, Event::Match { .. })));
+}
+
+#[test]
+fn the_run_users_session_selects_every_mode_of_its_plan() {
+    // The session `sipnpuff run --interface bsp` plays: made in closed loop,
+    // replayed open loop, it selects the planned modes in order.
+    let config = bsp();
+    let (params, script) = scripted_session(&config, &RUN_STEPS, 1);
+    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut matched = Vec::new();
+    for (t, v) in SignalGenerator::new(params, &script).enumerate() {
+        for e in core.step(t as u64, v).events.iter() {
+            if let Event::Match { mode, .. } = e {
+                matched.push(*mode);
+            }
+        }
+    }
+    assert_eq!(
+        matched,
+        [
+            Mode::SavePoint,
+            Mode::TranslateX,
+            Mode::Fingers,
+            Mode::GotoPoint
+        ]
+    );
+}
+
+#[test]
+fn the_study_is_deterministic_for_a_seed() {
+    let config = Config::default();
+    let options = StudyOptions {
+        users: 3,
+        seed: 42,
+        ..StudyOptions::default()
+    };
+    let report = |options: &StudyOptions| {
+        let results = run_study(&config, options, |_, _| {}).unwrap();
+        serde_json::to_value(StudyReport::of(&results)).unwrap()
+    };
+    let a = report(&options);
+    assert_eq!(a, report(&options));
+    let other = report(&StudyOptions {
+        seed: 43,
+        ..options
+    });
+    assert_ne!(a["tasks"], other["tasks"]);
+}
+
+#[test]
+fn selection_is_the_only_difference() {
+    // The same moves on both interfaces: moving times agree within the
+    // users' hold variability (10 % SD per hold), completion times differ
+    // by the scan. Every run finishes.
+    let config = Config::default();
+    let options = StudyOptions {
+        users: 4,
+        seed: 5,
+        ..StudyOptions::default()
+    };
+    for r in run_study(&config, &options, |_, _| {}).unwrap() {
+        let s = r.summary();
+        assert_eq!(s.timed_out, 0);
+        let task_moving = f64::from(r.task.moving_ms()) / 1000.0;
+        for moving in [s.asp_moving_mean_s, s.bsp_moving_mean_s] {
+            assert!(
+                (moving - task_moving).abs() < 0.1 * task_moving,
+                "task {}: moving {moving} s vs {task_moving} s",
+                s.task
+            );
+        }
+        assert!(s.asp_mean_s < s.bsp_mean_s, "{s:?}");
+        // Each completion at least the moving time plus one inactivity
+        // timeout per mode change after the first.
+        let floor = task_moving + 2.0 * (r.task.selections() - 1) as f64;
+        for run in r.asp.iter().chain(&r.bsp) {
+            assert!(run.completion_s > floor, "{run:?} vs floor {floor}");
+        }
+    }
+}
