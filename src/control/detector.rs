@@ -324,17 +324,17 @@ impl BurstDetector {
         self.output(event)
     }
 
-    /// Checks that `now` comes after the last tick, and records it.
+    /// Checks that `now` comes after the last tick, and records it. Time
+    /// that went back is a fault; the new count is then followed (the
+    /// sensor recovers on it, as after any fault).
     fn advance_to(&mut self, now: Tick) -> Result<(), FaultReason> {
-        match self.last_tick {
+        let previous = self.last_tick.replace(now);
+        match previous {
             Some(previous) if now <= previous => Err(FaultReason::TickNotIncreasing {
                 tick: now,
                 previous,
             }),
-            _ => {
-                self.last_tick = Some(now);
-                Ok(())
-            }
+            _ => Ok(()),
         }
     }
 
@@ -801,5 +801,38 @@ mod tests {
         assert!(out.faulted);
         assert_eq!(out.held, Held::default());
         assert!(d.step(1, f64::NAN).event.is_none(), "one event per fault");
+    }
+
+    #[test]
+    fn a_tick_that_does_not_increase_is_a_fault_not_an_overflow() {
+        let c = DetectorConfig::default();
+        let mut d = BurstDetector::new(&c);
+        for t in 1000..1100 {
+            d.step(t, 3.8); // a puff held
+        }
+        let out = d.step(5, 3.8); // time went back
+        assert_eq!(
+            out.event,
+            Some(DetectorEvent::Fault(FaultReason::TickNotIncreasing {
+                tick: 5,
+                previous: 1099
+            }))
+        );
+        assert!(out.faulted && out.held == Held::default());
+        // The same tick again, and a missing sample at an earlier one: still
+        // one fault (the sensor is in fault already), no panic.
+        assert_eq!(d.step(5, 2.5).event, None);
+        assert_eq!(d.step_missing(3).event, None);
+        // Time goes on from there: valid samples at rest recover.
+        let recovered: Vec<_> = (6..400).filter_map(|t| d.step(t, 2.5).event).collect();
+        assert_eq!(recovered, [DetectorEvent::Recovered]);
+        assert_eq!(
+            FaultReason::TickNotIncreasing {
+                tick: 5,
+                previous: 1099
+            }
+            .to_string(),
+            "tick 5 is not after the previous tick 1099: the runtime's clock is broken"
+        );
     }
 }

@@ -12,6 +12,7 @@ static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 mod allocations;
 mod architecture;
+mod cli;
 mod common;
 mod golden;
 mod motion;

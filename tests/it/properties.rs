@@ -7,6 +7,7 @@ use sipnpuff::control::action::{Action, ActionSeq, Breath};
 use sipnpuff::control::event::Event;
 use sipnpuff::control::mode::{Direction, Mode, ModeState};
 use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::selection::Interface;
 use sipnpuff::control::selection::index::{ScanIndex, TrieIndex};
 use sipnpuff::sim::script::{Timing, sequence_steps};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
@@ -20,8 +21,8 @@ fn mode() -> impl Strategy<Value = Mode> {
 }
 
 /// A library of 1–12 distinct sequences of 1–6 actions (prefixes allowed),
-/// as a validated config built from TOML.
-fn library() -> impl Strategy<Value = Config> {
+/// as `[[sequence]]` TOML.
+fn library_toml() -> impl Strategy<Value = String> {
     prop::collection::vec((prop::collection::vec(action(), 1..=6), mode()), 1..=12).prop_map(
         |entries| {
             let mut seen = std::collections::HashSet::new();
@@ -36,9 +37,120 @@ fn library() -> impl Strategy<Value = Config> {
                     );
                 }
             }
-            Config::from_toml_str(&toml).expect("generated library is valid")
+            toml
         },
     )
+}
+
+/// A random library on the default settings, as a validated config.
+fn library() -> impl Strategy<Value = Config> {
+    library_toml()
+        .prop_map(|toml| Config::from_toml_str(&toml).expect("generated library is valid"))
+}
+
+/// `[detector]`, `[matcher]`, `[command]`: any values the validator's
+/// rules allow (thresholds on their sides of the neutral, the hysteresis
+/// inside the band, timers ordered).
+fn timing_toml() -> impl Strategy<Value = String> {
+    (
+        (1.0f64..4.0, 0.05f64..0.95, 0.05f64..0.95, 0.0f64..0.9),
+        (2u32..200, 1u32..3000, 0.0f64..1.0, 1u32..20_000),
+        (0.01f64..5.0, 1u32..3000, 1u32..3000, 1u32..5000, 1u32..10_000),
+    )
+        .prop_map(
+            |(
+                (neutral, puff, sip, hysteresis),
+                (min_burst, long_extra, glitch, tracking),
+                (margin, recovery, stale, timeout, inactivity),
+            )| {
+                let puff_offset = puff * (5.0 - neutral);
+                let sip_offset = sip * neutral;
+                format!(
+                    "[detector]\nneutral_volts = {neutral}\npuff_threshold_volts = {}\nsip_threshold_volts = {}\nhysteresis_volts = {}\nmin_burst_ms = {min_burst}\nlong_burst_ms = {}\nglitch_ms = {}\nneutral_tracking_ms = {tracking}\nfault_margin_volts = {margin}\nfault_recovery_ms = {recovery}\nstale_ms = {stale}\n[matcher]\nsequence_timeout_ms = {timeout}\n[command]\ninactivity_timeout_ms = {inactivity}\n",
+                    neutral + puff_offset,
+                    neutral - sip_offset,
+                    hysteresis * puff_offset.min(sip_offset),
+                    min_burst + long_extra,
+                    (glitch * f64::from(min_burst)) as u32,
+                )
+            },
+        )
+}
+
+/// `[motion]`, `[workspace]`, `[arm]`: limits within the JACO2's caps, a
+/// workspace within its reach, the power-up pose inside it (drawn in
+/// spherical coordinates between the spheres, above the table).
+fn motion_toml() -> impl Strategy<Value = String> {
+    (
+        (0.04f64..=0.2, 0.2f64..=1.07, 0.01f64..=0.64, 0.01f64..=2.75, 0.1f64..=10.0, 0.1f64..=50.0),
+        (1.0f64..=6800.0, 10.0f64..=100_000.0, 100.0f64..=2_000_000.0, any::<bool>(), 0.05f64..=5.0, 0.0f64..=1.0),
+        (0.3f64..=0.9, 0.0f64..=0.5, -0.5f64..=0.3, 0.001f64..=0.02, 100.0f64..=10_000.0),
+        (0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0, -3.0f64..3.0, 0.0f64..=1.0),
+    )
+        .prop_map(|(speeds, fingers, workspace, home)| {
+            let (v, w, a, aw, j, jw) = speeds;
+            let (fv, fa, fj, proportional, full_scale, min_fraction) = fingers;
+            let (reach, min_share, table_share, margin, closed) = workspace;
+            let (radius_share, elevation_share, azimuth_share, angle, finger_share) = home;
+            let min_radius = reach * min_share;
+            let table = reach * table_share;
+            // A radius between the spheres; an elevation that keeps the
+            // point above the table (the reach sphere always has room: the
+            // table is at most 0.3 of the reach).
+            let (inner, outer) = ((min_radius + margin).max(table + 2.0 * margin), reach - margin);
+            let r = inner + (outer - inner) * (0.05 + 0.9 * radius_share);
+            let lowest = ((table + margin) / r).clamp(-1.0, 1.0).asin();
+            let highest = std::f64::consts::FRAC_PI_2;
+            let elevation = lowest + (highest - lowest) * (0.05 + 0.9 * elevation_share);
+            let azimuth = 2.0 * std::f64::consts::PI * azimuth_share;
+            let home = [
+                r * elevation.cos() * azimuth.cos(),
+                r * elevation.cos() * azimuth.sin(),
+                r * elevation.sin(),
+            ];
+            format!(
+                "[motion]\nlinear_speed_mps = {v}\nangular_speed_radps = {w}\nlinear_acceleration_mps2 = {a}\nangular_acceleration_radps2 = {aw}\nlinear_jerk_mps3 = {j}\nangular_jerk_radps3 = {jw}\nfinger_speed = {fv}\nfinger_acceleration = {fa}\nfinger_jerk = {fj}\nproportional_speed = {proportional}\nproportional_full_scale_volts = {full_scale}\nproportional_min_fraction = {min_fraction}\n[workspace]\nreach_m = {reach}\nmin_radius_m = {min_radius}\ntable_z_m = {table}\nstop_margin_m = {margin}\nfinger_closed = {closed}\n[arm]\nhome_position_m = [{}, {}, {}]\nhome_rotation_vector_rad = [0.0, {angle}, 0.0]\nhome_fingers = {}\n",
+                home[0], home[1], home[2], closed * finger_share
+            )
+        })
+}
+
+/// `[interface]` and `[scanning]`: either interface, any dwell times, any
+/// non-empty order of distinct modes.
+fn selection_toml() -> impl Strategy<Value = String> {
+    (
+        any::<bool>(),
+        1u32..5000,
+        1u32..10_000,
+        Just(Mode::ALL.to_vec()).prop_shuffle(),
+        1usize..=9,
+    )
+        .prop_map(|(bsp, dwell, first, order, count)| {
+            let names: Vec<String> = order[..count].iter().map(|m| format!("\"{}\"", m.name())).collect();
+            format!(
+                "[interface]\nkind = \"{}\"\n[scanning]\ndwell_ms = {dwell}\nfirst_dwell_ms = {first}\norder = [{}]\n",
+                if bsp { "bsp" } else { "asp" },
+                names.join(", ")
+            )
+        })
+}
+
+/// Any configuration the validator accepts: every section drawn at random
+/// within its rules, and a random library.
+fn valid_config() -> impl Strategy<Value = Config> {
+    (
+        timing_toml(),
+        motion_toml(),
+        selection_toml(),
+        library_toml(),
+    )
+        .prop_map(|(timing, motion, selection, library)| {
+            let text = format!("{timing}{motion}{selection}{library}");
+            match Config::from_toml_str(&text) {
+                Ok(config) => config,
+                Err(e) => panic!("a generated config is invalid: {e}\n{text}"),
+            }
+        })
 }
 
 /// Runs of one value: any f64 (NaN, ±inf, huge), the rails, or a level in
@@ -74,6 +186,18 @@ fn in_library(config: &Config, sequence: &ActionSeq, mode: Mode) -> bool {
         .sequences()
         .iter()
         .any(|e| e.actions == *sequence && e.mode == mode)
+}
+
+/// Whether a match could come from the interface: a library entry (ASP),
+/// or one puff on a mode of the scan (BSP).
+fn selectable(config: &Config, sequence: &ActionSeq, mode: Mode) -> bool {
+    match config.core().interface() {
+        Interface::Asp => in_library(config, sequence, mode),
+        Interface::Bsp => {
+            let one_puff = matches!(sequence.as_slice(), [a] if a.breath() == Breath::Puff);
+            one_puff && config.core().scanning().modes().contains(&mode)
+        }
+    }
 }
 
 proptest! {
@@ -135,5 +259,55 @@ proptest! {
         for (t, v) in SignalGenerator::new(params, &script).enumerate() {
             prop_assert_eq!(trie.step(t as u64, v), scan.step(t as u64, v));
         }
+    }
+
+    /// Any valid configuration, any samples, and ticks that jump ahead,
+    /// repeat or go back: no panic, only finite motion within the speed
+    /// limits, matches only from the library, no motion outside command
+    /// mode or during a fault, every event kept.
+    #[test]
+    fn any_valid_config_any_samples_any_ticks(
+        config in valid_config(),
+        samples in samples(),
+        jumps in prop::collection::vec((0usize..20_000, prop_oneof![Just(0u64), 1u64..5, 1000u64..100_000]), 0..4),
+    ) {
+        let mut core: Pipeline = Pipeline::new(config.core());
+        let m = *config.core().motion();
+        let norm = |v: [f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let mut tick: u64 = 1_000_000;
+        for (i, &v) in samples.iter().enumerate() {
+            // Mostly one tick on; at the chosen samples, back or ahead.
+            tick = match jumps.iter().find(|(at, _)| *at == i) {
+                Some((_, 0)) => tick,
+                Some((at, by)) if at % 2 == 0 => tick.saturating_sub(*by),
+                Some((_, by)) => tick + by,
+                None => tick + 1,
+            };
+            let out = if v.is_nan() && i % 7 == 0 { core.step_missing(tick) } else { core.step(tick, v) };
+            prop_assert_eq!(out.dropped_events, 0);
+            let motion = out.motion.velocity();
+            prop_assert!(motion.iter().all(|x| x.is_finite()), "{:?}", motion);
+            prop_assert!(norm(out.motion.linear) <= m.linear_speed_mps * (1.0 + 1e-9));
+            prop_assert!(norm(out.motion.angular) <= m.angular_speed_radps * (1.0 + 1e-9));
+            prop_assert!(out.motion.fingers_velocity.abs() <= m.finger_speed * (1.0 + 1e-9));
+            if out.command.state == ModeState::Detection || out.faulted {
+                prop_assert_eq!(out.command.direction, Direction::Still);
+            }
+            for event in out.events.iter() {
+                if let Event::Match { sequence, mode } = event {
+                    prop_assert!(selectable(&config, sequence, *mode), "{:?} {:?}", sequence, mode);
+                }
+            }
+        }
+    }
+
+    /// `sipnpuff config` prints any valid configuration as TOML that reads
+    /// back to the same configuration, and prints that the same again.
+    #[test]
+    fn printed_configs_read_back_the_same(config in valid_config()) {
+        let text = config.to_toml().unwrap();
+        let again = Config::from_toml_str(&text);
+        prop_assert_eq!(again.as_ref(), Ok(&config), "{}", text);
+        prop_assert_eq!(again.unwrap().to_toml().unwrap(), text);
     }
 }
