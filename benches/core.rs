@@ -40,10 +40,10 @@ use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, write_csv};
 use sipnpuff::tools::replay::replay;
 
 fn noisy_signal(config: &Config) -> Vec<f64> {
-    let mut params = SignalParams::clean(config.core().detector(), 5);
-    params.noise_volts = 0.05;
-    params.hum_volts = 0.1;
-    params.spike_every_ms = 100;
+    let params = SignalParams::clean(config.core().detector(), 5)
+        .with_noise(0.05)
+        .with_hum(0.1)
+        .with_spikes_every(100);
     let (script, _) = random_session(config, 10, 5);
     SignalGenerator::new(params, &script).take(10_000).collect()
 }
@@ -299,9 +299,9 @@ fn full_tick(c: &mut Criterion) {
 
 fn replay_throughput(c: &mut Criterion) {
     let config = Config::default();
-    let mut params = SignalParams::clean(config.core().detector(), 9);
-    params.noise_volts = 0.03;
-    params.hum_volts = 0.05;
+    let params = SignalParams::clean(config.core().detector(), 9)
+        .with_noise(0.03)
+        .with_hum(0.05);
     let (script, _) = random_session(&config, 60, 9);
     let samples: Vec<f64> = SignalGenerator::new(params, &script).take(60_000).collect();
     let mut csv = Vec::new();

@@ -41,8 +41,7 @@ fn regenerate(params: SignalParams, script: &[Step], samples: usize) -> String {
 /// `generate --config fixtures/paper-example.toml --sequences "1,2,-1 1,2 2,1 2 1,2,1"
 /// --seed 3 --noise-volts 0.02`
 fn paper_fixture_script(config: &Config) -> (SignalParams, Vec<Step>) {
-    let mut params = SignalParams::clean(config.core().detector(), 3);
-    params.noise_volts = 0.02;
+    let params = SignalParams::clean(config.core().detector(), 3).with_noise(0.02);
     let sequences = parse_sequences("1,2,-1 1,2 2,1 2 1,2,1").unwrap();
     (params, sequences_script(config, &sequences))
 }
@@ -50,11 +49,11 @@ fn paper_fixture_script(config: &Config) -> (SignalParams, Vec<Step>) {
 /// `generate --demo --seed 1 --noise-volts 0.03 --hum-volts 0.05
 /// --drift-volts 0.1 --spike-every-ms 250`
 fn demo_fixture_script(config: &Config) -> (SignalParams, Vec<Step>, Vec<Mode>) {
-    let mut params = SignalParams::clean(config.core().detector(), 1);
-    params.noise_volts = 0.03;
-    params.hum_volts = 0.05;
-    params.drift_volts = 0.1;
-    params.spike_every_ms = 250;
+    let params = SignalParams::clean(config.core().detector(), 1)
+        .with_noise(0.03)
+        .with_hum(0.05)
+        .with_drift(0.1)
+        .with_spikes_every(250);
     let (script, modes) = demo_script(config);
     (params, script, modes)
 }

@@ -46,11 +46,11 @@ fn run(config: &Config, samples: impl Iterator<Item = Option<f64>>) -> Vec<Recor
 }
 
 fn noisy(config: &Config, seed: u64) -> SignalParams {
-    let mut p = SignalParams::clean(config.core().detector(), seed);
-    p.noise_volts = 0.03;
-    p.hum_volts = 0.05;
-    p.drift_volts = 0.1;
-    p.spike_every_ms = 250;
+    let p = SignalParams::clean(config.core().detector(), seed)
+        .with_noise(0.03)
+        .with_hum(0.05)
+        .with_drift(0.1)
+        .with_spikes_every(250);
     p
 }
 

@@ -252,8 +252,8 @@ proptest! {
     /// same noisy signal, tick for tick.
     #[test]
     fn trie_and_scan_agree(config in library(), script in random_script(), seed in any::<u64>()) {
-        let mut params = SignalParams::clean(config.core().detector(), seed);
-        params.noise_volts = 0.05;
+        let params = SignalParams::clean(config.core().detector(), seed)
+            .with_noise(0.05);
         let mut trie: Pipeline<TrieIndex> = Pipeline::new(config.core());
         let mut scan: Pipeline<ScanIndex> = Pipeline::new(config.core());
         for (t, v) in SignalGenerator::new(params, &script).enumerate() {

@@ -10,11 +10,11 @@ use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams};
 #[test]
 fn one_noisy_hour_loses_and_invents_nothing() {
     let config = Config::default();
-    let mut params = SignalParams::clean(config.core().detector(), 42);
-    params.noise_volts = 0.03;
-    params.hum_volts = 0.05;
-    params.drift_volts = 0.2;
-    params.spike_every_ms = 250;
+    let params = SignalParams::clean(config.core().detector(), 42)
+        .with_noise(0.03)
+        .with_hum(0.05)
+        .with_drift(0.2)
+        .with_spikes_every(250);
     let (script, modes) = random_session(&config, 3600, 42);
     assert!(modes.len() > 300, "{} selections", modes.len());
     let samples = SignalGenerator::new(params, &script).take(3_600_000);
@@ -31,8 +31,7 @@ fn one_noisy_hour_loses_and_invents_nothing() {
 #[test]
 fn paper_library_session_waits_for_prefixes() {
     let config = common::paper_config();
-    let mut params = SignalParams::clean(config.core().detector(), 9);
-    params.noise_volts = 0.03;
+    let params = SignalParams::clean(config.core().detector(), 9).with_noise(0.03);
     let (script, modes) = random_session(&config, 600, 9);
     let samples = SignalGenerator::new(params, &script);
     common::assert_session(&config, samples, &script, &modes, 10);

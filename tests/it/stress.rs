@@ -74,15 +74,16 @@ fn assert_noisy_session(
 
 /// The worst signal the issue asks the detector to handle.
 fn harsh(config: &Config, seed: u64) -> SignalParams {
-    let mut p = SignalParams::clean(config.core().detector(), seed);
-    p.noise_volts = 0.1;
-    p.hum_volts = 0.2;
-    p.spike_every_ms = 100;
-    // 0.5 V amplitude, at most 0.5 V a minute: the sine's steepest slope
-    // 2π·A/T equals 0.5 V per 60 000 ms.
-    p.drift_volts = 0.5;
-    p.drift_period_ms = 2.0 * PI * 60_000.0;
-    p
+    SignalParams {
+        // 0.5 V amplitude, at most 0.5 V a minute: the sine's steepest
+        // slope 2π·A/T equals 0.5 V per 60 000 ms.
+        drift_period_ms: 2.0 * PI * 60_000.0,
+        ..SignalParams::clean(config.core().detector(), seed)
+            .with_noise(0.1)
+            .with_hum(0.2)
+            .with_spikes_every(100)
+            .with_drift(0.5)
+    }
 }
 
 /// How far noise and hum can move a threshold crossing: their worst
