@@ -4,11 +4,13 @@
 use proptest::prelude::*;
 use sipnpuff::config::Config;
 use sipnpuff::control::action::{Action, ActionSeq, Breath};
+use sipnpuff::control::detector::{BurstDetector, DetectorEvent};
 use sipnpuff::control::event::Event;
 use sipnpuff::control::mode::{Direction, Mode, ModeState};
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::selection::Interface;
 use sipnpuff::control::selection::index::{ScanIndex, TrieIndex};
+use sipnpuff::control::selection::matcher::SequenceMatcher;
 use sipnpuff::sim::script::{Timing, sequence_steps};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
@@ -248,16 +250,30 @@ proptest! {
         prop_assert_eq!(decisions, vec![Event::Match { sequence: entry.actions, mode: entry.mode }]);
     }
 
-    /// The trie and the reference linear scan make the same decisions on the
-    /// same noisy signal, tick for tick.
+    /// The trie and the reference linear scan decide the same on the same
+    /// noisy signal, burst for burst and tick for tick: every burst the
+    /// detector makes goes to both matchers, the timeout runs every tick.
     #[test]
     fn trie_and_scan_agree(config in library(), script in random_script(), seed in any::<u64>()) {
-        let params = SignalParams::clean(config.core().detector(), seed)
-            .with_noise(0.05);
-        let mut trie: Pipeline<TrieIndex> = Pipeline::new(config.core());
-        let mut scan: Pipeline<ScanIndex> = Pipeline::new(config.core());
+        let params = SignalParams::clean(config.core().detector(), seed).with_noise(0.05);
+        let core = config.core();
+        let timeout = core.matcher().sequence_timeout_ms;
+        let mut detector = BurstDetector::new(core.detector());
+        let mut trie: SequenceMatcher<TrieIndex> = SequenceMatcher::new(core.sequences(), timeout);
+        let mut scan: SequenceMatcher<ScanIndex> = SequenceMatcher::new(core.sequences(), timeout);
         for (t, v) in SignalGenerator::new(params, &script).enumerate() {
-            prop_assert_eq!(trie.step(t as u64, v), scan.step(t as u64, v));
+            let t = t as u64;
+            let out = detector.step(t, v);
+            let decided = match out.event {
+                Some(DetectorEvent::Burst(burst)) => (trie.on_burst(&burst), scan.on_burst(&burst)),
+                Some(DetectorEvent::Fault(_)) => (trie.interrupt(), scan.interrupt()),
+                _ => (None, None),
+            };
+            prop_assert_eq!(decided.0, decided.1, "tick {}", t);
+            if decided.0.is_none() {
+                prop_assert_eq!(trie.on_tick(t, out.in_progress), scan.on_tick(t, out.in_progress), "tick {}", t);
+            }
+            prop_assert_eq!(trie.current(), scan.current());
         }
     }
 
@@ -309,5 +325,21 @@ proptest! {
         let again = Config::from_toml_str(&text);
         prop_assert_eq!(again.as_ref(), Ok(&config), "{}", text);
         prop_assert_eq!(again.unwrap().to_toml().unwrap(), text);
+    }
+}
+
+proptest! {
+    // Each case runs the motion layer too: fewer cases.
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Whole pipelines built on either index agree, output for output.
+    #[test]
+    fn pipelines_on_either_index_agree(config in library(), script in random_script(), seed in any::<u64>()) {
+        let params = SignalParams::clean(config.core().detector(), seed).with_noise(0.05);
+        let mut trie: Pipeline<TrieIndex> = Pipeline::new(config.core());
+        let mut scan: Pipeline<ScanIndex> = Pipeline::new(config.core());
+        for (t, v) in SignalGenerator::new(params, &script).enumerate() {
+            prop_assert_eq!(trie.step(t as u64, v), scan.step(t as u64, v));
+        }
     }
 }
