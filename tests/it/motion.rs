@@ -46,12 +46,11 @@ fn run(config: &Config, samples: impl Iterator<Item = Option<f64>>) -> Vec<Recor
 }
 
 fn noisy(config: &Config, seed: u64) -> SignalParams {
-    let p = SignalParams::clean(config.core().detector(), seed)
+    SignalParams::clean(config.core().detector(), seed)
         .with_noise(0.03)
         .with_hum(0.05)
         .with_drift(0.1)
-        .with_spikes_every(250);
-    p
+        .with_spikes_every(250)
 }
 
 /// Longest time stopping can take, in ticks, over the linear, angular and
