@@ -108,8 +108,11 @@ fuzz_target!(|data: &[u8]| {
         }
         Err(errors) => {
             assert!(!errors.0.is_empty(), "an error without a problem");
+            // Each error says what is wrong and where: its key, or (a
+            // syntax error) its line.
             for e in &errors.0 {
-                assert!(!e.key.is_empty() && !e.message.is_empty(), "{e:?}");
+                assert!(!e.message.is_empty(), "{e:?}");
+                assert!(!e.key.is_empty() || e.line.is_some(), "{e:?}");
             }
         }
     }

@@ -19,6 +19,15 @@ use serde::{Serialize, Serializer};
 
 use crate::control::motion::stream::ArmCommand;
 
+/// Which arm to drive: the `--arm` values, a contract documented in
+/// `--help` and `docs/commands.md`. A new backend adds its value here and
+/// one line where the command line opens it (`cli/run.rs`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ArmSpec {
+    /// The simulated JACO2.
+    Sim,
+}
+
 /// What an arm reports.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ArmState {

@@ -55,35 +55,6 @@ pub fn with_interface(config: Config, interface: Option<InterfaceArg>) -> anyhow
     }
 }
 
-/// Where samples come from (`--sensor`).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum SensorSpec {
-    /// `synthetic`: the built-in scripted user on the seeded sensor model.
-    Synthetic,
-    /// `csv:PATH`: a recording played in real time.
-    Csv(PathBuf),
-}
-
-/// The forms `--sensor` takes, for messages.
-pub const SENSOR_FORMS: &str = "`synthetic` or `csv:PATH`";
-
-/// Parses `--sensor`.
-pub fn parse_sensor(text: &str) -> Result<SensorSpec, String> {
-    match text.split_once(':') {
-        None if text == "synthetic" => Ok(SensorSpec::Synthetic),
-        Some(("csv", path)) if !path.is_empty() => Ok(SensorSpec::Csv(PathBuf::from(path))),
-        Some(("csv", _)) => Err("`csv:` needs a path, e.g. `csv:fixtures/demo.csv`".into()),
-        _ => Err(format!("unknown sensor {text:?}: choose {SENSOR_FORMS}")),
-    }
-}
-
-/// Which arm (`--arm`).
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ArmSpec {
-    /// The simulated JACO2.
-    Sim,
-}
-
 /// A positive, finite number of seconds.
 pub fn parse_seconds(text: &str) -> Result<f64, String> {
     let seconds: f64 = text
@@ -180,14 +151,19 @@ mod tests {
 
     #[test]
     fn sensor_forms_parse_and_errors_name_the_choices() {
-        assert_eq!(parse_sensor("synthetic"), Ok(SensorSpec::Synthetic));
+        use crate::sensor::SensorSpec;
+        assert_eq!(SensorSpec::parse("synthetic"), Ok(SensorSpec::Synthetic));
         assert_eq!(
-            parse_sensor("csv:a/b.csv"),
+            SensorSpec::parse("csv:a/b.csv"),
             Ok(SensorSpec::Csv(PathBuf::from("a/b.csv")))
         );
-        let e = parse_sensor("evdev").unwrap_err();
+        let e = SensorSpec::parse("evdev").unwrap_err();
         assert!(e.contains("`synthetic` or `csv:PATH`"), "{e}");
-        assert!(parse_sensor("csv:").unwrap_err().contains("needs a path"));
+        assert!(
+            SensorSpec::parse("csv:")
+                .unwrap_err()
+                .contains("needs a path")
+        );
     }
 
     #[test]

@@ -3,10 +3,12 @@
 
 use std::path::PathBuf;
 
+use crate::arm::sim::SimArm;
 use crate::cli::args::{ConfigArg, RtArgs, parse_seconds, parse_volts, writable_dir};
 use crate::cli::run::stop_flag;
 use crate::rt::threads::RunOptions;
-use crate::tools::accuracy::{GridOptions, accuracy_grid, grid_table};
+use crate::sensor::synthetic::SyntheticSensor;
+use crate::tools::accuracy::{GridOptions, GridReport, accuracy_grid, grid_table};
 use crate::tools::bench_tick::bench_tick;
 use crate::tools::latency::{LatencyReport, bench_latency};
 
@@ -120,7 +122,10 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<()> {
                 spin_margin_ns: rt.spin_margin_ns(),
                 stop: stop_flag()?,
             };
-            let run = bench_latency(&config, seconds, block, options)?;
+            // The built-in user, repeated, on the simulated arm.
+            let sensor = SyntheticSensor::built_in_user(&config).repeating();
+            let arm = Box::new(SimArm::new(config.core()));
+            let run = bench_latency(&config, sensor, arm, seconds, block, options)?;
             let report = LatencyReport::of(&run, seconds);
             if json {
                 println!("{}", serde_json::to_string(&report)?);
@@ -132,6 +137,11 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<()> {
                     eprintln!("wrote {}", path.display());
                 }
             }
+            anyhow::ensure!(
+                report.errors.is_empty(),
+                "the bench failed: {}",
+                report.errors.join("; ")
+            );
             Ok(())
         }
         BenchCommand::Tick {
@@ -173,7 +183,8 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<()> {
             });
             eprintln!();
             if json {
-                println!("{}", serde_json::to_string(&cells)?);
+                let report = GridReport { options, cells };
+                println!("{}", serde_json::to_string(&report)?);
             } else {
                 println!(
                     "breaths detected as the right action (mode selections matched) ±largest timing error [+bursts invented]; {seconds} s per session, seed {seed}, drift {drift_volts} V over a {drift_period_ms} ms period, spikes every {spike_every_ms} ms, tolerance {tolerance_ms} ms"

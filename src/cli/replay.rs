@@ -34,7 +34,7 @@ pub struct ReplayArgs {
 pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     let config = with_interface(args.config.load()?, args.interface)?;
     let signal = &args.signal;
-    let mut input = CsvSignal::open(signal).with_context(|| signal.display().to_string())?;
+    let mut input = CsvSignal::open(signal)?;
     let mut out: Box<dyn Write> = match &args.events {
         Some(path) => Box::new(create(path)?),
         None => Box::new(BufWriter::new(std::io::stdout().lock())),

@@ -5,19 +5,18 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
-use crate::arm::Arm;
 use crate::arm::sim::SimArm;
+use crate::arm::{Arm, ArmSpec};
 use crate::cli::args::{
-    ArmSpec, ConfigArg, InterfaceArg, RtArgs, SensorSpec, parse_seconds, parse_sensor,
-    with_interface, writable_dir,
+    ConfigArg, InterfaceArg, RtArgs, parse_seconds, with_interface, writable_dir,
 };
 use crate::config::Config;
 use crate::control::event::TimedEvent;
 use crate::rt::report::RunReport;
 use crate::rt::threads::{RunOptions, run as run_loop};
-use crate::sensor::Sensor;
 use crate::sensor::csv::CsvSensor;
 use crate::sensor::synthetic::SyntheticSensor;
+use crate::sensor::{Sensor, SensorSpec};
 
 /// `run`'s options.
 #[derive(clap::Args, Debug)]
@@ -29,7 +28,7 @@ pub struct RunArgs {
     seconds: Option<f64>,
     /// Where samples come from: `synthetic` (the built-in scripted user)
     /// or `csv:PATH` (a recording played in real time).
-    #[arg(long, default_value = "synthetic", value_parser = parse_sensor)]
+    #[arg(long, default_value = "synthetic", value_parser = SensorSpec::parse)]
     sensor: SensorSpec,
     /// The arm.
     #[arg(long, value_enum, default_value = "sim")]
@@ -60,17 +59,18 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         spin_margin_ns: args.rt.spin_margin_ns(),
         stop: stop_flag()?,
     };
+    // The backends, one line each.
     let arm: Box<dyn Arm> = match args.arm {
         ArmSpec::Sim => Box::new(SimArm::new(config.core())),
     };
     let report = match &args.sensor {
-        SensorSpec::Synthetic => run_with_sensor(
+        SensorSpec::Synthetic => run_on(
             &config,
             SyntheticSensor::built_in_user(&config),
             arm,
             &options,
         )?,
-        SensorSpec::Csv(path) => run_with_sensor(&config, CsvSensor::open(path)?, arm, &options)?,
+        SensorSpec::Csv(path) => run_on(&config, CsvSensor::open(path)?, arm, &options)?,
     };
     if args.json {
         println!("{}", serde_json::to_string(&report)?);
@@ -79,7 +79,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some(dir) = &args.histogram_dir {
         for path in report.write_histograms(dir)? {
-            println!("wrote {}", path.display());
+            eprintln!("wrote {}", path.display());
         }
     }
     Ok(if report.errors.is_empty() {
@@ -90,7 +90,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// The loop on one sensor, printing each event as a JSON line.
-fn run_with_sensor(
+fn run_on(
     config: &Config,
     sensor: impl Sensor,
     arm: Box<dyn Arm>,

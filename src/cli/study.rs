@@ -20,7 +20,7 @@ pub struct StudyArgs {
     seed: u64,
     #[command(flatten)]
     config: ConfigArg,
-    /// Print one JSON object.
+    /// Print one JSON object (a sweep: one JSON array of rows).
     #[arg(long)]
     json: bool,
     /// Draw the completion times per task and interface to this SVG.
@@ -44,7 +44,11 @@ pub fn study(args: StudyArgs) -> anyhow::Result<()> {
             eprint!("\r{label}: {done}/{total} runs   ");
         })?;
         eprintln!();
-        print!("{}", sweep_text(param, &rows));
+        if args.json {
+            println!("{}", serde_json::to_string(&rows)?);
+        } else {
+            print!("{}", sweep_text(param, &rows));
+        }
         return Ok(());
     }
     let results = run_study(&config, &options, |done, total| {
@@ -52,7 +56,10 @@ pub fn study(args: StudyArgs) -> anyhow::Result<()> {
     })?;
     eprintln!();
     if args.json {
-        println!("{}", serde_json::to_string(&StudyReport::of(&results))?);
+        println!(
+            "{}",
+            serde_json::to_string(&StudyReport::of(&results, &options))?
+        );
     } else {
         print!("{}", study_text(&results, &options));
     }

@@ -7,7 +7,8 @@ use std::fmt;
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ConfigError {
     /// Dotted key, e.g. `detector.min_burst_ms` or `sequence #3.mode`
-    /// (sequences counted from 1 in file order); empty for a syntax error.
+    /// (sequences counted from 1 in file order); empty for a syntax error
+    /// with a line, `(file)` for one without.
     pub key: String,
     /// 1-based line of the key (or of the syntax error) in the file, when
     /// it is there (a key left at its default has none).

@@ -64,7 +64,12 @@ pub(super) fn syntax_error(text: &str, error: &toml::de::Error) -> ConfigError {
         .map(|span| line_column(text, span.start))
         .unzip();
     ConfigError {
-        key: String::new(),
+        // Where the parser gives no position, at least say it is the file.
+        key: if line.is_some() {
+            String::new()
+        } else {
+            "(file)".into()
+        },
         line,
         column,
         message: format!("not valid TOML: {}", error.message().trim()),

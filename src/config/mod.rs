@@ -419,6 +419,12 @@ mod tests {
                 "scanning.order: \"fingers\" appears twice"
             ]
         );
+        let too_long = ScanningConfig {
+            order_len: 10,
+            ..ScanningConfig::default()
+        };
+        let e = c.clone().with_scanning(too_long).unwrap_err().0;
+        assert_eq!(e[0].message, "10 modes, at most 9 (each mode once)");
         assert_eq!(
             c.clone().with_sequences(Vec::new()).unwrap_err().0[0].key,
             "sequence"

@@ -181,7 +181,18 @@ pub(super) fn command(p: &mut Problems, c: &CommandConfig) {
 /// `[scanning]`: positive dwell times, each mode at most once, at least one.
 pub(super) fn scanning(p: &mut Problems, c: &ScanningConfig) {
     scanning_dwell(p, c.dwell_ms, c.first_dwell_ms);
-    scan_order(p, c.modes());
+    if c.order_len > c.order.len() {
+        p.add(
+            "scanning.order",
+            format!(
+                "{} modes, at most {} (each mode once)",
+                c.order_len,
+                c.order.len()
+            ),
+        );
+    } else {
+        scan_order(p, c.modes());
+    }
 }
 
 /// `[scanning]`'s timers.

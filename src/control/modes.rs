@@ -39,17 +39,6 @@ pub enum DetectionReason {
     Stop,
 }
 
-impl DetectionReason {
-    /// Name used in the event log.
-    pub const fn name(self) -> &'static str {
-        match self {
-            DetectionReason::Inactivity => "inactivity",
-            DetectionReason::Fault => "fault",
-            DetectionReason::Stop => "stop",
-        }
-    }
-}
-
 /// The command for the motion layer on one tick. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ModeOutput {

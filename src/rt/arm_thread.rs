@@ -1,7 +1,13 @@
 //! The arm thread: takes the core's 100 Hz commands from their ring and
-//! sends them to the arm, paced by the same absolute-deadline scheduler as
-//! the control loop (a 10 ms period), and ends the stream with a zero
-//! command on every way out.
+//! sends them to the arm, and ends the stream with a zero command on every
+//! way out.
+//!
+//! Pacing: the same absolute-deadline scheduler as the control loop, with
+//! a 1 ms period, so a command reaches the arm within a millisecond of the
+//! control tick that made it (the core's 100 Hz cadence is the stream's).
+//! Commands are sent in order, all of them: each is 10 ms of the path the
+//! core's pose estimate (and its workspace checks) assumed, so the arm
+//! retraces that path even after a stall of this thread.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -11,8 +17,52 @@ use crate::control::motion::stream::ArmCommand;
 use crate::rt::clock::{Clock, MonotonicClock};
 use crate::rt::scheduler::Scheduler;
 
-/// The arm's cycle: 10 ms.
-pub const ARM_PERIOD_NS: u64 = 10_000_000;
+/// How often the thread looks for commands: 1 ms.
+pub const ARM_POLL_NS: u64 = 1_000_000;
+
+/// A connected arm whose stream must end with a zero command: done by
+/// [`ArmStream::end`], or, on any other way out (an early return, a panic),
+/// when it is dropped.
+pub struct ArmStream {
+    arm: Box<dyn Arm>,
+    last: Option<ArmCommand>,
+    ended: bool,
+}
+
+impl ArmStream {
+    /// Connects `arm`; from here on its stream ends with a zero command.
+    pub fn connect(mut arm: Box<dyn Arm>) -> Result<ArmStream, ArmError> {
+        arm.connect()?;
+        Ok(ArmStream {
+            arm,
+            last: None,
+            ended: false,
+        })
+    }
+
+    /// Sends one command.
+    fn send(&mut self, command: &ArmCommand) -> Result<(), ArmError> {
+        self.arm.send(command)?;
+        self.last = Some(*command);
+        Ok(())
+    }
+
+    /// Ends the stream (once): a zero command, then stop.
+    fn end(&mut self) -> Result<(), ArmError> {
+        if self.ended {
+            return Ok(());
+        }
+        self.ended = true;
+        end_stream(self.arm.as_mut(), self.last.as_ref())
+    }
+}
+
+impl Drop for ArmStream {
+    fn drop(&mut self) {
+        // Nothing to report to from here: the zero command is what counts.
+        let _ = self.end();
+    }
+}
 
 /// What the arm thread did.
 #[derive(Debug)]
@@ -29,54 +79,60 @@ pub struct ArmReport {
 
 /// Runs until the command ring is abandoned (the control loop ended) and
 /// drained. On an error from the arm: ends the stream at once (zero
-/// command, stop), sets `stop` so the control loop stops safely, and
+/// command, stop), sets `fault` so the control loop stops safely, and
 /// sends nothing more.
 pub fn run_arm(
-    arm: &mut dyn Arm,
+    mut stream: ArmStream,
     commands: &mut rtrb::Consumer<ArmCommand>,
-    stop: &Arc<AtomicBool>,
+    fault: &Arc<AtomicBool>,
 ) -> ArmReport {
     let mut clock = MonotonicClock;
-    let mut scheduler = Scheduler::new(clock.now_ns() + ARM_PERIOD_NS, ARM_PERIOD_NS, None);
+    let mut scheduler = Scheduler::new(clock.now_ns() + ARM_POLL_NS, ARM_POLL_NS, None);
     let mut report = ArmReport {
-        state: arm.feedback(),
+        state: stream.arm.feedback(),
         commands: 0,
         ended_with_zero: false,
         error: None,
     };
-    let mut last: Option<ArmCommand> = None;
+    let mut since_feedback = 0u32;
     loop {
         scheduler.wait(&mut clock);
         // Checked before draining: whatever was pushed before the loop
         // ended is sent.
         let abandoned = commands.is_abandoned();
+        let mut sent = false;
         while let Ok(command) = commands.pop() {
             report.commands += 1;
             if report.error.is_some() {
                 continue;
             }
-            match arm.send(&command) {
-                Ok(()) => last = Some(command),
+            match stream.send(&command) {
+                Ok(()) => sent = true,
                 Err(error) => {
-                    report.ended_with_zero = end_stream(arm, last.as_ref()).is_ok();
+                    report.ended_with_zero = stream.end().is_ok();
                     report.error = Some(error);
-                    stop.store(true, Ordering::Relaxed);
+                    fault.store(true, Ordering::Relaxed);
                 }
             }
         }
-        if let Some(state) = arm.feedback() {
-            report.state = Some(state);
+        // Feedback at the stream's rate, and at the end.
+        since_feedback += 1;
+        if sent || since_feedback >= 10 || abandoned {
+            since_feedback = 0;
+            if let Some(state) = stream.arm.feedback() {
+                report.state = Some(state);
+            }
         }
         if abandoned {
             break;
         }
     }
     if report.error.is_none() {
-        match end_stream(arm, last.as_ref()) {
+        match stream.end() {
             Ok(()) => report.ended_with_zero = true,
             Err(error) => report.error = Some(error),
         }
-        if let Some(state) = arm.feedback() {
+        if let Some(state) = stream.arm.feedback() {
             report.state = Some(state);
         }
     }
@@ -91,6 +147,7 @@ mod tests {
     /// What a test arm was told, in order.
     #[derive(Debug, Clone, PartialEq)]
     enum Call {
+        Connect,
         Send(ArmCommand),
         Stop,
     }
@@ -102,11 +159,24 @@ mod tests {
         fail_at: Option<usize>,
     }
 
+    impl RecordingArm {
+        fn new(fail_at: Option<usize>) -> (Box<RecordingArm>, Arc<Mutex<Vec<Call>>>) {
+            let calls = Arc::new(Mutex::new(Vec::new()));
+            let arm = RecordingArm {
+                calls: calls.clone(),
+                sends: 0,
+                fail_at,
+            };
+            (Box::new(arm), calls)
+        }
+    }
+
     impl Arm for RecordingArm {
         fn describe(&self) -> String {
             "recording".into()
         }
         fn connect(&mut self) -> Result<(), ArmError> {
+            self.calls.lock().unwrap().push(Call::Connect);
             Ok(())
         }
         fn send(&mut self, command: &ArmCommand) -> Result<(), ArmError> {
@@ -137,73 +207,89 @@ mod tests {
         }
     }
 
+    /// The zero command that follows command `seq − 1`.
+    fn zero_after(seq: u64) -> ArmCommand {
+        ArmCommand {
+            seq,
+            tick: 10 * seq + 9,
+            ..ArmCommand::default()
+        }
+    }
+
     /// Runs the arm thread over `commands` pushed before the control side
     /// goes away (mid-motion: the last one moves).
     fn run(commands: &[ArmCommand], fail_at: Option<usize>) -> (Vec<Call>, ArmReport, bool) {
-        let calls = Arc::new(Mutex::new(Vec::new()));
-        let mut arm = RecordingArm {
-            calls: calls.clone(),
-            sends: 0,
-            fail_at,
-        };
+        let (arm, calls) = RecordingArm::new(fail_at);
+        let stream = ArmStream::connect(arm).unwrap();
         let (mut tx, mut rx) = rtrb::RingBuffer::new(64);
         for c in commands {
             tx.push(*c).unwrap();
         }
         drop(tx);
-        let stop = Arc::new(AtomicBool::new(false));
-        let report = run_arm(&mut arm, &mut rx, &stop);
+        let fault = Arc::new(AtomicBool::new(false));
+        let report = run_arm(stream, &mut rx, &fault);
         let calls = calls.lock().unwrap().clone();
-        (calls, report, stop.load(Ordering::Relaxed))
+        (calls, report, fault.load(Ordering::Relaxed))
     }
 
     #[test]
     fn a_stream_cut_mid_motion_ends_with_a_zero_command_then_stop() {
         let commands: Vec<ArmCommand> = (0..5).map(moving).collect();
-        let (calls, report, stopped) = run(&commands, None);
-        let sent: Vec<Call> = commands.iter().map(|c| Call::Send(*c)).collect();
-        assert_eq!(calls[..5], sent[..]);
-        let zero = ArmCommand {
-            seq: 5,
-            tick: 59,
-            ..ArmCommand::default()
-        };
-        assert_eq!(calls[5..], [Call::Send(zero), Call::Stop]);
-        assert!(zero.is_zero());
+        let (calls, report, fault) = run(&commands, None);
+        let mut expected = vec![Call::Connect];
+        expected.extend(commands.iter().map(|c| Call::Send(*c)));
+        expected.extend([Call::Send(zero_after(5)), Call::Stop]);
+        assert_eq!(calls, expected);
+        assert!(zero_after(5).is_zero());
         assert_eq!(report.commands, 5);
-        assert!(report.ended_with_zero && report.error.is_none() && !stopped);
+        assert!(report.ended_with_zero && report.error.is_none() && !fault);
     }
 
     #[test]
     fn an_arm_error_ends_the_stream_at_once_and_asks_the_loop_to_stop() {
         let commands: Vec<ArmCommand> = (0..6).map(moving).collect();
-        let (calls, report, stopped) = run(&commands, Some(3));
+        let (calls, report, fault) = run(&commands, Some(3));
         // Two commands went through; the third was refused: a zero command
         // and stop, and nothing after it.
-        let zero = ArmCommand {
-            seq: 2,
-            tick: 29,
-            ..ArmCommand::default()
-        };
         assert_eq!(
             calls,
             [
+                Call::Connect,
                 Call::Send(commands[0]),
                 Call::Send(commands[1]),
-                Call::Send(zero),
+                Call::Send(zero_after(2)),
                 Call::Stop
             ]
         );
         assert!(matches!(report.error, Some(ArmError::Rejected { .. })));
         assert!(report.ended_with_zero);
         assert_eq!(report.commands, 6, "every command was taken off the ring");
-        assert!(stopped, "the control loop is asked for a safe stop");
+        assert!(fault, "the control loop is asked for a safe stop");
     }
 
     #[test]
     fn an_empty_stream_still_ends_with_a_zero_command() {
         let (calls, report, _) = run(&[], None);
-        assert_eq!(calls, [Call::Send(ArmCommand::default()), Call::Stop]);
+        let zero = ArmCommand::default();
+        assert_eq!(calls, [Call::Connect, Call::Send(zero), Call::Stop]);
         assert!(report.ended_with_zero);
+    }
+
+    #[test]
+    fn a_connected_arm_dropped_on_any_other_way_out_still_gets_its_zero() {
+        let (arm, calls) = RecordingArm::new(None);
+        let mut stream = ArmStream::connect(arm).unwrap();
+        stream.send(&moving(0)).unwrap();
+        drop(stream); // e.g. a run that fails to start its threads
+        let calls = calls.lock().unwrap().clone();
+        assert_eq!(
+            calls,
+            [
+                Call::Connect,
+                Call::Send(moving(0)),
+                Call::Send(zero_after(1)),
+                Call::Stop
+            ]
+        );
     }
 }

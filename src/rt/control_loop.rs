@@ -45,6 +45,8 @@ pub enum StopReason {
     Running,
     /// SIGINT or SIGTERM.
     Signal,
+    /// The arm failed (its stream was ended at once).
+    ArmFault,
     /// The requested run time passed.
     Time,
     /// The sensor's recording or script ended.
@@ -56,6 +58,7 @@ impl fmt::Display for StopReason {
         f.write_str(match self {
             StopReason::Running => "running",
             StopReason::Signal => "signal",
+            StopReason::ArmFault => "arm fault",
             StopReason::Time => "time",
             StopReason::SensorEnded => "sensor ended",
         })
@@ -254,6 +257,8 @@ pub struct LoopOptions {
     pub spin_margin_ns: Option<u64>,
     /// Set (by a signal handler) to request a safe stop.
     pub stop: Arc<AtomicBool>,
+    /// Set by the arm thread when the arm failed.
+    pub arm_fault: Arc<AtomicBool>,
 }
 
 /// What the loop did.
@@ -303,6 +308,8 @@ pub fn control_loop<C: Clock, W: TickWork>(
         let _realtime = rtsan_standalone::ScopedSanitizeRealtime::default();
         let stop = if options.stop.load(Ordering::Relaxed) {
             Some(StopReason::Signal)
+        } else if options.arm_fault.load(Ordering::Relaxed) {
+            Some(StopReason::ArmFault)
         } else if options.limit_ticks.is_some_and(|n| wake.tick + 1 >= n) {
             Some(StopReason::Time)
         } else {

@@ -152,14 +152,6 @@ impl Percentiles {
     }
 }
 
-/// A histogram serialized as its [`Percentiles`].
-pub fn serialize_percentiles<S: Serializer>(
-    h: &Histogram<u64>,
-    serializer: S,
-) -> Result<S::Ok, S::Error> {
-    Percentiles::of(h).serialize(serializer)
-}
-
 impl Serialize for Latencies {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         #[derive(Serialize)]

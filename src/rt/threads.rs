@@ -32,7 +32,7 @@ use crate::control::core_config::CoreConfig;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
 use crate::control::pipeline::Pipeline;
-use crate::rt::arm_thread::run_arm;
+use crate::rt::arm_thread::{ArmStream, run_arm};
 use crate::rt::clock::{MonotonicClock, SimClock};
 use crate::rt::control_loop::{
     ControlTick, LoopOptions, OutputRings, StopReason, TickWork, control_loop,
@@ -55,8 +55,7 @@ pub struct RunOptions {
     pub rt: RtOptions,
     /// Hybrid wait: sleep until this long before each deadline, then spin.
     pub spin_margin_ns: Option<u64>,
-    /// Set (by a signal handler, or the arm thread on an arm error) to
-    /// request a safe stop.
+    /// Set by a signal handler to request a safe stop.
     pub stop: Arc<AtomicBool>,
 }
 
@@ -127,7 +126,7 @@ pub fn run<S: Sensor>(
 pub fn run_with<S: Sensor, W: TickWork + 'static>(
     config: &CoreConfig,
     sensor: S,
-    mut arm: Box<dyn Arm>,
+    arm: Box<dyn Arm>,
     options: &RunOptions,
     mut on_event: impl FnMut(&TimedEvent),
     wrap: impl FnOnce(ControlTick<S::Samples>) -> W + Send + 'static,
@@ -141,17 +140,22 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
     } = Rings::new();
     let sensor_name = sensor.describe();
     let arm_name = arm.describe();
-    arm.connect().map_err(RunError::Arm)?;
+    // The sensor first: if it cannot start, the arm was never taken.
     let started = sensor.start().map_err(RunError::Sensor)?;
+    let producer = started.producer;
+    // From here on the arm's stream ends with a zero command, whatever
+    // happens (the stream's guard sees to it if a thread cannot start).
+    let stream = ArmStream::connect(arm).map_err(RunError::Arm)?;
     let core = Pipeline::new(config);
     let limit_ticks = options.seconds.map(|s| (s * 1000.0).round() as u64);
     let work = ControlTick::new(core, started.samples, outputs, limit_ticks.is_none());
-    let producer = started.producer;
 
-    let stop = options.stop.clone();
+    // Set by the arm thread when the arm fails: the loop stops safely.
+    let arm_fault = Arc::new(AtomicBool::new(false));
+    let fault = arm_fault.clone();
     let arm_thread = thread::Builder::new()
         .name("arm".into())
-        .spawn(move || run_arm(arm.as_mut(), &mut arm_rx, &stop))
+        .spawn(move || run_arm(stream, &mut arm_rx, &fault))
         .map_err(|e| RunError::Thread(format!("cannot start the arm thread: {e}")))?;
 
     let cpu_before = cpu_seconds();
@@ -161,14 +165,25 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
         rt: options.rt,
         spin_margin_ns: options.spin_margin_ns,
         stop: options.stop.clone(),
+        arm_fault,
     };
     let control = thread::Builder::new()
         .name("control".into())
         .spawn(move || {
             let mut work = wrap(work);
             control_loop(MonotonicClock, &mut work, &mut records, &loop_options)
-        })
-        .map_err(|e| RunError::Thread(format!("cannot start the control thread: {e}")))?;
+        });
+    let control = match control {
+        Ok(control) => control,
+        Err(e) => {
+            // The work went with the failed spawn: the command ring is
+            // abandoned and the arm thread ends the stream; wait for it.
+            let _ = arm_thread.join();
+            return Err(RunError::Thread(format!(
+                "cannot start the control thread: {e}"
+            )));
+        }
+    };
 
     // Telemetry: this thread.
     let mut full = Latencies::default();
@@ -192,16 +207,16 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
         drain(&mut record_rx, &mut event_rx);
         thread::sleep(Duration::from_millis(5));
     }
-    let result = control
-        .join()
-        .map_err(|_| RunError::Thread("the control thread panicked".into()))?;
+    // Every thread is joined before anything is returned: the arm's
+    // stream has ended, with a zero command, by the time this returns.
+    let control = control.join();
     drain(&mut record_rx, &mut event_rx);
     let wall_seconds = wall.elapsed().as_secs_f64();
     let cpu_percent = 100.0 * (cpu_seconds() - cpu_before) / wall_seconds.max(1e-9);
     let sensor_error = producer.stop().err();
-    let arm = arm_thread
-        .join()
-        .map_err(|_| RunError::Thread("the arm thread panicked".into()))?;
+    let arm = arm_thread.join();
+    let result = control.map_err(|_| RunError::Thread("the control thread panicked".into()))?;
+    let arm = arm.map_err(|_| RunError::Thread("the arm thread panicked".into()))?;
 
     let mut errors = Vec::new();
     if let Some(e) = sensor_error {
@@ -290,6 +305,7 @@ pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRu
         },
         spin_margin_ns: None,
         stop: Arc::new(AtomicBool::new(false)),
+        arm_fault: Arc::new(AtomicBool::new(false)),
     };
     let mut work = ControlTick::new(Pipeline::new(config), samples, outputs, true);
     // The loop's rings are drained on another thread, as in `run`.

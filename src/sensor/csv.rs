@@ -12,13 +12,13 @@ use std::fs::File;
 use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
 
-use crate::rt::clock::{Clock, MonotonicClock};
 use crate::sensor::ring::{RingSamples, SAMPLE_RING, ring};
 use crate::sensor::{Producer, Sensor, SensorError, Started};
 
 /// The period of a recording's samples: 1 ms.
-const SAMPLE_PERIOD_NS: u64 = 1_000_000;
+const SAMPLE_PERIOD: Duration = Duration::from_millis(1);
 
 /// A problem with a recording, naming the line.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -154,14 +154,16 @@ impl Sensor for CsvSensor {
         let (mut feed, samples) = ring(SAMPLE_RING);
         let CsvSensor { path, mut signal } = self;
         let producer = Producer::spawn("sensor", move |stop| {
-            let mut clock = MonotonicClock;
-            let mut deadline = clock.now_ns();
+            // Deadlines from the start, so lateness never accumulates.
+            let mut deadline = Instant::now();
             while let Some(volts) = signal.next_sample().map_err(|e| bad_data(&path, &e))? {
                 if stop.load(Ordering::Relaxed) {
                     break;
                 }
-                deadline += SAMPLE_PERIOD_NS;
-                clock.sleep_until_ns(deadline);
+                deadline += SAMPLE_PERIOD;
+                if let Some(wait) = deadline.checked_duration_since(Instant::now()) {
+                    std::thread::sleep(wait);
+                }
                 // Full: the loop is behind; the sample is lost and the loop
                 // counts what it discards.
                 feed.push(volts);

@@ -9,8 +9,10 @@
 //!
 //! How samples reach the control thread: a backend that reads a device or
 //! file runs a producer thread that pushes into a bounded rtrb ring
-//! ([`ring`]); the control thread pops the newest sample each tick, never
-//! waits, and counts what it throws away. A backend that can compute its
+//! ([`ring`]); the control thread takes the sample due each tick (after
+//! skipped ticks, their samples are thrown away), never waits, keeps at
+//! most two queued (a producer running ahead adds at most 2 ms), and
+//! counts what it throws away. A backend that can compute its
 //! samples without I/O (the synthetic sensor) computes them in the loop.
 //! A tick with no sample is `Pipeline::step_missing`: after `stale_ms` the
 //! core faults and the arm brakes.
@@ -28,10 +30,39 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 
+/// Which sensor to open: the `--sensor` forms, a contract documented in
+/// `--help` and `docs/commands.md`. A new backend adds its form here and
+/// one line where the command line opens it (`cli/run.rs`).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SensorSpec {
+    /// `synthetic`: the built-in scripted user on the seeded sensor model.
+    Synthetic,
+    /// `csv:PATH`: a recording played in real time.
+    Csv(PathBuf),
+}
+
+impl SensorSpec {
+    /// The forms, for messages.
+    pub const FORMS: &str = "`synthetic` or `csv:PATH`";
+
+    /// Parses a `--sensor` value; the error lists the forms.
+    pub fn parse(text: &str) -> Result<SensorSpec, String> {
+        match text.split_once(':') {
+            None if text == "synthetic" => Ok(SensorSpec::Synthetic),
+            Some(("csv", path)) if !path.is_empty() => Ok(SensorSpec::Csv(PathBuf::from(path))),
+            Some(("csv", _)) => Err("`csv:` needs a path, e.g. `csv:fixtures/demo.csv`".into()),
+            _ => Err(format!(
+                "unknown sensor {text:?}: choose {}",
+                SensorSpec::FORMS
+            )),
+        }
+    }
+}
+
 /// One tick's read of a sensor. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Reading {
-    /// The newest sample, volts; `None` if none arrived for this tick.
+    /// The sample for this tick, volts; `None` if none arrived.
     pub volts: Option<f64>,
     /// Older samples thrown away to catch up (the producer ran ahead).
     pub discarded: u64,
@@ -41,7 +72,7 @@ pub struct Reading {
 /// allocates, never panics.
 pub trait Samples: Send {
     /// The sample for the tick about to run, after `skipped` ticks the loop
-    /// missed (their samples are stale: only the newest counts).
+    /// missed (their samples are stale and thrown away).
     fn try_read(&mut self, skipped: u64) -> Reading;
 
     /// No sample will ever come again (a recording or script ended).

@@ -28,7 +28,7 @@ impl SyntheticSensor {
         }
     }
 
-    /// The built-in user of `sipnpuff run` (about 20 s, light noise and
+    /// The built-in user of `sipnpuff run` (about 22 s, light noise and
     /// hum): saves the home pose, moves forward, closes and opens the
     /// fingers, goes back to the saved pose. On the scanning interface the
     /// user reacts to the highlight (a closed-loop session with the same

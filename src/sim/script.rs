@@ -111,7 +111,7 @@ pub fn demo_script(config: &Config) -> (Vec<Step>, Vec<Mode>) {
     )
 }
 
-/// The built-in user of `sipnpuff run` (about 20 s): saves the home pose,
+/// The built-in user of `sipnpuff run` (about 22 s): saves the home pose,
 /// moves forward 1.5 s, closes the fingers 1.5 s and opens them 1 s, then
 /// holds a puff in `goto_point` until the saved pose is reached.
 pub fn run_script(config: &Config) -> (Vec<Step>, Vec<Mode>) {

@@ -58,7 +58,7 @@ pub struct Tally {
     pub faults: u64,
     /// Recoveries from a fault.
     pub recoveries: u64,
-    /// Heap allocations inside `Core::step` (see [`Observed`]).
+    /// Heap allocations inside `Pipeline::step` (see [`Observed`]).
     pub core_allocations: u64,
 }
 
@@ -110,7 +110,7 @@ pub struct Observed {
     pub faults: u64,
     /// Recoveries.
     pub recoveries: u64,
-    /// Heap allocations inside `Core::step`, as counted by
+    /// Heap allocations inside `Pipeline::step`, as counted by
     /// [`crate::rt::alloc_counter`] (0 unless the counting allocator is the
     /// global allocator).
     pub core_allocations: u64,
@@ -277,7 +277,7 @@ pub struct GridCell {
 }
 
 /// The settings of `sipnpuff bench accuracy` besides the grid.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Serialize)]
 pub struct GridOptions {
     /// Length of each cell's session, s.
     pub seconds: u64,
@@ -325,6 +325,15 @@ pub fn accuracy_grid(
         }
     }
     cells
+}
+
+/// `bench accuracy --json`: the settings and every cell.
+#[derive(Debug, Clone, Serialize)]
+pub struct GridReport {
+    /// The settings besides the levels.
+    pub options: GridOptions,
+    /// One per noise and hum level, noise major.
+    pub cells: Vec<GridCell>,
 }
 
 /// The grid as a Markdown table: rows noise, columns hum; each cell the

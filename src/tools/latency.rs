@@ -7,14 +7,14 @@
 
 use serde::Serialize;
 
-use crate::arm::sim::SimArm;
+use crate::arm::Arm;
 use crate::config::Config;
 use crate::rt::control_loop::{StopReason, TickOutcome, TickWork, WorkSummary};
 use crate::rt::report::RunReport;
 use crate::rt::scheduler::Wake;
 use crate::rt::telemetry::{Drops, Percentiles, percentiles_line};
 use crate::rt::threads::{RunError, RunOptions, run_with};
-use crate::sensor::synthetic::SyntheticSensor;
+use crate::sensor::Sensor;
 
 /// Alternates blocks of `block` reference ticks (nothing but the wait) and
 /// `block` ticks of the wrapped work; once the work is stopping, every
@@ -60,16 +60,17 @@ impl<W: TickWork> TickWork for Interleaved<W> {
     }
 }
 
-/// Runs `seconds` of the built-in user, repeated, through the production
-/// loop on the simulated arm, interleaved with reference ticks.
-pub fn bench_latency(
+/// Runs `seconds` of `sensor` (a sensor that does not end: the built-in
+/// user, repeated) through the production loop to `arm`, interleaved with
+/// reference ticks.
+pub fn bench_latency<S: Sensor>(
     config: &Config,
+    sensor: S,
+    arm: Box<dyn Arm>,
     seconds: f64,
     block: u64,
     options: RunOptions,
 ) -> Result<RunReport, RunError> {
-    let sensor = SyntheticSensor::built_in_user(config).repeating();
-    let arm = Box::new(SimArm::new(config.core()));
     let options = RunOptions {
         seconds: Some(seconds),
         ..options
@@ -117,6 +118,12 @@ pub struct LatencyReport {
     pub rt: Granted,
     /// Settings asked for and denied.
     pub denied: Vec<String>,
+    /// Why the run ended (`time`, or `signal`).
+    pub stop_reason: StopReason,
+    /// Wall time of the loop, s.
+    pub wall_seconds: f64,
+    /// What went wrong at the edges (a bench with errors has failed).
+    pub errors: Vec<String>,
 }
 
 /// Reference-tick figures.
@@ -203,6 +210,9 @@ impl LatencyReport {
                 .filter(|s| !s.granted)
                 .map(|s| s.name.clone())
                 .collect(),
+            stop_reason: run.stop_reason,
+            wall_seconds: run.wall_seconds,
+            errors: run.errors.clone(),
         }
     }
 
@@ -231,6 +241,9 @@ impl LatencyReport {
         );
         if !self.denied.is_empty() {
             s += &format!("denied: {}\n", self.denied.join("; "));
+        }
+        for error in &self.errors {
+            s += &format!("ERROR: {error}\n");
         }
         s
     }

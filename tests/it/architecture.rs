@@ -42,6 +42,9 @@ pub fn rule_violation(from_role: &str, to: &[String]) -> Option<&'static str> {
             Some("rule 2: rt/ may use only the sensor/arm module roots (mod.rs), not backends")
         }
         "rt" => Some("rule 2: rt/ may import only control/, rt/ and the sensor/arm module roots"),
+        "sensor" | "arm" if top == "rt" => {
+            Some("rule 2: the runtime depends on the sensor/arm seams, never the reverse")
+        }
         _ => None,
     }
 }

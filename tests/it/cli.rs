@@ -188,8 +188,9 @@ fn bench_accuracy_json_has_every_field_of_the_tally() {
         "--json",
     ]);
     assert!(out.status.success());
-    let cells: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let cell = cells[0].as_object().unwrap();
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["options"]["seconds"], 20);
+    let cell = report["cells"][0].as_object().unwrap();
     let fields = [
         "noise_volts",
         "hum_volts",

@@ -10,8 +10,10 @@ use std::sync::{Arc, mpsc};
 use std::time::Duration;
 
 use sipnpuff::arm::sim::SimArm;
+use sipnpuff::arm::{Arm, ArmError, ArmState};
 use sipnpuff::config::Config;
 use sipnpuff::control::event::Event;
+use sipnpuff::control::motion::stream::ArmCommand;
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::rt::clock::SimClock;
 use sipnpuff::rt::control_loop::StopReason;
@@ -261,4 +263,71 @@ fn a_user_without_privileges_runs_and_is_told_what_it_lacks() {
         text.contains("control thread heap allocations after start: 0"),
         "{text}"
     );
+}
+
+/// An arm that takes `good` commands, then refuses the next; it records
+/// every call so the test can see how the stream ended.
+struct RefusingArm {
+    good: usize,
+    sends: usize,
+    calls: Arc<Mutex<Vec<String>>>,
+}
+
+impl Arm for RefusingArm {
+    fn describe(&self) -> String {
+        "refusing".into()
+    }
+    fn connect(&mut self) -> Result<(), ArmError> {
+        Ok(())
+    }
+    fn send(&mut self, command: &ArmCommand) -> Result<(), ArmError> {
+        self.sends += 1;
+        if self.sends == self.good + 1 {
+            return Err(ArmError::Rejected {
+                detail: "over current".into(),
+            });
+        }
+        let mut calls = self.calls.lock().unwrap();
+        calls.push(format!("send {} zero {}", command.seq, command.is_zero()));
+        Ok(())
+    }
+    fn feedback(&mut self) -> Option<ArmState> {
+        None
+    }
+    fn stop(&mut self) -> Result<(), ArmError> {
+        self.calls.lock().unwrap().push("stop".into());
+        Ok(())
+    }
+}
+
+#[test]
+fn an_arm_that_refuses_a_command_stops_the_run_safely() {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let config = Config::default();
+    let calls = Arc::new(Mutex::new(Vec::new()));
+    let arm = Box::new(RefusingArm {
+        good: 300,
+        sends: 0,
+        calls: calls.clone(),
+    });
+    let sensor = SyntheticSensor::built_in_user(&config);
+    let report = run(config.core(), sensor, arm, &options(60.0), |_| {}).unwrap();
+    assert_eq!(report.stop_reason, StopReason::ArmFault);
+    assert_eq!(report.errors, ["arm refused a command: over current"]);
+    assert!(report.stream_ended_with_zero);
+    assert!(report.to_text().contains("stopped by: arm fault"));
+    assert!(
+        report
+            .to_text()
+            .contains("ERROR: arm refused a command: over current")
+    );
+    // 300 commands, then the refused one: a zero command numbered after the
+    // last sent, then stop, and nothing after.
+    let calls = calls.lock().unwrap();
+    assert_eq!(calls.len(), 302, "{calls:?}");
+    assert_eq!(calls[300], "send 300 zero true");
+    assert_eq!(calls[301], "stop");
+    // The loop stopped well before its 60 s.
+    assert!(report.stats.ticks_run + report.stats.skipped_ticks < 60_000);
+    assert_eq!(report.final_velocity, [0.0; 7]);
 }

@@ -8,7 +8,7 @@
 //! core (detector, matcher, modes, motion). Every scripted burst must be
 //! detected exactly once as the right action, every scripted selection
 //! matched (or reset, where the script says so), no burst invented, and
-//! `Core::step` must not allocate.
+//! `Pipeline::step` must not allocate.
 
 use std::f64::consts::PI;
 
@@ -55,7 +55,7 @@ fn assert_perfect(
     assert_eq!(t.resets, expect.resets, "resets: {context}");
     assert_eq!(t.faults, expect.faults, "faults: {context}");
     assert_eq!(t.recoveries, expect.faults, "recoveries: {context}");
-    assert_eq!(t.core_allocations, 0, "Core::step allocated: {context}");
+    assert_eq!(t.core_allocations, 0, "Pipeline::step allocated: {context}");
     t
 }
 

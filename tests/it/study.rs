@@ -168,7 +168,7 @@ fn the_study_is_deterministic_for_a_seed() {
     };
     let report = |options: &StudyOptions| {
         let results = run_study(&config, options, |_, _| {}).unwrap();
-        serde_json::to_value(StudyReport::of(&results)).unwrap()
+        serde_json::to_value(StudyReport::of(&results, options)).unwrap()
     };
     let a = report(&options);
     assert_eq!(a, report(&options));

@@ -50,19 +50,6 @@ pub enum Boundary {
     FingersClosed,
 }
 
-impl Boundary {
-    /// Name used in the event log.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Boundary::Reach => "reach",
-            Boundary::Base => "base",
-            Boundary::Table => "table",
-            Boundary::FingersOpen => "fingers_open",
-            Boundary::FingersClosed => "fingers_closed",
-        }
-    }
-}
-
 /// Distance from `p` along the unit vector `u` to the first boundary, and
 /// which one; `f64::INFINITY` if none is ahead. A point already outside a
 /// boundary may only move back in: distance 0 towards it.

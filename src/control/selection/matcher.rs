@@ -51,17 +51,6 @@ pub enum ResetReason {
     Fault,
 }
 
-impl ResetReason {
-    /// Name used in the event log.
-    pub const fn name(self) -> &'static str {
-        match self {
-            ResetReason::NoMatch => "no_match",
-            ResetReason::Timeout => "timeout",
-            ResetReason::Fault => "fault",
-        }
-    }
-}
-
 /// What the matcher decided on one tick.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MatchEvent {

@@ -183,6 +183,10 @@ pub fn run_study(
 /// paper's figures.
 #[derive(Debug, Clone, Serialize)]
 pub struct StudyReport {
+    /// Simulated participants.
+    pub users: usize,
+    /// The seed.
+    pub seed: u64,
     /// Tasks 1–3.
     pub tasks: Vec<TaskReport>,
     /// What the paper reports.
@@ -220,9 +224,11 @@ pub struct PaperFigures {
 
 impl StudyReport {
     /// The report of a study's results.
-    pub fn of(results: &[TaskResults]) -> StudyReport {
+    pub fn of(results: &[TaskResults], options: &StudyOptions) -> StudyReport {
         let completion = |runs: &[TaskRun]| runs.iter().map(|t| t.completion_s).collect();
         StudyReport {
+            users: options.users,
+            seed: options.seed,
             tasks: results
                 .iter()
                 .map(|r| TaskReport {
@@ -354,7 +360,7 @@ fn prefix_library(config: &Config) -> Result<Config, ConfigErrors> {
 }
 
 /// One row of a sweep: the value and each task's summary.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize)]
 pub struct SweepRow {
     /// The value, as printed.
     pub value: String,
