@@ -40,8 +40,8 @@ pub enum BenchCommand {
     /// Cost of each full tick (core + simulated arm), as percentiles, against
     /// two clock reads measured in the same run.
     Tick {
-        /// Seconds of signal to run (1000 ticks each).
-        #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u64).range(1..))]
+        /// Seconds of signal to run (1000 ticks each; at most a day).
+        #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u64).range(1..=86_400))]
         seconds: u64,
         /// The configuration.
         #[command(flatten)]
@@ -54,8 +54,8 @@ pub enum BenchCommand {
     /// at each level of noise and 50 Hz hum: breaths detected as the right
     /// action, mode selections matched, largest timing error.
     Accuracy {
-        /// Length of each session, s.
-        #[arg(long, default_value_t = 600, value_parser = clap::value_parser!(u64).range(1..))]
+        /// Length of each session, s (at most a day).
+        #[arg(long, default_value_t = 600, value_parser = clap::value_parser!(u64).range(1..=86_400))]
         seconds: u64,
         /// Seed of the user and the sensor.
         #[arg(long, default_value_t = 1)]

@@ -17,8 +17,8 @@ pub struct GenerateArgs {
     /// library feeds the random user).
     #[command(flatten)]
     config: ConfigArg,
-    /// Length of a random session, in seconds (exact).
-    #[arg(long, default_value_t = 60)]
+    /// Length of a random session, in seconds (exact; at most a week).
+    #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u64).range(1..=604_800))]
     seconds: u64,
     /// Instead of a random session, the demo user: every kind of mode,
     /// save and go to a point, a finger end stop, the reach limit.
