@@ -34,7 +34,7 @@ pub enum Action {
 }
 
 impl Action {
-    /// All four actions, in the order of their trie child index.
+    /// All four actions.
     pub const ALL: [Action; 4] = [
         Action::ShortSip,
         Action::LongSip,
@@ -84,16 +84,6 @@ impl Action {
     /// Whether this is a long burst.
     pub const fn is_long(self) -> bool {
         matches!(self, Action::LongSip | Action::LongPuff)
-    }
-
-    /// Dense index 0..4, used by the trie's child table.
-    pub const fn index(self) -> usize {
-        match self {
-            Action::ShortSip => 0,
-            Action::LongSip => 1,
-            Action::ShortPuff => 2,
-            Action::LongPuff => 3,
-        }
     }
 }
 
@@ -231,7 +221,6 @@ mod tests {
         for action in Action::ALL {
             assert_eq!(Action::from_code(action.code().into()), Some(action));
             assert_eq!(Action::new(action.breath(), action.is_long()), action);
-            assert_eq!(Action::ALL[action.index()], action);
         }
         assert_eq!(Action::from_code(0), None);
         assert_eq!(Action::from_code(3), None);

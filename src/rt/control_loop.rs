@@ -213,9 +213,10 @@ impl<S: Samples> TickWork for ControlTick<S> {
                 self.core.begin_stop();
             }
         }
-        self.final_velocity = out.motion.velocity();
         let mut finished = false;
         if let Some(since) = self.stopping_since {
+            // The run ends only while stopping: its last velocity is here.
+            self.final_velocity = out.motion.velocity();
             self.still_ticks = if out.motion.is_still() {
                 self.still_ticks + 1
             } else {

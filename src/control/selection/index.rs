@@ -47,8 +47,8 @@ const NO_ENTRY: u32 = u32::MAX;
 
 #[derive(Debug, Clone, Copy)]
 struct TrieNode {
-    /// Child per action ([`Action::index`]); 0 means none (the root is never
-    /// a child).
+    /// Child per action (in the order of [`Action::ALL`]); 0 means none
+    /// (the root is never a child).
     children: [u32; 4],
     /// Library index of the sequence ending here, or [`NO_ENTRY`].
     entry: u32,
