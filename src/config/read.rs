@@ -221,6 +221,8 @@ impl Reader<'_> {
             table_z_m: t.get("table_z_m", d.table_z_m),
             stop_margin_m: t.get("stop_margin_m", d.stop_margin_m),
             finger_closed: t.get("finger_closed", d.finger_closed),
+            max_tilt_rad: t.get("max_tilt_rad", d.max_tilt_rad),
+            max_twist_rad: t.get("max_twist_rad", d.max_twist_rad),
         };
         t.finish();
         validate::workspace(self.problems, &c);

@@ -337,7 +337,28 @@ pub(super) fn workspace(p: &mut Problems, c: &WorkspaceConfig) {
         10_000.0,
         "units",
     );
+    // Below π the limit is a cone and the twist is defined everywhere in it.
+    p.range(
+        "workspace.max_tilt_rad",
+        c.max_tilt_rad,
+        0.0,
+        false,
+        MAX_ORIENTATION_LIMIT_RAD,
+        "rad",
+    );
+    p.range(
+        "workspace.max_twist_rad",
+        c.max_twist_rad,
+        0.0,
+        false,
+        MAX_ORIENTATION_LIMIT_RAD,
+        "rad",
+    );
 }
+
+/// Largest tilt or twist limit, rad (170°): the tilt cone stays clear of
+/// the tool pointing straight back, where the twist is undefined.
+const MAX_ORIENTATION_LIMIT_RAD: f64 = 2.967;
 
 /// `[arm]`: the power-up pose inside the workspace.
 pub(super) fn home(p: &mut Problems, c: &HomeConfig, workspace: &WorkspaceConfig) {

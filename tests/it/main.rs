@@ -16,6 +16,7 @@ mod cli;
 mod common;
 mod golden;
 mod motion;
+mod motion_safety;
 mod properties;
 mod ruckig_oracle;
 mod runtime;

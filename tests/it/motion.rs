@@ -18,14 +18,14 @@ use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 const DT: f64 = 0.001;
 
 /// One tick of the pipeline and the arm it drives.
-struct Record {
-    out: TickOutput,
-    arm_inside: bool,
-    arm_position: Vector3<f64>,
+pub struct Record {
+    pub out: TickOutput,
+    pub arm_inside: bool,
+    pub arm_position: Vector3<f64>,
 }
 
 /// `None` samples are ticks on which the sensor delivered nothing.
-fn run(config: &Config, samples: impl Iterator<Item = Option<f64>>) -> Vec<Record> {
+pub fn run(config: &Config, samples: impl Iterator<Item = Option<f64>>) -> Vec<Record> {
     let mut core: Pipeline = Pipeline::new(config.core());
     let mut arm = SimulatedJaco::new(config.core());
     samples
@@ -57,7 +57,7 @@ fn noisy(config: &Config, seed: u64) -> SignalParams {
 /// finger groups: from full acceleration near full speed, the acceleration
 /// first ramps to zero (A/J), then braking from full speed takes
 /// v/A + A/J; plus two ticks.
-fn stop_ticks(config: &Config) -> usize {
+pub fn stop_ticks(config: &Config) -> usize {
     let m = config.core().motion();
     let t = |v: f64, a: f64, j: f64| v / a + 2.0 * a / j;
     let worst = t(
@@ -74,6 +74,19 @@ fn stop_ticks(config: &Config) -> usize {
     (worst / DT).ceil() as usize + 2
 }
 
+/// Rounding allowance on the stop margin, m (a nanometre).
+pub const MARGIN_SLACK_M: f64 = 1e-9;
+
+/// Normal distance from `p` to the nearest boundary of the workspace (reach
+/// sphere, base sphere, table), m: negative outside.
+pub fn clearance(config: &Config, p: &Vector3<f64>) -> f64 {
+    let w = config.core().workspace();
+    let r = p.norm();
+    (w.reach_m - r)
+        .min(r - w.min_radius_m)
+        .min(p.z - w.table_z_m)
+}
+
 fn velocities(o: &TickOutput) -> [Vector3<f64>; 2] {
     [
         Vector3::from(o.motion.linear),
@@ -86,7 +99,7 @@ fn still(o: &TickOutput) -> bool {
 }
 
 /// The invariants every trace must satisfy.
-fn check_invariants(config: &Config, trace: &[Record]) {
+pub fn check_invariants(config: &Config, trace: &[Record]) {
     let m = config.core().motion();
     let tol = 1.0 + 1e-9;
     // Rounding of second differences of ~0.2 m/s values over 1 ms².
@@ -126,6 +139,16 @@ fn check_invariants(config: &Config, trace: &[Record]) {
             workspace::contains(&p, config.core().workspace()),
             "pose outside at tick {k}"
         );
+        let ws = config.core().workspace();
+        for (what, at) in [("pose", p), ("arm", r.arm_position)] {
+            let c = clearance(config, &at);
+            assert!(
+                c >= ws.stop_margin_m - MARGIN_SLACK_M,
+                "{what} {:.3} mm from a boundary at tick {k} (margin {} mm): {at:?}",
+                c * 1e3,
+                ws.stop_margin_m * 1e3
+            );
+        }
         assert!((0.0..=config.core().workspace().finger_closed).contains(&o.motion.fingers));
         for (g, v) in velocities(o).iter().enumerate() {
             assert!(
@@ -210,7 +233,7 @@ fn check_invariants(config: &Config, trace: &[Record]) {
     }
 }
 
-fn motion_events(trace: &[Record]) -> Vec<MotionEvent> {
+pub fn motion_events(trace: &[Record]) -> Vec<MotionEvent> {
     trace
         .iter()
         .flat_map(|r| r.out.events.iter().copied())

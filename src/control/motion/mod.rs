@@ -786,4 +786,35 @@ mod tests {
             out[1999].linear[0]
         );
     }
+
+    /// Defect a's second half: when the planner fails, the arm must still
+    /// brake within the jerk and acceleration limits until still.
+    #[test]
+    fn a_planner_failure_brakes_within_the_limits_until_still() {
+        let mut m = motion();
+        let mut t = 0;
+        run(&mut m, &mut t, command(Mode::TranslateX, SIP), 1000);
+        let l = *m.limits();
+        m.input.max_jerk.fill(f64::NAN); // the planner fails from now on
+        let out = run(&mut m, &mut t, command(Mode::TranslateX, STILL), 1000);
+        assert!(events(&out).contains(&MotionEvent::TrajectoryError));
+        let v: Vec<f64> = out.iter().map(|o| o.linear[0]).collect();
+        for k in 2..v.len() {
+            let a = (v[k] - v[k - 1]) / CYCLE_S;
+            let j = (v[k] - 2.0 * v[k - 1] + v[k - 2]) / (CYCLE_S * CYCLE_S);
+            assert!(
+                a.abs() <= l.linear_acceleration_mps2 * (1.0 + 1e-9),
+                "a {a} at {k}"
+            );
+            assert!(
+                j.abs() <= l.linear_jerk_mps3 * (1.0 + 1e-9) + 1e-9,
+                "jerk {j} at {k}"
+            );
+        }
+        let stop_ms = (l.linear_speed_mps / l.linear_acceleration_mps2
+            + l.linear_acceleration_mps2 / l.linear_jerk_mps3)
+            * 1000.0;
+        let still = out.iter().position(|o| o.is_still()).expect("stops");
+        assert!(still as f64 <= stop_ms + 2.0, "still after {still} ms");
+    }
 }

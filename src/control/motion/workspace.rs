@@ -20,6 +20,11 @@ pub struct WorkspaceConfig {
     pub stop_margin_m: f64,
     /// Finger position when closed, units (open is 0).
     pub finger_closed: f64,
+    /// Largest tilt of the tool's axis (its z axis) from its home
+    /// direction, rad: a cone around the home direction.
+    pub max_tilt_rad: f64,
+    /// Largest rotation about the tool's axis from home, either way, rad.
+    pub max_twist_rad: f64,
 }
 
 impl Default for WorkspaceConfig {
@@ -30,6 +35,8 @@ impl Default for WorkspaceConfig {
             table_z_m: 0.0,
             stop_margin_m: 0.005,
             finger_closed: 6800.0,
+            max_tilt_rad: std::f64::consts::FRAC_PI_2,
+            max_twist_rad: std::f64::consts::FRAC_PI_2,
         }
     }
 }
