@@ -13,7 +13,7 @@ use crate::control::detector::DetectorConfig;
 use crate::control::mode::Mode;
 use crate::control::modes::CommandConfig;
 use crate::control::motion::home::HomeConfig;
-use crate::control::motion::limits::{MotionConfig, caps};
+use crate::control::motion::limits::{self, MotionConfig, caps};
 use crate::control::motion::workspace::WorkspaceConfig;
 use crate::control::selection::SequenceEntry;
 use crate::control::selection::matcher::MatcherConfig;
@@ -293,6 +293,48 @@ pub(super) fn motion(p: &mut Problems, c: &MotionConfig) {
         1.0,
         "",
     );
+    hold_to_run(p, c);
+}
+
+/// Hold-to-run: each jerk high enough that motion ends when the breath
+/// ends (after a release the speed rises by at most 10 % of full speed and
+/// a stop from full speed takes at most v/A + 60 ms).
+fn hold_to_run(p: &mut Problems, c: &MotionConfig) {
+    for (key, jerk, speed, acceleration, unit) in [
+        (
+            "motion.linear_jerk_mps3",
+            c.linear_jerk_mps3,
+            c.linear_speed_mps,
+            c.linear_acceleration_mps2,
+            ("m/s³", "m/s²", "m/s"),
+        ),
+        (
+            "motion.angular_jerk_radps3",
+            c.angular_jerk_radps3,
+            c.angular_speed_radps,
+            c.angular_acceleration_radps2,
+            ("rad/s³", "rad/s²", "rad/s"),
+        ),
+        (
+            "motion.finger_jerk",
+            c.finger_jerk,
+            c.finger_speed,
+            c.finger_acceleration,
+            ("units/s³", "units/s²", "units/s"),
+        ),
+    ] {
+        let all_positive = jerk > 0.0 && speed > 0.0 && acceleration > 0.0;
+        let least = limits::hold_to_run_min_jerk(speed, acceleration);
+        if all_positive && jerk < least * (1.0 - 1e-12) {
+            let (j, a, v) = unit;
+            p.add(
+                key,
+                format!(
+                    "{jerk} {j} keeps the arm speeding up after a release: with an acceleration of {acceleration} {a} and a speed of {speed} {v} it must be at least {least:.4} {j} (or lower the acceleration), so that motion ends when the breath ends"
+                ),
+            );
+        }
+    }
 }
 
 /// `[workspace]`: a reach within the arm's, the other bounds inside it.

@@ -368,7 +368,7 @@ fn random_users_respect_every_limit() {
     }
     // Slower, gentler limits and proportional speed.
     let config = Config::from_toml_str(
-        "[motion]\nlinear_speed_mps = 0.08\nlinear_acceleration_mps2 = 0.2\nlinear_jerk_mps3 = 0.5\nangular_speed_radps = 0.3\nproportional_speed = true\n",
+        "[motion]\nlinear_speed_mps = 0.08\nlinear_acceleration_mps2 = 0.2\nlinear_jerk_mps3 = 4.0\nangular_speed_radps = 0.3\nangular_acceleration_radps2 = 1.0\nangular_jerk_radps3 = 20.0\nproportional_speed = true\n",
     )
     .unwrap();
     let (script, _) = random_session(&config, 180, 9);

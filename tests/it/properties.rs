@@ -7,6 +7,7 @@ use sipnpuff::control::action::{Action, ActionSeq, Breath};
 use sipnpuff::control::detector::{BurstDetector, DetectorEvent};
 use sipnpuff::control::event::Event;
 use sipnpuff::control::mode::{Direction, Mode, ModeState};
+use sipnpuff::control::motion::limits::{caps, hold_to_run_min_jerk};
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::selection::Interface;
 use sipnpuff::control::selection::index::{ScanIndex, TrieIndex};
@@ -84,16 +85,28 @@ fn timing_toml() -> impl Strategy<Value = String> {
 /// spherical coordinates between the spheres, above the table).
 fn motion_toml() -> impl Strategy<Value = String> {
     (
-        (0.04f64..=0.2, 0.2f64..=1.07, 0.01f64..=0.64, 0.01f64..=2.75, 0.1f64..=10.0, 0.1f64..=50.0),
-        (1.0f64..=6800.0, 10.0f64..=100_000.0, 100.0f64..=2_000_000.0, any::<bool>(), 0.05f64..=5.0, 0.0f64..=1.0),
-        (0.3f64..=0.9, 0.0f64..=0.5, -0.5f64..=0.3, 0.001f64..=0.02, 100.0f64..=10_000.0),
+        (0.04f64..=0.2, 0.2f64..=1.07, 0.01f64..=1.0, 0.01f64..=1.0, 0.0f64..=1.0, 0.0f64..=1.0),
+        (1.0f64..=6800.0, 0.001f64..=1.0, 0.0f64..=1.0, any::<bool>(), 0.05f64..=5.0, 0.0f64..=1.0),
+        (0.3f64..=0.9, 0.0f64..=0.5, -0.5f64..=0.3, 0.001f64..=0.02, 100.0f64..=10_000.0, 0.05f64..=2.9, 0.05f64..=2.9),
         (0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0, -3.0f64..3.0, 0.0f64..=1.0),
     )
         .prop_map(|(speeds, fingers, workspace, home)| {
-            let (v, w, a, aw, j, jw) = speeds;
-            let (fv, fa, fj, proportional, full_scale, min_fraction) = fingers;
-            let (reach, min_share, table_share, margin, closed) = workspace;
+            let (v, w, a_share, aw_share, j_share, jw_share) = speeds;
+            let (fv, fa_share, fj_share, proportional, full_scale, min_fraction) = fingers;
+            let (reach, min_share, table_share, margin, closed, tilt, twist) = workspace;
             let (radius_share, elevation_share, azimuth_share, angle, finger_share) = home;
+            // Any acceleration under its cap whose hold-to-run jerk (A²/2J
+            // ≤ 10 % of v, A/J ≤ 60 ms) fits under the jerk cap, then any
+            // jerk from that least one to the cap.
+            let limits = |speed: f64, a_cap: f64, j_cap: f64, a_share: f64, j_share: f64| {
+                let a_max = a_cap.min((0.2 * speed * j_cap).sqrt()).min(0.06 * j_cap);
+                let a = a_max * a_share;
+                let least = hold_to_run_min_jerk(speed, a);
+                (a, least + (j_cap - least) * j_share)
+            };
+            let (a, j) = limits(v, caps::LINEAR_ACCELERATION_MPS2, caps::LINEAR_JERK_MPS3, a_share, j_share);
+            let (aw, jw) = limits(w, caps::ANGULAR_ACCELERATION_RADPS2, caps::ANGULAR_JERK_RADPS3, aw_share, jw_share);
+            let (fa, fj) = limits(fv, caps::FINGER_ACCELERATION, caps::FINGER_JERK, fa_share, fj_share);
             let min_radius = reach * min_share;
             let table = reach * table_share;
             // A radius between the spheres; an elevation that keeps the
@@ -111,7 +124,7 @@ fn motion_toml() -> impl Strategy<Value = String> {
                 r * elevation.sin(),
             ];
             format!(
-                "[motion]\nlinear_speed_mps = {v}\nangular_speed_radps = {w}\nlinear_acceleration_mps2 = {a}\nangular_acceleration_radps2 = {aw}\nlinear_jerk_mps3 = {j}\nangular_jerk_radps3 = {jw}\nfinger_speed = {fv}\nfinger_acceleration = {fa}\nfinger_jerk = {fj}\nproportional_speed = {proportional}\nproportional_full_scale_volts = {full_scale}\nproportional_min_fraction = {min_fraction}\n[workspace]\nreach_m = {reach}\nmin_radius_m = {min_radius}\ntable_z_m = {table}\nstop_margin_m = {margin}\nfinger_closed = {closed}\n[arm]\nhome_position_m = [{}, {}, {}]\nhome_rotation_vector_rad = [0.0, {angle}, 0.0]\nhome_fingers = {}\n",
+                "[motion]\nlinear_speed_mps = {v}\nangular_speed_radps = {w}\nlinear_acceleration_mps2 = {a}\nangular_acceleration_radps2 = {aw}\nlinear_jerk_mps3 = {j}\nangular_jerk_radps3 = {jw}\nfinger_speed = {fv}\nfinger_acceleration = {fa}\nfinger_jerk = {fj}\nproportional_speed = {proportional}\nproportional_full_scale_volts = {full_scale}\nproportional_min_fraction = {min_fraction}\n[workspace]\nreach_m = {reach}\nmin_radius_m = {min_radius}\ntable_z_m = {table}\nstop_margin_m = {margin}\nfinger_closed = {closed}\nmax_tilt_rad = {tilt}\nmax_twist_rad = {twist}\n[arm]\nhome_position_m = [{}, {}, {}]\nhome_rotation_vector_rad = [0.0, {angle}, 0.0]\nhome_fingers = {}\n",
                 home[0], home[1], home[2], closed * finger_share
             )
         })

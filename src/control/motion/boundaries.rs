@@ -1,73 +1,80 @@
-//! Keeping the tool inside its workspace and the fingers inside their
-//! travel: a request is held off when braking one tick later could no
-//! longer stop short of a boundary by the margin.
+//! Keeping the tool inside its workspace and orientation limits and the
+//! fingers inside their travel: a request is held off when braking one
+//! tick later could no longer stop short of a limit.
+//!
+//! The linear room is the distance along the line of travel to the
+//! workspace shrunk by the stop margin (plus a rounding guard): the margin
+//! holds as a normal distance to every boundary, whatever the direction of
+//! travel. The angular room is the turn about the axis to the first
+//! orientation limit (see [`orientation`](super::orientation)).
 
 use nalgebra::Vector3;
 
 use crate::control::motion::workspace::{self, Boundary};
-use crate::control::motion::{CYCLE_S, FINGER_MARGIN, MIN_START_M, Motion, braking, vec3};
+use crate::control::motion::{
+    ANGULAR, CYCLE_S, FINGER_MARGIN, LINEAR, MIN_START_M, MIN_START_RAD, Motion, ROUNDING_GUARD,
+    braking, get, orientation,
+};
 
 impl Motion {
-    /// Whether the tool, moving along `u` at `speed` with acceleration
-    /// `accel`, must brake now to stop short of a boundary by the margin,
-    /// and which boundary.
-    pub(super) fn must_brake(
-        &self,
-        u: &Vector3<f64>,
-        speed: f64,
-        accel: f64,
-        a_max: f64,
-        j_max: f64,
-    ) -> Option<Boundary> {
-        let (distance, boundary) =
-            workspace::distance_to_boundary(&self.pose.translation.vector, u, &self.workspace);
-        let room = distance - self.workspace.stop_margin_m;
-        let dt = CYCLE_S;
-        let needed = if speed < 1e-9 && accel <= 0.0 {
-            MIN_START_M
-        } else {
-            braking::room_to_brake_next_cycle(speed, accel, a_max, j_max, dt)
-        };
-        (needed >= room).then_some(boundary).flatten()
+    /// Distance along the unit `u` from the current position to the
+    /// workspace shrunk by the margin, and which boundary is there.
+    pub(super) fn linear_room(&self, u: &Vector3<f64>) -> (f64, Option<Boundary>) {
+        let inner = workspace::shrunk(
+            &self.workspace,
+            self.workspace.stop_margin_m + ROUNDING_GUARD,
+        );
+        workspace::distance_to_boundary(&self.pose.translation.vector, u, &inner)
     }
 
-    /// Zeroes a linear request that would cross a boundary. Returns the
-    /// boundary when it starts holding the request off.
-    pub(super) fn hold_linear_at_boundary(
-        &mut self,
-        linear: &mut Vector3<f64>,
-    ) -> Option<Boundary> {
-        let request = *linear;
-        if request == Vector3::zeros() {
-            self.linear_blocked = None;
-            return None;
-        }
-        let wanted = request.normalize();
-        if let Some(blocked) = self.linear_blocked {
-            if blocked.dot(&wanted) > 0.0 {
-                *linear = Vector3::zeros();
-                return None;
-            }
-            self.linear_blocked = None;
-        }
-        let v = vec3(&self.input.current_velocity, 0);
-        let a = vec3(&self.input.current_acceleration, 0);
-        let speed = v.norm();
-        let u = if speed > 1e-9 { v / speed } else { wanted };
-        if u.dot(&wanted) <= 0.0 {
-            return None; // reversing: already braking harder than a stop
-        }
+    /// Turn about the unit `u` from the current orientation to the first
+    /// orientation limit (less the rounding guard), and which one.
+    pub(super) fn angular_room(&self, u: &Vector3<f64>) -> (f64, Option<Boundary>) {
+        let (room, limit) = orientation::room(&self.pose.rotation, u, &self.orientation);
+        ((room - ROUNDING_GUARD).max(0.0), limit)
+    }
+
+    /// Whether the linear channel, about to be driven along `u` (its axis
+    /// times `sign`), must brake now to stop inside the margin.
+    pub(super) fn linear_must_brake(&self, u: &Vector3<f64>, sign: f64) -> Option<Boundary> {
+        let (room, boundary) = self.linear_room(u);
         let l = &self.limits;
-        let boundary = self.must_brake(
-            &u,
-            v.dot(&u),
-            a.dot(&u),
+        let need = self.room_needed(
+            LINEAR,
+            sign,
             l.linear_acceleration_mps2,
             l.linear_jerk_mps3,
-        )?;
-        *linear = Vector3::zeros();
-        self.linear_blocked = Some(wanted);
-        Some(boundary)
+            MIN_START_M,
+        );
+        (need >= room).then_some(boundary).flatten()
+    }
+
+    /// Whether the angular channel, about to be driven about `u`, must
+    /// brake now to stop inside the orientation limits.
+    pub(super) fn angular_must_brake(&self, u: &Vector3<f64>, sign: f64) -> Option<Boundary> {
+        let (room, boundary) = self.angular_room(u);
+        let l = &self.limits;
+        let need = self.room_needed(
+            ANGULAR,
+            sign,
+            l.angular_acceleration_radps2,
+            l.angular_jerk_radps3,
+            MIN_START_RAD,
+        );
+        (need >= room).then_some(boundary).flatten()
+    }
+
+    /// Room needed ahead (in the direction `sign` along the channel's
+    /// axis) to keep going one more tick and still stop: the worst case
+    /// of full jerk ahead for a tick, then braking; `min_start` from rest.
+    fn room_needed(&self, dof: usize, sign: f64, a_max: f64, j_max: f64, min_start: f64) -> f64 {
+        let v = get(&self.input.current_velocity, dof) * sign;
+        let a = get(&self.input.current_acceleration, dof) * sign;
+        if v.abs() < 1e-9 && a <= 0.0 {
+            min_start
+        } else {
+            braking::room_to_brake_next_cycle(v, a, a_max, j_max, CYCLE_S)
+        }
     }
 
     /// Zeroes a finger request that would run past an end.
@@ -83,10 +90,9 @@ impl Motion {
             return None;
         }
         self.finger_blocked = None;
-        let first = |values: &[f64]| values.first().copied().unwrap_or(0.0);
         let (v, a) = (
-            first(&self.finger_input.current_velocity) * wanted,
-            first(&self.finger_input.current_acceleration) * wanted,
+            get(&self.finger_input.current_velocity, 0) * wanted,
+            get(&self.finger_input.current_acceleration, 0) * wanted,
         );
         let (room, boundary) = if wanted > 0.0 {
             (
@@ -97,13 +103,10 @@ impl Motion {
             (self.fingers - FINGER_MARGIN, Boundary::FingersOpen)
         };
         let (a_max, j_max) = (self.limits.finger_acceleration, self.limits.finger_jerk);
-        let dt = CYCLE_S;
         let needed = if v.abs() < 1e-9 && a <= 0.0 {
             1.0 // do not start with less than one unit of room
-        } else if v < 0.0 {
-            return None; // reversing
         } else {
-            braking::room_to_brake_next_cycle(v, a, a_max, j_max, dt)
+            braking::room_to_brake_next_cycle(v, a, a_max, j_max, CYCLE_S)
         };
         if needed < room {
             return None;

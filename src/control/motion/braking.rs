@@ -20,6 +20,26 @@ pub fn room_to_brake_next_cycle(v: f64, a: f64, a_max: f64, j_max: f64, dt: f64)
         )
 }
 
+/// The state one cycle of `dt` later when braking as hard as the limits
+/// allow: the planner's fallback (if it ever fails, the arm still brakes
+/// jerk-limited along the time-optimal profile). At rest: `(0, 0)`.
+pub fn brake_step(v: f64, a: f64, a_max: f64, j_max: f64, dt: f64) -> (f64, f64) {
+    if !(v.is_finite() && a.is_finite()) {
+        return (0.0, 0.0);
+    }
+    let (mut v, mut a, mut left) = (v, a, dt);
+    for phase in brake_phases(v, a, a_max, j_max).iter().flatten() {
+        let t = phase.duration.min(left);
+        v += a * t + phase.jerk * t * t / 2.0;
+        a += phase.jerk * t;
+        left -= t;
+        if left <= 0.0 {
+            return (v, a);
+        }
+    }
+    (0.0, 0.0)
+}
+
 /// One phase of constant jerk.
 #[derive(Debug, Clone, Copy)]
 struct Phase {
@@ -164,6 +184,23 @@ mod tests {
                 "v {v} a {a}: ends at {v_end} {a_end}"
             );
         }
+    }
+
+    #[test]
+    fn brake_steps_follow_the_profile_to_rest() {
+        let (a_max, j_max, dt) = (0.64, 12.8, 0.001);
+        let (mut v, mut a) = (0.2, 0.3);
+        let mut ticks = 0;
+        while (v, a) != (0.0, 0.0) {
+            let (v1, a1) = brake_step(v, a, a_max, j_max, dt);
+            assert!(a1.abs() <= a_max * (1.0 + 1e-12), "{a1}");
+            assert!((a1 - a).abs() <= j_max * dt * (1.0 + 1e-9), "{a} → {a1}");
+            (v, a) = (v1, a1);
+            ticks += 1;
+            assert!(ticks < 1000);
+        }
+        // a → 0 (0.3/12.8), then the usual stop from the peak speed.
+        assert!((300..400).contains(&ticks), "{ticks}");
     }
 
     #[test]

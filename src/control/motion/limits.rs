@@ -18,10 +18,12 @@ pub mod caps {
     pub const LINEAR_ACCELERATION_MPS2: f64 = 0.64;
     /// Angular acceleration, rad/s².
     pub const ANGULAR_ACCELERATION_RADPS2: f64 = 2.75;
-    /// Linear jerk, m/s³ (our choice: full acceleration in 64 ms at most).
-    pub const LINEAR_JERK_MPS3: f64 = 10.0;
-    /// Angular jerk, rad/s³ (our choice: full acceleration in 55 ms at most).
-    pub const ANGULAR_JERK_RADPS3: f64 = 50.0;
+    /// Linear jerk, m/s³ (our choice: full acceleration in 32 ms at
+    /// least — gentler on the arm than a step, which is all the JACO2's own
+    /// 100 Hz stream would give).
+    pub const LINEAR_JERK_MPS3: f64 = 20.0;
+    /// Angular jerk, rad/s³ (full acceleration in 27.5 ms at least).
+    pub const ANGULAR_JERK_RADPS3: f64 = 100.0;
     /// Finger speed, JACO2 finger units/s (0 = open … 6800 = closed).
     pub const FINGER_SPEED: f64 = 6800.0;
     /// Finger acceleration, units/s².
@@ -40,13 +42,13 @@ pub struct MotionConfig {
     pub linear_speed_mps: f64,
     /// Speed of a rotation mode, rad/s.
     pub angular_speed_radps: f64,
-    /// Per-axis linear acceleration limit, m/s².
+    /// Limit on the linear acceleration vector, m/s².
     pub linear_acceleration_mps2: f64,
-    /// Per-axis angular acceleration limit, rad/s².
+    /// Limit on the angular acceleration vector, rad/s².
     pub angular_acceleration_radps2: f64,
-    /// Per-axis linear jerk limit, m/s³.
+    /// Limit on the linear jerk vector, m/s³.
     pub linear_jerk_mps3: f64,
-    /// Per-axis angular jerk limit, rad/s³.
+    /// Limit on the angular jerk vector, rad/s³.
     pub angular_jerk_radps3: f64,
     /// Finger speed, units/s.
     pub finger_speed: f64,
@@ -69,14 +71,32 @@ impl Default for MotionConfig {
             angular_speed_radps: caps::ANGULAR_SPEED_RADPS,
             linear_acceleration_mps2: caps::LINEAR_ACCELERATION_MPS2,
             angular_acceleration_radps2: caps::ANGULAR_ACCELERATION_RADPS2,
-            linear_jerk_mps3: 3.2,
-            angular_jerk_radps3: 14.0,
+            // Full acceleration in 50 ms: after a release the speed rises
+            // by A²/2J = 8 % of full speed at most and a stop from full
+            // speed takes v/A + A/J = v/A + 50 ms (see `hold_to_run`).
+            linear_jerk_mps3: 12.8,
+            angular_jerk_radps3: 55.0,
             finger_speed: 3000.0,
             finger_acceleration: 20_000.0,
-            finger_jerk: 200_000.0,
+            // Full acceleration in 25 ms.
+            finger_jerk: 800_000.0,
             proportional_speed: false,
             proportional_full_scale_volts: 1.0,
             proportional_min_fraction: 0.25,
         }
     }
+}
+
+/// Hold-to-run: motion ends when the breath ends. After a release the
+/// speed may rise by at most this fraction of the full speed before it
+/// falls (it rises by A²/2J while the acceleration ramps down)…
+pub const HOLD_TO_RUN_RISE: f64 = 0.10;
+/// …and a stop from full speed takes at most v/A plus this, s (the ramps
+/// add A/J).
+pub const HOLD_TO_RUN_EXTRA_S: f64 = 0.060;
+
+/// The least jerk that keeps hold-to-run for a speed `v`, an acceleration
+/// `a`: A²/2J ≤ 10 % of v and A/J ≤ 60 ms.
+pub fn hold_to_run_min_jerk(v: f64, a: f64) -> f64 {
+    (a * a / (2.0 * HOLD_TO_RUN_RISE * v)).max(a / HOLD_TO_RUN_EXTRA_S)
 }

@@ -5,31 +5,40 @@
 //!   mode's axis (translations in the base frame, rotations about the tool's
 //!   axes, fingers in JACO2 finger units); release gives zero. Optionally
 //!   the speed scales with the pressure.
-//! * **Smoothing.** `rsruckig`'s velocity interface, six axes, 1 ms cycle,
-//!   `Synchronization::None` (each axis reaches its target on its own); the
-//!   target changes only when the request does and the output is fed back
-//!   every tick. Targets are clamped to the speed limits (the velocity
-//!   interface ignores `max_velocity`). Fingers have their own one-axis
-//!   Ruckig.
+//! * **One line at a time.** The linear velocity is a scalar speed along
+//!   one unit axis, the angular velocity a scalar rate about one unit axis
+//!   (both in the base frame). `rsruckig` shapes the two scalars (velocity
+//!   interface, 1 ms cycle, `Synchronization::None`), so the limits on the
+//!   speed, acceleration and jerk hold for the *vectors*, exactly. An axis
+//!   changes only from rest: a new direction asked for while the tool still
+//!   moves another way first brakes it to rest, then starts. Targets are
+//!   clamped to the speed limits (the velocity interface ignores
+//!   `max_velocity`). Fingers have their own one-axis Ruckig.
 //! * **Save and go to point.** A puff in `save_point` stores the pose; a
-//!   puff held in `goto_point` moves there with the position interface
-//!   (position and rotation vector, `Synchronization::Time`). Per-axis
-//!   limits are scaled by each axis's share of the distance, so from rest
-//!   the profiles are proportional: a straight line, and the norms of
-//!   velocity, acceleration and jerk stay within the limits. Release brakes
-//!   along the same line.
-//! * **Workspace.** Before each tick, if braking one tick later could no
-//!   longer stop the tool short of a boundary (reach sphere, base sphere,
-//!   table) by `stop_margin_m`, the target becomes zero: Ruckig brakes
-//!   within the limits and the tool stops at the boundary, never jumps.
+//!   puff held in `goto_point` first brakes whatever still moves, then,
+//!   from rest, moves there along a straight line and about one fixed axis
+//!   (Ruckig's position interface on the distance and the angle,
+//!   `Synchronization::Time`: both arrive together). Release brakes along
+//!   the same line.
+//! * **Workspace and orientation.** Before each tick, if braking one tick
+//!   later could no longer stop the tool inside the workspace shrunk by
+//!   `stop_margin_m` (reach sphere, base sphere, table: the margin is a
+//!   normal distance, whatever the direction of travel), or inside the
+//!   orientation limits (tilt cone, twist range), the target becomes zero:
+//!   Ruckig brakes within the limits and the tool stops short of the
+//!   boundary, never jumps.
 //! * **Faults.** A sensor fault returns the mode machine to detection mode,
 //!   whose target is zero: the arm brakes through Ruckig like any release.
+//!   If Ruckig itself ever failed, the arm would brake on the same
+//!   time-optimal jerk-limited profile computed here
+//!   ([`braking::brake_step`]) until still.
 
 mod boundaries;
 pub mod braking;
 mod goto;
 pub mod home;
 pub mod limits;
+pub mod orientation;
 pub mod stream;
 mod targets;
 pub mod workspace;
@@ -43,6 +52,7 @@ use crate::control::mode::{Direction, Mode, ModeState};
 use crate::control::modes::ModeOutput;
 use home::HomeConfig;
 use limits::MotionConfig;
+use orientation::OrientationLimits;
 use stream::{ArmCommand, Decimator};
 use workspace::{Boundary, WorkspaceConfig};
 
@@ -53,8 +63,19 @@ pub const FINGER_MARGIN: f64 = 10.0;
 /// From rest, the tool does not start towards a boundary with less room
 /// than this past the stop margin, m (no creeping by fractions of a mm).
 pub const MIN_START_M: f64 = 0.002;
+/// From rest, the tool does not start turning towards an orientation limit
+/// with less room than this, rad.
+pub const MIN_START_RAD: f64 = 0.002;
+/// Kept inside the stop margin and the orientation limits for rounding
+/// (the pose is integrated tick by tick), m or rad.
+pub const ROUNDING_GUARD: f64 = 1e-6;
 /// Closer than this to the saved point (m and rad) counts as there.
 pub const AT_POINT: (f64, f64) = (1e-4, 1e-3);
+
+/// Ruckig's degree of freedom for the speed along the linear axis.
+const LINEAR: usize = 0;
+/// Ruckig's degree of freedom for the rate about the angular axis.
+const ANGULAR: usize = 1;
 
 /// Something the motion layer reports. Serialized as an event-log entry
 /// (`{"event":"saved",…}`).
@@ -87,7 +108,7 @@ pub enum MotionEvent {
         boundary: Boundary,
     },
     /// The trajectory generator failed (unreachable with a validated
-    /// config): the arm brakes with acceleration limits alone.
+    /// config): the arm brakes on the fallback profile until still.
     #[serde(serialize_with = "trajectory_error")]
     TrajectoryError,
 }
@@ -103,7 +124,7 @@ fn no_saved_point<S: Serializer>(serializer: S) -> Result<S::Ok, S::Error> {
 /// The event log says what the arm does instead.
 fn trajectory_error<S: Serializer>(serializer: S) -> Result<S::Ok, S::Error> {
     Reason {
-        reason: "trajectory generator failed; braking with acceleration limits",
+        reason: "trajectory generator failed; braking jerk-limited until still",
     }
     .serialize(serializer)
 }
@@ -149,12 +170,14 @@ pub struct MotionOutput {
     pub events: [Option<MotionEvent>; 2],
 }
 
+/// What Ruckig's two degrees of freedom are doing.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Plan {
-    /// State: linear velocity in the base frame, angular in the tool frame.
+    /// Velocity interface: speeds along the axes.
     Velocity,
-    /// State: position and rotation vector relative to `start`, base frame.
-    Goto { start: UnitQuaternion<f64> },
+    /// Position interface: distance along the line and angle about the
+    /// axis, from the goto's start.
+    Goto,
 }
 
 type Otg<const N: usize> = Ruckig<N, ThrowErrorHandler>;
@@ -164,24 +187,33 @@ type Otg<const N: usize> = Ruckig<N, ThrowErrorHandler>;
 pub struct Motion {
     limits: MotionConfig,
     workspace: WorkspaceConfig,
-    otg: Otg<6>,
-    input: InputParameter<6>,
-    output: OutputParameter<6>,
+    orientation: OrientationLimits,
+    otg: Otg<2>,
+    input: InputParameter<2>,
+    output: OutputParameter<2>,
     finger_otg: Otg<1>,
     finger_input: InputParameter<1>,
     finger_output: OutputParameter<1>,
     plan: Plan,
-    /// The per-axis limits are a goto's scaled ones.
-    scaled_limits: bool,
+    /// The line the linear speed is along (unit, base frame).
+    linear_axis: Vector3<f64>,
+    /// The axis the angular rate is about (unit, base frame).
+    angular_axis: Vector3<f64>,
+    /// Ruckig failed: braking on the fallback profile until still.
+    fallback: bool,
     pose: Isometry3<f64>,
     fingers: f64,
-    /// Last tick's commanded velocity `[v (3), ω base (3), fingers]`.
+    /// Last tick's commanded velocity `[v (3), ω (3), fingers]`.
     last: [f64; 7],
     saved: Option<Isometry3<f64>>,
     /// A requested linear direction held off by a boundary.
     linear_blocked: Option<Vector3<f64>>,
+    /// A requested turning direction held off by an orientation limit.
+    angular_blocked: Option<Vector3<f64>>,
     /// A requested finger direction held off by an end.
     finger_blocked: Option<f64>,
+    /// `goto_point` is held and waits for the tool to come to rest.
+    goto_pending: bool,
     /// The current goto puff is done with (reached, blocked, nothing saved).
     goto_done: bool,
     previous_direction: Direction,
@@ -205,6 +237,21 @@ impl Motion {
         let mut input = InputParameter::new(None);
         input.control_interface = ControlInterface::Velocity;
         input.synchronization = Synchronization::None;
+        set_all(
+            &mut input.max_velocity,
+            [limits.linear_speed_mps, limits.angular_speed_radps],
+        );
+        set_all(
+            &mut input.max_acceleration,
+            [
+                limits.linear_acceleration_mps2,
+                limits.angular_acceleration_radps2,
+            ],
+        );
+        set_all(
+            &mut input.max_jerk,
+            [limits.linear_jerk_mps3, limits.angular_jerk_radps3],
+        );
         let mut finger_input = InputParameter::new(None);
         finger_input.control_interface = ControlInterface::Velocity;
         finger_input.synchronization = Synchronization::None;
@@ -213,9 +260,15 @@ impl Motion {
             .max_acceleration
             .fill(limits.finger_acceleration);
         finger_input.max_jerk.fill(limits.finger_jerk);
-        let mut motion = Motion {
+        let pose = home.pose();
+        Motion {
             limits,
             workspace: *workspace,
+            orientation: OrientationLimits {
+                home: pose.rotation,
+                max_tilt_rad: workspace.max_tilt_rad,
+                max_twist_rad: workspace.max_twist_rad,
+            },
             otg: Otg::new(None, CYCLE_S),
             input,
             output: OutputParameter::new(None),
@@ -223,19 +276,21 @@ impl Motion {
             finger_input,
             finger_output: OutputParameter::new(None),
             plan: Plan::Velocity,
-            scaled_limits: false,
-            pose: home.pose(),
+            linear_axis: Vector3::x(),
+            angular_axis: Vector3::x(),
+            fallback: false,
+            pose,
             fingers: home.home_fingers,
             last: [0.0; 7],
             saved: None,
             linear_blocked: None,
+            angular_blocked: None,
             finger_blocked: None,
+            goto_pending: false,
             goto_done: false,
             previous_direction: Direction::Still,
             decimator: Decimator::default(),
-        };
-        motion.set_axis_limits([1.0; 6]);
-        motion
+        }
     }
 
     /// An output with no motion at the current pose (a placeholder before
@@ -268,6 +323,11 @@ impl Motion {
         &self.limits
     }
 
+    /// The orientation limits and the home orientation they start from.
+    pub fn orientation_limits(&self) -> &OrientationLimits {
+        &self.orientation
+    }
+
     /// One tick. RT-safe.
     pub fn step(&mut self, now: Tick, command: &ModeOutput) -> MotionOutput {
         let mut events = [None; 2];
@@ -287,18 +347,25 @@ impl Motion {
         self.previous_direction = command.direction;
         let scale = self.speed_scale(command.strength_volts);
 
-        let mut linear = Vector3::zeros();
-        let mut angular = Vector3::zeros();
-        let mut fingers = 0.0;
         let l = self.limits;
+        let mut linear = None;
+        let mut angular = None;
+        let mut fingers = 0.0;
+        let tool_axis = |axis: Vector3<f64>| self.pose.rotation * axis;
         match (mode, command.direction) {
             (_, Direction::Still) | (None, _) => {}
-            (Some(Mode::TranslateX), _) => linear.x = direction * l.linear_speed_mps * scale,
-            (Some(Mode::TranslateY), _) => linear.y = direction * l.linear_speed_mps * scale,
-            (Some(Mode::TranslateZ), _) => linear.z = direction * l.linear_speed_mps * scale,
-            (Some(Mode::RotateX), _) => angular.x = direction * l.angular_speed_radps * scale,
-            (Some(Mode::RotateY), _) => angular.y = direction * l.angular_speed_radps * scale,
-            (Some(Mode::RotateZ), _) => angular.z = direction * l.angular_speed_radps * scale,
+            (Some(Mode::TranslateX), _) => linear = Some((Vector3::x(), l.linear_speed_mps)),
+            (Some(Mode::TranslateY), _) => linear = Some((Vector3::y(), l.linear_speed_mps)),
+            (Some(Mode::TranslateZ), _) => linear = Some((Vector3::z(), l.linear_speed_mps)),
+            (Some(Mode::RotateX), _) => {
+                angular = Some((tool_axis(Vector3::x()), l.angular_speed_radps));
+            }
+            (Some(Mode::RotateY), _) => {
+                angular = Some((tool_axis(Vector3::y()), l.angular_speed_radps));
+            }
+            (Some(Mode::RotateZ), _) => {
+                angular = Some((tool_axis(Vector3::z()), l.angular_speed_radps));
+            }
             // Puff opens (towards 0), sip closes.
             (Some(Mode::Fingers), _) => fingers = -direction * l.finger_speed * scale,
             (Some(Mode::SavePoint), _) => {
@@ -312,42 +379,59 @@ impl Motion {
             (Some(Mode::GotoPoint), _) => {
                 if pressed {
                     self.goto_done = false;
-                    if let Some(event) = self.start_goto() {
-                        emit(event);
-                    }
+                    self.goto_pending = true;
                 }
             }
         }
+        // A request: (signed unit direction, speed).
+        let linear = linear.map(|(axis, speed)| (axis * direction, speed * scale));
+        let angular = angular.map(|(axis, speed)| (axis * direction, speed * scale));
+
         let goto_held = mode == Some(Mode::GotoPoint) && command.direction == Direction::Positive;
-        if let Plan::Goto { .. } = self.plan {
-            if !goto_held {
+        if !goto_held {
+            self.goto_pending = false;
+            if self.plan == Plan::Goto {
                 self.brake_goto(); // released: brake along the line
-            } else if let Some(boundary) = self.goto_blocked() {
-                self.brake_goto();
-                self.goto_done = true;
-                emit(MotionEvent::WorkspaceLimit { boundary });
             }
+        }
+        if self.goto_pending
+            && !self.fallback
+            && let Some(event) = self.try_start_goto()
+        {
+            emit(event);
+        }
+        if self.plan == Plan::Goto
+            && let Some(boundary) = self.goto_blocked()
+        {
+            self.brake_goto();
+            self.goto_done = true;
+            emit(MotionEvent::WorkspaceLimit { boundary });
         }
 
         if self.plan == Plan::Velocity {
-            if let Some(boundary) = self.hold_linear_at_boundary(&mut linear) {
+            let (speed, boundary) = self.linear_target(linear);
+            if let Some(boundary) = boundary {
                 emit(MotionEvent::WorkspaceLimit { boundary });
             }
-            self.set_velocity_target(linear, angular);
+            let (rate, boundary) = self.angular_target(angular);
+            if let Some(boundary) = boundary {
+                emit(MotionEvent::WorkspaceLimit { boundary });
+            }
+            set_all(&mut self.input.target_velocity, [speed, rate]);
+            self.input.target_acceleration.fill(0.0);
         }
         if let Some(boundary) = self.hold_fingers_at_end(&mut fingers) {
             emit(MotionEvent::WorkspaceLimit { boundary });
         }
         self.finger_input
             .target_velocity
-            .fill(fingers.clamp(-l.finger_speed, l.finger_speed));
+            .fill(finite_or_zero(fingers).clamp(-l.finger_speed, l.finger_speed));
 
         if let Some(event) = self.update_trajectories() {
             emit(event);
         }
-        if let Plan::Goto { .. } = self.plan
-            && self.goto_done
-        {
+        let reached = self.plan == Plan::Goto && self.goto_done;
+        if reached {
             emit(MotionEvent::GotoReached);
         }
 
@@ -358,9 +442,7 @@ impl Motion {
         }
         self.last = twist;
         self.integrate(&mean);
-        if let Plan::Goto { .. } = self.plan
-            && self.goto_done
-        {
+        if reached {
             self.switch_to_velocity_plan();
         }
         MotionOutput {
@@ -375,88 +457,99 @@ impl Motion {
         }
     }
 
-    /// Runs both Ruckig instances one cycle and feeds their output back.
+    /// Runs both Ruckig instances one cycle and feeds their output back;
+    /// if either fails, brakes on the fallback profile until still.
     fn update_trajectories(&mut self) -> Option<MotionEvent> {
-        let mut failed = false;
-        match self.otg.update(&self.input, &mut self.output) {
-            Ok(RuckigResult::Working) => self.output.pass_to_input(&mut self.input),
-            Ok(RuckigResult::Finished) => {
-                self.output.pass_to_input(&mut self.input);
-                settle(&mut self.input);
-                if let Plan::Goto { .. } = self.plan {
-                    self.goto_done = true;
+        let was_falling_back = self.fallback;
+        if !self.fallback {
+            match self.otg.update(&self.input, &mut self.output) {
+                Ok(RuckigResult::Working) => self.output.pass_to_input(&mut self.input),
+                Ok(RuckigResult::Finished) => {
+                    self.output.pass_to_input(&mut self.input);
+                    settle(&mut self.input);
+                    if self.plan == Plan::Goto {
+                        self.goto_done = true;
+                    }
                 }
+                _ => self.fallback = true,
             }
-            _ => failed = true,
         }
-        match self
-            .finger_otg
-            .update(&self.finger_input, &mut self.finger_output)
-        {
-            Ok(RuckigResult::Working) => self.finger_output.pass_to_input(&mut self.finger_input),
-            Ok(RuckigResult::Finished) => {
-                self.finger_output.pass_to_input(&mut self.finger_input);
-                settle(&mut self.finger_input);
+        if !self.fallback {
+            match self
+                .finger_otg
+                .update(&self.finger_input, &mut self.finger_output)
+            {
+                Ok(RuckigResult::Working) => {
+                    self.finger_output.pass_to_input(&mut self.finger_input);
+                }
+                Ok(RuckigResult::Finished) => {
+                    self.finger_output.pass_to_input(&mut self.finger_input);
+                    settle(&mut self.finger_input);
+                }
+                _ => self.fallback = true,
             }
-            _ => failed = true,
         }
-        if failed {
-            self.emergency_brake();
-            return Some(MotionEvent::TrajectoryError);
+        if self.fallback {
+            self.fallback_brake();
         }
-        None
+        (self.fallback && !was_falling_back).then_some(MotionEvent::TrajectoryError)
     }
 
-    /// Brakes every axis with the acceleration limits alone (no jerk
-    /// limit): only if Ruckig fails, which validated limits prevent.
-    fn emergency_brake(&mut self) {
+    /// One cycle of braking every channel on the time-optimal jerk-limited
+    /// profile with the full limits (the planner failed). Braking is
+    /// always inside the workspace: each tick's checks kept room for it.
+    fn fallback_brake(&mut self) {
         self.switch_to_velocity_plan();
+        self.goto_pending = false;
         let l = self.limits;
-        let brake = |v: &mut f64, a: f64| {
-            let step = a * CYCLE_S;
-            *v = if v.is_finite() {
-                *v - v.clamp(-step, step)
-            } else {
-                0.0
-            };
-        };
-        for (i, v) in self.input.current_velocity.iter_mut().enumerate() {
-            let a = if i < 3 {
-                l.linear_acceleration_mps2
-            } else {
-                l.angular_acceleration_radps2
-            };
-            brake(v, a);
+        for (dof, a_max, j_max) in [
+            (LINEAR, l.linear_acceleration_mps2, l.linear_jerk_mps3),
+            (
+                ANGULAR,
+                l.angular_acceleration_radps2,
+                l.angular_jerk_radps3,
+            ),
+        ] {
+            let input = &mut self.input;
+            let (v, a) = (
+                get(&input.current_velocity, dof),
+                get(&input.current_acceleration, dof),
+            );
+            let (v, a) = braking::brake_step(v, a, a_max, j_max, CYCLE_S);
+            put(&mut input.current_velocity, dof, v);
+            put(&mut input.current_acceleration, dof, a);
         }
-        self.input.current_acceleration.fill(0.0);
+        let (v, a) = braking::brake_step(
+            get(&self.finger_input.current_velocity, 0),
+            get(&self.finger_input.current_acceleration, 0),
+            l.finger_acceleration,
+            l.finger_jerk,
+            CYCLE_S,
+        );
+        put(&mut self.finger_input.current_velocity, 0, v);
+        put(&mut self.finger_input.current_acceleration, 0, a);
         self.input.target_velocity.fill(0.0);
-        for v in self.finger_input.current_velocity.iter_mut() {
-            brake(v, l.finger_acceleration);
-        }
-        self.finger_input.current_acceleration.fill(0.0);
         self.finger_input.target_velocity.fill(0.0);
+        let still = self.input.current_velocity.iter().all(|v| *v == 0.0)
+            && self.input.current_acceleration.iter().all(|a| *a == 0.0)
+            && (v, a) == (0.0, 0.0);
+        if still {
+            self.fallback = false; // Ruckig starts again from rest
+        }
     }
 
-    /// This tick's commanded velocity: `[v (3), ω base (3), fingers]`.
+    /// This tick's commanded velocity: `[v (3), ω (3), fingers]`, base frame.
     fn twist(&self) -> [f64; 7] {
-        let v = vec3(&self.input.current_velocity, 0);
-        let w = vec3(&self.input.current_velocity, 3);
-        let w_base = match self.plan {
-            Plan::Velocity => self.pose.rotation * w,
-            Plan::Goto { start } => start * w,
-        };
+        let v = self.linear_axis * get(&self.input.current_velocity, LINEAR);
+        let w = self.angular_axis * get(&self.input.current_velocity, ANGULAR);
         [
             v.x,
             v.y,
             v.z,
-            w_base.x,
-            w_base.y,
-            w_base.z,
-            self.finger_input
-                .current_velocity
-                .first()
-                .copied()
-                .unwrap_or(0.0),
+            w.x,
+            w.y,
+            w.z,
+            get(&self.finger_input.current_velocity, 0),
         ]
     }
 
@@ -492,11 +585,21 @@ fn set_all<const N: usize>(slots: &mut [f64], values: [f64; N]) {
     }
 }
 
-/// The three values from `from` on (0 past the end).
-fn vec3(values: &[f64], from: usize) -> Vector3<f64> {
-    let mut next = values.iter().skip(from).copied();
-    let mut take = || next.next().unwrap_or(0.0);
-    Vector3::new(take(), take(), take())
+/// The value at `i` (0 past the end).
+fn get(values: &[f64], i: usize) -> f64 {
+    values.get(i).copied().unwrap_or(0.0)
+}
+
+/// Sets the value at `i` (nothing past the end).
+fn put(values: &mut [f64], i: usize, value: f64) {
+    if let Some(slot) = values.get_mut(i) {
+        *slot = value;
+    }
+}
+
+/// NaN and ±∞ become 0 (no motion).
+fn finite_or_zero(x: f64) -> f64 {
+    if x.is_finite() { x } else { 0.0 }
 }
 
 #[cfg(test)]
@@ -558,24 +661,25 @@ mod tests {
 
     #[test]
     fn translation_ramps_holds_and_brakes_within_the_limits() {
-        // A = 0.64 m/s², J = 3.2 m/s³: 0 → 0.2 m/s takes 0.2 + 0.1125 + 0.2
-        // = 0.5125 s, and braking from 0.2 m/s covers 0.05125 m.
+        // A = 0.64 m/s², J = 12.8 m/s³: 0 → 0.2 m/s takes 0.05 + 0.2625 +
+        // 0.05 = 0.3625 s, and braking from 0.2 m/s covers 0.2 · 0.3625 / 2
+        // = 0.03625 m.
         let mut m = motion();
         let mut t = 0;
         let held = run(&mut m, &mut t, command(Mode::TranslateX, PUFF), 2000);
-        assert!(held[511].linear[0] < 0.2);
+        assert!(held[361].linear[0] < 0.2);
         assert!(
-            (held[512].linear[0] - 0.2).abs() < 1e-12,
+            (held[362].linear[0] - 0.2).abs() < 1e-12,
             "{}",
-            held[512].linear[0]
+            held[362].linear[0]
         );
         assert_eq!(held[1999].linear, [0.2, 0.0, 0.0]);
         let x_at_release = held[1999].pose.translation.x;
         let released = run(&mut m, &mut t, command(Mode::TranslateX, STILL), 600);
-        assert!(released[511].linear[0] > 0.0);
-        assert_eq!(released[512].linear, [0.0; 3]);
+        assert!(released[361].linear[0] > 0.0);
+        assert_eq!(released[362].linear, [0.0; 3]);
         let travelled = released[599].pose.translation.x - x_at_release;
-        assert!((travelled - 0.05125).abs() < 1e-6, "{travelled}");
+        assert!((travelled - 0.03625).abs() < 1e-6, "{travelled}");
     }
 
     #[test]

@@ -1,43 +1,21 @@
-//! A request becomes Ruckig's targets and limits: target velocities
-//! clamped to the speed limits, per-axis limits (scaled for a go-to), and
-//! the speed scale of proportional control.
+//! A request becomes Ruckig's target speeds: clamped to the speed limits,
+//! scaled for proportional control, along the current axis or — only from
+//! rest — a new one, and held off where a boundary or an orientation limit
+//! is too close.
 
 use nalgebra::Vector3;
 
-use crate::control::motion::{Motion, set_all};
+use crate::control::motion::workspace::Boundary;
+use crate::control::motion::{ANGULAR, LINEAR, Motion, finite_or_zero, get, put};
+
+/// Below these the speed and acceleration of a channel count as rest (the
+/// last ulps of a finished brake), in the channel's units.
+const REST: (f64, f64) = (1e-12, 1e-9);
+
+/// Directions this close to parallel are the same line.
+const SAME_LINE: f64 = 1.0 - 1e-9;
 
 impl Motion {
-    /// Per-axis limits: the configured ones scaled by `share` (1 = full).
-    pub(super) fn set_axis_limits(&mut self, share: [f64; 6]) {
-        let l = &self.limits;
-        let input = &mut self.input;
-        let axes = share
-            .into_iter()
-            .zip(input.max_velocity.iter_mut())
-            .zip(input.max_acceleration.iter_mut())
-            .zip(input.max_jerk.iter_mut())
-            .enumerate();
-        for (i, (((s, max_v), max_a), max_j)) in axes {
-            // Never exactly zero: Ruckig needs positive limits.
-            let s = s.max(1e-6);
-            let (v, a, j) = if i < 3 {
-                (
-                    l.linear_speed_mps,
-                    l.linear_acceleration_mps2,
-                    l.linear_jerk_mps3,
-                )
-            } else {
-                (
-                    l.angular_speed_radps,
-                    l.angular_acceleration_radps2,
-                    l.angular_jerk_radps3,
-                )
-            };
-            (*max_v, *max_a, *max_j) = (v * s, a * s, j * s);
-        }
-        self.scaled_limits = share != [1.0; 6];
-    }
-
     pub(super) fn speed_scale(&self, strength_volts: f64) -> f64 {
         let l = &self.limits;
         if !l.proportional_speed {
@@ -47,20 +25,111 @@ impl Motion {
         l.proportional_min_fraction + (1.0 - l.proportional_min_fraction) * fraction
     }
 
-    /// Sets the velocity-interface targets, clamped to the speed limits.
-    pub(super) fn set_velocity_target(&mut self, linear: Vector3<f64>, angular: Vector3<f64>) {
-        let l = self.limits;
-        let moving = linear != Vector3::zeros() || angular != Vector3::zeros();
-        if moving && self.scaled_limits {
-            self.set_axis_limits([1.0; 6]); // back from a goto's scaled limits
+    /// Whether the linear and angular channels are both at rest.
+    pub(super) fn at_rest(&self) -> bool {
+        self.channel_at_rest(LINEAR) && self.channel_at_rest(ANGULAR)
+    }
+
+    fn channel_at_rest(&self, dof: usize) -> bool {
+        get(&self.input.current_velocity, dof).abs() < REST.0
+            && get(&self.input.current_acceleration, dof).abs() < REST.1
+    }
+
+    /// The target speed along the linear axis for `request` (signed unit
+    /// direction, speed), and the boundary if one starts holding it off.
+    pub(super) fn linear_target(
+        &mut self,
+        request: Option<(Vector3<f64>, f64)>,
+    ) -> (f64, Option<Boundary>) {
+        let Some((wanted, speed)) = request else {
+            self.linear_blocked = None;
+            return (0.0, None);
+        };
+        if let Some(blocked) = self.linear_blocked {
+            if blocked.dot(&wanted) > SAME_LINE {
+                return (0.0, None); // still held off: said once
+            }
+            self.linear_blocked = None;
         }
-        let v = linear.map(|x| x.clamp(-l.linear_speed_mps, l.linear_speed_mps));
-        let w = angular.map(|x| x.clamp(-l.angular_speed_radps, l.angular_speed_radps));
-        let finite = |x: f64| if x.is_finite() { x } else { 0.0 };
-        set_all(
-            &mut self.input.target_velocity,
-            [v.x, v.y, v.z, w.x, w.y, w.z].map(finite),
-        );
-        self.input.target_acceleration.fill(0.0);
+        let max = self.limits.linear_speed_mps;
+        let Some(target) = self.line_target(LINEAR, wanted, speed, max) else {
+            return (0.0, None); // braking to rest before the new direction
+        };
+        if target == 0.0 {
+            return (0.0, None);
+        }
+        let u = self.linear_axis * target.signum();
+        let boundary = self.linear_must_brake(&u, target.signum());
+        if boundary.is_some() {
+            self.linear_blocked = Some(wanted);
+            return (0.0, boundary);
+        }
+        (target, None)
+    }
+
+    /// The target rate about the angular axis, as [`Motion::linear_target`].
+    pub(super) fn angular_target(
+        &mut self,
+        request: Option<(Vector3<f64>, f64)>,
+    ) -> (f64, Option<Boundary>) {
+        let Some((wanted, rate)) = request else {
+            self.angular_blocked = None;
+            return (0.0, None);
+        };
+        if let Some(blocked) = self.angular_blocked {
+            if blocked.dot(&wanted) > SAME_LINE {
+                return (0.0, None);
+            }
+            self.angular_blocked = None;
+        }
+        let max = self.limits.angular_speed_radps;
+        let Some(target) = self.line_target(ANGULAR, wanted, rate, max) else {
+            return (0.0, None);
+        };
+        if target == 0.0 {
+            return (0.0, None);
+        }
+        let u = self.angular_axis * target.signum();
+        let boundary = self.angular_must_brake(&u, target.signum());
+        if boundary.is_some() {
+            self.angular_blocked = Some(wanted);
+            return (0.0, boundary);
+        }
+        (target, None)
+    }
+
+    /// The signed target along the channel's axis for a request along
+    /// `wanted`; `None` while the channel still moves along another line
+    /// (it brakes first: an axis changes only from rest, so the velocity
+    /// vector stays on one line and its limits hold as a vector).
+    fn line_target(
+        &mut self,
+        dof: usize,
+        wanted: Vector3<f64>,
+        speed: f64,
+        max: f64,
+    ) -> Option<f64> {
+        let speed = finite_or_zero(speed).clamp(0.0, max);
+        if !wanted.iter().all(|x| x.is_finite()) || wanted.norm() < 0.5 {
+            return Some(0.0);
+        }
+        let axis = if dof == LINEAR {
+            &mut self.linear_axis
+        } else {
+            &mut self.angular_axis
+        };
+        let along = wanted.dot(axis);
+        if along.abs() > SAME_LINE {
+            return Some(speed * along.signum());
+        }
+        if get(&self.input.current_velocity, dof).abs() < REST.0
+            && get(&self.input.current_acceleration, dof).abs() < REST.1
+        {
+            *axis = wanted;
+            put(&mut self.input.current_velocity, dof, 0.0);
+            put(&mut self.input.current_acceleration, dof, 0.0);
+            return Some(speed);
+        }
+        None
     }
 }

@@ -55,6 +55,10 @@ pub enum Boundary {
     FingersOpen,
     /// Fingers fully closed.
     FingersClosed,
+    /// The tool axis at its tilt limit (`max_tilt_rad`).
+    Tilt,
+    /// The tool at its twist limit (`max_twist_rad`).
+    Twist,
 }
 
 /// Distance from `p` along the unit vector `u` to the first boundary, and
@@ -102,6 +106,25 @@ pub fn distance_to_boundary(
         consider((p.z - w.table_z_m) / -u.z, Boundary::Table);
     }
     best
+}
+
+/// Normal distance from `p` to the nearest of the reach sphere, the base
+/// sphere and the table, m; negative outside.
+pub fn clearance(p: &Vector3<f64>, w: &WorkspaceConfig) -> f64 {
+    let r = p.norm();
+    (w.reach_m - r)
+        .min(r - w.min_radius_m)
+        .min(p.z - w.table_z_m)
+}
+
+/// The workspace with every boundary moved inwards by `by`, m.
+pub fn shrunk(w: &WorkspaceConfig, by: f64) -> WorkspaceConfig {
+    WorkspaceConfig {
+        reach_m: w.reach_m - by,
+        min_radius_m: w.min_radius_m + by,
+        table_z_m: w.table_z_m + by,
+        ..*w
+    }
 }
 
 /// Whether `p` is inside the workspace (boundaries included).
