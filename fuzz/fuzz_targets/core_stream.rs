@@ -1,17 +1,20 @@
 //! Arbitrary sample streams (levels anywhere in and out of 0–5 V, NaN,
 //! infinities, missing samples) through the whole core and motion layer,
-//! with the built-in library or the paper's (with prefixes): never a
-//! panic; matches only from the library; speeds and accelerations within
-//! the configured limits; the pose inside the workspace; nothing but
-//! finite numbers reaching the arm.
+//! with the built-in library or the paper's (with prefixes), and process
+//! stalls (ticks that jump ahead): never a panic; matches only from the
+//! library; nothing but finite numbers reaching the arm; and the safety
+//! monitor's promises at every tick (`sipnpuff::tools::safety`: the
+//! workspace by the margin as a normal distance, the orientation limits,
+//! speed, acceleration and jerk vectors within the limits, still within
+//! the stopping time after every release and fault).
 
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use sipnpuff::config::Config;
 use sipnpuff::control::event::Event;
-use sipnpuff::control::motion::workspace;
 use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::tools::safety::SafetyMonitor;
 
 const PAPER_LIBRARY: &str = include_str!("../../fixtures/paper-example.toml");
 /// Bound on one input's length, so each run stays short.
@@ -25,6 +28,8 @@ fn norm(v: &[f64; 3]) -> f64 {
 enum Sample {
     Volts(f64),
     Missing,
+    /// The process stalls: the next tick comes this many ticks later.
+    Stall(u64),
 }
 
 fn decode(kind: u8, level: u8) -> Sample {
@@ -39,61 +44,18 @@ fn decode(kind: u8, level: u8) -> Sample {
         } else {
             f64::NEG_INFINITY
         }),
-        _ => Sample::Missing,
+        _ if level < 128.0 => Sample::Missing,
+        _ => Sample::Stall((level as u64 - 127) * 20),
     }
 }
 
-fn check(config: &Config, o: &TickOutput, prev: Option<&TickOutput>) {
+fn check(config: &Config, o: &TickOutput, monitor: &mut SafetyMonitor) {
     let m = config.core().motion();
     let tol = 1.0 + 1e-9;
-    let motion = &o.motion;
-    let p = motion.pose.translation.vector;
-    let finite = motion
-        .linear
-        .iter()
-        .chain(&motion.angular)
-        .chain([&motion.fingers_velocity, &motion.fingers])
-        .chain(p.iter())
-        .all(|v| v.is_finite());
-    assert!(finite, "not finite at tick {}: {motion:?}", o.tick);
-    assert!(
-        workspace::contains(&p, config.core().workspace()),
-        "pose outside at tick {}",
-        o.tick
-    );
-    assert!((0.0..=config.core().workspace().finger_closed).contains(&motion.fingers));
-    assert!(
-        norm(&motion.linear) <= m.linear_speed_mps * tol,
-        "linear speed at {}",
-        o.tick
-    );
-    assert!(
-        norm(&motion.angular) <= m.angular_speed_radps * tol,
-        "angular speed at {}",
-        o.tick
-    );
-    assert!(motion.fingers_velocity.abs() <= m.finger_speed * tol);
-    if let Some(prev) = prev {
-        let dv = |a: &[f64; 3], b: &[f64; 3]| {
-            [
-                (a[0] - b[0]) * 1e3,
-                (a[1] - b[1]) * 1e3,
-                (a[2] - b[2]) * 1e3,
-            ]
-        };
-        let linear = norm(&dv(&motion.linear, &prev.motion.linear));
-        assert!(
-            linear <= m.linear_acceleration_mps2 * tol,
-            "linear acceleration {linear} at {}",
-            o.tick
-        );
-        let angular = norm(&dv(&motion.angular, &prev.motion.angular));
-        assert!(
-            angular <= m.angular_acceleration_radps2 * tol,
-            "angular acceleration {angular} at {}",
-            o.tick
-        );
+    if let Err(violation) = monitor.check(o) {
+        panic!("{violation}");
     }
+    let motion = &o.motion;
     if let Some(c) = &motion.arm_command {
         let numbers = c.linear.iter().chain(&c.angular).chain([&c.fingers]);
         assert!(numbers.clone().all(|v| v.is_finite()), "{c:?}");
@@ -124,7 +86,7 @@ fuzz_target!(|data: &[u8]| {
         Config::from_toml_str(PAPER_LIBRARY).expect("the paper's example is valid")
     };
     let mut core: Pipeline = Pipeline::new(config.core());
-    let mut prev: Option<TickOutput> = None;
+    let mut monitor = SafetyMonitor::new(config.core());
     let mut tick = 0u64;
     for chunk in chunks.chunks_exact(3) {
         let (kind, level, len) = (chunk[0], chunk[1], chunk[2]);
@@ -133,9 +95,12 @@ fuzz_target!(|data: &[u8]| {
             let out = match decode(kind, level) {
                 Sample::Volts(v) => core.step(tick, v),
                 Sample::Missing => core.step_missing(tick),
+                Sample::Stall(ticks) => {
+                    tick += ticks;
+                    core.step_missing(tick)
+                }
             };
-            check(&config, &out, prev.as_ref());
-            prev = Some(out);
+            check(&config, &out, &mut monitor);
             tick += 1;
             if tick >= MAX_TICKS {
                 return;

@@ -7,3 +7,4 @@ pub mod accuracy;
 pub mod bench_tick;
 pub mod latency;
 pub mod replay;
+pub mod safety;

@@ -14,6 +14,7 @@ use sipnpuff::control::selection::index::{ScanIndex, TrieIndex};
 use sipnpuff::control::selection::matcher::SequenceMatcher;
 use sipnpuff::sim::script::{Timing, sequence_steps};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
+use sipnpuff::tools::safety::SafetyMonitor;
 
 fn action() -> impl Strategy<Value = Action> {
     prop::sample::select(Action::ALL.to_vec())
@@ -356,3 +357,147 @@ proptest! {
         }
     }
 }
+
+/// One stretch of an adversarial user's session.
+#[derive(Debug, Clone)]
+enum Segment {
+    /// Enters a library sequence (quickly or comfortably), then holds a
+    /// breath and rests: the way modes are used, and fast re-selections.
+    Select {
+        entry: prop::sample::Index,
+        quick: bool,
+        hold: (Breath, u32),
+        rest: u32,
+    },
+    /// The sensor stuck at a level (a rail, or a level past a threshold).
+    Stuck { volts: f64, ms: u32 },
+    /// The sensor's offset shifts by `volts` for a while, then back.
+    Shift { volts: f64, ms: u32 },
+    /// NaN samples.
+    Dropout { ms: u32 },
+    /// The process stalls: the next tick comes this much later.
+    Stall { ticks: u64 },
+}
+
+fn segment() -> impl Strategy<Value = Segment> {
+    let breath = prop::sample::select(vec![Breath::Sip, Breath::Puff]);
+    prop_oneof![
+        8 => (any::<prop::sample::Index>(), any::<bool>(), (breath, 20u32..4000), 0u32..2500)
+            .prop_map(|(entry, quick, hold, rest)| Segment::Select { entry, quick, hold, rest }),
+        1 => (prop::sample::select(vec![0.0, 5.0, 4.0, 1.0, 3.4, 1.6]), 500u32..9000)
+            .prop_map(|(volts, ms)| Segment::Stuck { volts, ms }),
+        1 => (prop::sample::select(vec![-0.7, 0.7, -1.2, 1.2]), 500u32..9000)
+            .prop_map(|(volts, ms)| Segment::Shift { volts, ms }),
+        1 => (1u32..400).prop_map(|ms| Segment::Dropout { ms }),
+        1 => (2u64..3000).prop_map(|ticks| Segment::Stall { ticks }),
+    ]
+}
+
+/// The samples of a session, each with how many ticks it comes after the
+/// previous one (1, or more after a stall).
+fn session_samples(config: &Config, segments: &[Segment], seed: u64) -> Vec<(u64, f64)> {
+    let d = *config.core().detector();
+    let params = SignalParams::clean(&d, seed)
+        .with_noise(0.02)
+        .with_hum(0.03);
+    let comfortable = Timing {
+        short_ms: (d.min_burst_ms + d.long_burst_ms) / 2,
+        long_ms: d.long_burst_ms + 300,
+        gap_ms: 300,
+    };
+    let quick = Timing {
+        short_ms: d.min_burst_ms + d.glitch_ms + 5,
+        gap_ms: d.glitch_ms + 40,
+        ..comfortable
+    };
+    let mut out = Vec::new();
+    let mut next_gap = 1;
+    let mut push = |out: &mut Vec<(u64, f64)>, v: f64, gap: &mut u64| {
+        out.push((*gap, v));
+        *gap = 1;
+    };
+    for s in segments {
+        match s {
+            Segment::Select {
+                entry,
+                quick: fast,
+                hold,
+                rest,
+            } => {
+                let sequences = config.core().sequences();
+                let actions = sequences[entry.index(sequences.len())].actions;
+                let mut steps =
+                    sequence_steps(actions.as_slice(), if *fast { quick } else { comfortable });
+                steps.push(Step::Breath {
+                    breath: hold.0,
+                    ms: hold.1,
+                });
+                steps.push(Step::Rest { ms: *rest });
+                for v in SignalGenerator::new(params.clone(), &steps) {
+                    push(&mut out, v, &mut next_gap);
+                }
+            }
+            Segment::Stuck { volts, ms } => {
+                for _ in 0..*ms {
+                    push(&mut out, *volts, &mut next_gap);
+                }
+            }
+            Segment::Shift { volts, ms } => {
+                let level = (d.neutral_volts + volts).clamp(0.0, 5.0);
+                for _ in 0..*ms {
+                    push(&mut out, level, &mut next_gap);
+                }
+            }
+            Segment::Dropout { ms } => {
+                for _ in 0..*ms {
+                    push(&mut out, f64::NAN, &mut next_gap);
+                }
+            }
+            Segment::Stall { ticks } => next_gap = *ticks,
+        }
+    }
+    let short = MIN_SESSION_TICKS.saturating_sub(out.len());
+    let rest = [Step::Rest {
+        ms: u32::try_from(short).unwrap_or(u32::MAX),
+    }];
+    for v in SignalGenerator::new(params, &rest).take(short) {
+        push(&mut out, v, &mut next_gap);
+    }
+    out
+}
+
+proptest! {
+    // 24 sessions of 45–90 s: over a million ticks in all.
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Issue 11's promise: any configuration the validator accepts, any
+    /// adversarial user (fast re-selections, long and stuck holds, offset
+    /// shifts, dropouts, process stalls): at every tick the tool is inside
+    /// the workspace by the margin as a normal distance and inside its
+    /// orientation limits, speed, acceleration and jerk vectors within the
+    /// limits, nothing non-finite, and still within the stopping time after
+    /// every release and fault.
+    #[test]
+    fn the_safety_monitor_holds_for_any_config_and_any_user(
+        config in valid_config(),
+        segments in prop::collection::vec(segment(), 8..24),
+        seed in any::<u64>(),
+    ) {
+        let mut core: Pipeline = Pipeline::new(config.core());
+        let mut monitor = SafetyMonitor::new(config.core());
+        let mut tick = 0u64;
+        let samples = session_samples(&config, &segments, seed);
+        prop_assert!(samples.len() >= MIN_SESSION_TICKS);
+        for (gap, v) in samples {
+            tick += gap;
+            let out = core.step(tick, v);
+            if let Err(violation) = monitor.check(&out) {
+                prop_assert!(false, "{}", violation);
+            }
+        }
+    }
+}
+
+/// Each session is padded with rest to at least this many ticks: 24
+/// sessions check over a million ticks.
+const MIN_SESSION_TICKS: usize = 45_000;
