@@ -412,7 +412,7 @@ fn session_samples(config: &Config, segments: &[Segment], seed: u64) -> Vec<(u64
     };
     let mut out = Vec::new();
     let mut next_gap = 1;
-    let mut push = |out: &mut Vec<(u64, f64)>, v: f64, gap: &mut u64| {
+    let push = |out: &mut Vec<(u64, f64)>, v: f64, gap: &mut u64| {
         out.push((*gap, v));
         *gap = 1;
     };
@@ -433,7 +433,7 @@ fn session_samples(config: &Config, segments: &[Segment], seed: u64) -> Vec<(u64
                     ms: hold.1,
                 });
                 steps.push(Step::Rest { ms: *rest });
-                for v in SignalGenerator::new(params.clone(), &steps) {
+                for v in SignalGenerator::new(params, &steps) {
                     push(&mut out, v, &mut next_gap);
                 }
             }
