@@ -128,6 +128,7 @@ impl Reader<'_> {
         let mut t = self.section(root, "command");
         let c = CommandConfig {
             inactivity_timeout_ms: t.get("inactivity_timeout_ms", d.inactivity_timeout_ms),
+            motion_onset_ms: t.get("motion_onset_ms", d.motion_onset_ms),
         };
         t.finish();
         validate::command(self.problems, &c);

@@ -176,6 +176,9 @@ pub(super) fn matcher(p: &mut Problems, c: &MatcherConfig) {
 /// `[command]`.
 pub(super) fn command(p: &mut Problems, c: &CommandConfig) {
     p.positive_ms("command.inactivity_timeout_ms", c.inactivity_timeout_ms);
+    if c.motion_onset_ms > 0 {
+        p.positive_ms("command.motion_onset_ms", c.motion_onset_ms);
+    }
 }
 
 /// `[scanning]`: positive dwell times, each mode at most once, at least one.

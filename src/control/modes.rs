@@ -9,6 +9,7 @@
 use serde::Serialize;
 
 use crate::control::Tick;
+use crate::control::action::Breath;
 use crate::control::mode::{Direction, Held, Mode, ModeState};
 
 /// Command mode settings (`[command]` in the config file).
@@ -17,12 +18,19 @@ pub struct CommandConfig {
     /// No breath for this long (from the match or the end of the last breath)
     /// returns to detection mode.
     pub inactivity_timeout_ms: u32,
+    /// Beyond the paper: in command mode a breath moves the arm only once
+    /// it has been held this long; shorter breaths go to the sequence
+    /// matcher, and a completed sequence switches mode at once (no wait for
+    /// the inactivity timeout, no motion). 0 = off (the paper: every breath
+    /// in command mode moves the arm).
+    pub motion_onset_ms: u32,
 }
 
 impl Default for CommandConfig {
     fn default() -> Self {
         CommandConfig {
             inactivity_timeout_ms: 2000,
+            motion_onset_ms: 0,
         }
     }
 }
@@ -61,6 +69,12 @@ pub struct ModeMachine {
     await_release: bool,
     /// Stopping: back to detection mode for good.
     stopping: bool,
+    /// `motion_onset_ms` (0 = off).
+    onset: u64,
+    /// The breath held in command mode and the tick it was first seen.
+    held_since: Option<(Breath, Tick)>,
+    /// The current (or last) breath in command mode moved the arm.
+    moved: bool,
 }
 
 impl ModeMachine {
@@ -72,7 +86,23 @@ impl ModeMachine {
             last_activity: 0,
             await_release: false,
             stopping: false,
+            onset: config.motion_onset_ms.into(),
+            held_since: None,
+            moved: false,
         }
+    }
+
+    /// With `motion_onset_ms`: the burst that just ended in command mode was
+    /// too short to move the arm, so it belongs to a selection. Read before
+    /// [`ModeMachine::step`] on the burst's tick. RT-safe.
+    pub fn selects_in_command_mode(&self) -> bool {
+        self.onset > 0 && matches!(self.state, ModeState::Command(_)) && !self.moved
+    }
+
+    /// With `motion_onset_ms`: the burst that just ended in command mode
+    /// moved the arm (a selection in progress is void). RT-safe.
+    pub fn moved_in_command_mode(&self) -> bool {
+        self.onset > 0 && matches!(self.state, ModeState::Command(_)) && self.moved
     }
 
     /// From the next tick on: detection mode, no mode is entered again.
@@ -111,13 +141,31 @@ impl ModeMachine {
                     left = Some(DetectionReason::Stop);
                 } else if faulted {
                     left = Some(DetectionReason::Fault);
+                } else if let Some(mode) = matched {
+                    // A selection completed in command mode (motion onset):
+                    // the new mode at once.
+                    self.state = ModeState::Command(mode);
+                    self.last_activity = now;
+                    self.await_release = held.breath.is_some();
+                    self.held_since = None;
                 } else if let Some(breath) = held.breath {
                     self.last_activity = now;
-                    if !self.await_release {
+                    let since = match self.held_since {
+                        Some((b, since)) if b == breath => since,
+                        _ => {
+                            self.held_since = Some((breath, now));
+                            self.moved = false;
+                            now
+                        }
+                    };
+                    let held_ms = now.saturating_sub(since) + 1;
+                    if !self.await_release && held_ms >= self.onset {
                         output.direction = Direction::of(breath);
                         output.strength_volts = held.strength_volts;
+                        self.moved = true;
                     }
                 } else {
+                    self.held_since = None;
                     self.await_release = false;
                     if now.saturating_sub(self.last_activity) >= self.inactivity {
                         left = Some(DetectionReason::Inactivity);
@@ -136,11 +184,11 @@ impl ModeMachine {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::control::action::Breath;
 
     fn machine(inactivity_timeout_ms: u32) -> ModeMachine {
         ModeMachine::new(&CommandConfig {
             inactivity_timeout_ms,
+            motion_onset_ms: 0,
         })
     }
 

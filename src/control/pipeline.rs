@@ -13,7 +13,7 @@ use crate::control::modes::{ModeMachine, ModeOutput};
 use crate::control::motion::{Motion, MotionOutput};
 use crate::control::selection::Interface;
 use crate::control::selection::index::{SequenceIndex, TrieIndex};
-use crate::control::selection::matcher::{MatchEvent, SequenceMatcher};
+use crate::control::selection::matcher::{MatchEvent, ResetReason, SequenceMatcher};
 use crate::control::selection::scanning::Scanner;
 
 /// Everything the core says about one tick. `Copy`, RT-safe.
@@ -133,6 +133,14 @@ impl<I: SequenceIndex> Pipeline<I> {
                     match &mut self.selector {
                         Selector::Sequences(matcher) => decision = matcher.on_burst(&burst),
                         Selector::Scanning(_) => scan_burst = Some(burst),
+                    }
+                } else if let Selector::Sequences(matcher) = &mut self.selector {
+                    // Motion onset: a short breath in command mode selects,
+                    // a long one moved the arm and voids a selection begun.
+                    if self.modes.selects_in_command_mode() {
+                        decision = matcher.on_burst(&burst);
+                    } else if self.modes.moved_in_command_mode() {
+                        decision = matcher.void(ResetReason::Moved);
                     }
                 }
             }

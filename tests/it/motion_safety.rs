@@ -370,3 +370,103 @@ fn the_arm_stops_promptly_after_a_release() {
         );
     }
 }
+
+/// Section 2 (beyond the paper): with `motion_onset_ms`, short breaths in
+/// command mode select instead of moving. The slip of the review: in
+/// translate_x, 0.5 s after a move, the user enters [1, 1] (translate_z)
+/// and holds a sip meaning *down*.
+#[test]
+fn with_motion_onset_a_selection_in_command_mode_switches_without_moving() {
+    let slip = |onset: u32| {
+        let config = config(&format!("[command]\nmotion_onset_ms = {onset}\n"));
+        let mut script = vec![rest(500)];
+        script.extend(select(&TRANSLATE_X));
+        script.extend([puff(1000), rest(500)]);
+        script.extend(sequence_steps(&TRANSLATE_Z, Timing::DEFAULT));
+        script.extend([sip(1500), rest(2500)]);
+        let trace = play(&config, &script);
+        check_invariants(&config, &trace);
+        (config, trace)
+    };
+    let x_after_move = |trace: &[Record]| {
+        // Where x stood 450 ms after the first release (braked to rest).
+        let released = trace
+            .iter()
+            .position(|r| r.out.command.direction == Direction::Positive)
+            .map(|start| {
+                start
+                    + trace[start..]
+                        .iter()
+                        .position(|r| r.out.command.direction == Direction::Still)
+                        .unwrap()
+            })
+            .unwrap();
+        trace[released + 450].out.motion.pose.translation.x
+    };
+    // The paper's behaviour: the sips of the selection move x backwards,
+    // then the held sip goes on moving x backwards; z never moves.
+    let (_, off) = slip(0);
+    let last = off.last().unwrap().out.motion.pose.translation;
+    assert!(
+        x_after_move(&off) - last.x > 0.1,
+        "without onset the slip drives x back"
+    );
+    assert!((last.z - 0.48).abs() < 1e-9);
+    // With a 300 ms onset: the two 150 ms sips select translate_z at once,
+    // nothing moves meanwhile, and the held sip moves down.
+    let (_, on) = slip(300);
+    let matched = on
+        .iter()
+        .filter_map(|r| {
+            r.out.events.iter().find_map(|e| match e {
+                Event::Match { mode, .. } => Some((r.out.tick, *mode)),
+                _ => None,
+            })
+        })
+        .collect::<Vec<_>>();
+    assert_eq!(matched.len(), 2, "{matched:?}");
+    assert_eq!(matched[1].1, Mode::TranslateZ);
+    assert!(
+        on.iter().all(|r| !r
+            .out
+            .events
+            .iter()
+            .any(|e| matches!(e, Event::Detection { .. }))
+            || r.out.tick > matched[1].0),
+        "no return to detection mode before the switch"
+    );
+    let last = on.last().unwrap().out.motion.pose.translation;
+    assert!(
+        (x_after_move(&on) - last.x).abs() < 1e-9,
+        "x does not move after the first move"
+    );
+    assert!(last.z < 0.48 - 0.1, "the held sip moves down: z {}", last.z);
+}
+
+/// A breath that moved the arm voids a selection begun before it.
+#[test]
+fn with_motion_onset_a_moving_breath_voids_a_selection_begun() {
+    let config = config("[command]\nmotion_onset_ms = 300\n");
+    let mut script = vec![rest(500)];
+    script.extend(select(&TRANSLATE_X));
+    script.extend([puff(150), rest(300), puff(800), rest(3000)]);
+    let trace = play(&config, &script);
+    check_invariants(&config, &trace);
+    let events: Vec<Event> = trace
+        .iter()
+        .flat_map(|r| r.out.events.iter().copied())
+        .collect();
+    assert!(
+        events.iter().any(|e| matches!(
+            e,
+            Event::Reset {
+                reason: sipnpuff::control::selection::matcher::ResetReason::Moved,
+                ..
+            }
+        )),
+        "{events:?}"
+    );
+    // The 150 ms puff moved nothing; the 800 ms puff moved ~0.5 s' worth.
+    let x = trace.last().unwrap().out.motion.pose.translation.x;
+    assert!(x > 0.21 + 0.05 && x < 0.21 + 0.2, "x {x}");
+}

@@ -60,17 +60,19 @@ fn timing_toml() -> impl Strategy<Value = String> {
         (1.0f64..4.0, 0.05f64..0.95, 0.05f64..0.95, 0.0f64..0.9),
         (2u32..200, 1u32..3000, 0.0f64..1.0, 1u32..20_000),
         (0.01f64..5.0, 1u32..3000, 1u32..3000, 1u32..5000, 1u32..10_000),
+        prop_oneof![Just(0u32), 1u32..1500],
     )
         .prop_map(
             |(
                 (neutral, puff, sip, hysteresis),
                 (min_burst, long_extra, glitch, tracking),
                 (margin, recovery, stale, timeout, inactivity),
+                onset,
             )| {
                 let puff_offset = puff * (5.0 - neutral);
                 let sip_offset = sip * neutral;
                 format!(
-                    "[detector]\nneutral_volts = {neutral}\npuff_threshold_volts = {}\nsip_threshold_volts = {}\nhysteresis_volts = {}\nmin_burst_ms = {min_burst}\nlong_burst_ms = {}\nglitch_ms = {}\nneutral_tracking_ms = {tracking}\nfault_margin_volts = {margin}\nfault_recovery_ms = {recovery}\nstale_ms = {stale}\n[matcher]\nsequence_timeout_ms = {timeout}\n[command]\ninactivity_timeout_ms = {inactivity}\n",
+                    "[detector]\nneutral_volts = {neutral}\npuff_threshold_volts = {}\nsip_threshold_volts = {}\nhysteresis_volts = {}\nmin_burst_ms = {min_burst}\nlong_burst_ms = {}\nglitch_ms = {}\nneutral_tracking_ms = {tracking}\nfault_margin_volts = {margin}\nfault_recovery_ms = {recovery}\nstale_ms = {stale}\n[matcher]\nsequence_timeout_ms = {timeout}\n[command]\ninactivity_timeout_ms = {inactivity}\nmotion_onset_ms = {onset}\n",
                     neutral + puff_offset,
                     neutral - sip_offset,
                     hysteresis * puff_offset.min(sip_offset),

@@ -49,6 +49,9 @@ pub enum ResetReason {
     Timeout,
     /// A sensor fault interrupted the sequence.
     Fault,
+    /// A breath in command mode moved the arm (with `motion_onset_ms`):
+    /// the sequence begun before it is void.
+    Moved,
 }
 
 /// What the matcher decided on one tick.
@@ -142,10 +145,15 @@ impl<I: SequenceIndex> SequenceMatcher<I> {
 
     /// Drops the current sequence after a sensor fault. RT-safe.
     pub fn interrupt(&mut self) -> Option<MatchEvent> {
+        self.void(ResetReason::Fault)
+    }
+
+    /// Drops the current sequence, if any, for `reason`. RT-safe.
+    pub fn void(&mut self, reason: ResetReason) -> Option<MatchEvent> {
         if self.cs.is_empty() {
             None
         } else {
-            self.reset(ResetReason::Fault)
+            self.reset(reason)
         }
     }
 
