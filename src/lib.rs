@@ -56,6 +56,9 @@
 #![deny(missing_docs)]
 #![deny(unsafe_op_in_unsafe_fn)]
 #![deny(clippy::undocumented_unsafe_blocks)]
+// `print!` and `eprint!` panic when their stream fails: output goes
+// through `cli::output`, whose writes return their errors.
+#![deny(clippy::print_stdout, clippy::print_stderr)]
 
 pub mod arm;
 pub mod cli;

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::ValueEnum;
 
+use crate::cli::output::invalid;
 use crate::config::Config;
 use crate::control::selection::Interface;
 use crate::rt::setup::RtOptions;
@@ -20,10 +21,11 @@ pub struct ConfigArg {
 }
 
 impl ConfigArg {
-    /// The file's configuration, or the built-in one.
+    /// The file's configuration, or the built-in one. An error is an
+    /// invalid configuration (exit status 2).
     pub fn load(&self) -> anyhow::Result<Config> {
         match &self.config {
-            Some(path) => Ok(Config::from_file(path)?),
+            Some(path) => invalid(Config::from_file(path).map_err(anyhow::Error::from)),
             None => Ok(Config::default()),
         }
     }
@@ -51,7 +53,11 @@ impl From<InterfaceArg> for Interface {
 pub fn with_interface(config: Config, interface: Option<InterfaceArg>) -> anyhow::Result<Config> {
     match interface {
         None => Ok(config),
-        Some(arg) => Ok(config.with_interface(arg.into())?),
+        Some(arg) => invalid(
+            config
+                .with_interface(arg.into())
+                .map_err(anyhow::Error::from),
+        ),
     }
 }
 
@@ -107,10 +113,11 @@ impl RtArgs {
                 .into_iter()
                 .map(|c| c.id)
                 .collect();
-            anyhow::ensure!(
-                ids.contains(&cpu),
-                "--cpu {cpu}: no such CPU (this machine has CPUs {ids:?})"
-            );
+            if !ids.contains(&cpu) {
+                return invalid(Err(anyhow::anyhow!(
+                    "--cpu {cpu}: no such CPU (this machine has CPUs {ids:?})"
+                )));
+            }
         }
         Ok(RtOptions {
             fifo_priority: (self.priority > 0).then_some(self.priority),
@@ -129,6 +136,10 @@ impl RtArgs {
 /// Checks, before a run, that histograms can be written into `dir`
 /// (created if missing).
 pub fn writable_dir(dir: &Path) -> anyhow::Result<()> {
+    invalid(writable(dir))
+}
+
+fn writable(dir: &Path) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir)
         .with_context(|| format!("--histogram-dir {}: cannot create it", dir.display()))?;
     let probe = dir.join(format!(".sipnpuff-write-test-{}", std::process::id()));

@@ -3,9 +3,13 @@
 
 use std::path::PathBuf;
 
+use anyhow::Context;
+
 use crate::arm::sim::SimArm;
 use crate::cli::args::{ConfigArg, RtArgs, parse_seconds, parse_volts, writable_dir};
-use crate::cli::run::stop_flag;
+use crate::cli::output;
+use crate::cli::run::stop_request;
+use crate::rt::control_loop::StopReason;
 use crate::rt::threads::RunOptions;
 use crate::sensor::synthetic::SyntheticSensor;
 use crate::tools::accuracy::{GridOptions, GridReport, accuracy_grid, grid_table};
@@ -101,8 +105,9 @@ fn parse_period_ms(text: &str) -> Result<f64, String> {
     }
 }
 
-/// Runs one bench and prints its figures.
-pub fn bench(what: BenchCommand) -> anyhow::Result<()> {
+/// Runs one bench and prints its figures; returns the exit status
+/// (`bench latency` stopped by signal N: 128 + N).
+pub fn bench(what: BenchCommand) -> anyhow::Result<u8> {
     match what {
         BenchCommand::Latency {
             seconds,
@@ -120,7 +125,7 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<()> {
                 seconds: Some(seconds),
                 rt: rt.options()?,
                 spin_margin_ns: rt.spin_margin_ns(),
-                stop: stop_flag()?,
+                stop: stop_request()?,
             };
             // The built-in user, repeated, on the simulated arm.
             let sensor = SyntheticSensor::built_in_user(&config).repeating();
@@ -128,13 +133,14 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<()> {
             let run = bench_latency(&config, sensor, arm, seconds, block, options)?;
             let report = LatencyReport::of(&run, seconds);
             if json {
-                println!("{}", serde_json::to_string(&report)?);
+                output::stdout_line(&serde_json::to_string(&report)?)
             } else {
-                print!("{}", report.to_text());
+                output::stdout(&report.to_text())
             }
+            .context("stdout")?;
             if let Some(dir) = histogram_dir {
                 for path in run.write_histograms(&dir)? {
-                    eprintln!("wrote {}", path.display());
+                    note!("wrote {}", path.display());
                 }
             }
             anyhow::ensure!(
@@ -142,7 +148,10 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<()> {
                 "the bench failed: {}",
                 report.errors.join("; ")
             );
-            Ok(())
+            Ok(match run.stop_reason {
+                StopReason::Signal(n) => output::interrupted(n),
+                _ => output::COMPLETED,
+            })
         }
         BenchCommand::Tick {
             seconds,
@@ -151,11 +160,12 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<()> {
         } => {
             let report = bench_tick(&config.load()?, seconds).report();
             if json {
-                println!("{}", serde_json::to_string(&report)?);
+                output::stdout_line(&serde_json::to_string(&report)?)
             } else {
-                print!("{}", report.to_text());
+                output::stdout(&report.to_text())
             }
-            Ok(())
+            .context("stdout")?;
+            Ok(output::COMPLETED)
         }
         BenchCommand::Accuracy {
             seconds,
@@ -179,19 +189,20 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<()> {
                 tolerance_ms,
             };
             let cells = accuracy_grid(&config, &noise_volts, &hum_volts, options, |done, total| {
-                eprint!("\r{done}/{total} sessions")
+                progress!("\r{done}/{total} sessions")
             });
-            eprintln!();
+            note!();
             if json {
                 let report = GridReport { options, cells };
-                println!("{}", serde_json::to_string(&report)?);
+                output::stdout_line(&serde_json::to_string(&report)?)
             } else {
-                println!(
-                    "breaths detected as the right action (mode selections matched) ±largest timing error [+bursts invented]; {seconds} s per session, seed {seed}, drift {drift_volts} V over a {drift_period_ms} ms period, spikes every {spike_every_ms} ms, tolerance {tolerance_ms} ms"
-                );
-                print!("{}", grid_table(&cells));
+                output::stdout(&format!(
+                    "breaths detected as the right action (mode selections matched) ±largest timing error [+bursts invented]; {seconds} s per session, seed {seed}, drift {drift_volts} V over a {drift_period_ms} ms period, spikes every {spike_every_ms} ms, tolerance {tolerance_ms} ms\n{}",
+                    grid_table(&cells)
+                ))
             }
-            Ok(())
+            .context("stdout")?;
+            Ok(output::COMPLETED)
         }
     }
 }

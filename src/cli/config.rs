@@ -1,6 +1,9 @@
 //! `sipnpuff config`: check a configuration and print it, complete.
 
+use anyhow::Context;
+
 use crate::cli::args::ConfigArg;
+use crate::cli::output;
 
 /// `config`'s options.
 #[derive(clap::Args, Debug)]
@@ -11,6 +14,6 @@ pub struct ConfigArgs {
 
 /// Prints the effective configuration as TOML.
 pub fn config(args: ConfigArgs) -> anyhow::Result<()> {
-    print!("{}", args.config.load()?.to_toml()?);
-    Ok(())
+    let text = args.config.load()?.to_toml()?;
+    output::stdout(&text).context("stdout")
 }

@@ -71,7 +71,7 @@ pub fn generate(args: GenerateArgs) -> anyhow::Result<()> {
         SignalGenerator::new(params, &script).take(length),
     )?;
     writer.flush()?;
-    eprintln!(
+    note!(
         "wrote {n} samples ({:.1} s) to {}",
         n as f64 / 1000.0,
         args.out.display()

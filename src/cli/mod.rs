@@ -1,11 +1,31 @@
 //! The `sipnpuff` command line: one file per command, each owning its
 //! options and its output. Concrete sensors and arms are chosen here (and
-//! only here) from `--sensor` and `--arm`.
+//! only here) from `--sensor` and `--arm`. Output goes through
+//! [`output`]: nothing panics on a closed stdout or stderr; the exit
+//! statuses are listed there.
+
+/// `eprintln!` that never panics (stderr may be closed too).
+macro_rules! note {
+    () => {
+        $crate::cli::output::note(format_args!(""))
+    };
+    ($($arg:tt)*) => {
+        $crate::cli::output::note(format_args!($($arg)*))
+    };
+}
+
+/// `eprint!` that never panics, for progress counters.
+macro_rules! progress {
+    ($($arg:tt)*) => {
+        $crate::cli::output::progress(format_args!($($arg)*))
+    };
+}
 
 pub mod args;
 pub mod bench;
 pub mod config;
 pub mod generate;
+pub mod output;
 pub mod replay;
 pub mod run;
 pub mod study;
@@ -51,19 +71,29 @@ enum Command {
     Config(config::ConfigArgs),
 }
 
-/// Parses the arguments and runs the command; errors are printed.
+/// Parses the arguments and runs the command; errors are printed. The
+/// exit status is one of [`output`]'s.
 pub fn main() -> ExitCode {
+    // A write past the file-size limit fails with EFBIG, handled as a
+    // failed output, instead of killing the process (as Rust's runtime
+    // already does for SIGPIPE and EPIPE).
+    // SAFETY: setting a signal's disposition to SIG_IGN has no memory
+    // effects; no handler of ours is replaced (none is installed yet).
+    unsafe { libc::signal(libc::SIGXFSZ, libc::SIG_IGN) };
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(args) => run::run(args),
-        Command::Replay(args) => replay::replay(args).map(|()| ExitCode::SUCCESS),
-        Command::Study(args) => study::study(args).map(|()| ExitCode::SUCCESS),
-        Command::Generate(args) => generate::generate(args).map(|()| ExitCode::SUCCESS),
-        Command::Bench { what } => bench::bench(what).map(|()| ExitCode::SUCCESS),
-        Command::Config(args) => config::config(args).map(|()| ExitCode::SUCCESS),
+        Command::Replay(args) => replay::replay(args).map(|()| output::COMPLETED),
+        Command::Study(args) => study::study(args).map(|()| output::COMPLETED),
+        Command::Generate(args) => generate::generate(args).map(|()| output::COMPLETED),
+        Command::Bench { what } => bench::bench(what),
+        Command::Config(args) => config::config(args).map(|()| output::COMPLETED),
     };
-    result.unwrap_or_else(|e| {
-        eprintln!("error: {e:#}");
-        ExitCode::FAILURE
-    })
+    ExitCode::from(result.unwrap_or_else(|e| {
+        let (status, say) = output::status_of(&e);
+        if say {
+            note!("error: {e:#}");
+        }
+        status
+    }))
 }

@@ -5,11 +5,9 @@ use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Context;
-
 use crate::cli::args::{ConfigArg, InterfaceArg, create, with_interface};
 use crate::sensor::csv::CsvSignal;
-use crate::tools::replay::replay as replay_signal;
+use crate::tools::replay::{ReplayError, replay as replay_signal};
 
 /// `replay`'s options.
 #[derive(clap::Args, Debug)]
@@ -48,9 +46,18 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
         trace_file.as_mut().map(|t| t as &mut dyn Write),
     );
     let seconds = started.elapsed().as_secs_f64();
-    let summary = result.with_context(|| signal.display().to_string())?;
+    // A write error keeps its `io::Error` in the chain (a closed stdout:
+    // exit status 141).
+    let summary = match result {
+        Ok(summary) => summary,
+        Err(ReplayError::Write(e)) => {
+            return Err(anyhow::Error::new(e)
+                .context(format!("{}: cannot write the output", signal.display())));
+        }
+        Err(e) => return Err(anyhow::Error::new(e).context(signal.display().to_string())),
+    };
     let signal_seconds = summary.samples as f64 / 1000.0;
-    eprintln!(
+    note!(
         "replayed {} samples ({signal_seconds:.1} s of signal) in {seconds:.3} s: {:.0}x real time, {} events",
         summary.samples,
         signal_seconds / seconds.max(1e-9),
@@ -58,9 +65,11 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<()> {
     );
     let [x, y, z] = summary.final_position;
     let [rx, ry, rz] = summary.final_rotation_vector;
-    eprintln!(
+    note!(
         "simulated arm: {} commands at 100 Hz, final position ({x:.4}, {y:.4}, {z:.4}) m, rotation vector ({rx:.4}, {ry:.4}, {rz:.4}) rad, fingers {:.0}, ticks outside the workspace: {}",
-        summary.arm_commands, summary.final_fingers, summary.ticks_outside_workspace
+        summary.arm_commands,
+        summary.final_fingers,
+        summary.ticks_outside_workspace
     );
     Ok(())
 }

@@ -1,22 +1,26 @@
 //! `sipnpuff run`: the main job.
 
+use std::io;
 use std::path::PathBuf;
-use std::process::ExitCode;
-use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
+
+use anyhow::Context;
 
 use crate::arm::sim::SimArm;
 use crate::arm::{Arm, ArmSpec};
 use crate::cli::args::{
     ConfigArg, InterfaceArg, RtArgs, parse_seconds, with_interface, writable_dir,
 };
+use crate::cli::output::{self, StdoutEvents};
+#[cfg(test)]
 use crate::config::Config;
-use crate::control::event::TimedEvent;
+use crate::rt::control_loop::StopReason;
 use crate::rt::report::RunReport;
+use crate::rt::signals;
+use crate::rt::stop::StopRequest;
 use crate::rt::threads::{RunOptions, run as run_loop};
+use crate::sensor::SensorSpec;
 use crate::sensor::csv::CsvSensor;
 use crate::sensor::synthetic::SyntheticSensor;
-use crate::sensor::{Sensor, SensorSpec};
 
 /// `run`'s options.
 #[derive(clap::Args, Debug)]
@@ -47,8 +51,11 @@ pub struct RunArgs {
 }
 
 /// Runs the loop with the chosen sensor and arm; prints events as they
-/// happen, then the report. Fails if the sensor or arm failed on the way.
-pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
+/// happen, then the report. Returns the exit status ([`output`]): 0
+/// completed, 1 failed, 128 + N stopped by signal N, 141 stdout's reader
+/// went away. If stdout fails, the arm is stopped safely and the report
+/// goes to stderr.
+pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     let config = with_interface(args.config.load()?, args.interface)?;
     if let Some(dir) = &args.histogram_dir {
         writable_dir(dir)?;
@@ -57,58 +64,192 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         seconds: args.seconds,
         rt: args.rt.options()?,
         spin_margin_ns: args.rt.spin_margin_ns(),
-        stop: stop_flag()?,
+        stop: stop_request()?,
     };
     // The backends, one line each.
     let arm: Box<dyn Arm> = match args.arm {
         ArmSpec::Sim => Box::new(SimArm::new(config.core())),
     };
+    let mut events = StdoutEvents::default();
     let report = match &args.sensor {
-        SensorSpec::Synthetic => run_on(
-            &config,
+        SensorSpec::Synthetic => run_loop(
+            config.core(),
             SyntheticSensor::built_in_user(&config),
             arm,
             &options,
+            &mut events,
         )?,
-        SensorSpec::Csv(path) => run_on(&config, CsvSensor::open(path)?, arm, &options)?,
+        SensorSpec::Csv(path) => run_loop(
+            config.core(),
+            CsvSensor::open(path)?,
+            arm,
+            &options,
+            &mut events,
+        )?,
     };
-    if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+    let text = if args.json {
+        serde_json::to_string(&report)? + "\n"
     } else {
-        print!("{}", report.to_text());
+        report.to_text()
+    };
+    // The report on stdout while it works; on stderr, saying why, if not.
+    let mut stdout_failed = events.failed;
+    let why = match (&report.output_error, stdout_failed) {
+        (Some(error), _) if report.stop_reason == StopReason::OutputFailed => Some(format!(
+            "stdout failed ({error}): stopped printing and stopped the arm safely"
+        )),
+        (Some(error), _) => Some(format!("stdout failed ({error}): stopped printing")),
+        (None, Some(kind)) => Some(format!("stdout failed ({kind})")),
+        (None, None) => match output::stdout(&text) {
+            Ok(()) => None,
+            Err(e) => {
+                stdout_failed = Some(e.kind());
+                Some(format!("stdout failed ({e}) while printing the report"))
+            }
+        },
+    };
+    if let Some(why) = why {
+        note!("sipnpuff: {why}; the report follows on stderr");
+        output::progress(format_args!("{text}"));
     }
+    let mut histograms_failed = false;
     if let Some(dir) = &args.histogram_dir {
-        for path in report.write_histograms(dir)? {
-            eprintln!("wrote {}", path.display());
+        match report.write_histograms(dir) {
+            Ok(paths) => {
+                for path in paths {
+                    note!("wrote {}", path.display());
+                }
+            }
+            Err(e) => {
+                note!("error: --histogram-dir {}: {e}", dir.display());
+                histograms_failed = true;
+            }
         }
     }
-    Ok(if report.errors.is_empty() {
-        ExitCode::SUCCESS
+    let status = exit_status(&report, stdout_failed);
+    Ok(if histograms_failed && status == output::COMPLETED {
+        output::FAILED
     } else {
-        ExitCode::FAILURE
+        status
     })
 }
 
-/// The loop on one sensor, printing each event as a JSON line.
-fn run_on(
-    config: &Config,
-    sensor: impl Sensor,
-    arm: Box<dyn Arm>,
-    options: &RunOptions,
-) -> anyhow::Result<RunReport> {
-    let print = |event: &TimedEvent| match serde_json::to_string(event) {
-        Ok(line) => println!("{line}"),
-        Err(e) => eprintln!("cannot write an event: {e}"),
+/// The exit status of a finished run whose stdout failed with
+/// `stdout_failed`, if it did. A fault, or a safe stop that did not end
+/// the stream with a zero command, is a failure whatever stopped the run;
+/// otherwise the status says what stopped it: a signal (128 + N), the
+/// reader of stdout gone (141), another failed output (1), or the run's
+/// own end (0, or the output's status if the report could not be
+/// printed).
+pub fn exit_status(report: &RunReport, stdout_failed: Option<io::ErrorKind>) -> u8 {
+    let output_status = |kind: Option<io::ErrorKind>| match kind {
+        Some(io::ErrorKind::BrokenPipe) => output::BROKEN_PIPE,
+        Some(_) => output::FAILED,
+        None => output::COMPLETED,
     };
-    Ok(run_loop(config.core(), sensor, arm, options, print)?)
+    if !report.errors.is_empty() || !report.stream_ended_with_zero {
+        return output::FAILED;
+    }
+    match report.stop_reason {
+        StopReason::Signal(n) => output::interrupted(n),
+        StopReason::ArmFault | StopReason::Running => output::FAILED,
+        StopReason::OutputFailed => match stdout_failed {
+            None => output::FAILED,
+            kind => output_status(kind),
+        },
+        StopReason::Time | StopReason::SensorEnded => output_status(stdout_failed),
+    }
 }
 
-/// SIGINT and SIGTERM request a safe stop; a second one exits at once.
-pub fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
-    let stop = Arc::new(AtomicBool::new(false));
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register_conditional_shutdown(signal, 130, stop.clone())?;
-        signal_hook::flag::register(signal, stop.clone())?;
-    }
+/// A stop request that every stop signal sets ([`signals`]): from here on
+/// SIGINT, SIGTERM, SIGHUP, SIGQUIT and the others stop the run safely;
+/// a repeated signal does not cut the safe stop short.
+pub fn stop_request() -> anyhow::Result<StopRequest> {
+    let stop = StopRequest::new();
+    signals::install(&stop).context("cannot install the signal handlers")?;
     Ok(stop)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use crate::arm::sim::SimArm;
+    use crate::rt::threads::RunOptions;
+
+    /// A real report of a short run, to vary.
+    fn report() -> RunReport {
+        let config = Config::default();
+        let options = RunOptions {
+            seconds: Some(0.05),
+            rt: crate::rt::setup::RtOptions {
+                fifo_priority: None,
+                cpu: None,
+                lock_memory: false,
+                timer_slack: false,
+                cpu_dma_latency: false,
+            },
+            spin_margin_ns: None,
+            stop: StopRequest::new(),
+        };
+        let sensor = SyntheticSensor::built_in_user(&config);
+        let arm = Box::new(SimArm::new(config.core()));
+        run_loop(config.core(), sensor, arm, &options, &mut |_: &_| {}).unwrap()
+    }
+
+    #[test]
+    fn exit_statuses_say_what_stopped_the_run_and_faults_win() {
+        let base = report();
+        assert_eq!(base.stop_reason, StopReason::Time);
+        let with = |reason: StopReason, errors: &[&str], zero: bool| RunReport {
+            stop_reason: reason,
+            errors: errors.iter().map(|e| e.to_string()).collect(),
+            stream_ended_with_zero: zero,
+            ..base.clone()
+        };
+        let pipe = Some(io::ErrorKind::BrokenPipe);
+        let full = Some(io::ErrorKind::StorageFull);
+        let table = [
+            (with(StopReason::Time, &[], true), None, 0),
+            (with(StopReason::SensorEnded, &[], true), None, 0),
+            (
+                with(StopReason::SensorEnded, &["sensor: bad row"], true),
+                None,
+                1,
+            ),
+            (with(StopReason::ArmFault, &["arm refused"], true), None, 1),
+            (with(StopReason::Signal(libc::SIGHUP), &[], true), None, 129),
+            (with(StopReason::Signal(libc::SIGINT), &[], true), full, 130),
+            (
+                with(StopReason::Signal(libc::SIGQUIT), &[], true),
+                None,
+                131,
+            ),
+            (
+                with(StopReason::Signal(libc::SIGTERM), &[], true),
+                None,
+                143,
+            ),
+            (
+                with(StopReason::Signal(libc::SIGTERM), &["arm"], true),
+                None,
+                1,
+            ),
+            (with(StopReason::Signal(libc::SIGTERM), &[], false), None, 1),
+            (with(StopReason::OutputFailed, &[], true), pipe, 141),
+            (with(StopReason::OutputFailed, &[], true), full, 1),
+            (with(StopReason::Time, &[], true), pipe, 141),
+            (with(StopReason::Time, &[], true), full, 1),
+        ];
+        for (report, failed, status) in table {
+            assert_eq!(
+                exit_status(&report, failed),
+                status,
+                "{} {:?} {:?}",
+                report.stop_reason,
+                report.errors,
+                failed
+            );
+        }
+    }
 }

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 
 use crate::cli::args::ConfigArg;
+use crate::cli::output;
 use crate::sim::study::{
     StudyOptions, StudyReport, SweepParam, plot, run_study, study_text, sweep, sweep_text,
 };
@@ -41,32 +42,33 @@ pub fn study(args: StudyArgs) -> anyhow::Result<()> {
     };
     if let Some(param) = args.sweep {
         let rows = sweep(&config, &options, param, |label, done, total| {
-            eprint!("\r{label}: {done}/{total} runs   ");
+            progress!("\r{label}: {done}/{total} runs   ");
         })?;
-        eprintln!();
+        note!();
         if args.json {
-            println!("{}", serde_json::to_string(&rows)?);
+            output::stdout_line(&serde_json::to_string(&rows)?)
         } else {
-            print!("{}", sweep_text(param, &rows));
+            output::stdout(&sweep_text(param, &rows))
         }
+        .context("stdout")?;
         return Ok(());
     }
     let results = run_study(&config, &options, |done, total| {
-        eprint!("\r{done}/{total} runs");
+        progress!("\r{done}/{total} runs");
     })?;
-    eprintln!();
+    note!();
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string(&StudyReport::of(&results, &options))?
-        );
+        output::stdout_line(&serde_json::to_string(&StudyReport::of(
+            &results, &options,
+        ))?)
     } else {
-        print!("{}", study_text(&results, &options));
+        output::stdout(&study_text(&results, &options))
     }
+    .context("stdout")?;
     if let Some(path) = args.plot {
         std::fs::write(&path, plot::completion_svg(&results))
             .with_context(|| format!("cannot write {}", path.display()))?;
-        eprintln!("wrote {}", path.display());
+        note!("wrote {}", path.display());
     }
     Ok(())
 }

@@ -12,12 +12,9 @@
 //! ([`run_simulated`](super::threads::run_simulated)) is the same code on a
 //! simulated clock.
 
-use std::fmt;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
-
-use serde::{Serialize, Serializer};
 
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
@@ -26,6 +23,8 @@ use crate::rt::alloc_counter;
 use crate::rt::clock::Clock;
 use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
 use crate::rt::setup::{RtOptions, Setting, setup_current_thread};
+pub use crate::rt::stop::StopReason;
+use crate::rt::stop::StopRequest;
 use crate::rt::telemetry::{Drops, TickRecord};
 use crate::sensor::Samples;
 
@@ -36,41 +35,6 @@ pub const PERIOD_NS: u64 = 1_000_000;
 pub const STILL_TICKS: u64 = 20;
 /// Longest a safe stop may take before the loop ends anyway, ticks.
 pub const MAX_STOP_TICKS: u64 = 5000;
-
-/// Why a run ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum StopReason {
-    /// Not stopped (yet).
-    #[default]
-    Running,
-    /// SIGINT or SIGTERM.
-    Signal,
-    /// The arm failed (its stream was ended at once).
-    ArmFault,
-    /// The requested run time passed.
-    Time,
-    /// The sensor's recording or script ended.
-    SensorEnded,
-}
-
-impl fmt::Display for StopReason {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            StopReason::Running => "running",
-            StopReason::Signal => "signal",
-            StopReason::ArmFault => "arm fault",
-            StopReason::Time => "time",
-            StopReason::SensorEnded => "sensor ended",
-        })
-    }
-}
-
-/// Written as its words.
-impl Serialize for StopReason {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        serializer.collect_str(self)
-    }
-}
 
 /// What one tick of work says to the loop. `Copy`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -96,6 +60,11 @@ pub struct WorkSummary {
     pub final_velocity: [f64; 7],
     /// The last command pushed to the arm.
     pub last_arm_command: ArmCommand,
+    /// The commanded twist on the tick the stop began.
+    pub velocity_at_stop: [f64; 7],
+    /// Ticks from the start of the stop to the first still tick: the brake
+    /// (0 if the arm was already still).
+    pub braking_ticks: u64,
 }
 
 /// One tick of work at each deadline. RT-safe: implementations must not
@@ -138,6 +107,8 @@ pub struct ControlTick<S: Samples> {
     still_ticks: u64,
     final_velocity: [f64; 7],
     last_arm_command: ArmCommand,
+    velocity_at_stop: [f64; 7],
+    braking_ticks: Option<u64>,
 }
 
 impl<S: Samples> ControlTick<S> {
@@ -156,6 +127,8 @@ impl<S: Samples> ControlTick<S> {
             still_ticks: 0,
             final_velocity: [0.0; 7],
             last_arm_command: ArmCommand::default(),
+            velocity_at_stop: [0.0; 7],
+            braking_ticks: None,
         }
     }
 
@@ -210,6 +183,7 @@ impl<S: Samples> TickWork for ControlTick<S> {
                 // Ruckig under the usual limits.
                 self.stop_reason = reason;
                 self.stopping_since = Some(wake.tick);
+                self.velocity_at_stop = out.motion.velocity();
                 self.core.begin_stop();
             }
         }
@@ -222,6 +196,9 @@ impl<S: Samples> TickWork for ControlTick<S> {
             } else {
                 0
             };
+            if self.braking_ticks.is_none() && out.motion.is_still() {
+                self.braking_ticks = Some(wake.tick.saturating_sub(since));
+            }
             let quiet = self.still_ticks >= STILL_TICKS && self.last_arm_command.is_zero();
             finished = quiet || wake.tick.saturating_sub(since) >= MAX_STOP_TICKS;
         }
@@ -243,6 +220,8 @@ impl<S: Samples> TickWork for ControlTick<S> {
             stop_reason: self.stop_reason,
             final_velocity: self.final_velocity,
             last_arm_command: self.last_arm_command,
+            velocity_at_stop: self.velocity_at_stop,
+            braking_ticks: self.braking_ticks.unwrap_or(0),
         }
     }
 }
@@ -256,8 +235,8 @@ pub struct LoopOptions {
     pub rt: RtOptions,
     /// Hybrid wait: sleep until this long before each deadline, then spin.
     pub spin_margin_ns: Option<u64>,
-    /// Set (by a signal handler) to request a safe stop.
-    pub stop: Arc<AtomicBool>,
+    /// A safe stop requested (by a signal handler, a failed output).
+    pub stop: StopRequest,
     /// Set by the arm thread when the arm failed.
     pub arm_fault: Arc<AtomicBool>,
 }
@@ -307,8 +286,8 @@ pub fn control_loop<C: Clock, W: TickWork>(
         // when built in (`.ci/run`), and the guard ends the region before
         // the next deadline sleep.
         let _realtime = rtsan_standalone::ScopedSanitizeRealtime::default();
-        let stop = if options.stop.load(Ordering::Relaxed) {
-            Some(StopReason::Signal)
+        let stop = if let Some(reason) = options.stop.reason() {
+            Some(reason)
         } else if options.arm_fault.load(Ordering::Relaxed) {
             Some(StopReason::ArmFault)
         } else if options.limit_ticks.is_some_and(|n| wake.tick + 1 >= n) {

@@ -6,6 +6,8 @@
 //!
 //! * [`clock`], [`scheduler`]: absolute deadlines, skip accounting;
 //! * [`setup`]: SCHED_FIFO, affinity, mlockall, each step reported;
+//! * [`stop`], [`signals`]: why a run stops; stop requests, from signals
+//!   (which ones, and their handlers) and failed outputs;
 //! * [`control_loop`]: the 1 kHz loop and the production tick;
 //! * [`arm_thread`]: the 100 Hz arm stream;
 //! * [`threads`]: `run`, wiring the threads and rings;
@@ -20,5 +22,7 @@ pub mod control_loop;
 pub mod report;
 pub mod scheduler;
 pub mod setup;
+pub mod signals;
+pub mod stop;
 pub mod telemetry;
 pub mod threads;

@@ -51,6 +51,15 @@ pub struct RunReport {
     pub last_arm_command: ArmCommand,
     /// The last commanded twist `[v (3), ω (3), fingers]`.
     pub final_velocity: [f64; 7],
+    /// The commanded twist when the stop began.
+    pub velocity_at_stop: [f64; 7],
+    /// Ticks (ms) the brake took from the start of the stop to still (0:
+    /// the arm was still).
+    pub braking_ticks: u64,
+    /// The event output failed (stdout closed, a full disk), and why: the
+    /// run was stopped safely (`stop_reason` "output failed", unless it
+    /// was stopping already) and later events were not written.
+    pub output_error: Option<String>,
     /// Wall time of the loop, s.
     pub wall_seconds: f64,
     /// Process CPU time over wall time, %.
@@ -133,6 +142,15 @@ impl RunReport {
                 );
             }
         }
+        let v = self.velocity_at_stop;
+        if v == [0.0; 7] {
+            s += "safe stop: the arm was still when it began\n";
+        } else {
+            s += &format!(
+                "safe stop: braked from linear ({}, {}, {}) m/s, angular ({}, {}, {}) rad/s, fingers {} units/s to still in {} ticks\n",
+                v[0], v[1], v[2], v[3], v[4], v[5], v[6], self.braking_ticks
+            );
+        }
         let v = self.final_velocity;
         s += &format!(
             "final commanded velocity: linear ({}, {}, {}) m/s, angular ({}, {}, {}) rad/s, fingers {} units/s; last arm command zero: {}\n",
@@ -149,6 +167,9 @@ impl RunReport {
             "stream ended with a zero command and the arm stopped: {}\n",
             self.stream_ended_with_zero
         );
+        if let Some(error) = &self.output_error {
+            s += &format!("OUTPUT FAILED: {error}; later events were not written\n");
+        }
         for error in &self.errors {
             s += &format!("ERROR: {error}\n");
         }

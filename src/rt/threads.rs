@@ -13,13 +13,15 @@
 //!
 //! Every ring is bounded and allocated before the loop; a full ring never
 //! blocks the control thread: the item is dropped and counted (see
-//! [`Drops`]), and the counts are in the report. Safe stop (SIGINT,
-//! SIGTERM, the end of the run, an arm error): the core goes to detection
-//! mode for good, the arm brakes through Ruckig, and the loop runs on until
-//! the motion has been still for two arm cycles; then the command stream
-//! ends with a zero command and the arm is stopped.
+//! [`Drops`]), and the counts are in the report. Safe stop (a signal, see
+//! [`signals`](super::signals); the end of the run; an arm error; an
+//! output that failed): the core goes to detection mode for good, the arm
+//! brakes through Ruckig, and the loop runs on until the motion has been
+//! still for two arm cycles; then the command stream ends with a zero
+//! command and the arm is stopped.
 
 use std::fmt;
+use std::io;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::thread;
@@ -39,6 +41,7 @@ use crate::rt::control_loop::{
 };
 use crate::rt::report::RunReport;
 use crate::rt::setup::RtOptions;
+use crate::rt::stop::StopRequest;
 use crate::rt::telemetry::{Drops, Latencies, TickRecord};
 use crate::sensor::{Samples, Sensor, SensorError};
 
@@ -55,8 +58,33 @@ pub struct RunOptions {
     pub rt: RtOptions,
     /// Hybrid wait: sleep until this long before each deadline, then spin.
     pub spin_margin_ns: Option<u64>,
-    /// Set by a signal handler to request a safe stop.
-    pub stop: Arc<AtomicBool>,
+    /// A safe stop requested: by a signal handler ([`signals::install`](super::signals::install)),
+    /// or by `run` itself when its output fails.
+    pub stop: StopRequest,
+}
+
+/// Where `run`'s events go, on the telemetry thread (not RT-safe). An
+/// error from either method means the output has failed: the run stops
+/// safely ([`StopReason::OutputFailed`]), the sink is called no more, and
+/// the error is in the report.
+pub trait EventSink {
+    /// Writes one event.
+    fn event(&mut self, event: &TimedEvent) -> io::Result<()>;
+
+    /// Called every few milliseconds while the run goes on, between
+    /// events: an error if the output is already known dead (a closed
+    /// pipe) before anything is written to it.
+    fn check(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+/// A closure is a sink that never fails (tests, benches).
+impl<F: FnMut(&TimedEvent)> EventSink for F {
+    fn event(&mut self, event: &TimedEvent) -> io::Result<()> {
+        self(event);
+        Ok(())
+    }
 }
 
 /// Why a run could not start or finish.
@@ -109,16 +137,16 @@ impl Rings {
 }
 
 /// Runs the control loop with its threads until it ends; this thread is
-/// the telemetry thread and calls `on_event` for each event as it
-/// arrives.
+/// the telemetry thread and gives `sink` each event as it arrives. If the
+/// sink fails, the run stops safely and says so in its report.
 pub fn run<S: Sensor>(
     config: &CoreConfig,
     sensor: S,
     arm: Box<dyn Arm>,
     options: &RunOptions,
-    on_event: impl FnMut(&TimedEvent),
+    sink: &mut impl EventSink,
 ) -> Result<RunReport, RunError> {
-    run_with(config, sensor, arm, options, on_event, |tick| tick)
+    run_with(config, sensor, arm, options, sink, |tick| tick)
 }
 
 /// [`run`], with the production tick wrapped by `wrap` (as `bench
@@ -128,7 +156,7 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
     sensor: S,
     arm: Box<dyn Arm>,
     options: &RunOptions,
-    mut on_event: impl FnMut(&TimedEvent),
+    sink: &mut impl EventSink,
     wrap: impl FnOnce(ControlTick<S::Samples>) -> W + Send + 'static,
 ) -> Result<RunReport, RunError> {
     let Rings {
@@ -167,6 +195,7 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
         stop: options.stop.clone(),
         arm_fault,
     };
+    let stop = options.stop.clone();
     let control = thread::Builder::new()
         .name("control".into())
         .spawn(move || {
@@ -189,11 +218,25 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
     let mut full = Latencies::default();
     let mut reference = Latencies::default();
     let mut events = 0u64;
+    // The first failure of the sink: the run stops safely, nothing more is
+    // written to it.
+    let mut output_error: Option<io::Error> = None;
     let mut drain = |record_rx: &mut rtrb::Consumer<TickRecord>,
                      event_rx: &mut rtrb::Consumer<TimedEvent>| {
+        if output_error.is_none()
+            && let Err(e) = sink.check()
+        {
+            output_error = Some(e);
+            stop.output_failed();
+        }
         while let Ok(event) = event_rx.pop() {
             events += 1;
-            on_event(&event);
+            if output_error.is_none()
+                && let Err(e) = sink.event(&event)
+            {
+                output_error = Some(e);
+                stop.output_failed();
+            }
         }
         while let Ok(record) = record_rx.pop() {
             if record.reference {
@@ -243,6 +286,9 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
         stream_ended_with_zero: arm.ended_with_zero,
         last_arm_command: result.work.last_arm_command,
         final_velocity: result.work.final_velocity,
+        velocity_at_stop: result.work.velocity_at_stop,
+        braking_ticks: result.work.braking_ticks,
+        output_error: output_error.map(|e| e.to_string()),
         wall_seconds: result.wall_seconds,
         cpu_percent,
         errors,
@@ -304,7 +350,7 @@ pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRu
             cpu_dma_latency: false,
         },
         spin_margin_ns: None,
-        stop: Arc::new(AtomicBool::new(false)),
+        stop: StopRequest::new(),
         arm_fault: Arc::new(AtomicBool::new(false)),
     };
     let mut work = ControlTick::new(Pipeline::new(config), samples, outputs, true);

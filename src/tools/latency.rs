@@ -9,6 +9,7 @@ use serde::Serialize;
 
 use crate::arm::Arm;
 use crate::config::Config;
+use crate::control::event::TimedEvent;
 use crate::rt::control_loop::{StopReason, TickOutcome, TickWork, WorkSummary};
 use crate::rt::report::RunReport;
 use crate::rt::scheduler::Wake;
@@ -80,7 +81,7 @@ pub fn bench_latency<S: Sensor>(
         sensor,
         arm,
         &options,
-        |_| {},
+        &mut |_: &TimedEvent| {},
         move |tick| Interleaved::new(tick.with_own_tick_count(), block),
     )
 }

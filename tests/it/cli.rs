@@ -217,3 +217,413 @@ fn bench_accuracy_json_has_every_field_of_the_tally() {
     assert_eq!(keys, fields);
     assert_eq!(cell["correct"], cell["scripted"]);
 }
+
+// ---------------------------------------------------------------- exits
+//
+// Every way `run` stops brakes and reports (issue 11 h). These spawn the
+// real binary with the synthetic sensor, whose scripted user selects
+// `translate_x` and then holds a 1.5 s puff: the arm moves forward. Waits
+// are for events, never wall-clock bounds on the run.
+
+/// `run`'s arguments for these tests: long enough never to end by itself,
+/// without SCHED_FIFO or locked memory (several run at once).
+const LONG_RUN: [&str; 6] = ["run", "--seconds", "60", "--priority", "0", "--no-mlock"];
+
+/// A `run` whose stdout lines arrive on a channel.
+struct Running {
+    child: std::process::Child,
+    lines: std::sync::mpsc::Receiver<String>,
+    seen: Vec<String>,
+}
+
+impl Running {
+    fn start(extra: &[&str]) -> Running {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+            .args(LONG_RUN)
+            .args(extra)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("the sipnpuff binary runs");
+        let stdout = child.stdout.take().unwrap();
+        let (tx, lines) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            use std::io::BufRead;
+            for line in std::io::BufReader::new(stdout).lines() {
+                let Ok(line) = line else { break };
+                if tx.send(line).is_err() {
+                    break; // the test closed its end: stdout's reader is gone
+                }
+            }
+        });
+        Running {
+            child,
+            lines,
+            seen: Vec::new(),
+        }
+    }
+
+    /// Reads stdout until a line contains `text`.
+    fn wait_for(&mut self, text: &str) {
+        loop {
+            let line = self
+                .lines
+                .recv()
+                .unwrap_or_else(|_| panic!("stdout ended before {text:?}:\n{}", self.text()));
+            let found = line.contains(text);
+            self.seen.push(line);
+            if found {
+                return;
+            }
+        }
+    }
+
+    /// Waits until the arm is moving forward: `translate_x` selected, then
+    /// 0.9 s into the scripted user's 1.5 s puff (it starts about 0.66 s
+    /// after the match). `velocity_at_stop` in the report proves it.
+    fn wait_until_moving(&mut self) {
+        self.wait_for("\"mode\":\"translate_x\"");
+        std::thread::sleep(std::time::Duration::from_millis(900));
+    }
+
+    fn signal(&self, signal: libc::c_int) {
+        // SAFETY: kill with a valid pid and signal number has no memory effects.
+        let rc = unsafe { libc::kill(self.child.id() as libc::pid_t, signal) };
+        assert_eq!(rc, 0);
+    }
+
+    /// Waits for the exit; returns (status, stdout lines, stderr).
+    fn finish(mut self) -> (std::process::ExitStatus, Vec<String>, String) {
+        let mut stderr = String::new();
+        std::io::Read::read_to_string(self.child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+        let status = self.child.wait().unwrap();
+        self.seen.extend(self.lines.iter());
+        (status, self.seen, stderr)
+    }
+
+    fn text(&self) -> String {
+        self.seen.join("\n")
+    }
+}
+
+/// The `--json` report (the last JSON object in `text`).
+fn json_report(text: &str) -> serde_json::Value {
+    let line = text
+        .lines()
+        .rev()
+        .find(|l| l.starts_with("{\"sensor\""))
+        .unwrap_or_else(|| panic!("no JSON report in\n{text}"));
+    serde_json::from_str(line).unwrap()
+}
+
+/// The report says the arm was moving when the stop began, braked over
+/// more than one 10 ms arm cycle (no jump to zero), ended still and the
+/// stream ended with a zero command.
+fn assert_braked_to_zero(report: &serde_json::Value) {
+    let moving = report["velocity_at_stop"].as_array().unwrap();
+    assert!(
+        moving[0].as_f64().unwrap() > 0.0,
+        "the arm was moving forward when the stop began: {report}"
+    );
+    let braking = report["braking_ticks"].as_u64().unwrap();
+    assert!(braking > 10, "braked over {braking} ticks: {report}");
+    for v in report["final_velocity"].as_array().unwrap() {
+        assert_eq!(v.as_f64(), Some(0.0), "{report}");
+    }
+    let last = &report["last_arm_command"];
+    assert_eq!(
+        last["linear"],
+        serde_json::json!([0.0, 0.0, 0.0]),
+        "{report}"
+    );
+    assert_eq!(
+        last["angular"],
+        serde_json::json!([0.0, 0.0, 0.0]),
+        "{report}"
+    );
+    assert_eq!(last["fingers"], serde_json::json!(0.0), "{report}");
+    assert_eq!(report["stream_ended_with_zero"], true, "{report}");
+    assert_eq!(report["errors"], serde_json::json!([]), "{report}");
+}
+
+/// A signal while the arm moves: the safe stop, the report naming the
+/// signal, exit status 128 + the signal's number.
+fn signal_mid_motion(signal: libc::c_int, name: &str) {
+    let mut run = Running::start(&["--json"]);
+    run.wait_until_moving();
+    run.signal(signal);
+    let (status, lines, stderr) = run.finish();
+    let text = lines.join("\n");
+    assert_eq!(
+        status.code(),
+        Some(128 + signal),
+        "{name}: {status}\n{text}\n{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(
+        text.contains("\"event\":\"detection\",\"reason\":\"stop\""),
+        "{text}"
+    );
+    let report = json_report(&text);
+    assert_eq!(report["stop_reason"], format!("signal {name}"), "{report}");
+    assert_braked_to_zero(&report);
+}
+
+#[test]
+fn sighup_mid_motion_brakes_reports_and_exits_129() {
+    signal_mid_motion(libc::SIGHUP, "SIGHUP");
+}
+
+#[test]
+fn sigint_mid_motion_brakes_reports_and_exits_130() {
+    signal_mid_motion(libc::SIGINT, "SIGINT");
+}
+
+#[test]
+fn sigquit_mid_motion_brakes_reports_and_exits_131() {
+    signal_mid_motion(libc::SIGQUIT, "SIGQUIT");
+}
+
+#[test]
+fn sigterm_mid_motion_brakes_reports_and_exits_143() {
+    signal_mid_motion(libc::SIGTERM, "SIGTERM");
+}
+
+/// A second signal (a closed SSH session can send SIGHUP twice: from the
+/// kernel and from the shell) does not cut the safe stop short.
+#[test]
+fn a_second_signal_does_not_cut_the_safe_stop_short() {
+    let mut run = Running::start(&["--json"]);
+    run.wait_until_moving();
+    run.signal(libc::SIGHUP);
+    // The stop has begun (signals sent back to back may be taken by
+    // different threads in either order): the brake is under way.
+    run.wait_for("\"event\":\"detection\",\"reason\":\"stop\"");
+    run.signal(libc::SIGHUP);
+    run.signal(libc::SIGTERM);
+    run.signal(libc::SIGINT);
+    let (status, lines, stderr) = run.finish();
+    let text = lines.join("\n");
+    assert_eq!(status.code(), Some(129), "{status}\n{text}\n{stderr}");
+    let report = json_report(&text);
+    assert_eq!(report["stop_reason"], "signal SIGHUP", "{report}");
+    assert_braked_to_zero(&report);
+}
+
+/// `sipnpuff run | head -3`: stdout's reader goes away. No panic; the safe
+/// stop; the report on stderr, saying why; exit 141 (as SIGPIPE).
+#[test]
+fn run_piped_into_head_stops_safely_and_reports_on_stderr() {
+    let mut run = Running::start(&[]);
+    for _ in 0..3 {
+        let line = run.lines.recv().expect("three event lines");
+        run.seen.push(line);
+    }
+    // Close our end of the pipe, as `head -3` exits.
+    let Running {
+        child,
+        lines,
+        mut seen,
+    } = run;
+    drop(lines);
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    seen.truncate(3);
+    assert_eq!(out.status.code(), Some(141), "{}\n{stderr}", out.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(
+        stderr.contains("stdout failed") && stderr.contains("the report follows on stderr"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("== sipnpuff run report"), "{stderr}");
+    assert!(stderr.contains("stopped by: output failed"), "{stderr}");
+    assert!(
+        stderr.contains("final commanded velocity: linear (0, 0, 0) m/s, angular (0, 0, 0) rad/s, fingers 0 units/s; last arm command zero: true"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("stream ended with a zero command and the arm stopped: true"),
+        "{stderr}"
+    );
+}
+
+/// Stdout's reader goes away while the arm moves: noticed without waiting
+/// for the next event to print, the arm brakes, the JSON report goes to
+/// stderr.
+#[test]
+fn stdout_closed_mid_motion_brakes_and_reports_on_stderr() {
+    let mut run = Running::start(&["--json"]);
+    run.wait_until_moving();
+    let Running { child, lines, .. } = run;
+    drop(lines);
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(141), "{}\n{stderr}", out.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let report = json_report(&stderr);
+    assert_eq!(report["stop_reason"], "output failed", "{report}");
+    assert!(
+        report["output_error"]
+            .as_str()
+            .is_some_and(|e| e.starts_with("stdout")),
+        "{report}"
+    );
+    assert_braked_to_zero(&report);
+}
+
+/// `sipnpuff run > /dev/full` (a full disk): the first event cannot be
+/// written; the safe stop, the report on stderr, exit 1 (failed).
+#[test]
+fn run_onto_a_full_disk_stops_safely_and_fails() {
+    let full = std::fs::File::options()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+        .args(LONG_RUN)
+        .stdout(full)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{}\n{stderr}", out.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(stderr.contains("No space left on device"), "{stderr}");
+    assert!(stderr.contains("stopped by: output failed"), "{stderr}");
+    assert!(
+        stderr.contains("stream ended with a zero command and the arm stopped: true"),
+        "{stderr}"
+    );
+}
+
+/// Runs `args` with stdout (or stderr) a pipe whose reader has already
+/// gone.
+fn with_closed(args: &[&str], close_stderr: bool) -> Output {
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let mut command = Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
+    command.args(args);
+    if close_stderr {
+        command.stderr(writer);
+    } else {
+        command.stdout(writer);
+    }
+    command.output().unwrap()
+}
+
+#[test]
+fn config_into_a_closed_pipe_exits_141_without_panicking() {
+    let out = with_closed(&["config"], false);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(141), "{}\n{stderr}", out.status);
+    assert!(stderr.is_empty(), "{stderr}");
+}
+
+#[test]
+fn reports_into_a_closed_pipe_exit_141_without_panicking() {
+    let dir = scratch("closed");
+    let signal = dir.join("s.csv");
+    // The demo user: replay has events to print.
+    let generated = sipnpuff(&["generate", "--out", signal.to_str().unwrap(), "--demo"]);
+    assert!(generated.status.success());
+    for args in [
+        vec!["replay", signal.to_str().unwrap()],
+        vec!["bench", "tick", "--seconds", "1"],
+        vec!["bench", "tick", "--seconds", "1", "--json"],
+        vec![
+            "bench",
+            "accuracy",
+            "--seconds",
+            "2",
+            "--noise-volts",
+            "0",
+            "--hum-volts",
+            "0",
+        ],
+    ] {
+        let out = with_closed(&args, false);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(
+            out.status.code(),
+            Some(141),
+            "{args:?}: {}\n{stderr}",
+            out.status
+        );
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A closed stderr (progress and summaries go there) is no reason to fail.
+#[test]
+fn a_closed_stderr_does_not_fail_a_command() {
+    let dir = scratch("closed-stderr");
+    let signal = dir.join("s.csv");
+    let out = with_closed(
+        &[
+            "generate",
+            "--out",
+            signal.to_str().unwrap(),
+            "--seconds",
+            "2",
+        ],
+        true,
+    );
+    assert_eq!(out.status.code(), Some(0), "{}", out.status);
+    assert!(signal.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A full disk under `replay --events`/`--trace`: an error naming it, exit
+/// 1, no panic.
+#[test]
+fn replay_onto_a_full_disk_fails_cleanly() {
+    let dir = scratch("replay-full");
+    let signal = dir.join("s.csv");
+    assert!(
+        sipnpuff(&["generate", "--out", signal.to_str().unwrap(), "--demo"])
+            .status
+            .success()
+    );
+    for output in ["--events", "--trace"] {
+        let out = sipnpuff(&["replay", signal.to_str().unwrap(), output, "/dev/full"]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(
+            out.status.code(),
+            Some(1),
+            "{output}: {}\n{stderr}",
+            out.status
+        );
+        assert!(stderr.contains("No space left on device"), "{stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Exit status 2: the command line or the configuration is invalid,
+/// nothing was started (clap's own refusals are 2 as well).
+#[test]
+fn an_invalid_command_line_or_config_exits_2() {
+    let dir = scratch("exit2");
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "[detector]\nmin_burst_ms = -4\n").unwrap();
+    for args in [
+        vec!["run", "--interface", "scan"],
+        vec!["config", "--config", bad.to_str().unwrap()],
+        vec!["run", "--config", bad.to_str().unwrap()],
+        vec!["config", "--config", "/no/such/config.toml"],
+        vec!["run", "--cpu", "4096"],
+    ] {
+        let out = sipnpuff(&args);
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{args:?}: {}\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    // A recording that cannot be opened is a failed start, not a usage error.
+    let out = sipnpuff(&["run", "--sensor", "csv:/no/such/recording.csv"]);
+    assert_eq!(out.status.code(), Some(1), "{}", out.status);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

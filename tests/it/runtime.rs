@@ -5,7 +5,6 @@
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::sync::Mutex;
-use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, mpsc};
 use std::time::Duration;
 
@@ -20,6 +19,7 @@ use sipnpuff::rt::control_loop::StopReason;
 use sipnpuff::rt::report::RunReport;
 use sipnpuff::rt::scheduler::Scheduler;
 use sipnpuff::rt::setup::RtOptions;
+use sipnpuff::rt::stop::StopRequest;
 use sipnpuff::rt::threads::{RunOptions, run};
 use sipnpuff::sensor::synthetic::SyntheticSensor;
 use sipnpuff::sim::script::run_script;
@@ -91,7 +91,7 @@ fn options(seconds: f64) -> RunOptions {
         seconds: Some(seconds),
         rt: RtOptions::default(),
         spin_margin_ns: None,
-        stop: Arc::new(AtomicBool::new(false)),
+        stop: StopRequest::new(),
     }
 }
 
@@ -100,7 +100,14 @@ fn real_run(seconds: f64) -> RunReport {
     let config = Config::default();
     let sensor = SyntheticSensor::built_in_user(&config);
     let arm = Box::new(SimArm::new(config.core()));
-    run(config.core(), sensor, arm, &options(seconds), |_| {}).unwrap()
+    run(
+        config.core(),
+        sensor,
+        arm,
+        &options(seconds),
+        &mut |_: &_| {},
+    )
+    .unwrap()
 }
 
 fn check_structure(report: &RunReport, seconds: f64) {
@@ -210,8 +217,8 @@ fn sigint_stops_safely_with_a_report() {
     reader.join().unwrap();
     seen.extend(lines_rx.try_iter());
     let text = seen.join("\n");
-    assert!(status.success(), "{status}\n{text}");
-    assert!(text.contains("stopped by: signal"), "{text}");
+    assert_eq!(status.code(), Some(130), "{status}\n{text}");
+    assert!(text.contains("stopped by: signal SIGINT"), "{text}");
     assert!(
         text.contains("\"event\":\"detection\",\"reason\":\"stop\""),
         "{text}"
@@ -311,7 +318,7 @@ fn an_arm_that_refuses_a_command_stops_the_run_safely() {
         calls: calls.clone(),
     });
     let sensor = SyntheticSensor::built_in_user(&config);
-    let report = run(config.core(), sensor, arm, &options(60.0), |_| {}).unwrap();
+    let report = run(config.core(), sensor, arm, &options(60.0), &mut |_: &_| {}).unwrap();
     assert_eq!(report.stop_reason, StopReason::ArmFault);
     assert_eq!(report.errors, ["arm refused a command: over current"]);
     assert!(report.stream_ended_with_zero);
