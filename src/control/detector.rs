@@ -15,6 +15,8 @@
 //! * A NaN, infinite or out-of-range sample is a sensor fault: any breath in
 //!   progress is dropped (never turned into a burst) and detection resumes
 //!   only after `fault_recovery_ms` of valid samples at rest.
+//! * A tick more than `stale_ms` after the previous one is a stall of the
+//!   process or machine: a fault, so nothing held across the gap counts.
 //! * A breath longer than `max_hold_ms` is a stuck sensor (stuck at a
 //!   level, grounded, saturated, or its offset shifted): a fault like the
 //!   others. Besides the usual recovery at rest, the level it is stuck at
@@ -57,7 +59,8 @@ pub struct DetectorConfig {
     /// After a fault, the signal must be valid and at rest this long before
     /// detection resumes.
     pub fault_recovery_ms: u32,
-    /// No sample for this long is a sensor fault (stale sensor).
+    /// No sample for this long is a sensor fault (stale sensor), and a
+    /// tick more than this after the previous one is a stall (a fault).
     pub stale_ms: u32,
     /// A breath longer than this is a stuck sensor (a fault): the breath
     /// is dropped and command mode ends.
@@ -149,6 +152,13 @@ pub enum FaultReason {
         /// How long the breath had been held, ms.
         held_ms: u64,
     },
+    /// The tick jumped by more than `stale_ms`: the process or the machine
+    /// stalled (SIGSTOP, a VM pause). Whatever was held across the gap is
+    /// dropped, never measured as a breath.
+    Stalled {
+        /// Time from the previous tick to this one, ms.
+        ms: u64,
+    },
     /// A tick no later than the previous one: time must increase, so the
     /// runtime feeding the core is broken. Everything stops.
     TickNotIncreasing {
@@ -172,6 +182,10 @@ impl fmt::Display for FaultReason {
             FaultReason::Stuck { volts, held_ms } => write!(
                 f,
                 "breath held {held_ms} ms at {volts:.2} V: sensor stuck or offset shifted — arm stopped"
+            ),
+            FaultReason::Stalled { ms } => write!(
+                f,
+                "the control loop stalled for {ms} ms (process stopped or machine paused): samples of the gap discarded — arm stopped"
             ),
             FaultReason::TickNotIncreasing { tick, previous } => write!(
                 f,
@@ -395,6 +409,12 @@ impl BurstDetector {
         }
     }
 
+    /// A gap between ticks longer than this (ms) is a stall: the runtime
+    /// throws away what its sensor queued meanwhile.
+    pub fn stale_ms(&self) -> u64 {
+        self.stale
+    }
+
     /// The neutral voltage as currently tracked.
     pub fn neutral_volts(&self) -> f64 {
         self.neutral
@@ -448,7 +468,9 @@ impl BurstDetector {
 
     /// Checks that `now` comes after the last tick, and records it. Time
     /// that went back is a fault; the new count is then followed (the
-    /// sensor recovers on it, as after any fault).
+    /// sensor recovers on it, as after any fault). A jump of more than
+    /// `stale_ms` is a stall of the process or machine: whatever the loop
+    /// missed is gone, so nothing held across it can be measured.
     fn advance_to(&mut self, now: Tick) -> Result<(), FaultReason> {
         let previous = self.last_tick.replace(now);
         match previous {
@@ -456,6 +478,9 @@ impl BurstDetector {
                 tick: now,
                 previous,
             }),
+            Some(previous) if now - previous > self.stale => {
+                Err(FaultReason::Stalled { ms: now - previous })
+            }
             _ => Ok(()),
         }
     }
@@ -1101,5 +1126,35 @@ mod tests {
         s[7000] = f64::NAN;
         s.extend(std::iter::repeat_n(4.0, 10_000));
         assert_eq!(run(&c, &s).len(), 1);
+    }
+
+    #[test]
+    fn a_tick_jump_longer_than_stale_is_a_stall() {
+        let c = DetectorConfig::default(); // stale 50 ms
+        let mut d = BurstDetector::new(&c);
+        for t in 0..600 {
+            d.step(t, 3.8); // a puff held
+        }
+        // A gap of 50 ms (49 ticks missed) is not a stall; 51 ms is.
+        assert_eq!(d.step(649, 3.8).event, None);
+        let out = d.step(700, 3.8);
+        assert_eq!(
+            out.event,
+            Some(DetectorEvent::Fault(FaultReason::Stalled { ms: 51 }))
+        );
+        assert!(out.faulted && out.held == Held::default());
+        // Seen on a tick without a sample too; then rest recovers.
+        let mut d = BurstDetector::new(&c);
+        d.step(0, 2.5);
+        assert_eq!(
+            d.step_missing(2000).event,
+            Some(DetectorEvent::Fault(FaultReason::Stalled { ms: 2000 }))
+        );
+        let events: Vec<_> = (2001..2300).filter_map(|t| d.step(t, 2.5).event).collect();
+        assert_eq!(events, [DetectorEvent::Recovered]);
+        assert_eq!(
+            FaultReason::Stalled { ms: 2000 }.to_string(),
+            "the control loop stalled for 2000 ms (process stopped or machine paused): samples of the gap discarded — arm stopped"
+        );
     }
 }

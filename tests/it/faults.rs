@@ -309,3 +309,83 @@ fn an_offset_shift_on_the_harsh_signal_rezeroes() {
         );
     }
 }
+
+/// A puff held 1500 ms in rotate_z, then the process stalls: the next tick
+/// comes 2000 ms later, the puff still held, and the user goes on. The gap
+/// is a fault on resumption (saying how long it was), the puff is dropped
+/// (never a 3500 ms burst), command mode ends, the motion brakes to zero,
+/// and the signal at rest recovers after `fault_recovery_ms`.
+#[test]
+fn a_stall_is_a_fault_on_resumption_and_nothing_is_stretched_across_it() {
+    let config = Config::default();
+    let mut run = Run::new(&config);
+    run.enter_rotate_z();
+    run.hold(4.0, 1500);
+    assert!(run.speed() > 1.0, "turning before the stall");
+    let resumed = run.tick + 1999; // one tick after the last, 2000 ms later
+    run.tick = resumed;
+    run.hold(4.0, 300); // still puffing after the gap
+    run.hold(2.5, 1000);
+    run.hold(4.0, 150); // the user's next breaths
+    run.hold(2.5, 300);
+    run.hold(4.0, 150);
+    run.hold(2.5, 2000);
+    let fault = run
+        .events
+        .iter()
+        .find(|(_, e)| matches!(e, Event::Fault { .. }))
+        .unwrap_or_else(|| panic!("no fault: {:?}", run.events));
+    assert_eq!(fault.0, resumed, "{:?}", run.events);
+    let Event::Fault { reason } = fault.1 else {
+        unreachable!()
+    };
+    assert!(
+        reason.to_string().contains("stalled for 2000 ms"),
+        "{reason}"
+    );
+    assert!(run.events.contains(&(
+        resumed,
+        Event::Detection {
+            reason: DetectionReason::Fault
+        }
+    )));
+    // Rest from resumed + 300; 250 samples later.
+    assert!(
+        run.events
+            .contains(&(resumed + 300 + 249, Event::Recovered)),
+        "{:?}",
+        run.events
+    );
+    // No burst but the user's two short puffs after recovery, which select
+    // nothing (translate_x needs them, and gets them: detection mode).
+    let found = bursts(&run.events);
+    assert_eq!(found.len(), 2, "{found:?}");
+    assert!(
+        found
+            .iter()
+            .all(|(_, a, ms)| *a == Action::ShortPuff && *ms == 150)
+    );
+    // Motion: braking after the fault, still well before the puffs.
+    let mut check = Run::new(&config);
+    check.enter_rotate_z();
+    check.hold(4.0, 1500);
+    check.tick += 1999;
+    let mut last_moving = 0;
+    check.hold_with(4.0, 2000, |out| {
+        if out
+            .motion
+            .angular
+            .iter()
+            .chain(&out.motion.linear)
+            .any(|v| *v != 0.0)
+        {
+            last_moving = out.tick;
+        }
+        assert_eq!(out.command.state, ModeState::Detection);
+    });
+    assert!(
+        last_moving < check.tick - 1000,
+        "still moving at {last_moving}"
+    );
+    assert_eq!(check.speed(), 0.0);
+}
