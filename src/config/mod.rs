@@ -301,6 +301,46 @@ mod tests {
     }
 
     #[test]
+    fn max_hold_must_exceed_long_and_min_and_rezero_two_windows() {
+        let e = errors("[detector]\nmax_hold_ms = 500\nrezero_ms = 150\n");
+        let keys: Vec<_> = e.iter().map(|e| e.key.as_str()).collect();
+        assert_eq!(
+            keys,
+            ["detector.max_hold_ms", "detector.rezero_ms"],
+            "{e:?}"
+        );
+        assert!(
+            e[0].message
+                .starts_with("500 ms must be greater than detector.long_burst_ms (500 ms)"),
+            "{}",
+            e[0].message
+        );
+        assert!(e[1].message.contains("at least 200 ms"), "{}", e[1].message);
+        let e = errors("[detector]\nmin_burst_ms = 40\nlong_burst_ms = 30\nmax_hold_ms = 35\n");
+        let keys: Vec<_> = e.iter().map(|e| e.key.as_str()).collect();
+        assert_eq!(
+            keys,
+            ["detector.long_burst_ms", "detector.max_hold_ms"],
+            "{e:?}"
+        );
+        assert!(e[1].message.contains("detector.min_burst_ms (40 ms)"));
+        assert!(
+            errors("[detector]\nmax_hold_ms = 0\n")[0]
+                .message
+                .contains("greater than 0")
+        );
+        let c =
+            Config::from_toml_str("[detector]\nmax_hold_ms = 9000\nrezero_ms = 3000\n").unwrap();
+        assert_eq!(
+            (
+                c.core().detector().max_hold_ms,
+                c.core().detector().rezero_ms
+            ),
+            (9000, 3000)
+        );
+    }
+
+    #[test]
     fn long_must_exceed_min_and_glitch_must_be_shorter() {
         let e = errors("[detector]\nmin_burst_ms = 40\nlong_burst_ms = 40\nglitch_ms = 40\n");
         let keys: Vec<_> = e.iter().map(|e| e.key.as_str()).collect();

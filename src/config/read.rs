@@ -108,6 +108,8 @@ impl Reader<'_> {
             fault_margin_volts: t.get("fault_margin_volts", d.fault_margin_volts),
             fault_recovery_ms: t.get("fault_recovery_ms", d.fault_recovery_ms),
             stale_ms: t.get("stale_ms", d.stale_ms),
+            max_hold_ms: t.get("max_hold_ms", d.max_hold_ms),
+            rezero_ms: t.get("rezero_ms", d.rezero_ms),
         };
         t.finish();
         validate::detector(self.problems, &c);

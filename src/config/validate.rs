@@ -9,7 +9,7 @@ use std::collections::HashSet;
 use crate::config::error::ConfigError;
 use crate::control::action::ActionSeq;
 use crate::control::core_config::CoreConfig;
-use crate::control::detector::DetectorConfig;
+use crate::control::detector::{DetectorConfig, REZERO_WINDOW_MS};
 use crate::control::mode::Mode;
 use crate::control::modes::CommandConfig;
 use crate::control::motion::home::HomeConfig;
@@ -163,6 +163,35 @@ pub(super) fn detector(p: &mut Problems, c: &DetectorConfig) {
             format!(
                 "{} ms must be smaller than detector.min_burst_ms ({} ms): a glitch is shorter than any burst",
                 c.glitch_ms, c.min_burst_ms
+            ),
+        );
+    }
+    p.positive_ms("detector.max_hold_ms", c.max_hold_ms);
+    p.positive_ms("detector.rezero_ms", c.rezero_ms);
+    let shorter = if c.max_hold_ms <= c.long_burst_ms {
+        Some(("detector.long_burst_ms", c.long_burst_ms))
+    } else if c.max_hold_ms <= c.min_burst_ms {
+        Some(("detector.min_burst_ms", c.min_burst_ms))
+    } else {
+        None
+    };
+    if let Some((other, value)) = shorter {
+        p.add(
+            "detector.max_hold_ms",
+            format!(
+                "{} ms must be greater than {other} ({value} ms): a breath longer than max_hold_ms is a stuck sensor",
+                c.max_hold_ms
+            ),
+        );
+    }
+    let window = REZERO_WINDOW_MS as u32;
+    if c.rezero_ms < 2 * window {
+        p.add(
+            "detector.rezero_ms",
+            format!(
+                "{} ms must be at least {} ms: steadiness is judged over {window} ms windows, at least two",
+                c.rezero_ms,
+                2 * window
             ),
         );
     }

@@ -15,6 +15,13 @@
 //! * A NaN, infinite or out-of-range sample is a sensor fault: any breath in
 //!   progress is dropped (never turned into a burst) and detection resumes
 //!   only after `fault_recovery_ms` of valid samples at rest.
+//! * A tick more than `stale_ms` after the previous one is a stall of the
+//!   process or machine: a fault, so nothing held across the gap counts.
+//! * A breath longer than `max_hold_ms` is a stuck sensor (stuck at a
+//!   level, grounded, saturated, or its offset shifted): a fault like the
+//!   others. Besides the usual recovery at rest, the level it is stuck at
+//!   becomes the new neutral once it has been steady for `rezero_ms` (see
+//!   [`REZERO_WINDOW_MS`]) and leaves room for both thresholds in 0–5 V.
 
 use std::fmt;
 
@@ -52,8 +59,15 @@ pub struct DetectorConfig {
     /// After a fault, the signal must be valid and at rest this long before
     /// detection resumes.
     pub fault_recovery_ms: u32,
-    /// No sample for this long is a sensor fault (stale sensor).
+    /// No sample for this long is a sensor fault (stale sensor), and a
+    /// tick more than this after the previous one is a stall (a fault).
     pub stale_ms: u32,
+    /// A breath longer than this is a stuck sensor (a fault): the breath
+    /// is dropped and command mode ends.
+    pub max_hold_ms: u32,
+    /// After a stuck fault, a level steady this long (and with room for
+    /// both thresholds inside 0–5 V) becomes the new neutral.
+    pub rezero_ms: u32,
 }
 
 impl Default for DetectorConfig {
@@ -70,6 +84,8 @@ impl Default for DetectorConfig {
             fault_margin_volts: 0.5,
             fault_recovery_ms: 250,
             stale_ms: 50,
+            max_hold_ms: 6000,
+            rezero_ms: 2000,
         }
     }
 }
@@ -128,6 +144,21 @@ pub enum FaultReason {
         /// How long without a sample, ms.
         ms: u64,
     },
+    /// A breath held longer than `max_hold_ms`: the sensor is stuck (at a
+    /// level, grounded or saturated) or its offset shifted.
+    Stuck {
+        /// The sample on the tick the breath became too long.
+        volts: f64,
+        /// How long the breath had been held, ms.
+        held_ms: u64,
+    },
+    /// The tick jumped by more than `stale_ms`: the process or the machine
+    /// stalled (SIGSTOP, a VM pause). Whatever was held across the gap is
+    /// dropped, never measured as a breath.
+    Stalled {
+        /// Time from the previous tick to this one, ms.
+        ms: u64,
+    },
     /// A tick no later than the previous one: time must increase, so the
     /// runtime feeding the core is broken. Everything stops.
     TickNotIncreasing {
@@ -148,6 +179,14 @@ impl fmt::Display for FaultReason {
                 write!(f, "sensor sample {volts:.3} V is outside the 0–5 V range")
             }
             FaultReason::Stale { ms } => write!(f, "no sensor sample for {ms} ms"),
+            FaultReason::Stuck { volts, held_ms } => write!(
+                f,
+                "breath held {held_ms} ms at {volts:.2} V: sensor stuck or offset shifted — arm stopped"
+            ),
+            FaultReason::Stalled { ms } => write!(
+                f,
+                "the control loop stalled for {ms} ms (process stopped or machine paused): samples of the gap discarded — arm stopped"
+            ),
             FaultReason::TickNotIncreasing { tick, previous } => write!(
                 f,
                 "tick {tick} is not after the previous tick {previous}: the runtime's clock is broken"
@@ -172,6 +211,15 @@ pub enum DetectorEvent {
     Fault(FaultReason),
     /// The signal has been valid and at rest for `fault_recovery_ms`.
     Recovered,
+    /// After a stuck fault, the stuck level was steady for `rezero_ms`: it
+    /// is the new neutral (the thresholds moved with it) and detection
+    /// resumes.
+    Rezeroed {
+        /// The new neutral, volts.
+        neutral_volts: f64,
+        /// The neutral before, volts.
+        previous_volts: f64,
+    },
 }
 
 /// The detector's output for one tick. `Copy`, RT-safe.
@@ -204,10 +252,12 @@ enum State {
     },
     /// Sensor fault; `rest_since` is the first tick of the current run of
     /// valid samples at rest (glitches allowed), `away_since` the first of
-    /// the current run of samples away from rest.
+    /// the current run of samples away from rest; `rezero` after a stuck
+    /// fault (the stuck level may become the neutral).
     Faulted {
         rest_since: Option<Tick>,
         away_since: Option<Tick>,
+        rezero: bool,
     },
 }
 
@@ -216,6 +266,80 @@ enum State {
 /// used only once it is known not to be the start of a breath; after a
 /// breath, tracking resumes this long after its end, past the fall.
 pub const TRACKING_DELAY_MS: usize = 100;
+
+/// Re-zeroing looks at the signal in windows of this many samples (100 ms:
+/// five whole periods of 50 Hz hum and six of 60 Hz, so hum averages out).
+pub const REZERO_WINDOW_MS: usize = 100;
+
+/// Samples dropped from each end of a window before averaging it (a
+/// trimmed mean): a spike or dropout to a rail lasts at most `glitch_ms`
+/// samples, so up to ten of either never move a window's level.
+pub const REZERO_TRIM: usize = 10;
+
+/// A level is steady while the trimmed means of all its windows lie within
+/// this band (highest − lowest). Noise of σ = 0.1 V moves a window's mean
+/// by about 0.011 V and the fastest drift (0.5 V a minute) 0.017 V in 2 s;
+/// a held breath wanders by more (the synthetic user's by ±0.1 V at
+/// 0.5 Hz: 0.2 V in any 2 s).
+pub const REZERO_STEADY_VOLTS: f64 = 0.1;
+
+/// Whether the signal has held one level, window by window. RT-safe: a
+/// fixed array, sorted in place once per window.
+#[derive(Debug, Clone)]
+struct Steadiness {
+    window: [f64; REZERO_WINDOW_MS],
+    filled: usize,
+    /// Windows in the current steady run, their lowest and highest
+    /// trimmed means and the sum of them.
+    windows: u64,
+    low: f64,
+    high: f64,
+    sum: f64,
+}
+
+impl Steadiness {
+    fn new() -> Self {
+        Steadiness {
+            window: [0.0; REZERO_WINDOW_MS],
+            filled: 0,
+            windows: 0,
+            low: 0.0,
+            high: 0.0,
+            sum: 0.0,
+        }
+    }
+
+    fn reset(&mut self) {
+        self.filled = 0;
+        self.windows = 0;
+    }
+
+    /// Adds a valid sample; when a window completes, returns how many
+    /// windows the steady run now spans and its mean level.
+    fn push(&mut self, volts: f64) -> Option<(u64, f64)> {
+        let slot = self.window.get_mut(self.filled)?;
+        *slot = volts;
+        self.filled += 1;
+        if self.filled < REZERO_WINDOW_MS {
+            return None;
+        }
+        self.filled = 0;
+        self.window.sort_unstable_by(f64::total_cmp);
+        let kept = REZERO_WINDOW_MS - 2 * REZERO_TRIM;
+        let mean = self.window.iter().skip(REZERO_TRIM).take(kept).sum::<f64>() / kept as f64;
+        let (low, high) = (self.low.min(mean), self.high.max(mean));
+        if self.windows > 0 && high - low <= REZERO_STEADY_VOLTS {
+            self.windows += 1;
+            (self.low, self.high) = (low, high);
+            self.sum += mean;
+        } else {
+            // The level moved: a new run starts with this window.
+            self.windows = 1;
+            (self.low, self.high, self.sum) = (mean, mean, mean);
+        }
+        Some((self.windows, self.sum / self.windows as f64))
+    }
+}
 
 /// The burst detector. Construct once; [`BurstDetector::step`] is RT-safe
 /// (no allocation, no panic, O(1)).
@@ -232,6 +356,9 @@ pub struct BurstDetector {
     high_limit: f64,
     recovery: u64,
     stale: u64,
+    max_hold: u64,
+    /// Windows a level must be steady to become the neutral.
+    rezero_windows: u64,
 
     /// Tick of the last sample received.
     last_sample: Option<Tick>,
@@ -246,6 +373,8 @@ pub struct BurstDetector {
     /// A zone differing from the state's, and the tick its run began.
     candidate: Option<(Zone, Tick)>,
     strength: f64,
+    /// After a stuck fault: is the stuck level steady?
+    steady: Steadiness,
 }
 
 impl BurstDetector {
@@ -266,6 +395,8 @@ impl BurstDetector {
             high_limit: 5.0 + config.fault_margin_volts,
             recovery: config.fault_recovery_ms.into(),
             stale: config.stale_ms.into(),
+            max_hold: config.max_hold_ms.into(),
+            rezero_windows: u64::from(config.rezero_ms).div_ceil(REZERO_WINDOW_MS as u64),
             last_sample: None,
             last_tick: None,
             neutral: config.neutral_volts,
@@ -274,7 +405,14 @@ impl BurstDetector {
             state: State::Rest,
             candidate: None,
             strength: 0.0,
+            steady: Steadiness::new(),
         }
+    }
+
+    /// A gap between ticks longer than this (ms) is a stall: the runtime
+    /// throws away what its sensor queued meanwhile.
+    pub fn stale_ms(&self) -> u64 {
+        self.stale
     }
 
     /// The neutral voltage as currently tracked.
@@ -317,8 +455,12 @@ impl BurstDetector {
                 State::Faulted {
                     rest_since,
                     away_since,
-                } => self.recover(now, volts, rest_since, away_since),
-                State::Rest | State::Held { .. } => self.detect(now, volts),
+                    rezero,
+                } => self.recover(now, volts, rest_since, away_since, rezero),
+                State::Rest | State::Held { .. } => match self.detect(now, volts) {
+                    None => self.check_hold(now, volts),
+                    event => event,
+                },
             },
         };
         self.output(event)
@@ -326,7 +468,9 @@ impl BurstDetector {
 
     /// Checks that `now` comes after the last tick, and records it. Time
     /// that went back is a fault; the new count is then followed (the
-    /// sensor recovers on it, as after any fault).
+    /// sensor recovers on it, as after any fault). A jump of more than
+    /// `stale_ms` is a stall of the process or machine: whatever the loop
+    /// missed is gone, so nothing held across it can be measured.
     fn advance_to(&mut self, now: Tick) -> Result<(), FaultReason> {
         let previous = self.last_tick.replace(now);
         match previous {
@@ -334,8 +478,39 @@ impl BurstDetector {
                 tick: now,
                 previous,
             }),
+            Some(previous) if now - previous > self.stale => {
+                Err(FaultReason::Stalled { ms: now - previous })
+            }
             _ => Ok(()),
         }
+    }
+
+    /// A breath known to last longer than `max_hold_ms` is a stuck sensor.
+    /// A change of state pending (maybe the end of the breath) caps what
+    /// is known at its first tick, so a glitch delays the fault by its
+    /// length and a breath of exactly `max_hold_ms` is still a burst.
+    fn check_hold(&mut self, now: Tick, volts: f64) -> Option<DetectorEvent> {
+        let State::Held { breath, start } = self.state else {
+            return None;
+        };
+        let known_end = match self.candidate {
+            Some((zone, since)) if zone != Zone::Breath(breath) => since,
+            _ => now.saturating_add(1),
+        };
+        if known_end.saturating_sub(start) <= self.max_hold {
+            return None;
+        }
+        let event = self.fault(FaultReason::Stuck {
+            volts,
+            held_ms: now.saturating_sub(start),
+        });
+        self.steady.reset();
+        self.state = State::Faulted {
+            rest_since: None,
+            away_since: None,
+            rezero: true,
+        };
+        event
     }
 
     fn output(&self, event: Option<DetectorEvent>) -> DetectorOutput {
@@ -372,6 +547,7 @@ impl BurstDetector {
         self.state = State::Faulted {
             rest_since: None,
             away_since: None,
+            rezero: false,
         };
         self.quiet_ticks = 0;
         self.candidate = None;
@@ -381,19 +557,25 @@ impl BurstDetector {
 
     /// Counts valid samples at rest; a glitch (at most `glitch_ms` away from
     /// rest) does not break the count, a longer excursion restarts it.
+    /// After a stuck fault, also watches for a steady level to re-zero on.
     fn recover(
         &mut self,
         now: Tick,
         volts: f64,
         rest_since: Option<Tick>,
         away_since: Option<Tick>,
+        rezero: bool,
     ) -> Option<DetectorEvent> {
+        if rezero && let Some(event) = self.rezero(volts) {
+            return Some(event);
+        }
         if self.zone(volts, None) != Zone::Rest {
             let away = away_since.unwrap_or(now);
             let glitch = run_length(away, now) <= self.glitch;
             self.state = State::Faulted {
                 rest_since: rest_since.filter(|_| glitch),
                 away_since: Some(away),
+                rezero,
             };
             return None;
         }
@@ -405,9 +587,33 @@ impl BurstDetector {
             self.state = State::Faulted {
                 rest_since: Some(since),
                 away_since: None,
+                rezero,
             };
             None
         }
+    }
+
+    /// Feeds the steadiness check; a level steady for `rezero_ms` that
+    /// leaves room for both thresholds (and their hysteresis) inside
+    /// 0–5 V becomes the neutral. A rail never can.
+    fn rezero(&mut self, volts: f64) -> Option<DetectorEvent> {
+        let (windows, level) = self.steady.push(volts)?;
+        let room = level + self.puff_offset + self.hysteresis < 5.0
+            && level + self.sip_offset - self.hysteresis > 0.0;
+        if windows < self.rezero_windows || !room {
+            return None;
+        }
+        let previous = self.neutral;
+        self.neutral = level;
+        self.recent = [level; TRACKING_DELAY_MS];
+        self.quiet_ticks = 0;
+        self.candidate = None;
+        self.strength = 0.0;
+        self.state = State::Rest;
+        Some(DetectorEvent::Rezeroed {
+            neutral_volts: level,
+            previous_volts: previous,
+        })
     }
 
     /// Classifies a sample; `held` selects the hysteresis side.
@@ -692,17 +898,17 @@ mod tests {
     fn neutral_is_tracked_at_rest_only() {
         let c = DetectorConfig::default();
         let mut d = BurstDetector::new(&c);
-        // A 10 s breath, then a one-sample spike and the start of another
+        // A 5 s breath, then a one-sample spike and the start of another
         // breath (crossings pending): none of it moves the neutral.
-        for t in 0..10_000 {
+        for t in 0..5_000 {
             d.step(t, 4.0);
         }
-        for t in 10_000..10_100 {
+        for t in 5_000..5_100 {
             d.step(t, 2.5);
         }
         assert_eq!(d.neutral_volts(), 2.5);
-        d.step(10_100, 0.0);
-        for t in 10_101..10_104 {
+        d.step(5_100, 0.0);
+        for t in 5_101..5_104 {
             d.step(t, 4.0);
         }
         assert_eq!(d.neutral_volts(), 2.5);
@@ -833,6 +1039,122 @@ mod tests {
             }
             .to_string(),
             "tick 5 is not after the previous tick 1099: the runtime's clock is broken"
+        );
+    }
+
+    #[test]
+    fn a_breath_longer_than_max_hold_is_a_stuck_fault() {
+        let c = DetectorConfig::default(); // max hold 6000 ms, re-zero 2000 ms
+        // Held to the limit and one less: long bursts.
+        assert_eq!(
+            run(&c, &square(10, 4.0, 5999, 50)),
+            [(6014, burst(Action::LongPuff, 10, 6009))]
+        );
+        assert_eq!(
+            run(&c, &square(10, 4.0, 6000, 50)),
+            [(6015, burst(Action::LongPuff, 10, 6010))]
+        );
+        // One more: stuck, on the tick it became longer, and no burst.
+        let reason = FaultReason::Stuck {
+            volts: 4.0,
+            held_ms: 6000,
+        };
+        let stuck = DetectorEvent::Fault(reason);
+        assert_eq!(
+            run(&c, &square(10, 4.0, 6001, 500)),
+            [(6010, stuck), (6011 + 249, DetectorEvent::Recovered)]
+        );
+        // A glitch pending at the limit delays the verdict by its length.
+        let mut s = square(10, 4.0, 7000, 0);
+        s[6010..6013].fill(2.5);
+        assert_eq!(
+            run(&c, &s)[0],
+            (
+                6013,
+                DetectorEvent::Fault(FaultReason::Stuck {
+                    volts: 4.0,
+                    held_ms: 6003
+                })
+            )
+        );
+        assert_eq!(
+            reason.to_string(),
+            "breath held 6000 ms at 4.00 V: sensor stuck or offset shifted — arm stopped"
+        );
+    }
+
+    #[test]
+    fn a_steady_stuck_level_becomes_the_neutral_but_never_a_rail() {
+        let c = DetectorConfig::default();
+        // Stuck at 4.0 V: faulted at 6010; steady for 2000 ms after it,
+        // and 4.0 + 0.5 + 0.1 < 5 V: the new neutral on tick 8010.
+        let events = run(&c, &square(10, 4.0, 60_000, 0));
+        assert_eq!(events.len(), 2, "{events:?}");
+        assert_eq!(events[1].0, 8010);
+        let DetectorEvent::Rezeroed {
+            neutral_volts,
+            previous_volts,
+        } = events[1].1
+        else {
+            panic!("{events:?}")
+        };
+        assert!((neutral_volts - 4.0).abs() < 1e-12 && previous_volts == 2.5);
+        // At a rail there is no room for a threshold: faulted for good.
+        for rail in [5.0, 0.0] {
+            let events = run(&c, &square(10, rail, 60_000, 0));
+            assert_eq!(events.len(), 1, "{rail} V: {events:?}");
+            assert!(matches!(
+                events[0],
+                (6010, DetectorEvent::Fault(FaultReason::Stuck { .. }))
+            ));
+        }
+        // A level that wanders (±0.1 V at 0.5 Hz) is a breath, not an
+        // offset: never re-zeroed; released, it recovers.
+        let mut s = vec![2.5; 10];
+        s.extend((0..20_000).map(|t| 4.0 + 0.1 * (std::f64::consts::PI * t as f64 / 1000.0).sin()));
+        s.extend(std::iter::repeat_n(2.5, 300));
+        let events = run(&c, &s);
+        assert_eq!(events.len(), 2, "{events:?}");
+        assert!(matches!(
+            events[0].1,
+            DetectorEvent::Fault(FaultReason::Stuck { .. })
+        ));
+        assert_eq!(events[1], (20_010 + 249, DetectorEvent::Recovered));
+        // Another fault while waiting ends the chance to re-zero (the arm
+        // stays stopped; rest recovers as after any fault).
+        let mut s = square(10, 4.0, 7000, 0);
+        s[7000] = f64::NAN;
+        s.extend(std::iter::repeat_n(4.0, 10_000));
+        assert_eq!(run(&c, &s).len(), 1);
+    }
+
+    #[test]
+    fn a_tick_jump_longer_than_stale_is_a_stall() {
+        let c = DetectorConfig::default(); // stale 50 ms
+        let mut d = BurstDetector::new(&c);
+        for t in 0..600 {
+            d.step(t, 3.8); // a puff held
+        }
+        // A gap of 50 ms (49 ticks missed) is not a stall; 51 ms is.
+        assert_eq!(d.step(649, 3.8).event, None);
+        let out = d.step(700, 3.8);
+        assert_eq!(
+            out.event,
+            Some(DetectorEvent::Fault(FaultReason::Stalled { ms: 51 }))
+        );
+        assert!(out.faulted && out.held == Held::default());
+        // Seen on a tick without a sample too; then rest recovers.
+        let mut d = BurstDetector::new(&c);
+        d.step(0, 2.5);
+        assert_eq!(
+            d.step_missing(2000).event,
+            Some(DetectorEvent::Fault(FaultReason::Stalled { ms: 2000 }))
+        );
+        let events: Vec<_> = (2001..2300).filter_map(|t| d.step(t, 2.5).event).collect();
+        assert_eq!(events, [DetectorEvent::Recovered]);
+        assert_eq!(
+            FaultReason::Stalled { ms: 2000 }.to_string(),
+            "the control loop stalled for 2000 ms (process stopped or machine paused): samples of the gap discarded — arm stopped"
         );
     }
 }

@@ -51,6 +51,15 @@ pub enum Event {
     },
     /// The sensor signal is valid again; detection resumes.
     Recovered,
+    /// After a stuck fault, the level the sensor settled at was steady for
+    /// `rezero_ms`: it is the new neutral (the thresholds moved with it)
+    /// and detection resumes.
+    Rezeroed {
+        /// The new neutral, volts.
+        neutral_volts: f64,
+        /// The neutral before, volts.
+        previous_volts: f64,
+    },
     /// From the motion layer (save, go to, workspace limits), logged under
     /// its own event name.
     #[serde(untagged)]

@@ -151,6 +151,16 @@ impl<I: SequenceIndex> Pipeline<I> {
                 }
             }
             Some(DetectorEvent::Recovered) => emit(&mut out, Event::Recovered),
+            Some(DetectorEvent::Rezeroed {
+                neutral_volts,
+                previous_volts,
+            }) => emit(
+                &mut out,
+                Event::Rezeroed {
+                    neutral_volts,
+                    previous_volts,
+                },
+            ),
             None => {}
         }
         match &mut self.selector {

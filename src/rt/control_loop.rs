@@ -26,7 +26,7 @@ use crate::rt::setup::{RtOptions, Setting, setup_current_thread};
 pub use crate::rt::stop::StopReason;
 use crate::rt::stop::StopRequest;
 use crate::rt::telemetry::{Drops, TickRecord};
-use crate::sensor::Samples;
+use crate::sensor::{Reading, Samples};
 
 /// The control period: 1 ms.
 pub const PERIOD_NS: u64 = 1_000_000;
@@ -152,7 +152,16 @@ impl<S: Samples> TickWork for ControlTick<S> {
             }
             None => (wake.tick, wake.skipped),
         };
-        let reading = self.sensor.try_read(skipped);
+        // A gap longer than the core's `stale_ms` is a stall (the process
+        // was stopped, the machine paused): the core faults on this tick,
+        // seeing the tick jump, and nothing queued meanwhile may be
+        // replayed as a breath: the backlog goes, counted.
+        let reading = if skipped >= self.core.detector().stale_ms() {
+            self.drops.samples += self.sensor.discard_backlog(skipped);
+            Reading::default()
+        } else {
+            self.sensor.try_read(skipped)
+        };
         self.drops.samples += reading.discarded;
         let out = match reading.volts {
             Some(volts) => self.core.step(tick, volts),

@@ -12,7 +12,10 @@
 //! ([`ring`]); the control thread takes the sample due each tick (after
 //! skipped ticks, their samples are thrown away), never waits, keeps at
 //! most two queued (a producer running ahead adds at most 2 ms), and
-//! counts what it throws away. A backend that can compute its
+//! counts what it throws away. After a stall longer than `stale_ms` (the
+//! process stopped, the machine paused) the core faults and the control
+//! thread throws away the whole backlog ([`Samples::discard_backlog`]),
+//! counted. A backend that can compute its
 //! samples without I/O (the synthetic sensor) computes them in the loop.
 //! A tick with no sample is `Pipeline::step_missing`: after `stale_ms` the
 //! core faults and the arm brakes.
@@ -74,6 +77,12 @@ pub trait Samples: Send {
     /// The sample for the tick about to run, after `skipped` ticks the loop
     /// missed (their samples are stale and thrown away).
     fn try_read(&mut self, skipped: u64) -> Reading;
+
+    /// The loop stalled for `skipped` ticks (longer than the core's
+    /// `stale_ms`): throw away every sample of the gap and everything
+    /// queued, so none is replayed as a breath; the next read starts
+    /// fresh. Returns how many were thrown away (counted in the drops).
+    fn discard_backlog(&mut self, skipped: u64) -> u64;
 
     /// No sample will ever come again (a recording or script ended).
     fn ended(&self) -> bool;

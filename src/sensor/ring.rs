@@ -4,7 +4,8 @@
 //! anyway). Each tick the control thread takes one sample (after skipped
 //! ticks, the last of theirs and its own: the others are stale), then
 //! discards what piled up beyond two, counted: a producer running ahead
-//! adds at most 2 ms of latency.
+//! adds at most 2 ms of latency. After a stall the whole backlog is
+//! discarded, counted.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -79,6 +80,14 @@ impl Samples for RingSamples {
         reading
     }
 
+    fn discard_backlog(&mut self, _skipped: u64) -> u64 {
+        let mut discarded = 0;
+        while self.rx.pop().is_ok() {
+            discarded += 1;
+        }
+        discarded
+    }
+
     fn ended(&self) -> bool {
         self.finished.load(Ordering::Acquire) && self.rx.is_empty()
     }
@@ -107,5 +116,17 @@ mod tests {
         assert!(!samples.ended(), "two samples still queued");
         samples.try_read(1);
         assert!(samples.ended());
+    }
+
+    #[test]
+    fn a_stall_discards_the_whole_backlog_counted() {
+        let (mut feed, mut samples) = ring(16);
+        for v in 0..10 {
+            feed.push(f64::from(v));
+        }
+        assert_eq!(samples.discard_backlog(2000), 10);
+        assert_eq!(samples.try_read(0), Reading::default());
+        feed.push(7.0);
+        assert_eq!(samples.try_read(0).volts, Some(7.0), "fresh samples after");
     }
 }

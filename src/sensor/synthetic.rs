@@ -114,6 +114,21 @@ impl Samples for SyntheticSamples {
         }
     }
 
+    /// The samples of the gap are played (the scripted user went on
+    /// breathing) and thrown away; nothing is queued.
+    fn discard_backlog(&mut self, skipped: u64) -> u64 {
+        for _ in 0..skipped {
+            if self.samples.next().is_none() {
+                if self.repeat {
+                    self.samples.rewind();
+                } else {
+                    self.ended = true;
+                }
+            }
+        }
+        skipped
+    }
+
     fn ended(&self) -> bool {
         self.ended
     }

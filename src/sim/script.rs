@@ -278,7 +278,7 @@ pub fn random_session_with(
 
 /// A noisy session of about 150 s that takes every path of the core
 /// (bursts, matches, resets on timeout and at once, mode changes, faults
-/// and recoveries) and of the motion layer (every mode, save and go to
+/// and recoveries, a stuck breath and two re-zeroes) and of the motion layer (every mode, save and go to
 /// point, the finger end and the reach limit, braking after a fault):
 /// a random user, the demo user twice, then faults and broken sequences.
 /// The allocation and RealtimeSanitizer checks run it.
@@ -310,6 +310,14 @@ pub fn every_path_session(config: &Config) -> (SignalParams, Vec<Step>) {
         },
         Step::Dropout { ms: 3 },
         Step::Rest { ms: 1000 },
+        // A puff held 9 s without wandering: a stuck fault at 6 s, and its
+        // level becomes the neutral 2 s later; the rest that follows is then
+        // a sip held too long, stuck and re-zeroed back in turn.
+        Step::Breath {
+            breath: Breath::Puff,
+            ms: 9000,
+        },
+        Step::Rest { ms: 10_000 },
     ]);
     (params, script)
 }

@@ -100,6 +100,10 @@ pub struct SignalParams {
     pub ramp_ms: (f64, f64),
     /// Tremor amplitude on the plateau, in volts (at 8 Hz).
     pub tremor_volts: f64,
+    /// Slow wander of a held breath's plateau, in volts (a 0.5 Hz sine of
+    /// random phase per breath): nobody holds a pressure perfectly level
+    /// for seconds, and the detector's re-zeroing relies on it.
+    pub wander_volts: f64,
     /// Standard deviation of white Gaussian noise, in volts.
     pub noise_volts: f64,
     /// Amplitude of 50 Hz mains hum, in volts.
@@ -125,6 +129,7 @@ impl SignalParams {
             breath_jitter: 0.15,
             ramp_ms: DEFAULT_RAMP_MS,
             tremor_volts: 0.03,
+            wander_volts: 0.0,
             noise_volts: 0.0,
             hum_volts: 0.0,
             drift_volts: 0.0,
@@ -139,6 +144,14 @@ impl SignalParams {
     pub fn with_noise(self, noise_volts: f64) -> Self {
         SignalParams {
             noise_volts,
+            ..self
+        }
+    }
+
+    /// With held breaths wandering by this amplitude, volts (0.5 Hz).
+    pub fn with_wander(self, wander_volts: f64) -> Self {
+        SignalParams {
+            wander_volts,
             ..self
         }
     }
@@ -262,6 +275,8 @@ pub struct SignalGenerator<'a> {
     spikes: u64,
     /// The breath of the current step, if it is one.
     breath: Option<ScriptedBreath>,
+    /// Phase of the current breath's wander, radians.
+    wander_phase: f64,
 }
 
 impl<'a> SignalGenerator<'a> {
@@ -281,6 +296,7 @@ impl<'a> SignalGenerator<'a> {
             tick: 0,
             spikes: 0,
             breath: None,
+            wander_phase: 0.0,
         };
         g.enter_step();
         g
@@ -295,6 +311,11 @@ impl<'a> SignalGenerator<'a> {
                 let height = p.breath_volts * (1.0 + jitter);
                 let ramp = self.rng.random_range(p.ramp_ms.0..=p.ramp_ms.1);
                 let shape = Shape::new(p, breath, ms, height, ramp);
+                // Drawn only when used, so signals without wander stay as
+                // they were.
+                if p.wander_volts > 0.0 {
+                    self.wander_phase = self.rng.random_range(0.0..2.0 * PI);
+                }
                 self.breath = Some(ScriptedBreath {
                     breath,
                     start: self.tick + shape.first,
@@ -347,6 +368,7 @@ impl<'a> SignalGenerator<'a> {
             tick: self.tick,
             spikes: self.spikes,
             breath: self.breath,
+            wander_phase: self.wander_phase,
         }
     }
 
@@ -404,7 +426,10 @@ impl Iterator for SignalGenerator<'_> {
         self.tick += 1;
 
         let tremor = if on_plateau {
+            let sign = self.shape.map_or(0.0, |s| s.sign);
+            let wander_t = 2.0 * PI * 0.5 * self.at as f64 / 1000.0 + self.wander_phase;
             p.tremor_volts * (2.0 * PI * 8.0 * t / 1000.0).sin()
+                + sign * p.wander_volts * wander_t.sin()
         } else {
             0.0
         };

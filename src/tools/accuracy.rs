@@ -7,7 +7,7 @@
 use serde::Serialize;
 
 use crate::config::Config;
-use crate::control::detector::Burst;
+use crate::control::detector::{Burst, FaultReason};
 use crate::control::event::Event;
 use crate::control::mode::Mode;
 use crate::control::pipeline::Pipeline;
@@ -26,6 +26,9 @@ pub struct Tally {
     /// Breaths in the script shorter than `min_burst_ms`: no burst may
     /// come of them.
     pub too_short: u64,
+    /// Breaths in the script longer than `max_hold_ms`: no burst may come
+    /// of them; each begun while detecting should be one stuck fault.
+    pub too_long: u64,
     /// Scripted breaths seen as exactly one burst of the right action
     /// (breath and length class): what the matcher needs.
     pub correct: u64,
@@ -56,8 +59,12 @@ pub struct Tally {
     pub resets: u64,
     /// Sensor faults raised.
     pub faults: u64,
+    /// Of those, breaths held too long (stuck sensor).
+    pub stuck_faults: u64,
     /// Recoveries from a fault.
     pub recoveries: u64,
+    /// Stuck levels taken as the new neutral.
+    pub rezeroes: u64,
     /// Heap allocations inside `Pipeline::step` (see [`Observed`]).
     pub core_allocations: u64,
 }
@@ -108,8 +115,12 @@ pub struct Observed {
     pub resets: u64,
     /// Faults raised.
     pub faults: u64,
+    /// Of those, stuck faults.
+    pub stuck_faults: u64,
     /// Recoveries.
     pub recoveries: u64,
+    /// Re-zeroes.
+    pub rezeroes: u64,
     /// Heap allocations inside `Pipeline::step`, as counted by
     /// [`crate::rt::alloc_counter`] (0 unless the counting allocator is the
     /// global allocator).
@@ -137,8 +148,12 @@ pub fn observe(config: &Config, params: SignalParams, script: &[Step]) -> Observ
                 Event::Burst(b) => seen.bursts.push(b),
                 Event::Match { mode, .. } => seen.matched.push(mode),
                 Event::Reset { .. } => seen.resets += 1,
-                Event::Fault { .. } => seen.faults += 1,
+                Event::Fault { reason } => {
+                    seen.faults += 1;
+                    seen.stuck_faults += u64::from(matches!(reason, FaultReason::Stuck { .. }));
+                }
                 Event::Recovered => seen.recoveries += 1,
+                Event::Rezeroed { .. } => seen.rezeroes += 1,
                 Event::Detection { .. } | Event::Highlight { .. } | Event::Motion(_) => {}
             }
         }
@@ -151,10 +166,14 @@ pub fn observe(config: &Config, params: SignalParams, script: &[Step]) -> Observ
 /// Scores what the core saw against the script. A burst and a scripted
 /// breath belong together when their spans overlap; `tolerance_ms` is how
 /// far a measured length may be from the scripted one, so a breath
-/// scripted within it of `long_burst_ms` may land in either class.
+/// scripted within it of `long_burst_ms` may land in either class. A
+/// breath scripted longer than `max_hold_ms` is a stuck-sensor fault, not
+/// a burst: like one too short, it must make none.
 pub fn score(config: &Config, seen: &Observed, modes: &[Mode], tolerance_ms: u64) -> Tally {
     let long = u64::from(config.core().detector().long_burst_ms);
     let min = u64::from(config.core().detector().min_burst_ms);
+    let max = u64::from(config.core().detector().max_hold_ms);
+    let counts = |ms: u32| (min..=max).contains(&u64::from(ms));
     let span = |b: &ScriptedBreath| (b.start, b.start + u64::from(b.ms));
     let overlaps = |(s0, e0): (u64, u64), (s1, e1): (u64, u64)| s0 < e1 && s1 < e0;
 
@@ -179,12 +198,13 @@ pub fn score(config: &Config, seen: &Observed, modes: &[Mode], tolerance_ms: u64
         }
     }
 
-    // A burst overlapping only breaths too short to count is invented.
+    // A burst overlapping only breaths too short or too long to count is
+    // invented.
     let real_breaths = |j: usize| {
         per_breath
             .iter()
             .zip(&seen.scripted)
-            .filter(|(bursts, s)| u64::from(s.ms) >= min && bursts.contains(&j))
+            .filter(|(bursts, s)| counts(s.ms) && bursts.contains(&j))
             .count()
     };
     let too_short = seen
@@ -192,21 +212,30 @@ pub fn score(config: &Config, seen: &Observed, modes: &[Mode], tolerance_ms: u64
         .iter()
         .filter(|s| u64::from(s.ms) < min)
         .count() as u64;
+    let too_long = seen
+        .scripted
+        .iter()
+        .filter(|s| u64::from(s.ms) > max)
+        .count() as u64;
     let mut t = Tally {
         ticks: seen.ticks,
-        scripted: seen.scripted.len() as u64 - too_short,
+        scripted: seen.scripted.len() as u64 - too_short - too_long,
         too_short,
+        too_long,
         invented: (0..seen.bursts.len())
             .filter(|&j| per_burst[j] == 0 || real_breaths(j) == 0)
             .count() as u64,
         resets: seen.resets,
         faults: seen.faults,
+        stuck_faults: seen.stuck_faults,
         recoveries: seen.recoveries,
+        rezeroes: seen.rezeroes,
         core_allocations: seen.core_allocations,
         ..Tally::default()
     };
     for (s, bursts) in seen.scripted.iter().zip(&per_breath) {
-        if u64::from(s.ms) < min {
+        if !counts(s.ms) {
+            // No burst may come of it: one that did is counted as invented.
             continue;
         }
         let &[j] = bursts.as_slice() else {

@@ -1,6 +1,7 @@
 //! Zero heap allocation after construction, proven with a counting global
 //! allocator over a long noisy session that exercises every path of the core
-//! (bursts, matches, resets, waits, mode changes, faults and recoveries) and
+//! (bursts, matches, resets, waits, mode changes, faults, recoveries, a
+//! stuck breath and its re-zero) and
 //! of the motion layer (every mode, save and go to point, workspace and
 //! finger limits, braking after faults, the 100 Hz stream) and the
 //! simulated arm.
@@ -33,7 +34,7 @@ fn core_step_never_allocates() {
     let mut core: Pipeline = Pipeline::new(config.core());
     let mut arm = SimulatedJaco::new(config.core());
 
-    let mut counts = [0usize; 11];
+    let mut counts = [0usize; 12];
     let before = thread_allocations();
     for (t, &v) in samples.iter().enumerate() {
         let out = if t % 5000 == 4999 {
@@ -54,7 +55,8 @@ fn core_step_never_allocates() {
                 Event::Motion(MotionEvent::GotoStarted { .. }) => 7,
                 Event::Motion(MotionEvent::GotoReached) => 8,
                 Event::Motion(MotionEvent::WorkspaceLimit { boundary: _ }) => 9,
-                Event::Highlight { .. } | Event::Motion(_) => 10,
+                Event::Rezeroed { .. } => 10,
+                Event::Highlight { .. } | Event::Motion(_) => 11,
             };
             counts[kind] += 1;
         }
@@ -62,7 +64,7 @@ fn core_step_never_allocates() {
     let allocations = thread_allocations() - before;
     assert_eq!(allocations, 0, "{} ticks", samples.len());
     assert!(
-        counts[..10].iter().all(|&n| n > 0),
+        counts[..11].iter().all(|&n| n > 0),
         "every kind of event happened: {counts:?}"
     );
 }

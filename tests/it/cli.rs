@@ -197,6 +197,7 @@ fn bench_accuracy_json_has_every_field_of_the_tally() {
         "ticks",
         "scripted",
         "too_short",
+        "too_long",
         "correct",
         "missed",
         "split_or_merged",
@@ -210,7 +211,9 @@ fn bench_accuracy_json_has_every_field_of_the_tally() {
         "selections_extra",
         "resets",
         "faults",
+        "stuck_faults",
         "recoveries",
+        "rezeroes",
         "core_allocations",
     ];
     let keys: Vec<&str> = cell.keys().map(String::as_str).collect();

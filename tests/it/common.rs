@@ -33,6 +33,7 @@ pub fn assert_session(
                 Event::Reset { .. }
                 | Event::Fault { .. }
                 | Event::Recovered
+                | Event::Rezeroed { .. }
                 | Event::Motion(MotionEvent::TrajectoryError) => {
                     panic!("unexpected {event:?} at tick {t}")
                 }

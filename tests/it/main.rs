@@ -14,6 +14,7 @@ mod allocations;
 mod architecture;
 mod cli;
 mod common;
+mod faults;
 mod golden;
 mod motion;
 mod motion_safety;

@@ -12,6 +12,7 @@ use sipnpuff::arm::sim::SimArm;
 use sipnpuff::arm::{Arm, ArmError, ArmState};
 use sipnpuff::config::Config;
 use sipnpuff::control::event::Event;
+use sipnpuff::control::modes::DetectionReason;
 use sipnpuff::control::motion::stream::ArmCommand;
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::rt::clock::SimClock;
@@ -66,15 +67,16 @@ fn skipped_ticks_keep_the_cores_timers_true() {
     let (reference, skipped) = simulated_run(None);
     assert_eq!(skipped, 0);
     // The point is saved (the puff in save_point); 600 ms later, while
-    // command mode waits for another breath, the machine stalls for 700 ms:
-    // the inactivity timeout still ends command mode at the same tick.
+    // command mode waits for another breath, the machine stalls for 40 ms
+    // (shorter than `stale_ms`): the inactivity timeout still ends command
+    // mode at the same tick.
     let saved = reference
         .iter()
         .find(|(_, e)| matches!(e, Event::Motion(_)))
         .unwrap()
         .0;
-    let (stalled, skipped) = simulated_run(Some((saved + 600, 700 * P + 300_000)));
-    assert_eq!(skipped, 700);
+    let (stalled, skipped) = simulated_run(Some((saved + 600, 40 * P + 300_000)));
+    assert_eq!(skipped, 40);
     let detection = |events: &[(u64, Event)]| {
         events
             .iter()
@@ -84,6 +86,35 @@ fn skipped_ticks_keep_the_cores_timers_true() {
     };
     assert_eq!(detection(&stalled), detection(&reference));
     assert_eq!(stalled[..4], reference[..4]);
+    assert!(
+        !stalled
+            .iter()
+            .any(|(_, e)| matches!(e, Event::Fault { .. }))
+    );
+
+    // A 700 ms stall is longer than `stale_ms`: a fault on the first tick
+    // after it, which ends command mode there and then.
+    let (stalled, skipped) = simulated_run(Some((saved + 600, 700 * P + 300_000)));
+    assert_eq!(skipped, 700);
+    let resumed = saved + 600 + 700;
+    assert!(
+        stalled.contains(&(
+            resumed,
+            Event::Detection {
+                reason: DetectionReason::Fault
+            }
+        )),
+        "{stalled:?}"
+    );
+    let fault = stalled
+        .iter()
+        .find(|(_, e)| matches!(e, Event::Fault { .. }))
+        .unwrap();
+    assert_eq!(fault.0, resumed);
+    assert!(
+        format!("{fault:?}").contains("Stalled { ms: 701 }"),
+        "{fault:?}"
+    );
 }
 
 fn options(seconds: f64) -> RunOptions {
@@ -337,4 +368,141 @@ fn an_arm_that_refuses_a_command_stops_the_run_safely() {
     // The loop stopped well before its 60 s.
     assert!(report.stats.ticks_run + report.stats.skipped_ticks < 60_000);
     assert_eq!(report.final_velocity, [0.0; 7]);
+}
+
+/// The control tick after a late wake-up: the machine stalled 2 s while
+/// the user was puffing, and the sensor's ring filled meanwhile. The gap
+/// is a fault at once, everything queued is thrown away (counted in the
+/// drops), never replayed as a breath, and fresh samples at rest recover.
+#[test]
+fn a_late_wake_up_faults_and_discards_the_sensors_backlog() {
+    use sipnpuff::control::event::TimedEvent;
+    use sipnpuff::rt::control_loop::{ControlTick, OutputRings, TickWork};
+    use sipnpuff::rt::scheduler::Wake;
+    use sipnpuff::sensor::ring::{SAMPLE_RING, ring};
+
+    let config = Config::default();
+    let (arm_tx, _arm_rx) = rtrb::RingBuffer::<ArmCommand>::new(4096);
+    let (events_tx, mut events_rx) = rtrb::RingBuffer::<TimedEvent>::new(4096);
+    let (mut feed, samples) = ring(SAMPLE_RING);
+    let mut work = ControlTick::new(
+        Pipeline::new(config.core()),
+        samples,
+        OutputRings {
+            arm: arm_tx,
+            events: events_tx,
+        },
+        false,
+    );
+    let wake = |tick, skipped| Wake {
+        tick,
+        skipped,
+        woke_ns: tick * P,
+        latency_ns: skipped * P,
+    };
+    let mut tick = 0;
+    let mut step = |feed: &mut sipnpuff::sensor::ring::SampleFeed, volts: f64, ms: u64| {
+        for _ in 0..ms {
+            feed.push(volts);
+            work.tick(&wake(tick, 0), None);
+            tick += 1;
+        }
+    };
+    step(&mut feed, 2.5, 1000);
+    step(&mut feed, 4.0, 1500); // a puff, still held when the machine stalls
+    // The stall: the producer filled the ring with the puff meanwhile.
+    let mut queued = 0;
+    while feed.push(4.0) {
+        queued += 1;
+    }
+    let resumed = tick + 2000;
+    let outcome = work.tick(&wake(resumed, 2000), None);
+    assert_eq!(outcome.drops.samples, queued, "the backlog, counted");
+    let mut events = Vec::new();
+    while let Ok(e) = events_rx.pop() {
+        events.push(e);
+    }
+    let fault = events
+        .iter()
+        .find(|e| matches!(e.event, Event::Fault { .. }))
+        .unwrap_or_else(|| panic!("no fault: {events:?}"));
+    assert_eq!(fault.tick, resumed);
+    let line = serde_json::to_string(fault).unwrap();
+    assert!(line.contains("stalled for 2001 ms"), "{line}");
+    // Fresh samples at rest: recovered after 250 of them, and no burst
+    // ever (the backlog was not replayed).
+    for tick in resumed + 1..resumed + 401 {
+        feed.push(2.5);
+        work.tick(&wake(tick, 0), None);
+    }
+    while let Ok(e) = events_rx.pop() {
+        events.push(e);
+    }
+    assert!(
+        events.iter().any(|e| e.event == Event::Recovered),
+        "{events:?}"
+    );
+    assert!(
+        !events.iter().any(|e| matches!(e.event, Event::Burst(_))),
+        "{events:?}"
+    );
+}
+
+/// The real binary stopped for about 2 s (SIGSTOP, as a debugger or a
+/// paused VM would) and continued: the event log has the stall as a fault
+/// giving the gap, and the run still ends with its safe stop and report.
+#[test]
+fn a_stopped_and_continued_process_reports_the_stall_and_stops_safely() {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let mut child = binary()
+        .args(["run", "--seconds", "8"])
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let (lines_tx, lines_rx) = mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines() {
+            let _ = lines_tx.send(line.unwrap());
+        }
+    });
+    // The loop is running once the first selection is logged.
+    let mut seen = Vec::new();
+    loop {
+        let line = lines_rx
+            .recv_timeout(Duration::from_secs(30))
+            .expect("a first selection");
+        let found = line.contains("\"event\":\"match\"");
+        seen.push(line);
+        if found {
+            break;
+        }
+    }
+    let pid = child.id() as libc::pid_t;
+    // SAFETY: kill with a valid pid and signal number has no memory effects.
+    unsafe { libc::kill(pid, libc::SIGSTOP) };
+    std::thread::sleep(Duration::from_millis(2000));
+    // SAFETY: as above.
+    unsafe { libc::kill(pid, libc::SIGCONT) };
+    let status = child.wait().unwrap();
+    reader.join().unwrap();
+    seen.extend(lines_rx.try_iter());
+    let text = seen.join("\n");
+    assert!(status.success(), "{status}\n{text}");
+    let gaps: Vec<u64> = seen
+        .iter()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| v["event"] == "fault")
+        .filter_map(|v| {
+            let reason = v["reason"].as_str()?.to_string();
+            let rest = reason.split("stalled for ").nth(1)?;
+            rest.split(' ').next()?.parse().ok()
+        })
+        .collect();
+    assert!(gaps.iter().any(|&ms| ms >= 1900), "{gaps:?}\n{text}");
+    assert!(text.contains("stopped by: time"), "{text}");
+    assert!(
+        text.contains("final commanded velocity: linear (0, 0, 0) m/s, angular (0, 0, 0) rad/s, fingers 0 units/s; last arm command zero: true"),
+        "{text}"
+    );
 }

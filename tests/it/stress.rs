@@ -1,6 +1,7 @@
 //! Stress tests with synthetic burst signals: scripted users on the seeded
 //! generator at the edges of what the detector must handle: bursts at the
-//! length boundaries, fast trains, ten-second holds, noise σ = 0.1 V, 50 Hz
+//! length boundaries, fast trains, ten-second holds (longer than
+//! `max_hold_ms`: each one stuck fault, never a burst), noise σ = 0.1 V, 50 Hz
 //! hum of 0.2 V, a rail spike every 100 ms (inside bursts too), neutral
 //! drift of 0.5 V a minute, breaths saturating at 0 and 5 V, and NaN
 //! dropouts. More than 10 million ticks in all (the lower bounds the tests
@@ -26,7 +27,10 @@ use sipnpuff::sim::sensor_model::{SignalParams, Step};
 #[derive(Debug, Clone, Copy, Default)]
 struct Expect {
     resets: u64,
+    /// Every fault (each recovered).
     faults: u64,
+    /// Of those, breaths held longer than `max_hold_ms`.
+    stuck: u64,
 }
 
 /// Plays the script through a fresh core and demands a perfect score for
@@ -55,6 +59,8 @@ fn assert_perfect(
     assert_eq!(t.resets, expect.resets, "resets: {context}");
     assert_eq!(t.faults, expect.faults, "faults: {context}");
     assert_eq!(t.recoveries, expect.faults, "recoveries: {context}");
+    assert_eq!(t.stuck_faults, expect.stuck, "stuck faults: {context}");
+    assert_eq!(t.rezeroes, 0, "a wandering breath re-zeroed: {context}");
     assert_eq!(t.core_allocations, 0, "Pipeline::step allocated: {context}");
     t
 }
@@ -162,7 +168,7 @@ fn boundary_lengths_are_classified_to_the_millisecond() {
             0,
             Expect {
                 resets: bursts,
-                faults: 0,
+                ..Expect::default()
             },
         );
         assert_eq!(t.too_short, 10, "{t:?}");
@@ -209,22 +215,53 @@ fn fast_trains_on_a_harsh_signal() {
 }
 
 /// Ten-second holds in command mode, half of the sessions with breaths
-/// saturating at the rails.
+/// saturating at the rails. A hold longer than `max_hold_ms` (6 s) is a
+/// stuck sensor: each is exactly one stuck fault and never a burst, and
+/// (the breath wanders, as a person's does) never re-zeroed; releasing
+/// recovers. The user rests long enough after each hold to recover before
+/// the next, so every hold begins while detecting.
 #[test]
 fn ten_second_holds_and_saturation() {
     let config = Config::default();
+    let d = config.core().detector();
     let style = UserStyle {
         hold_ms: (10_000, 10_000),
-        ..UserStyle::for_detector(config.core().detector())
+        ..UserStyle::for_detector(d)
     };
-    let ticks = random_sessions(
-        "ten-second holds",
-        &config,
-        20..26,
-        500,
-        style,
-        harsh_and_every_other_saturating,
-    );
+    let mut ticks = 0;
+    for seed in 20..26 {
+        let (session, modes) = random_session_with(&config, 500, seed, style);
+        let mut script = Vec::new();
+        let mut long_holds = 0;
+        let mut after_long = false;
+        for step in session {
+            script.push(match step {
+                Step::Rest { ms } if after_long => Step::Rest {
+                    ms: ms.max(d.fault_recovery_ms + 300),
+                },
+                other => other,
+            });
+            after_long = matches!(step, Step::Breath { ms, .. } if ms > d.max_hold_ms);
+            long_holds += u64::from(after_long);
+        }
+        // Held breaths wander by ±0.1 V, as a person's do.
+        let params = harsh_and_every_other_saturating(&config, seed).with_wander(0.1);
+        let t = assert_noisy_session(
+            "ten-second holds",
+            &config,
+            params,
+            &script,
+            &modes,
+            Expect {
+                faults: long_holds,
+                stuck: long_holds,
+                ..Expect::default()
+            },
+        );
+        assert_eq!(t.too_long, long_holds, "{t:?}");
+        assert!(long_holds >= 20, "{long_holds} long holds");
+        ticks += t.ticks;
+    }
     assert!(ticks >= 3_000_000, "{ticks} ticks");
 }
 
@@ -269,8 +306,8 @@ fn nan_dropouts_fault_and_recover() {
             &script,
             &modes,
             Expect {
-                resets: 0,
                 faults: inserted as u64,
+                ..Expect::default()
             },
         );
         assert!(inserted >= dropouts.len(), "{inserted} dropouts");

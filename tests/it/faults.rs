@@ -1,0 +1,391 @@
+//! Issue 11 (e, g): a breath held too long is a stuck sensor, and a stall
+//! of the process is a fault, both seen through the whole pipeline.
+
+use sipnpuff::config::Config;
+use sipnpuff::control::action::Action;
+use sipnpuff::control::detector::FaultReason;
+use sipnpuff::control::event::{Event, TimedEvent};
+use sipnpuff::control::mode::{Mode, ModeState};
+use sipnpuff::control::modes::DetectionReason;
+use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
+
+/// Steps a pipeline sample by sample, keeping every event with its tick.
+struct Run {
+    core: Pipeline,
+    tick: u64,
+    events: Vec<(u64, Event)>,
+    last: Option<TickOutput>,
+}
+
+impl Run {
+    fn new(config: &Config) -> Run {
+        Run {
+            core: Pipeline::new(config.core()),
+            tick: 0,
+            events: Vec::new(),
+            last: None,
+        }
+    }
+
+    /// `ms` samples at `volts`; `check` sees every output.
+    fn hold_with(&mut self, volts: f64, ms: u64, mut check: impl FnMut(&TickOutput)) {
+        for _ in 0..ms {
+            let out = self.core.step(self.tick, volts);
+            self.events
+                .extend(out.events.iter().map(|e| (self.tick, *e)));
+            check(&out);
+            self.last = Some(out);
+            self.tick += 1;
+        }
+    }
+
+    fn hold(&mut self, volts: f64, ms: u64) {
+        self.hold_with(volts, ms, |_| {});
+    }
+
+    /// Rest, then two long puffs: rotate_z (`[-2, -2]`), the mode that
+    /// turned 64 rad in a minute.
+    fn enter_rotate_z(&mut self) {
+        self.hold(2.5, 1000);
+        self.hold(4.0, 800);
+        self.hold(2.5, 300);
+        self.hold(4.0, 800);
+        self.hold(2.5, 300);
+        assert!(
+            self.events.iter().any(|(_, e)| matches!(
+                e,
+                Event::Match {
+                    mode: Mode::RotateZ,
+                    ..
+                }
+            )),
+            "{:?}",
+            self.events
+        );
+        self.events.clear();
+    }
+
+    fn speed(&self) -> f64 {
+        let m = self.last.as_ref().unwrap().motion;
+        m.linear
+            .iter()
+            .chain(&m.angular)
+            .map(|v| v * v)
+            .sum::<f64>()
+            .sqrt()
+    }
+}
+
+/// A sensor stuck at 4.0 V, 5 V or 0 V while rotating: a fault at exactly
+/// the breath's start + `max_hold_ms` (6000 by default), command mode
+/// left, no burst, and the commanded motion brakes to zero and stays
+/// there for the rest of the minute.
+#[test]
+fn a_stuck_sensor_is_a_fault_at_max_hold_and_the_arm_stops() {
+    let config = Config::default();
+    for stuck in [4.0, 5.0, 0.0] {
+        let mut run = Run::new(&config);
+        run.enter_rotate_z();
+        let start = run.tick;
+        let (mut last_moving, mut speed_before_fault) = (None, 0.0);
+        run.hold_with(stuck, 60_000, |out| {
+            let m = out.motion;
+            let speed = m
+                .linear
+                .iter()
+                .chain(&m.angular)
+                .map(|v| v * v)
+                .sum::<f64>();
+            if speed > 0.0 {
+                last_moving = Some(out.tick);
+            }
+            if out.tick == start + 5999 {
+                speed_before_fault = speed.sqrt();
+            }
+        });
+        let faults: Vec<_> = run
+            .events
+            .iter()
+            .filter(|(_, e)| matches!(e, Event::Fault { .. }))
+            .collect();
+        assert_eq!(faults.len(), 1, "{stuck} V: {:?}", run.events);
+        assert_eq!(faults[0].0, start + 6000, "{stuck} V: {:?}", run.events);
+        assert!(
+            run.events.contains(&(
+                start + 6000,
+                Event::Detection {
+                    reason: DetectionReason::Fault
+                }
+            )),
+            "{stuck} V: {:?}",
+            run.events
+        );
+        assert!(
+            !run.events.iter().any(|(_, e)| matches!(e, Event::Burst(_))),
+            "{stuck} V: {:?}",
+            run.events
+        );
+        // Turning at full speed until the fault, then braking through
+        // Ruckig (about 0.6 s from 1.07 rad/s), then still to the end.
+        assert!(speed_before_fault > 1.0, "{stuck} V: {speed_before_fault}");
+        let last_moving = last_moving.expect("it moved");
+        assert!(
+            (start + 6000..start + 7000).contains(&last_moving),
+            "{stuck} V: last moving at {last_moving}, fault at {}",
+            start + 6000
+        );
+        assert_eq!(run.speed(), 0.0);
+        assert_eq!(
+            run.last.unwrap().command.state,
+            ModeState::Detection,
+            "{stuck} V"
+        );
+    }
+}
+
+fn bursts(events: &[(u64, Event)]) -> Vec<(u64, Action, u64)> {
+    events
+        .iter()
+        .filter_map(|(t, e)| match e {
+            Event::Burst(b) => Some((*t, b.action, b.duration_ms())),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The sensor's offset shifts by 0.7 V (2.5 → 3.2 V) within a sample while
+/// rotating: a puff held for ever. Stuck at start + 6000, the arm brakes
+/// and stays still; the level is steady, so 2000 ms later it is the new
+/// neutral, and breaths around it are detected as usual (the thresholds
+/// moved by their offsets: puffs above 3.7 V, sips below 2.7 V).
+#[test]
+fn an_offset_shift_faults_then_rezeroes_and_detection_resumes() {
+    let config = Config::default();
+    let mut run = Run::new(&config);
+    run.enter_rotate_z();
+    let start = run.tick;
+    let mut moved_after = None;
+    run.hold_with(3.2, 9000, |out| {
+        let m = out.motion;
+        if out.tick > start + 7000 && m.angular.iter().chain(&m.linear).any(|v| *v != 0.0) {
+            moved_after = Some(out.tick);
+        }
+    });
+    assert_eq!(moved_after, None, "still after braking");
+    let fault = start + 6000;
+    assert!(matches!(
+        run.events[0],
+        (t, Event::Fault { reason: FaultReason::Stuck { held_ms: 6000, .. } }) if t == fault
+    ));
+    assert_eq!(
+        run.events[1],
+        (
+            fault,
+            Event::Detection {
+                reason: DetectionReason::Fault
+            }
+        )
+    );
+    let (
+        tick,
+        Event::Rezeroed {
+            neutral_volts,
+            previous_volts,
+        },
+    ) = run.events[2]
+    else {
+        panic!("{:?}", run.events)
+    };
+    assert_eq!(tick, fault + 2000);
+    assert!((neutral_volts - 3.2).abs() < 1e-9 && previous_volts == 2.5);
+    assert_eq!(run.events.len(), 3, "{:?}", run.events);
+    assert!((run.core.detector().neutral_volts() - 3.2).abs() < 1e-9);
+    let line: serde_json::Value = serde_json::to_value(TimedEvent {
+        tick,
+        event: run.events[2].1,
+    })
+    .unwrap();
+    assert_eq!(line["event"], "rezeroed", "{line}");
+    assert!((line["neutral_volts"].as_f64().unwrap() - 3.2).abs() < 1e-9);
+    assert_eq!(line["previous_volts"], 2.5);
+    run.events.clear();
+
+    // Around the new neutral: a short puff to 4.2 V and a short sip to
+    // 2.4 V; a dip to 2.9 V (a puff-sized breath before) is rest now.
+    run.hold(4.2, 150);
+    run.hold(3.2, 300);
+    run.hold(2.4, 150);
+    run.hold(3.2, 1500);
+    run.hold(2.9, 150);
+    run.hold(3.2, 1500);
+    let t0 = start + 9000;
+    assert_eq!(
+        bursts(&run.events),
+        [
+            (t0 + 155, Action::ShortPuff, 150),
+            (t0 + 605, Action::ShortSip, 150),
+        ]
+    );
+    // And the mode is entered again with two long puffs, and moves.
+    run.events.clear();
+    run.hold(4.2, 800);
+    run.hold(3.2, 300);
+    run.hold(4.2, 800);
+    run.hold(3.2, 300);
+    assert!(run.events.iter().any(|(_, e)| matches!(
+        e,
+        Event::Match {
+            mode: Mode::RotateZ,
+            ..
+        }
+    )));
+    run.hold(4.2, 1000);
+    assert!(run.speed() > 1.0, "{}", run.speed());
+}
+
+/// The same shift on the stress suite's harsh signal (noise σ = 0.1 V,
+/// 0.2 V of 50 Hz hum, a rail spike every 100 ms, drift of 0.5 V a
+/// minute): stuck, then re-zeroed exactly `rezero_ms` after the fault
+/// (every 100 ms window steady), for every seed.
+#[test]
+fn an_offset_shift_on_the_harsh_signal_rezeroes() {
+    let config = Config::default();
+    for seed in 0..8 {
+        let params = SignalParams {
+            drift_period_ms: 2.0 * std::f64::consts::PI * 60_000.0,
+            ..SignalParams::clean(config.core().detector(), seed)
+                .with_noise(0.1)
+                .with_hum(0.2)
+                .with_spikes_every(100)
+                .with_drift(0.5)
+        };
+        let script = [Step::Rest { ms: 20_000 }];
+        let shift_at = 2000;
+        let samples = SignalGenerator::new(params, &script)
+            .enumerate()
+            .map(|(t, v)| {
+                // Spikes stay at their rail.
+                if t < shift_at || v == 0.0 || v == 5.0 {
+                    v
+                } else {
+                    (v + 0.7).clamp(0.0, 5.0)
+                }
+            });
+        let samples: Vec<f64> = samples.collect();
+        let mut core: Pipeline = Pipeline::new(config.core());
+        let mut events = Vec::new();
+        for (t, &v) in samples.iter().enumerate() {
+            events.extend(core.step(t as u64, v).events.iter().map(|e| (t as u64, *e)));
+        }
+        let fault = events
+            .iter()
+            .find(|(_, e)| matches!(e, Event::Fault { .. }))
+            .unwrap_or_else(|| panic!("seed {seed}: {events:?}"))
+            .0;
+        // Noise moves the first crossing by a few ms.
+        assert!(
+            fault.abs_diff(shift_at as u64 + 6000) <= 30,
+            "seed {seed}: {events:?}"
+        );
+        let rezero = events
+            .iter()
+            .find_map(|(t, e)| match e {
+                Event::Rezeroed { neutral_volts, .. } => Some((*t, neutral_volts)),
+                _ => None,
+            })
+            .unwrap_or_else(|| panic!("seed {seed}: {events:?}"));
+        assert_eq!(rezero.0, fault + 2000, "seed {seed}");
+        // The level of the 2 s before, drift included (0.5 V · sin(t / 60 s)).
+        let drift = 0.5 * ((rezero.0 - 1000) as f64 / 60_000.0).sin();
+        assert!(
+            (rezero.1 - 3.2 - drift).abs() < 0.02,
+            "seed {seed}: {} {drift}",
+            rezero.1
+        );
+        assert!(
+            !events.iter().any(|(_, e)| matches!(e, Event::Burst(_))),
+            "seed {seed}: {events:?}"
+        );
+    }
+}
+
+/// A puff held 1500 ms in rotate_z, then the process stalls: the next tick
+/// comes 2000 ms later, the puff still held, and the user goes on. The gap
+/// is a fault on resumption (saying how long it was), the puff is dropped
+/// (never a 3500 ms burst), command mode ends, the motion brakes to zero,
+/// and the signal at rest recovers after `fault_recovery_ms`.
+#[test]
+fn a_stall_is_a_fault_on_resumption_and_nothing_is_stretched_across_it() {
+    let config = Config::default();
+    let mut run = Run::new(&config);
+    run.enter_rotate_z();
+    run.hold(4.0, 1500);
+    assert!(run.speed() > 1.0, "turning before the stall");
+    let resumed = run.tick + 1999; // one tick after the last, 2000 ms later
+    run.tick = resumed;
+    run.hold(4.0, 300); // still puffing after the gap
+    run.hold(2.5, 1000);
+    run.hold(4.0, 150); // the user's next breaths
+    run.hold(2.5, 300);
+    run.hold(4.0, 150);
+    run.hold(2.5, 2000);
+    let fault = run
+        .events
+        .iter()
+        .find(|(_, e)| matches!(e, Event::Fault { .. }))
+        .unwrap_or_else(|| panic!("no fault: {:?}", run.events));
+    assert_eq!(fault.0, resumed, "{:?}", run.events);
+    let Event::Fault { reason } = fault.1 else {
+        unreachable!()
+    };
+    assert!(
+        reason.to_string().contains("stalled for 2000 ms"),
+        "{reason}"
+    );
+    assert!(run.events.contains(&(
+        resumed,
+        Event::Detection {
+            reason: DetectionReason::Fault
+        }
+    )));
+    // Rest from resumed + 300; 250 samples later.
+    assert!(
+        run.events
+            .contains(&(resumed + 300 + 249, Event::Recovered)),
+        "{:?}",
+        run.events
+    );
+    // No burst but the user's two short puffs after recovery, which select
+    // nothing (translate_x needs them, and gets them: detection mode).
+    let found = bursts(&run.events);
+    assert_eq!(found.len(), 2, "{found:?}");
+    assert!(
+        found
+            .iter()
+            .all(|(_, a, ms)| *a == Action::ShortPuff && *ms == 150)
+    );
+    // Motion: braking after the fault, still well before the puffs.
+    let mut check = Run::new(&config);
+    check.enter_rotate_z();
+    check.hold(4.0, 1500);
+    check.tick += 1999;
+    let mut last_moving = 0;
+    check.hold_with(4.0, 2000, |out| {
+        if out
+            .motion
+            .angular
+            .iter()
+            .chain(&out.motion.linear)
+            .any(|v| *v != 0.0)
+        {
+            last_moving = out.tick;
+        }
+        assert_eq!(out.command.state, ModeState::Detection);
+    });
+    assert!(
+        last_moving < check.tick - 1000,
+        "still moving at {last_moving}"
+    );
+    assert_eq!(check.speed(), 0.0);
+}
