@@ -10,6 +10,7 @@ use crate::control::detector::{BurstDetector, DetectorEvent, DetectorOutput};
 use crate::control::event::{Event, Events};
 use crate::control::mode::{Held, ModeState};
 use crate::control::modes::{ModeMachine, ModeOutput};
+use crate::control::motion::stream::ARM_STOPS_AFTER_TICKS;
 use crate::control::motion::{Motion, MotionOutput};
 use crate::control::selection::Interface;
 use crate::control::selection::index::{SequenceIndex, TrieIndex};
@@ -45,6 +46,8 @@ pub struct Pipeline<I: SequenceIndex = TrieIndex> {
     selector: Selector<I>,
     modes: ModeMachine,
     motion: Motion,
+    /// The previous tick, to see gaps.
+    last_tick: Option<Tick>,
 }
 
 /// How a mode is selected in detection mode.
@@ -70,6 +73,7 @@ impl<I: SequenceIndex> Pipeline<I> {
             },
             modes: ModeMachine::new(config.command()),
             motion: Motion::new(config.motion(), config.workspace(), config.home()),
+            last_tick: None,
         }
     }
 
@@ -105,6 +109,16 @@ impl<I: SequenceIndex> Pipeline<I> {
     }
 
     fn process(&mut self, now: Tick, detected: DetectorOutput) -> TickOutput {
+        let gap = self.last_tick.map(|last| now.saturating_sub(last));
+        self.last_tick = Some(now);
+        if gap.is_some_and(|g| g > ARM_STOPS_AFTER_TICKS) {
+            // No command reached the arm during the gap (a stalled
+            // process): it has stopped on its own, as the JACO2 does when
+            // its stream stops. The commands resume from rest, never from
+            // the speed before the gap. (A gap over `stale_ms` is also a
+            // fault: the detector reports it.)
+            self.motion.halt();
+        }
         let mut out = TickOutput {
             tick: now,
             command: ModeOutput::default(),
@@ -146,6 +160,7 @@ impl<I: SequenceIndex> Pipeline<I> {
             }
             Some(DetectorEvent::Fault(reason)) => {
                 emit(&mut out, Event::Fault { reason });
+
                 if let Selector::Sequences(matcher) = &mut self.selector {
                     decision = matcher.interrupt();
                 }

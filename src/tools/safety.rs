@@ -18,6 +18,7 @@ use nalgebra::Vector3;
 use crate::control::core_config::CoreConfig;
 use crate::control::mode::{Direction, ModeState};
 use crate::control::motion::orientation::{OrientationLimits, tilt_and_twist};
+use crate::control::motion::stream::ARM_STOPS_AFTER_TICKS;
 use crate::control::motion::workspace;
 use crate::control::motion::{CYCLE_S, MotionOutput};
 use crate::control::pipeline::TickOutput;
@@ -59,6 +60,8 @@ pub struct SafetyMonitor {
     /// unless a breath is held again first.
     still_by: Option<u64>,
     previous: Option<(Direction, ModeState, bool)>,
+    /// The last tick seen.
+    last_tick: Option<u64>,
 }
 
 impl SafetyMonitor {
@@ -90,11 +93,13 @@ impl SafetyMonitor {
             stop_steps: (worst / CYCLE_S).ceil() as u64 + 2,
             still_by: None,
             previous: None,
+            last_tick: None,
         }
     }
 
     /// Checks one step's output.
     pub fn check(&mut self, out: &TickOutput) -> Result<(), Violation> {
+        self.check_gap(out);
         let result = self
             .check_motion(&out.motion)
             .and_then(|()| self.check_stop(out));
@@ -104,6 +109,18 @@ impl SafetyMonitor {
             tick: out.tick,
             what,
         })
+    }
+
+    /// After a gap of more than two arm cycles (a stalled process) no
+    /// command reached the arm, which has stopped on its own: the commands
+    /// must start again from rest, within the limits.
+    fn check_gap(&mut self, out: &TickOutput) {
+        let gap = self.last_tick.map(|t| out.tick.saturating_sub(t));
+        self.last_tick = Some(out.tick);
+        if gap.is_some_and(|g| g > ARM_STOPS_AFTER_TICKS) {
+            let rest = [Vector3::zeros(); 3];
+            self.history = [Some(rest), Some(rest)];
+        }
     }
 
     fn check_motion(&mut self, o: &MotionOutput) -> Result<(), String> {

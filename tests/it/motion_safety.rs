@@ -114,7 +114,12 @@ fn goto_pressed_while_braking_stays_inside_and_within_the_limits() {
             ..Timing::DEFAULT
         },
     ));
-    script.extend([puff(12_000), rest(5000)]);
+    // Within max_hold_ms, so several times, 300 ms apart: each release
+    // brakes, and the goto resumes from rest.
+    for _ in 0..4 {
+        script.extend([puff(5900), rest(300)]);
+    }
+    script.push(rest(5000));
     let trace = play(&config, &script);
     let pressed = trace
         .iter()
@@ -130,10 +135,17 @@ fn goto_pressed_while_braking_stays_inside_and_within_the_limits() {
     );
     no_trajectory_error(&trace);
     check_invariants(&config, &trace);
-    assert!(
-        motion_events(&trace).contains(&MotionEvent::GotoReached),
-        "the held puff still reaches the saved point"
-    );
+    // The go-to starts only once the arm has braked to rest.
+    let started = trace
+        .iter()
+        .position(|r| {
+            r.out
+                .events
+                .iter()
+                .any(|e| matches!(e, Event::Motion(MotionEvent::GotoStarted { .. })))
+        })
+        .expect("the go-to starts");
+    assert!(started > pressed && speed(&trace[started - 1]) == 0.0);
 }
 
 /// Defect a with a short inactivity timeout and goto_point on [1, 1]: a
@@ -469,4 +481,40 @@ fn with_motion_onset_a_moving_breath_voids_a_selection_begun() {
     // The 150 ms puff moved nothing; the 800 ms puff moved ~0.5 s' worth.
     let x = trace.last().unwrap().out.motion.pose.translation.x;
     assert!(x > 0.21 + 0.05 && x < 0.21 + 0.2, "x {x}");
+}
+
+/// A stall of the process longer than two arm cycles: the arm, fed no
+/// command, has stopped on its own, so the commands resume from rest —
+/// never from the speed before the gap (a jump for the real arm). A gap
+/// under `stale_ms` is no fault: the held puff accelerates again.
+#[test]
+fn after_a_stall_the_commands_resume_from_rest() {
+    use sipnpuff::control::pipeline::Pipeline;
+    use sipnpuff::tools::safety::SafetyMonitor;
+    let config = Config::default();
+    let mut script = vec![rest(500)];
+    script.extend(select(&TRANSLATE_X));
+    script.extend([puff(3000), rest(1000)]);
+    let params = SignalParams::clean(config.core().detector(), 3);
+    let samples: Vec<f64> = SignalGenerator::new(params, &script).collect();
+    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut monitor = SafetyMonitor::new(config.core());
+    let cut = 500 + 1050 + 300 + 1500; // 1.5 s into the puff
+    let mut tick = 0;
+    let mut speeds = Vec::new();
+    for (i, v) in samples.into_iter().enumerate() {
+        tick += if i == cut { 31 } else { 1 }; // a 30 ms stall
+        let out = core.step(tick, v);
+        monitor.check(&out).unwrap_or_else(|v| panic!("{v}"));
+        speeds.push((tick, Vector3::from(out.motion.linear).norm()));
+    }
+    let before = speeds[cut - 1].1;
+    let after = speeds[cut].1;
+    assert!(before > 0.19, "full speed before the stall: {before}");
+    let j = config.core().motion().linear_jerk_mps3;
+    assert!(after <= j * DT * DT, "from rest after it: {after}");
+    assert!(
+        speeds[cut + 400].1 > 0.19,
+        "the held puff accelerates again"
+    );
 }

@@ -128,7 +128,8 @@ fn options(seconds: f64) -> RunOptions {
 
 /// `run` for `seconds` with the built-in user and the simulated arm.
 fn real_run(seconds: f64) -> RunReport {
-    let config = Config::default();
+    // Load stalls on this shared machine must not fault the scripted user.
+    let config = Config::from_file(&crate::common::fixture("shared-machine.toml")).unwrap();
     let sensor = SyntheticSensor::built_in_user(&config);
     let arm = Box::new(SimArm::new(config.core()));
     run(
@@ -218,7 +219,8 @@ fn binary() -> Command {
 fn sigint_stops_safely_with_a_report() {
     let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
     let mut child = binary()
-        .args(["run", "--seconds", "60"])
+        .args(["run", "--seconds", "60", "--config"])
+        .arg(crate::common::fixture("shared-machine.toml"))
         .stdout(Stdio::piped())
         .spawn()
         .unwrap();
@@ -455,7 +457,8 @@ fn a_late_wake_up_faults_and_discards_the_sensors_backlog() {
 fn a_stopped_and_continued_process_reports_the_stall_and_stops_safely() {
     let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
     let mut child = binary()
-        .args(["run", "--seconds", "8"])
+        .args(["run", "--seconds", "8", "--config"])
+        .arg(crate::common::fixture("shared-machine.toml"))
         .stdout(Stdio::piped())
         .spawn()
         .unwrap();

@@ -328,6 +328,27 @@ impl Motion {
         &self.orientation
     }
 
+    /// The arm has stopped on its own (no command reached it for longer
+    /// than its watchdog, e.g. the process stalled): every channel is set
+    /// to rest where the pose estimate stands, a goto is abandoned, and
+    /// the next commands start from zero. RT-safe.
+    pub fn halt(&mut self) {
+        self.switch_to_velocity_plan();
+        self.goto_pending = false;
+        self.fallback = false;
+        for input in [
+            &mut self.input.current_velocity,
+            &mut self.input.current_acceleration,
+        ] {
+            input.fill(0.0);
+        }
+        self.input.target_velocity.fill(0.0);
+        self.finger_input.current_velocity.fill(0.0);
+        self.finger_input.current_acceleration.fill(0.0);
+        self.finger_input.target_velocity.fill(0.0);
+        self.last = [0.0; 7];
+    }
+
     /// One tick. RT-safe.
     pub fn step(&mut self, now: Tick, command: &ModeOutput) -> MotionOutput {
         let mut events = [None; 2];

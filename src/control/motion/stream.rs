@@ -12,6 +12,11 @@ use crate::control::Tick;
 /// Ticks per arm command (10 ms).
 pub const ARM_STREAM_PERIOD_TICKS: u32 = 10;
 
+/// With no new command for this many ticks (two of its 10 ms cycles) the
+/// arm has stopped on its own: the JACO2 executes each command for one
+/// cycle and stands still when its stream stops.
+pub const ARM_STOPS_AFTER_TICKS: u64 = 2 * ARM_STREAM_PERIOD_TICKS as u64;
+
 /// One Cartesian velocity command for the arm, held for 10 ms. `Copy`.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
 pub struct ArmCommand {
