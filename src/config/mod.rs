@@ -112,6 +112,13 @@ impl Config {
         self.core.matcher.sequence_timeout_ms = ms;
         Config::validated(self.core)
     }
+
+    /// This config with another `command.motion_onset_ms` (0 = off),
+    /// validated.
+    pub fn with_motion_onset_ms(mut self, ms: u32) -> Result<Config, ConfigErrors> {
+        self.core.command.motion_onset_ms = ms;
+        Config::validated(self.core)
+    }
 }
 
 #[cfg(test)]

@@ -45,6 +45,11 @@ pub struct UserModel {
     /// Between-participant spread: each participant's mean reaction time
     /// is the population's times a log-normal factor of this σ.
     pub between_users: f64,
+    /// Chance, at each change of mode, that the user slips: starts the next
+    /// selection right after the move instead of waiting for the return to
+    /// detection mode (the slip the motion onset is for). 0 in the paper's
+    /// population.
+    pub slip_rate: f64,
 }
 
 impl UserModel {
@@ -67,6 +72,7 @@ impl UserModel {
         miss_rate: 0.10,
         hold_sd: 0.10,
         between_users: 0.20,
+        slip_rate: 0.0,
     };
 
     /// One participant drawn from the population: their own mean reaction
@@ -99,6 +105,16 @@ pub struct TaskRun {
     pub retries: u32,
     /// The run hit the time cap before finishing (never expected).
     pub timed_out: bool,
+    /// Selections started in command mode by a slip.
+    pub slips: u32,
+    /// Selections started in command mode on purpose (motion onset on and
+    /// a sequence of short bursts only: no need to wait).
+    pub direct_switches: u32,
+    /// Distance the arm was commanded to move while the user was entering
+    /// a selection (motion nobody wanted), mm.
+    pub unintended_mm: f64,
+    /// The same for rotation, rad.
+    pub unintended_rad: f64,
 }
 
 /// Longest a task may take in simulation before it is abandoned, ticks.
@@ -216,16 +232,40 @@ impl Agent<'_> {
                             f64::from(step.moving_ms),
                             f64::from(step.moving_ms) * self.user.hold_sd,
                         ));
+                        // With a motion onset the arm starts moving only
+                        // after it: the user holds that much longer.
+                        let onset = self.config.core().command().motion_onset_ms;
                         signal.push(Step::Rest { ms: reaction });
                         signal.push(Step::Breath {
                             breath: step.breath,
-                            ms: hold.max(100.0) as u32,
+                            ms: hold.max(100.0) as u32 + onset,
                         });
                         signal.push(Step::Rest { ms: AFTER_HOLD_MS });
                         self.next += 1;
                         None
                     }
-                    ModeState::Command(_) => Some(Phase::AwaitDetection),
+                    ModeState::Command(_) => {
+                        // A sequence of short bursts only, all shorter than
+                        // the motion onset, switches mode from here; anyone
+                        // may also slip and start the selection too early.
+                        let asp = self.config.core().interface() == Interface::Asp;
+                        let direct = asp && self.switches_from_command_mode(step.mode);
+                        let slip = asp && !direct && self.rng.random_bool(self.user.slip_rate);
+                        if !(direct || slip) {
+                            return Some(Phase::AwaitDetection);
+                        }
+                        if direct {
+                            self.run.direct_switches += 1;
+                        } else {
+                            self.run.slips += 1;
+                        }
+                        self.enter_sequence(step.mode, signal);
+                        self.phase = Phase::AwaitMatch {
+                            target: step.mode,
+                            deadline: None,
+                        };
+                        None
+                    }
                     ModeState::Detection => match self.config.core().interface() {
                         Interface::Asp => {
                             self.enter_sequence(step.mode, signal);
@@ -317,6 +357,28 @@ impl Agent<'_> {
                 }
             }
         }
+    }
+
+    /// With `motion_onset_ms`, whether the sequence for `mode` can be
+    /// entered in command mode without moving the arm: each of its bursts
+    /// (mean + 4 SD of its class) shorter than the onset.
+    fn switches_from_command_mode(&self, mode: Mode) -> bool {
+        let onset = f64::from(self.config.core().command().motion_onset_ms);
+        let longest = |(mean, sd): (f64, f64)| mean + 4.0 * sd;
+        let (short, long) = (longest(self.user.short_ms), longest(self.user.long_ms));
+        onset > 0.0
+            && self
+                .config
+                .core()
+                .sequences()
+                .iter()
+                .find(|e| e.mode == mode)
+                .is_some_and(|e| {
+                    e.actions
+                        .as_slice()
+                        .iter()
+                        .all(|a| onset > if a.is_long() { long } else { short })
+                })
     }
 
     /// ASP: the library's first sequence for `mode`, breathed with this
@@ -456,6 +518,7 @@ fn simulate(
     let mut state = ModeState::Detection;
     let mut moving_ticks = 0u64;
     let mut last_moving = 0u64;
+    let mut unintended = false;
     let mut tick = 0u64;
     loop {
         let volts = loop {
@@ -479,6 +542,21 @@ fn simulate(
             events.push(*event);
         }
         state = out.command.state;
+        // A breath of a selection that moves the arm: that motion, braking
+        // included, is motion nobody wanted.
+        if matches!(agent.phase, Phase::AwaitMatch { .. })
+            && out.command.direction != Direction::Still
+        {
+            unintended = true;
+        }
+        if out.motion.is_still() {
+            unintended = false;
+        }
+        if unintended {
+            let norm = |v: [f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            agent.run.unintended_mm += norm(out.motion.linear);
+            agent.run.unintended_rad += norm(out.motion.angular) / 1000.0;
+        }
         if out.command.direction != Direction::Still {
             moving_ticks += 1;
             last_moving = tick;

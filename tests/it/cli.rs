@@ -42,7 +42,7 @@ fn enumerated_options_list_their_choices() {
     assert!(e.contains("[possible values: asp, bsp]"), "{e}");
     let e = refused(&["study", "--sweep", "speed"]);
     assert!(
-        e.contains("[possible values: bsp-dwell, asp-timeout, error-rate, library]"),
+        e.contains("[possible values: bsp-dwell, asp-timeout, error-rate, library, motion-onset]"),
         "{e}"
     );
     let e = refused(&["run", "--sensor", "evdev:/dev/input/event3"]);

@@ -210,3 +210,41 @@ fn selection_is_the_only_difference() {
         }
     }
 }
+
+/// Issue 11 §2 measured: users who slip (start a selection before the
+/// return to detection mode) at 20 % of their mode changes move the arm
+/// without meaning to in the paper's design; with a motion onset longer
+/// than every burst they breathe, no slip moves it and the mode changes
+/// without the inactivity wait, so the tasks end sooner.
+#[test]
+fn a_motion_onset_removes_the_motion_of_slips_and_the_inactivity_wait() {
+    use sipnpuff::sim::study::tasks::TASKS;
+    use sipnpuff::sim::user::{UserModel, run_task};
+    let user = UserModel {
+        slip_rate: 0.2,
+        ..UserModel::POPULATION
+    };
+    let task = &TASKS[0];
+    let paper = Config::default();
+    let onset = Config::default().with_motion_onset_ms(1300).unwrap();
+    let (mut off_mm, mut off_slips, mut off_s, mut on_mm, mut on_s) = (0.0, 0, 0.0, 0.0, 0.0);
+    for seed in 0..3 {
+        let run = run_task(&paper, task, &user, seed);
+        assert!(!run.timed_out);
+        off_mm += run.unintended_mm;
+        off_slips += run.slips;
+        off_s += run.completion_s;
+        let run = run_task(&onset, task, &user, seed);
+        assert!(!run.timed_out);
+        assert_eq!(run.slips, 0, "every switch is direct");
+        assert!(run.direct_switches > 0);
+        on_mm += run.unintended_mm;
+        on_s += run.completion_s;
+    }
+    assert!(
+        off_slips > 0 && off_mm > 10.0,
+        "{off_slips} slips, {off_mm} mm"
+    );
+    assert_eq!(on_mm, 0.0);
+    assert!(on_s < off_s, "{on_s} s with the onset, {off_s} s without");
+}

@@ -91,6 +91,15 @@ pub struct TaskSummary {
     pub bsp_moving_mean_s: f64,
     /// Runs that hit the simulation's time cap (never expected).
     pub timed_out: usize,
+    /// ASP: selections started in command mode by a slip, all runs.
+    pub asp_slips: u32,
+    /// ASP: selections started in command mode on purpose (motion onset).
+    pub asp_direct_switches: u32,
+    /// ASP: motion commanded by the breaths of a selection (braking
+    /// included), mm, all runs.
+    pub asp_unintended_mm: f64,
+    /// The same per slip (0 without slips).
+    pub asp_unintended_mm_per_slip: f64,
 }
 
 impl TaskResults {
@@ -119,6 +128,18 @@ impl TaskResults {
                 .chain(&self.bsp)
                 .filter(|r| r.timed_out)
                 .count(),
+            asp_slips: self.asp.iter().map(|r| r.slips).sum(),
+            asp_direct_switches: self.asp.iter().map(|r| r.direct_switches).sum(),
+            asp_unintended_mm: self.asp.iter().map(|r| r.unintended_mm).sum(),
+            asp_unintended_mm_per_slip: {
+                let slips: u32 = self.asp.iter().map(|r| r.slips).sum();
+                let mm: f64 = self.asp.iter().map(|r| r.unintended_mm).sum();
+                if slips == 0 {
+                    0.0
+                } else {
+                    mm / f64::from(slips)
+                }
+            },
         }
     }
 }
@@ -305,6 +326,10 @@ pub enum SweepParam {
     ErrorRate,
     /// The sequence library: prefix-free (built-in) or with prefixes.
     Library,
+    /// `command.motion_onset_ms` (off, 300, 450, 600, 1300 ms), with users who
+    /// slip (start a selection before the return to detection mode) at
+    /// 20 % of their mode changes, and without slips for reference.
+    MotionOnset,
 }
 
 impl SweepParam {
@@ -315,6 +340,7 @@ impl SweepParam {
             SweepParam::AspTimeout => "asp-timeout",
             SweepParam::ErrorRate => "error-rate",
             SweepParam::Library => "library",
+            SweepParam::MotionOnset => "motion-onset",
         }
     }
 }
@@ -358,6 +384,9 @@ fn prefix_library(config: &Config) -> Result<Config, ConfigErrors> {
         .clone()
         .with_sequences(library.core().sequences().to_vec())
 }
+
+/// The slip rate of the motion-onset sweep: one mode change in five.
+pub const SLIP_RATE: f64 = 0.2;
 
 /// One row of a sweep: the value and each task's summary.
 #[derive(Debug, Clone, Serialize)]
@@ -414,6 +443,29 @@ pub fn sweep(
             settings.push(("prefix-free (built-in)".into(), config.clone(), *options));
             settings.push(("with prefixes".into(), prefix_library(config)?, *options));
         }
+        SweepParam::MotionOnset => {
+            for (onset, slip) in [
+                (0, 0.0),
+                (0, SLIP_RATE),
+                (300, SLIP_RATE),
+                (450, SLIP_RATE),
+                (600, SLIP_RATE),
+                (1300, SLIP_RATE),
+            ] {
+                let mut o = *options;
+                o.population.slip_rate = slip;
+                let onset_name = if onset == 0 {
+                    "off".to_string()
+                } else {
+                    format!("{onset} ms")
+                };
+                settings.push((
+                    format!("{onset_name}, slips {:.0} %", slip * 100.0),
+                    config.clone().with_motion_onset_ms(onset)?,
+                    o,
+                ));
+            }
+        }
     }
     let count = settings.len();
     let mut rows = Vec::with_capacity(count);
@@ -430,6 +482,9 @@ pub fn sweep(
 
 /// The sweep as a Markdown table.
 pub fn sweep_text(param: SweepParam, rows: &[SweepRow]) -> String {
+    if param == SweepParam::MotionOnset {
+        return onset_text(rows);
+    }
     let param_name = param.name();
     let mut out = format!(
         "| {param_name} | task 1 ASP / BSP s | lower by | task 2 ASP / BSP s | lower by | task 3 ASP / BSP s | lower by |\n|---|---|---|---|---|---|---|\n"
@@ -443,6 +498,30 @@ pub fn sweep_text(param: SweepParam, rows: &[SweepRow]) -> String {
             );
         }
         out.push('\n');
+    }
+    out
+}
+
+/// The motion-onset sweep: ASP completion times, and per slip the motion
+/// nobody wanted.
+fn onset_text(rows: &[SweepRow]) -> String {
+    let mut out = String::from(
+        "| motion onset | task 1 ASP s | task 2 ASP s | task 3 ASP s | slips | direct switches | unintended motion per slip, mm | unintended motion in all, mm |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    for row in rows {
+        out += &format!("| {} |", row.value);
+        for s in &row.tasks {
+            out += &format!(" {:.1} ± {:.1} |", s.asp_mean_s, s.asp_sd_s);
+        }
+        let slips: u32 = row.tasks.iter().map(|s| s.asp_slips).sum();
+        let direct: u32 = row.tasks.iter().map(|s| s.asp_direct_switches).sum();
+        let mm: f64 = row.tasks.iter().map(|s| s.asp_unintended_mm).sum();
+        let per_slip = if slips == 0 {
+            0.0
+        } else {
+            mm / f64::from(slips)
+        };
+        out += &format!(" {slips} | {direct} | {per_slip:.1} | {mm:.0} |\n");
     }
     out
 }
