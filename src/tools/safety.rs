@@ -46,6 +46,27 @@ impl fmt::Display for Violation {
     }
 }
 
+/// The longest a stop may take, in steps (1 ms ticks), over the linear,
+/// angular and finger groups: from full acceleration near full speed the
+/// acceleration first ramps to zero (A/J), then braking from full speed
+/// takes v/A + A/J; plus two ticks.
+pub fn stop_steps(config: &CoreConfig) -> u64 {
+    let m = config.motion();
+    let time = |v: f64, a: f64, j: f64| v / a + 2.0 * a / j;
+    let worst = time(
+        m.linear_speed_mps,
+        m.linear_acceleration_mps2,
+        m.linear_jerk_mps3,
+    )
+    .max(time(
+        m.angular_speed_radps,
+        m.angular_acceleration_radps2,
+        m.angular_jerk_radps3,
+    ))
+    .max(time(m.finger_speed, m.finger_acceleration, m.finger_jerk));
+    (worst / CYCLE_S).ceil() as u64 + 2
+}
+
 /// Watches one pipeline's outputs, in order.
 #[derive(Debug, Clone)]
 pub struct SafetyMonitor {
@@ -67,19 +88,6 @@ pub struct SafetyMonitor {
 impl SafetyMonitor {
     /// A monitor for a pipeline built from `config`, at its home pose.
     pub fn new(config: &CoreConfig) -> Self {
-        let m = config.motion();
-        let time = |v: f64, a: f64, j: f64| v / a + 2.0 * a / j;
-        let worst = time(
-            m.linear_speed_mps,
-            m.linear_acceleration_mps2,
-            m.linear_jerk_mps3,
-        )
-        .max(time(
-            m.angular_speed_radps,
-            m.angular_acceleration_radps2,
-            m.angular_jerk_radps3,
-        ))
-        .max(time(m.finger_speed, m.finger_acceleration, m.finger_jerk));
         let w = config.workspace();
         SafetyMonitor {
             config: config.clone(),
@@ -90,7 +98,7 @@ impl SafetyMonitor {
             },
             history: [None; 2],
             step: 0,
-            stop_steps: (worst / CYCLE_S).ceil() as u64 + 2,
+            stop_steps: stop_steps(config),
             still_by: None,
             previous: None,
             last_tick: None,

@@ -53,25 +53,9 @@ fn noisy(config: &Config, seed: u64) -> SignalParams {
         .with_spikes_every(250)
 }
 
-/// Longest time stopping can take, in ticks, over the linear, angular and
-/// finger groups: from full acceleration near full speed, the acceleration
-/// first ramps to zero (A/J), then braking from full speed takes
-/// v/A + A/J; plus two ticks.
+/// Longest time stopping can take, in ticks (the safety monitor's bound).
 pub fn stop_ticks(config: &Config) -> usize {
-    let m = config.core().motion();
-    let t = |v: f64, a: f64, j: f64| v / a + 2.0 * a / j;
-    let worst = t(
-        m.linear_speed_mps,
-        m.linear_acceleration_mps2,
-        m.linear_jerk_mps3,
-    )
-    .max(t(
-        m.angular_speed_radps,
-        m.angular_acceleration_radps2,
-        m.angular_jerk_radps3,
-    ))
-    .max(t(m.finger_speed, m.finger_acceleration, m.finger_jerk));
-    (worst / DT).ceil() as usize + 2
+    sipnpuff::tools::safety::stop_steps(config.core()) as usize
 }
 
 /// Rounding allowance on the stop margin, m (a nanometre).

@@ -66,6 +66,17 @@ fn speed(r: &Record) -> f64 {
     Vector3::from(r.out.motion.linear).norm()
 }
 
+/// The first tick with a puff held in goto_point.
+fn goto_pressed(trace: &[Record]) -> usize {
+    trace
+        .iter()
+        .position(|r| {
+            r.out.command.state == ModeState::Command(Mode::GotoPoint)
+                && r.out.command.direction == Direction::Positive
+        })
+        .expect("goto_point held")
+}
+
 fn no_trajectory_error(trace: &[Record]) {
     assert!(
         !motion_events(trace).contains(&MotionEvent::TrajectoryError),
@@ -121,13 +132,7 @@ fn goto_pressed_while_braking_stays_inside_and_within_the_limits() {
     }
     script.push(rest(5000));
     let trace = play(&config, &script);
-    let pressed = trace
-        .iter()
-        .position(|r| {
-            r.out.command.state == ModeState::Command(Mode::GotoPoint)
-                && r.out.command.direction == Direction::Positive
-        })
-        .expect("goto_point held");
+    let pressed = goto_pressed(&trace);
     assert!(
         speed(&trace[pressed]) > 0.01,
         "the scenario presses goto_point while braking: {} m/s at tick {pressed}",
@@ -176,13 +181,7 @@ fn a_fast_goto_selection_while_braking_stays_inside() {
     script.extend(sequence_steps(&[ShortSip, ShortSip], fast));
     script.extend([puff(8000), rest(3000)]);
     let trace = play(&config, &script);
-    let pressed = trace
-        .iter()
-        .position(|r| {
-            r.out.command.state == ModeState::Command(Mode::GotoPoint)
-                && r.out.command.direction == Direction::Positive
-        })
-        .expect("goto_point held");
+    let pressed = goto_pressed(&trace);
     assert!(
         speed(&trace[pressed]) > 0.01,
         "pressed while braking: {} m/s at tick {pressed}",

@@ -41,30 +41,7 @@ impl Motion {
         &mut self,
         request: Option<(Vector3<f64>, f64)>,
     ) -> (f64, Option<Boundary>) {
-        let Some((wanted, speed)) = request else {
-            self.linear_blocked = None;
-            return (0.0, None);
-        };
-        if let Some(blocked) = self.linear_blocked {
-            if blocked.dot(&wanted) > SAME_LINE {
-                return (0.0, None); // still held off: said once
-            }
-            self.linear_blocked = None;
-        }
-        let max = self.limits.linear_speed_mps;
-        let Some(target) = self.line_target(LINEAR, wanted, speed, max) else {
-            return (0.0, None); // braking to rest before the new direction
-        };
-        if target == 0.0 {
-            return (0.0, None);
-        }
-        let u = self.linear_axis * target.signum();
-        let boundary = self.linear_must_brake(&u, target.signum());
-        if boundary.is_some() {
-            self.linear_blocked = Some(wanted);
-            return (0.0, boundary);
-        }
-        (target, None)
+        self.channel_target(LINEAR, request)
     }
 
     /// The target rate about the angular axis, as [`Motion::linear_target`].
@@ -72,30 +49,58 @@ impl Motion {
         &mut self,
         request: Option<(Vector3<f64>, f64)>,
     ) -> (f64, Option<Boundary>) {
-        let Some((wanted, rate)) = request else {
-            self.angular_blocked = None;
+        self.channel_target(ANGULAR, request)
+    }
+
+    /// One channel's target: held off once per request by a limit, braked
+    /// to rest before a new direction, zero where a limit is too close.
+    fn channel_target(
+        &mut self,
+        dof: usize,
+        request: Option<(Vector3<f64>, f64)>,
+    ) -> (f64, Option<Boundary>) {
+        let linear = dof == LINEAR;
+        let Some((wanted, speed)) = request else {
+            *self.blocked(linear) = None;
             return (0.0, None);
         };
-        if let Some(blocked) = self.angular_blocked {
+        if let Some(blocked) = *self.blocked(linear) {
             if blocked.dot(&wanted) > SAME_LINE {
-                return (0.0, None);
+                return (0.0, None); // still held off: said once
             }
-            self.angular_blocked = None;
+            *self.blocked(linear) = None;
         }
-        let max = self.limits.angular_speed_radps;
-        let Some(target) = self.line_target(ANGULAR, wanted, rate, max) else {
-            return (0.0, None);
+        let max = if linear {
+            self.limits.linear_speed_mps
+        } else {
+            self.limits.angular_speed_radps
+        };
+        let Some(target) = self.line_target(dof, wanted, speed, max) else {
+            return (0.0, None); // braking to rest before the new direction
         };
         if target == 0.0 {
             return (0.0, None);
         }
-        let u = self.angular_axis * target.signum();
-        let boundary = self.angular_must_brake(&u, target.signum());
+        let sign = target.signum();
+        let boundary = if linear {
+            self.linear_must_brake(&(self.linear_axis * sign), sign)
+        } else {
+            self.angular_must_brake(&(self.angular_axis * sign), sign)
+        };
         if boundary.is_some() {
-            self.angular_blocked = Some(wanted);
+            *self.blocked(linear) = Some(wanted);
             return (0.0, boundary);
         }
         (target, None)
+    }
+
+    /// The request held off by a limit, for the linear or angular channel.
+    fn blocked(&mut self, linear: bool) -> &mut Option<Vector3<f64>> {
+        if linear {
+            &mut self.linear_blocked
+        } else {
+            &mut self.angular_blocked
+        }
     }
 
     /// The signed target along the channel's axis for a request along
