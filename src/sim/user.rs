@@ -250,7 +250,11 @@ impl Agent<'_> {
                         // may also slip and start the selection too early.
                         let asp = self.config.core().interface() == Interface::Asp;
                         let direct = asp && self.switches_from_command_mode(step.mode);
-                        let slip = asp && !direct && self.rng.random_bool(self.user.slip_rate);
+                        // (No draw at a zero rate: the paper's study stays as it was.)
+                        let slip = asp
+                            && !direct
+                            && self.user.slip_rate > 0.0
+                            && self.rng.random_bool(self.user.slip_rate);
                         if !(direct || slip) {
                             return Some(Phase::AwaitDetection);
                         }
