@@ -330,11 +330,12 @@ impl Motion {
 
     /// The arm has stopped on its own (no command reached it for longer
     /// than its watchdog, e.g. the process stalled): every channel is set
-    /// to rest where the pose estimate stands, a goto is abandoned, and
-    /// the next commands start from zero. RT-safe.
+    /// to rest where the pose estimate stands and the next commands start
+    /// from zero. A go-to under way starts again from rest if its puff is
+    /// still held. RT-safe.
     pub fn halt(&mut self) {
+        self.goto_pending = !self.goto_done && (self.plan == Plan::Goto || self.goto_pending);
         self.switch_to_velocity_plan();
-        self.goto_pending = false;
         self.fallback = false;
         for input in [
             &mut self.input.current_velocity,
@@ -829,6 +830,25 @@ mod tests {
         run(&mut m, &mut t, command(Mode::GotoPoint, STILL), 10);
         let out = run(&mut m, &mut t, command(Mode::GotoPoint, PUFF), 100);
         assert_eq!(events(&out), [MotionEvent::AlreadyAtSavedPoint]);
+    }
+
+    #[test]
+    fn a_goto_resumes_from_rest_after_a_halt() {
+        let mut m = motion();
+        let mut t = 0;
+        run(&mut m, &mut t, command(Mode::SavePoint, PUFF), 5);
+        run(&mut m, &mut t, command(Mode::SavePoint, STILL), 5);
+        run(&mut m, &mut t, command(Mode::TranslateX, PUFF), 1500);
+        run(&mut m, &mut t, command(Mode::TranslateX, STILL), 1000);
+        run(&mut m, &mut t, command(Mode::GotoPoint, PUFF), 500);
+        m.halt(); // a stall: the arm stopped on its own
+        let out = run(&mut m, &mut t, command(Mode::GotoPoint, PUFF), 4000);
+        assert!(Vector3::from(out[0].linear).norm() <= 12.8e-6, "from rest");
+        let ev = events(&out);
+        assert!(matches!(ev[0], MotionEvent::GotoStarted { .. }), "{ev:?}");
+        assert_eq!(ev[1], MotionEvent::GotoReached);
+        let goal = m.saved().unwrap().translation.vector;
+        assert!((m.pose().translation.vector - goal).norm() < 1e-6);
     }
 
     #[test]
