@@ -182,13 +182,7 @@ mod tests {
         let config = Config::default();
         let options = RunOptions {
             seconds: Some(0.05),
-            rt: crate::rt::setup::RtOptions {
-                fifo_priority: None,
-                cpu: None,
-                lock_memory: false,
-                timer_slack: false,
-                cpu_dma_latency: false,
-            },
+            rt: crate::rt::setup::RtOptions::NONE,
             spin_margin_ns: None,
             stop: StopRequest::new(),
         };

@@ -20,6 +20,17 @@ pub struct RtOptions {
     pub cpu_dma_latency: bool,
 }
 
+impl RtOptions {
+    /// Asks for nothing: for simulated runs and tests that share the machine.
+    pub const NONE: RtOptions = RtOptions {
+        fifo_priority: None,
+        cpu: None,
+        lock_memory: false,
+        timer_slack: false,
+        cpu_dma_latency: false,
+    };
+}
+
 impl Default for RtOptions {
     /// What cyclictest does: FIFO 80, last CPU, memory locked, 1 ns slack,
     /// CPU DMA latency 0.

@@ -342,13 +342,7 @@ pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRu
     } = Rings::new();
     let options = LoopOptions {
         limit_ticks: None,
-        rt: RtOptions {
-            fifo_priority: None,
-            cpu: None,
-            lock_memory: false,
-            timer_slack: false,
-            cpu_dma_latency: false,
-        },
+        rt: RtOptions::NONE,
         spin_margin_ns: None,
         stop: StopRequest::new(),
         arm_fault: Arc::new(AtomicBool::new(false)),

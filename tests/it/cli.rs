@@ -7,7 +7,7 @@ use std::process::{Command, Output};
 
 use sipnpuff::config::Config;
 
-use crate::common::fixture;
+use crate::common::{Running, fixture};
 
 fn sipnpuff(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
@@ -243,81 +243,9 @@ const LONG_RUN: [&str; 8] = [
     concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/shared-machine.toml"),
 ];
 
-/// A `run` whose stdout lines arrive on a channel.
-struct Running {
-    child: std::process::Child,
-    lines: std::sync::mpsc::Receiver<String>,
-    seen: Vec<String>,
-}
-
-impl Running {
-    fn start(extra: &[&str]) -> Running {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
-            .args(LONG_RUN)
-            .args(extra)
-            .stdout(std::process::Stdio::piped())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .expect("the sipnpuff binary runs");
-        let stdout = child.stdout.take().unwrap();
-        let (tx, lines) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            use std::io::BufRead;
-            for line in std::io::BufReader::new(stdout).lines() {
-                let Ok(line) = line else { break };
-                if tx.send(line).is_err() {
-                    break; // the test closed its end: stdout's reader is gone
-                }
-            }
-        });
-        Running {
-            child,
-            lines,
-            seen: Vec::new(),
-        }
-    }
-
-    /// Reads stdout until a line contains `text`.
-    fn wait_for(&mut self, text: &str) {
-        loop {
-            let line = self
-                .lines
-                .recv()
-                .unwrap_or_else(|_| panic!("stdout ended before {text:?}:\n{}", self.text()));
-            let found = line.contains(text);
-            self.seen.push(line);
-            if found {
-                return;
-            }
-        }
-    }
-
-    /// Waits until the arm is moving forward: `translate_x` selected, then
-    /// 0.9 s into the scripted user's 1.5 s puff (it starts about 0.66 s
-    /// after the match). `velocity_at_stop` in the report proves it.
-    fn wait_until_moving(&mut self) {
-        self.wait_for("\"mode\":\"translate_x\"");
-        std::thread::sleep(std::time::Duration::from_millis(900));
-    }
-
-    fn signal(&self, signal: libc::c_int) {
-        // SAFETY: kill with a valid pid and signal number has no memory effects.
-        let rc = unsafe { libc::kill(self.child.id() as libc::pid_t, signal) };
-        assert_eq!(rc, 0);
-    }
-
-    /// Waits for the exit; returns (status, stdout lines, stderr).
-    fn finish(mut self) -> (std::process::ExitStatus, Vec<String>, String) {
-        let mut stderr = String::new();
-        std::io::Read::read_to_string(self.child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
-        let status = self.child.wait().unwrap();
-        self.seen.extend(self.lines.iter());
-        (status, self.seen, stderr)
-    }
-
-    fn text(&self) -> String {
-        self.seen.join("\n")
-    }
+/// A `LONG_RUN` with `extra` arguments.
+fn start(extra: &[&str]) -> Running {
+    Running::spawn(&[&LONG_RUN[..], extra].concat())
 }
 
 /// The `--json` report (the last JSON object in `text`).
@@ -363,7 +291,7 @@ fn assert_braked_to_zero(report: &serde_json::Value) {
 /// A signal while the arm moves: the safe stop, the report naming the
 /// signal, exit status 128 + the signal's number.
 fn signal_mid_motion(signal: libc::c_int, name: &str) {
-    let mut run = Running::start(&["--json"]);
+    let mut run = start(&["--json"]);
     run.wait_until_moving();
     run.signal(signal);
     let (status, lines, stderr) = run.finish();
@@ -407,7 +335,7 @@ fn sigterm_mid_motion_brakes_reports_and_exits_143() {
 /// kernel and from the shell) does not cut the safe stop short.
 #[test]
 fn a_second_signal_does_not_cut_the_safe_stop_short() {
-    let mut run = Running::start(&["--json"]);
+    let mut run = start(&["--json"]);
     run.wait_until_moving();
     run.signal(libc::SIGHUP);
     // The stop has begun (signals sent back to back may be taken by
@@ -428,7 +356,7 @@ fn a_second_signal_does_not_cut_the_safe_stop_short() {
 /// stop; the report on stderr, saying why; exit 141 (as SIGPIPE).
 #[test]
 fn run_piped_into_head_stops_safely_and_reports_on_stderr() {
-    let mut run = Running::start(&[]);
+    let mut run = start(&[]);
     for _ in 0..3 {
         let line = run.lines.recv().expect("three event lines");
         run.seen.push(line);
@@ -466,7 +394,7 @@ fn run_piped_into_head_stops_safely_and_reports_on_stderr() {
 /// stderr.
 #[test]
 fn stdout_closed_mid_motion_brakes_and_reports_on_stderr() {
-    let mut run = Running::start(&["--json"]);
+    let mut run = start(&["--json"]);
     run.wait_until_moving();
     let Running { child, lines, .. } = run;
     drop(lines);

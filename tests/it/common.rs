@@ -76,3 +76,83 @@ pub fn fixture(name: &str) -> std::path::PathBuf {
 pub fn paper_config() -> Config {
     Config::from_file(&fixture("paper-example.toml")).expect("the paper's example config")
 }
+
+/// The real binary, its stdout lines arriving on a channel (stderr piped).
+pub struct Running {
+    /// The process.
+    pub child: std::process::Child,
+    /// Its stdout, line by line.
+    pub lines: std::sync::mpsc::Receiver<String>,
+    /// The lines read so far.
+    pub seen: Vec<String>,
+}
+
+impl Running {
+    /// Starts `sipnpuff` with `args`.
+    pub fn spawn(args: &[&str]) -> Running {
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+            .args(args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("the sipnpuff binary runs");
+        let stdout = child.stdout.take().unwrap();
+        let (tx, lines) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            use std::io::BufRead;
+            for line in std::io::BufReader::new(stdout).lines() {
+                let Ok(line) = line else { break };
+                if tx.send(line).is_err() {
+                    break; // the test closed its end: stdout's reader is gone
+                }
+            }
+        });
+        Running {
+            child,
+            lines,
+            seen: Vec::new(),
+        }
+    }
+
+    /// Reads stdout until a line contains `text`.
+    pub fn wait_for(&mut self, text: &str) {
+        loop {
+            let line = self
+                .lines
+                .recv()
+                .unwrap_or_else(|_| panic!("stdout ended before {text:?}:\n{}", self.text()));
+            let found = line.contains(text);
+            self.seen.push(line);
+            if found {
+                return;
+            }
+        }
+    }
+
+    /// Waits until the arm is moving forward: `translate_x` selected, then
+    /// 0.9 s into the scripted user's 1.5 s puff (it starts about 0.66 s
+    /// after the match). `velocity_at_stop` in the report proves it.
+    pub fn wait_until_moving(&mut self) {
+        self.wait_for("\"mode\":\"translate_x\"");
+        std::thread::sleep(std::time::Duration::from_millis(900));
+    }
+
+    pub fn signal(&self, signal: libc::c_int) {
+        // SAFETY: kill with a valid pid and signal number has no memory effects.
+        let rc = unsafe { libc::kill(self.child.id() as libc::pid_t, signal) };
+        assert_eq!(rc, 0);
+    }
+
+    /// Waits for the exit; returns (status, stdout lines, stderr).
+    pub fn finish(mut self) -> (std::process::ExitStatus, Vec<String>, String) {
+        let mut stderr = String::new();
+        std::io::Read::read_to_string(self.child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+        let status = self.child.wait().unwrap();
+        self.seen.extend(self.lines.iter());
+        (status, self.seen, stderr)
+    }
+
+    pub fn text(&self) -> String {
+        self.seen.join("\n")
+    }
+}

@@ -2,10 +2,9 @@
 //! real runs that assert structure, never timing (these machines are shared
 //! and noisy).
 
-use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
+use std::process::Command;
+use std::sync::Arc;
 use std::sync::Mutex;
-use std::sync::{Arc, mpsc};
 use std::time::Duration;
 
 use sipnpuff::arm::sim::SimArm;
@@ -23,6 +22,8 @@ use sipnpuff::rt::setup::RtOptions;
 use sipnpuff::rt::stop::StopRequest;
 use sipnpuff::rt::threads::{RunOptions, run};
 use sipnpuff::sensor::synthetic::SyntheticSensor;
+
+use crate::common::Running;
 use sipnpuff::sim::script::run_script;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams};
 
@@ -218,37 +219,19 @@ fn binary() -> Command {
 #[test]
 fn sigint_stops_safely_with_a_report() {
     let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
-    let mut child = binary()
-        .args(["run", "--seconds", "60", "--config"])
-        .arg(crate::common::fixture("shared-machine.toml"))
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let stdout = child.stdout.take().unwrap();
-    let (lines_tx, lines_rx) = mpsc::channel();
-    let reader = std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines() {
-            let _ = lines_tx.send(line.unwrap());
-        }
-    });
+    let config = crate::common::fixture("shared-machine.toml");
+    let mut run = Running::spawn(&[
+        "run",
+        "--seconds",
+        "60",
+        "--config",
+        config.to_str().unwrap(),
+    ]);
     // Wait for translate_x, then interrupt 0.9 s later, mid-puff.
-    let mut seen = Vec::new();
-    loop {
-        let line = lines_rx
-            .recv_timeout(Duration::from_secs(30))
-            .expect("translate_x selected");
-        let found = line.contains("\"mode\":\"translate_x\"");
-        seen.push(line);
-        if found {
-            break;
-        }
-    }
+    run.wait_for("\"mode\":\"translate_x\"");
     std::thread::sleep(Duration::from_millis(900));
-    // SAFETY: kill with a valid pid and signal number has no memory effects.
-    unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) };
-    let status = child.wait().unwrap();
-    reader.join().unwrap();
-    seen.extend(lines_rx.try_iter());
+    run.signal(libc::SIGINT);
+    let (status, seen, _) = run.finish();
     let text = seen.join("\n");
     assert_eq!(status.code(), Some(130), "{status}\n{text}");
     assert!(text.contains("stopped by: signal SIGINT"), "{text}");
@@ -456,40 +439,20 @@ fn a_late_wake_up_faults_and_discards_the_sensors_backlog() {
 #[test]
 fn a_stopped_and_continued_process_reports_the_stall_and_stops_safely() {
     let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
-    let mut child = binary()
-        .args(["run", "--seconds", "8", "--config"])
-        .arg(crate::common::fixture("shared-machine.toml"))
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let stdout = child.stdout.take().unwrap();
-    let (lines_tx, lines_rx) = mpsc::channel();
-    let reader = std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines() {
-            let _ = lines_tx.send(line.unwrap());
-        }
-    });
+    let config = crate::common::fixture("shared-machine.toml");
+    let mut run = Running::spawn(&[
+        "run",
+        "--seconds",
+        "8",
+        "--config",
+        config.to_str().unwrap(),
+    ]);
     // The loop is running once the first selection is logged.
-    let mut seen = Vec::new();
-    loop {
-        let line = lines_rx
-            .recv_timeout(Duration::from_secs(30))
-            .expect("a first selection");
-        let found = line.contains("\"event\":\"match\"");
-        seen.push(line);
-        if found {
-            break;
-        }
-    }
-    let pid = child.id() as libc::pid_t;
-    // SAFETY: kill with a valid pid and signal number has no memory effects.
-    unsafe { libc::kill(pid, libc::SIGSTOP) };
+    run.wait_for("\"event\":\"match\"");
+    run.signal(libc::SIGSTOP);
     std::thread::sleep(Duration::from_millis(2000));
-    // SAFETY: as above.
-    unsafe { libc::kill(pid, libc::SIGCONT) };
-    let status = child.wait().unwrap();
-    reader.join().unwrap();
-    seen.extend(lines_rx.try_iter());
+    run.signal(libc::SIGCONT);
+    let (status, seen, _) = run.finish();
     let text = seen.join("\n");
     assert!(status.success(), "{status}\n{text}");
     let gaps: Vec<u64> = seen
