@@ -83,7 +83,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(args) => run::run(args),
-        Command::Replay(args) => replay::replay(args).map(|()| output::COMPLETED),
+        Command::Replay(args) => replay::replay(args),
         Command::Study(args) => study::study(args).map(|()| output::COMPLETED),
         Command::Generate(args) => generate::generate(args).map(|()| output::COMPLETED),
         Command::Bench { what } => bench::bench(what),

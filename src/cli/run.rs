@@ -10,17 +10,18 @@ use crate::arm::{Arm, ArmSpec};
 use crate::cli::args::{
     ConfigArg, InterfaceArg, RtArgs, parse_seconds, with_interface, writable_dir,
 };
-use crate::cli::output::{self, StdoutEvents};
+use crate::cli::output::{self, StdoutEvents, invalid};
 #[cfg(test)]
 use crate::config::Config;
 use crate::rt::control_loop::StopReason;
 use crate::rt::report::RunReport;
 use crate::rt::signals;
 use crate::rt::stop::StopRequest;
-use crate::rt::threads::{RunOptions, run as run_loop};
-use crate::sensor::SensorSpec;
+use crate::rt::threads::{RunError, RunOptions, run as run_loop, run_recorded};
 use crate::sensor::csv::CsvSensor;
 use crate::sensor::synthetic::SyntheticSensor;
+use crate::sensor::{Sensor, SensorSpec};
+use crate::tools::recording::writer::{MIN_BYTES, RecordError, RecordOptions, Recorder};
 
 /// `run`'s options.
 #[derive(clap::Args, Debug)]
@@ -46,6 +47,16 @@ pub struct RunArgs {
     /// Print the final report as one JSON object (after the event lines).
     #[arg(long)]
     json: bool,
+    /// Record the session into this directory (created if needed; never
+    /// over an existing recording): what the control loop saw, the
+    /// configuration, the events, the arm commands and the report, for
+    /// `sipnpuff replay DIR`.
+    #[arg(long, value_name = "DIR")]
+    record: Option<PathBuf>,
+    /// Cap on the recording's samples, commands and events, MB (10^6
+    /// bytes); past it recording stops and the run goes on.
+    #[arg(long, value_name = "MB", default_value = "200", requires = "record", value_parser = parse_megabytes)]
+    record_max_mb: u64,
     #[command(flatten)]
     rt: RtArgs,
 }
@@ -60,6 +71,23 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     if let Some(dir) = &args.histogram_dir {
         writable_dir(dir)?;
     }
+    let mut recorder = match &args.record {
+        None => None,
+        Some(dir) => {
+            let options = RecordOptions {
+                max_bytes: args.record_max_mb,
+                ..RecordOptions::default()
+            };
+            match Recorder::create(dir, &config, options) {
+                Ok(recorder) => Some(recorder),
+                // A directory that cannot be used: refused at start.
+                Err(e @ (RecordError::Exists(_) | RecordError::Io { .. })) => {
+                    return invalid(Err(anyhow::Error::new(e).context("--record")));
+                }
+                Err(e) => return Err(e.into()),
+            }
+        }
+    };
     let options = RunOptions {
         seconds: args.seconds,
         rt: args.rt.options()?,
@@ -71,22 +99,30 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         ArmSpec::Sim => Box::new(SimArm::new(config.core())),
     };
     let mut events = StdoutEvents::default();
-    let report = match &args.sensor {
-        SensorSpec::Synthetic => run_loop(
-            config.core(),
+    let rec = recorder.as_mut();
+    let mut report = match &args.sensor {
+        SensorSpec::Synthetic => start(
+            &config,
             SyntheticSensor::built_in_user(&config),
             arm,
             &options,
             &mut events,
+            rec,
         )?,
-        SensorSpec::Csv(path) => run_loop(
-            config.core(),
+        SensorSpec::Csv(path) => start(
+            &config,
             CsvSensor::open(path)?,
             arm,
             &options,
             &mut events,
+            rec,
         )?,
     };
+    // The recording ends before the report is printed: its summary is in
+    // the report (and its `report.json`).
+    let recording_failed = recorder
+        .map(|recorder| recorder.finish(&mut report))
+        .is_some_and(|summary| summary.error.is_some());
     let text = if args.json {
         serde_json::to_string(&report)? + "\n"
     } else {
@@ -127,11 +163,45 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         }
     }
     let status = exit_status(&report, stdout_failed);
-    Ok(if histograms_failed && status == output::COMPLETED {
-        output::FAILED
+    Ok(
+        if (histograms_failed || recording_failed) && status == output::COMPLETED {
+            output::FAILED
+        } else {
+            status
+        },
+    )
+}
+
+/// Runs the loop on `sensor`, recording if a recorder is given.
+fn start<S: Sensor>(
+    config: &crate::config::Config,
+    sensor: S,
+    arm: Box<dyn Arm>,
+    options: &RunOptions,
+    events: &mut StdoutEvents,
+    recorder: Option<&mut Recorder>,
+) -> Result<RunReport, RunError> {
+    match recorder {
+        Some(recorder) => run_recorded(config.core(), sensor, arm, options, events, recorder),
+        None => run_loop(config.core(), sensor, arm, options, events),
+    }
+}
+
+/// `--record-max-mb`: a positive number of megabytes (10^6 bytes), at
+/// least 0.001 (the streams' headers and ends), as bytes.
+fn parse_megabytes(text: &str) -> Result<u64, String> {
+    let mb: f64 = text
+        .parse()
+        .map_err(|_| format!("{text:?} is not a number of megabytes"))?;
+    let bytes = mb * 1e6;
+    if bytes.is_finite() && bytes >= MIN_BYTES as f64 && bytes <= u64::MAX as f64 {
+        Ok(bytes.round() as u64)
     } else {
-        status
-    })
+        Err(format!(
+            "{text} MB: must be at least {} MB",
+            MIN_BYTES as f64 / 1e6
+        ))
+    }
 }
 
 /// The exit status of a finished run whose stdout failed with

@@ -25,7 +25,7 @@ use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
 use crate::rt::setup::{RtOptions, Setting, setup_current_thread};
 pub use crate::rt::stop::StopReason;
 use crate::rt::stop::StopRequest;
-use crate::rt::telemetry::{Drops, TickRecord};
+use crate::rt::telemetry::{CoreInput, CoreSample, Drops, TickRecord};
 use crate::sensor::{Reading, Samples};
 
 /// The control period: 1 ms.
@@ -47,6 +47,8 @@ pub struct TickOutcome {
     pub drops: Drops,
     /// The work is done: the loop ends after this tick.
     pub finished: bool,
+    /// What the core was given (not on a `reference` tick).
+    pub input: CoreInput,
 }
 
 /// What the work reports when the loop ends.
@@ -89,6 +91,10 @@ pub struct OutputRings {
     pub arm: rtrb::Producer<ArmCommand>,
     /// Events, to the telemetry side.
     pub events: rtrb::Producer<TimedEvent>,
+    /// `run --record`: a copy of each arm command, to the telemetry side
+    /// for the session recorder (the 100 Hz stream the core produced,
+    /// whatever the arm ring drops).
+    pub recorded: Option<rtrb::Producer<ArmCommand>>,
 }
 
 /// The production tick: sensor → pipeline → rings, with the safe stop.
@@ -167,10 +173,22 @@ impl<S: Samples> TickWork for ControlTick<S> {
             Some(volts) => self.core.step(tick, volts),
             None => self.core.step_missing(tick),
         };
+        // What the core was given, for the session recorder: replay must
+        // make exactly these calls.
+        let mut input = CoreInput {
+            tick,
+            sample: reading.volts.map_or(CoreSample::Missing, CoreSample::Volts),
+            began_stop: false,
+        };
         if let Some(command) = out.motion.arm_command {
             self.last_arm_command = command;
             if self.rings.arm.push(command).is_err() {
                 self.drops.arm_commands += 1;
+            }
+            if let Some(recorded) = &mut self.rings.recorded
+                && recorded.push(command).is_err()
+            {
+                self.drops.recorded_commands += 1;
             }
         }
         let mut events = 0u8;
@@ -194,6 +212,7 @@ impl<S: Samples> TickWork for ControlTick<S> {
                 self.stopping_since = Some(wake.tick);
                 self.velocity_at_stop = out.motion.velocity();
                 self.core.begin_stop();
+                input.began_stop = true;
             }
         }
         let mut finished = false;
@@ -216,6 +235,7 @@ impl<S: Samples> TickWork for ControlTick<S> {
             reference: false,
             drops: self.drops,
             finished,
+            input,
         }
     }
 
@@ -321,6 +341,7 @@ pub fn control_loop<C: Clock, W: TickWork>(
             events: outcome.events,
             reference: outcome.reference,
             drops,
+            input: outcome.input,
         };
         previous_wake = wake.woke_ns;
         if records.push(record).is_err() {

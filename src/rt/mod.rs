@@ -12,6 +12,7 @@
 //! * [`arm_thread`]: the 100 Hz arm stream;
 //! * [`threads`]: `run`, wiring the threads and rings;
 //! * [`telemetry`], [`report`]: histograms and the run report;
+//! * [`recorder`]: the session recorder's seam (`run --record`);
 //! * [`alloc_counter`]: the counting allocator that proves the control
 //!   thread allocates nothing.
 
@@ -19,6 +20,7 @@ pub mod alloc_counter;
 pub mod arm_thread;
 pub mod clock;
 pub mod control_loop;
+pub mod recorder;
 pub mod report;
 pub mod scheduler;
 pub mod setup;

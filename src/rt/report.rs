@@ -9,6 +9,7 @@ use serde::Serialize;
 use crate::arm::ArmState;
 use crate::control::motion::stream::ArmCommand;
 use crate::rt::control_loop::StopReason;
+use crate::rt::recorder::RecordingReport;
 use crate::rt::scheduler::SchedulerStats;
 use crate::rt::setup::Setting;
 use crate::rt::telemetry::{Drops, Latencies, at, percentile_line, write_hgrm};
@@ -67,6 +68,8 @@ pub struct RunReport {
     /// What went wrong at the edges during the run (a sensor that failed,
     /// an arm that refused a command): the run was stopped safely.
     pub errors: Vec<String>,
+    /// `run --record`: what the recording holds (`null` otherwise).
+    pub recording: Option<RecordingReport>,
 }
 
 impl RunReport {
@@ -167,6 +170,9 @@ impl RunReport {
             "stream ended with a zero command and the arm stopped: {}\n",
             self.stream_ended_with_zero
         );
+        if let Some(recording) = &self.recording {
+            s += &recording.to_line();
+        }
         if let Some(error) = &self.output_error {
             s += &format!("OUTPUT FAILED: {error}; later events were not written\n");
         }

@@ -1,7 +1,8 @@
 //! Measure in the loop, aggregate elsewhere: the control thread pushes one
 //! small `Copy` [`TickRecord`] per tick (and each event) through rtrb rings;
-//! the telemetry side owns the HdrHistograms, logs events and builds the
-//! report.
+//! the telemetry side owns the HdrHistograms, logs events, builds the
+//! report and, with `run --record`, hands each tick's [`CoreInput`] to the
+//! session recorder.
 
 use std::io::Write;
 
@@ -22,9 +23,39 @@ pub struct Drops {
     pub records: u64,
     /// Events dropped.
     pub events: u64,
+    /// Copies of arm commands for the session recorder dropped (`run
+    /// --record` only: the recorder's command ring was full).
+    pub recorded_commands: u64,
 }
 
-/// One tick, as the control thread saw it. `Copy`, 64 bytes.
+/// What the core was given as its sample on one tick. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum CoreSample {
+    /// A sample: `Pipeline::step(tick, volts)`. Any `f64`, bits kept
+    /// (a recording may hold NaN: the core faults on it).
+    Volts(f64),
+    /// No sample arrived: `Pipeline::step_missing(tick)`.
+    #[default]
+    Missing,
+}
+
+/// Everything the control tick gave the core on one tick, in the order it
+/// gave it: the step (its tick and sample), then, on the tick the safe
+/// stop began, `Pipeline::begin_stop()`. With the configuration, the
+/// sequence of these is the core's whole input: `replay` of a recording
+/// repeats exactly these calls. `Copy`, 32 bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CoreInput {
+    /// The tick given to the core (skipped ticks and stalls show as
+    /// jumps).
+    pub tick: Tick,
+    /// The sample, or none.
+    pub sample: CoreSample,
+    /// `Pipeline::begin_stop()` was called after this tick's step.
+    pub began_stop: bool,
+}
+
+/// One tick, as the control thread saw it. `Copy`, 112 bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TickRecord {
     /// The tick.
@@ -43,6 +74,9 @@ pub struct TickRecord {
     pub reference: bool,
     /// Drops so far.
     pub drops: Drops,
+    /// What the core was given (meaningless on a `reference` tick, where
+    /// the core did not run).
+    pub input: CoreInput,
 }
 
 /// Upper bound of every histogram: 10 s in ns (`saturating_record` clamps
@@ -265,6 +299,14 @@ mod tests {
                 .all(|w| w[0][1] <= w[1][1] && w[0][2] <= w[1][2])
         );
         assert!(text.contains("#[Max     =     1000."), "{text}");
+    }
+
+    #[test]
+    fn a_tick_record_stays_small() {
+        // One per tick through a 16 384-record ring: 1.8 MB. A change
+        // here should update the doc comments and docs/runtime.md.
+        assert_eq!(std::mem::size_of::<CoreInput>(), 32);
+        assert_eq!(std::mem::size_of::<TickRecord>(), 112);
     }
 
     #[test]

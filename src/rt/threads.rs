@@ -8,7 +8,10 @@
 //! control thread (SCHED_FIFO, pinned, no allocation) ─rtrb─► arm thread (100 Hz, zero command at the end)
 //!    │ rtrb: tick records, events
 //!    ▼
-//! telemetry (the calling thread): histograms, events, the report
+//! telemetry (the calling thread): histograms, events, the report;
+//!    │ with `run --record`, each tick's core input, each event and a
+//!    ▼ copy of each arm command (its own rtrb ring) go on to
+//! the session recorder (see [`recorder`](super::recorder))
 //! ```
 //!
 //! Every ring is bounded and allocated before the loop; a full ring never
@@ -39,6 +42,7 @@ use crate::rt::clock::{MonotonicClock, SimClock};
 use crate::rt::control_loop::{
     ControlTick, LoopOptions, OutputRings, StopReason, TickWork, control_loop,
 };
+use crate::rt::recorder::{Lost, SessionRecorder};
 use crate::rt::report::RunReport;
 use crate::rt::setup::RtOptions;
 use crate::rt::stop::StopRequest;
@@ -48,6 +52,8 @@ use crate::sensor::{Samples, Sensor, SensorError};
 const ARM_RING: usize = 256;
 const RECORD_RING: usize = 16_384;
 const EVENT_RING: usize = 1024;
+/// Copies of arm commands for the recorder: 10 s at 100 Hz.
+const RECORDED_COMMAND_RING: usize = 1024;
 
 /// How to run.
 #[derive(Debug, Clone)]
@@ -118,20 +124,33 @@ struct Rings {
     event_rx: rtrb::Consumer<TimedEvent>,
     records: rtrb::Producer<TickRecord>,
     record_rx: rtrb::Consumer<TickRecord>,
+    recorded_rx: Option<rtrb::Consumer<ArmCommand>>,
 }
 
 impl Rings {
-    /// Allocated once, before the loop.
-    fn new() -> Rings {
+    /// Allocated once, before the loop; the recorder's command ring only
+    /// if `recording`.
+    fn new(recording: bool) -> Rings {
         let (arm, arm_rx) = RingBuffer::new(ARM_RING);
         let (events, event_rx) = RingBuffer::new(EVENT_RING);
         let (records, record_rx) = RingBuffer::new(RECORD_RING);
+        let (recorded, recorded_rx) = if recording {
+            let (tx, rx) = RingBuffer::new(RECORDED_COMMAND_RING);
+            (Some(tx), Some(rx))
+        } else {
+            (None, None)
+        };
         Rings {
-            outputs: OutputRings { arm, events },
+            outputs: OutputRings {
+                arm,
+                events,
+                recorded,
+            },
             arm_rx,
             event_rx,
             records,
             record_rx,
+            recorded_rx,
         }
     }
 }
@@ -146,17 +165,33 @@ pub fn run<S: Sensor>(
     options: &RunOptions,
     sink: &mut impl EventSink,
 ) -> Result<RunReport, RunError> {
-    run_with(config, sensor, arm, options, sink, |tick| tick)
+    run_with(config, sensor, arm, options, sink, None, |tick| tick)
+}
+
+/// [`run`], handing every tick's core input, every arm command and every
+/// event to `recorder` on the telemetry thread (`run --record`).
+pub fn run_recorded<S: Sensor>(
+    config: &CoreConfig,
+    sensor: S,
+    arm: Box<dyn Arm>,
+    options: &RunOptions,
+    sink: &mut impl EventSink,
+    recorder: &mut dyn SessionRecorder,
+) -> Result<RunReport, RunError> {
+    run_with(config, sensor, arm, options, sink, Some(recorder), |tick| {
+        tick
+    })
 }
 
 /// [`run`], with the production tick wrapped by `wrap` (as `bench
-/// latency` interleaves reference ticks).
+/// latency` interleaves reference ticks), and a recorder if given.
 pub fn run_with<S: Sensor, W: TickWork + 'static>(
     config: &CoreConfig,
     sensor: S,
     arm: Box<dyn Arm>,
     options: &RunOptions,
     sink: &mut impl EventSink,
+    mut recorder: Option<&mut dyn SessionRecorder>,
     wrap: impl FnOnce(ControlTick<S::Samples>) -> W + Send + 'static,
 ) -> Result<RunReport, RunError> {
     let Rings {
@@ -165,9 +200,13 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
         mut event_rx,
         mut records,
         mut record_rx,
-    } = Rings::new();
+        mut recorded_rx,
+    } = Rings::new(recorder.is_some());
     let sensor_name = sensor.describe();
     let arm_name = arm.describe();
+    if let Some(recorder) = recorder.as_deref_mut() {
+        recorder.start(&sensor_name, &arm_name);
+    }
     // The sensor first: if it cannot start, the arm was never taken.
     let started = sensor.start().map_err(RunError::Sensor)?;
     let producer = started.producer;
@@ -221,8 +260,11 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
     // The first failure of the sink: the run stops safely, nothing more is
     // written to it.
     let mut output_error: Option<io::Error> = None;
+    // The ring drops the recorder has been told of.
+    let mut told = Drops::default();
     let mut drain = |record_rx: &mut rtrb::Consumer<TickRecord>,
-                     event_rx: &mut rtrb::Consumer<TimedEvent>| {
+                     event_rx: &mut rtrb::Consumer<TimedEvent>,
+                     recorder: &mut Option<&mut dyn SessionRecorder>| {
         if output_error.is_none()
             && let Err(e) = sink.check()
         {
@@ -237,6 +279,14 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
                 output_error = Some(e);
                 stop.output_failed();
             }
+            if let Some(recorder) = recorder.as_deref_mut() {
+                recorder.event(&event);
+            }
+        }
+        if let (Some(recorder), Some(rx)) = (recorder.as_deref_mut(), recorded_rx.as_mut()) {
+            while let Ok(command) = rx.pop() {
+                recorder.command(&command);
+            }
         }
         while let Ok(record) = record_rx.pop() {
             if record.reference {
@@ -244,22 +294,39 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
             } else {
                 full.record(&record);
             }
+            if let Some(recorder) = recorder.as_deref_mut() {
+                let lost = Lost::between(&told, &record.drops);
+                told = record.drops;
+                if !lost.is_empty() {
+                    recorder.lost(lost);
+                }
+                if !record.reference {
+                    recorder.input(&record.input);
+                }
+            }
         }
     };
     while !control.is_finished() {
-        drain(&mut record_rx, &mut event_rx);
+        drain(&mut record_rx, &mut event_rx, &mut recorder);
         thread::sleep(Duration::from_millis(5));
     }
     // Every thread is joined before anything is returned: the arm's
     // stream has ended, with a zero command, by the time this returns.
     let control = control.join();
-    drain(&mut record_rx, &mut event_rx);
+    drain(&mut record_rx, &mut event_rx, &mut recorder);
     let wall_seconds = wall.elapsed().as_secs_f64();
     let cpu_percent = 100.0 * (cpu_seconds() - cpu_before) / wall_seconds.max(1e-9);
     let sensor_error = producer.stop().err();
     let arm = arm_thread.join();
     let result = control.map_err(|_| RunError::Thread("the control thread panicked".into()))?;
     let arm = arm.map_err(|_| RunError::Thread("the arm thread panicked".into()))?;
+    if let Some(recorder) = recorder {
+        // Records dropped after the last one that arrived.
+        let lost = Lost::between(&told, &result.drops);
+        if !lost.is_empty() {
+            recorder.lost(lost);
+        }
+    }
 
     let mut errors = Vec::new();
     if let Some(e) = sensor_error {
@@ -292,6 +359,7 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
         wall_seconds: result.wall_seconds,
         cpu_percent,
         errors,
+        recording: None,
     })
 }
 
@@ -316,6 +384,8 @@ pub struct SimulatedRun {
     pub events: u64,
     /// Arm commands pushed.
     pub arm_commands: u64,
+    /// Copies of them pushed for the session recorder.
+    pub recorded_commands: u64,
     /// Ring drops.
     pub drops: Drops,
     /// Heap allocations on the loop's thread after start-up.
@@ -333,13 +403,16 @@ pub struct SimulatedRun {
 /// the loop itself: under RTSan, any allocation, lock or blocking call
 /// inside a tick aborts the process.
 pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRun {
+    // With the recorder's command ring: the loop checked is the loop of
+    // `run --record`.
     let Rings {
         outputs,
         mut arm_rx,
         mut event_rx,
         mut records,
         mut record_rx,
-    } = Rings::new();
+        mut recorded_rx,
+    } = Rings::new(true);
     let options = LoopOptions {
         limit_ticks: None,
         rt: RtOptions::NONE,
@@ -349,9 +422,9 @@ pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRu
     };
     let mut work = ControlTick::new(Pipeline::new(config), samples, outputs, true);
     // The loop's rings are drained on another thread, as in `run`.
-    let (result, (ticks, events, arm_commands)) = thread::scope(|scope| {
+    let (result, (ticks, events, arm_commands, recorded)) = thread::scope(|scope| {
         let drain = scope.spawn(move || {
-            let (mut ticks, mut events, mut arm_commands) = (0u64, 0u64, 0u64);
+            let (mut ticks, mut events, mut arm_commands, mut recorded) = (0u64, 0u64, 0u64, 0u64);
             loop {
                 let abandoned = record_rx.is_abandoned();
                 let mut popped = false;
@@ -367,8 +440,12 @@ pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRu
                     arm_commands += 1;
                     popped = true;
                 }
+                while recorded_rx.as_mut().is_some_and(|rx| rx.pop().is_ok()) {
+                    recorded += 1;
+                    popped = true;
+                }
                 if abandoned {
-                    break (ticks, events, arm_commands);
+                    break (ticks, events, arm_commands, recorded);
                 }
                 if !popped {
                     thread::yield_now();
@@ -387,6 +464,7 @@ pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRu
         ticks: ticks + result.drops.records,
         events: events + result.drops.events,
         arm_commands: arm_commands + result.drops.arm_commands,
+        recorded_commands: recorded + result.drops.recorded_commands,
         drops: result.drops,
         allocations: result.allocations,
         stop_reason: result.work.stop_reason,

@@ -47,6 +47,7 @@ impl<W: TickWork> TickWork for Interleaved<W> {
                 reference: true,
                 drops: self.inner.summary().drops,
                 finished: false,
+                ..TickOutcome::default()
             };
         }
         self.inner.tick(wake, stop)
@@ -82,6 +83,7 @@ pub fn bench_latency<S: Sensor>(
         arm,
         &options,
         &mut |_: &TimedEvent| {},
+        None,
         move |tick| Interleaved::new(tick.with_own_tick_count(), block),
     )
 }

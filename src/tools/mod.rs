@@ -1,10 +1,12 @@
 //! Tools built on the core: `replay` (recordings through the pipeline and
-//! the simulated arm), the benches (`bench tick`, `bench latency`), and the
-//! accuracy scorer (`bench accuracy`, the stress tests). Neither the core
-//! nor the runtime imports them.
+//! the simulated arm), session recordings (`run --record`, and their
+//! replay), the benches (`bench tick`, `bench latency`), and the accuracy
+//! scorer (`bench accuracy`, the stress tests). Neither the core nor the
+//! runtime imports them.
 
 pub mod accuracy;
 pub mod bench_tick;
 pub mod latency;
+pub mod recording;
 pub mod replay;
 pub mod safety;

@@ -65,8 +65,12 @@ pub struct ReplaySummary {
 pub const TRACE_HEADER: &str = "tick,mode,vx,vy,vz,wx,wy,wz,fingers_vel,x,y,z,rx,ry,rz,fingers";
 
 /// Writes one trace row: the core's 1 kHz commanded twist (base frame) and
-/// the simulated arm's pose.
-fn trace_row(out: &mut dyn Write, output: &TickOutput, arm: &SimulatedJaco) -> std::io::Result<()> {
+/// the simulated arm's pose (also for recordings, `tools::recording`).
+pub fn trace_row(
+    out: &mut dyn Write,
+    output: &TickOutput,
+    arm: &SimulatedJaco,
+) -> std::io::Result<()> {
     let state = arm.state();
     let p = state.pose.translation.vector;
     let r = state.pose.rotation.scaled_axis();

@@ -376,6 +376,7 @@ fn a_late_wake_up_faults_and_discards_the_sensors_backlog() {
         OutputRings {
             arm: arm_tx,
             events: events_tx,
+            recorded: None,
         },
         false,
     );

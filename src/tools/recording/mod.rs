@@ -1,0 +1,36 @@
+//! Session recordings (`run --record DIR`, `replay DIR`): what the
+//! control loop saw, written off the control thread, and replayed through
+//! the core to the same events and arm commands, bit for bit.
+//!
+//! A recording is a directory:
+//!
+//! | file | what |
+//! |---|---|
+//! | `meta.json` | format version, sipnpuff version, sensor, arm, start time, counts, losses, complete or not ([`meta`]) |
+//! | `config.toml` | the configuration in effect, as `sipnpuff config` prints it (reads back to the identical `Config`) |
+//! | `samples.bin` | every tick's input to the core: its tick, its sample or none, the safe stop ([`format`]) |
+//! | `commands.bin` | the 100 Hz arm commands the core produced ([`format`]) |
+//! | `events.jsonl` | the events, one JSON line each, as `run` prints them |
+//! | `report.json` | the run's report, as `run --json` prints it, with the recording's summary |
+//!
+//! [`writer`] writes one from the telemetry thread; [`read`] opens and
+//! checks one; [`replay`] runs it through the core and compares.
+
+pub mod format;
+pub mod meta;
+pub mod read;
+pub mod replay;
+pub mod writer;
+
+/// `meta.json`.
+pub const META: &str = "meta.json";
+/// `config.toml`.
+pub const CONFIG: &str = "config.toml";
+/// `samples.bin`.
+pub const SAMPLES: &str = "samples.bin";
+/// `commands.bin`.
+pub const COMMANDS: &str = "commands.bin";
+/// `events.jsonl`.
+pub const EVENTS: &str = "events.jsonl";
+/// `report.json`.
+pub const REPORT: &str = "report.json";

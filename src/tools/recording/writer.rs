@@ -1,0 +1,744 @@
+//! Writing a recording: the telemetry thread's [`Recorder`] hands each
+//! item to a bounded queue without ever waiting (full: dropped, counted,
+//! and marked in the stream), and a writer thread encodes and writes the
+//! files. A slow or stalled disk costs recorded items, never a tick or an
+//! event on stdout; the bytes are capped (`--record-max-mb`), after which
+//! recording stops and the run goes on.
+
+use std::fs::File;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TrySendError};
+use std::thread::{self, JoinHandle};
+use std::time::{Duration, Instant};
+
+use crate::config::Config;
+use crate::control::Tick;
+use crate::control::event::TimedEvent;
+use crate::control::motion::stream::ArmCommand;
+use crate::rt::recorder::{Lost, RecordingReport, SessionRecorder};
+use crate::rt::report::RunReport;
+use crate::rt::telemetry::CoreInput;
+use crate::tools::recording::format::{
+    CommandEncoder, END_BYTES, SampleEncoder, Stream, StreamFile,
+};
+use crate::tools::recording::meta::Meta;
+use crate::tools::recording::{COMMANDS, CONFIG, EVENTS, META, REPORT, SAMPLES};
+
+/// Room kept under the cap for what must be written at the end: the runs
+/// the encoder holds and the end markers.
+const RESERVE_BYTES: u64 = 64;
+/// The smallest cap: the headers and the end.
+pub const MIN_BYTES: u64 = 1000;
+/// The writer commits what it encoded this often (or sooner when a
+/// buffer grows past [`CHUNK_BYTES`]): a killed run loses at most this
+/// much.
+const COMMIT_EVERY: Duration = Duration::from_millis(200);
+const CHUNK_BYTES: usize = 64 * 1024;
+
+/// How to record.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RecordOptions {
+    /// Cap on the bytes of samples, commands and events.
+    pub max_bytes: u64,
+    /// Items the queue to the writer holds: 32 768 is about 30 s of ticks,
+    /// commands and events, room for a disk that pauses.
+    pub queue: usize,
+    /// At the end, how long the writer may make no progress before the
+    /// recording is given up as stalled.
+    pub stall_timeout: Duration,
+}
+
+impl Default for RecordOptions {
+    fn default() -> Self {
+        RecordOptions {
+            max_bytes: 200_000_000,
+            queue: 32_768,
+            stall_timeout: Duration::from_secs(5),
+        }
+    }
+}
+
+/// Why a recording could not start.
+#[derive(Debug)]
+pub enum RecordError {
+    /// The directory already holds a recording: never overwritten.
+    Exists(PathBuf),
+    /// The directory or `config.toml` could not be written.
+    Io {
+        /// What was being done.
+        what: String,
+        /// The system's error.
+        error: std::io::Error,
+    },
+    /// The configuration does not print back to itself exactly (a bug):
+    /// it could not be replayed faithfully.
+    Config(String),
+}
+
+impl std::fmt::Display for RecordError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RecordError::Exists(dir) => write!(
+                f,
+                "{}: already holds a recording ({META}); choose another directory",
+                dir.display()
+            ),
+            RecordError::Io { what, error } => write!(f, "{what}: {error}"),
+            RecordError::Config(why) => write!(f, "cannot record the configuration: {why}"),
+        }
+    }
+}
+
+impl std::error::Error for RecordError {}
+
+/// What goes through the queue.
+enum Item {
+    Start { sensor: String, arm: String },
+    Input(CoreInput),
+    Command(ArmCommand),
+    Event(TimedEvent),
+    Lost(Lost),
+    Finish(Box<Finish>),
+}
+
+/// The end of the run, and what the telemetry side counted.
+struct Finish {
+    report: RunReport,
+    /// Lost items not yet marked in the streams.
+    pending: Lost,
+    /// Lost in the control thread's rings.
+    ring_lost: Lost,
+    /// Dropped because the queue was full.
+    queue_dropped: Lost,
+    reply: mpsc::Sender<RecordingReport>,
+}
+
+/// The telemetry side of a recording: never blocks.
+pub struct Recorder {
+    dir: PathBuf,
+    options: RecordOptions,
+    tx: SyncSender<Item>,
+    pending: Lost,
+    ring_lost: Lost,
+    queue_dropped: Lost,
+    /// The writer's loop count: it goes up unless the writer is stuck in
+    /// a call (a stalled disk).
+    progress: Arc<AtomicU64>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Recorder {
+    /// Creates `dir` (if needed), writes the configuration in effect to
+    /// `config.toml` after checking it reads back to the identical
+    /// `Config`, and starts the writer thread. Not RT-safe: before the run.
+    pub fn create(
+        dir: &Path,
+        config: &Config,
+        options: RecordOptions,
+    ) -> Result<Recorder, RecordError> {
+        let io = |what: String| move |error| RecordError::Io { what, error };
+        std::fs::create_dir_all(dir).map_err(io(format!("cannot create {}", dir.display())))?;
+        if dir.join(META).exists() {
+            return Err(RecordError::Exists(dir.to_path_buf()));
+        }
+        let text = config_text(config)?;
+        let path = dir.join(CONFIG);
+        std::fs::write(&path, text).map_err(io(format!("cannot write {}", path.display())))?;
+        let (tx, rx) = mpsc::sync_channel(options.queue.max(1));
+        let progress = Arc::new(AtomicU64::new(0));
+        let writer = Writer::new(dir, options, progress.clone());
+        let thread = thread::Builder::new()
+            .name("recorder".into())
+            .spawn(move || writer.run(&rx))
+            .map_err(io("cannot start the recorder's writer thread".into()))?;
+        Ok(Recorder {
+            dir: dir.to_path_buf(),
+            options,
+            tx,
+            pending: Lost::default(),
+            ring_lost: Lost::default(),
+            queue_dropped: Lost::default(),
+            progress,
+            thread: Some(thread),
+        })
+    }
+
+    /// Hands `item` to the writer, or drops and counts it if the queue is
+    /// full (a mark of what was lost goes ahead of the next item that
+    /// fits). Never blocks.
+    fn send(&mut self, item: Item) {
+        if !self.pending.is_empty() {
+            match self.tx.try_send(Item::Lost(self.pending)) {
+                Ok(()) => self.pending = Lost::default(),
+                Err(_) => return self.dropped(&item),
+            }
+        }
+        if let Err(TrySendError::Full(item) | TrySendError::Disconnected(item)) =
+            self.tx.try_send(item)
+        {
+            self.dropped(&item);
+        }
+    }
+
+    fn dropped(&mut self, item: &Item) {
+        let lost = match item {
+            Item::Input(_) => Lost {
+                ticks: 1,
+                ..Lost::default()
+            },
+            Item::Command(_) => Lost {
+                arm_commands: 1,
+                ..Lost::default()
+            },
+            Item::Event(_) => Lost {
+                events: 1,
+                ..Lost::default()
+            },
+            Item::Start { .. } | Item::Lost(_) | Item::Finish(_) => Lost::default(),
+        };
+        self.queue_dropped = self.queue_dropped.plus(lost);
+        self.pending = self.pending.plus(lost);
+    }
+
+    /// Ends the recording after the run: the writer ends every stream,
+    /// writes `report.json` (this report, with the recording's summary)
+    /// and the final `meta.json`. Returns the summary, also set in
+    /// `report.recording`. If the writer makes no progress for
+    /// `stall_timeout` (a stalled disk), it is left behind and the summary
+    /// says the recording failed; this never waits longer.
+    pub fn finish(mut self, report: &mut RunReport) -> RecordingReport {
+        let (reply, answer) = mpsc::channel();
+        let mut item = Item::Finish(Box::new(Finish {
+            report: report.clone(),
+            pending: self.pending,
+            ring_lost: self.ring_lost,
+            queue_dropped: self.queue_dropped,
+            reply,
+        }));
+        let progress = self.progress.clone();
+        let mut watch = Watch::new(&progress, self.options.stall_timeout);
+        let summary = loop {
+            match self.tx.try_send(item) {
+                Ok(()) => break self.answer(&answer, &mut watch),
+                Err(TrySendError::Full(back)) if !watch.stalled() => {
+                    item = back;
+                    thread::sleep(Duration::from_millis(10));
+                }
+                Err(TrySendError::Full(_)) => break self.failed("made no progress"),
+                Err(TrySendError::Disconnected(_)) => break self.failed("stopped"),
+            }
+        };
+        report.recording = Some(summary.clone());
+        summary
+    }
+
+    /// The writer's summary once it has ended the recording.
+    fn answer(
+        &mut self,
+        answer: &Receiver<RecordingReport>,
+        watch: &mut Watch<'_>,
+    ) -> RecordingReport {
+        loop {
+            match answer.recv_timeout(Duration::from_millis(20)) {
+                Ok(summary) => {
+                    if let Some(thread) = self.thread.take() {
+                        let _ = thread.join();
+                    }
+                    return summary;
+                }
+                Err(RecvTimeoutError::Timeout) if !watch.stalled() => {}
+                Err(RecvTimeoutError::Timeout) => return self.failed("made no progress"),
+                Err(RecvTimeoutError::Disconnected) => return self.failed("stopped"),
+            }
+        }
+    }
+
+    /// The summary of a recording whose writer never finished.
+    fn failed(&self, what: &str) -> RecordingReport {
+        let secs = self.options.stall_timeout.as_secs_f64();
+        let error = format!(
+            "the recorder's writer {what} for {secs:.1} s (a stalled disk?): {} is unfinished",
+            self.dir.display()
+        );
+        RecordingReport {
+            dir: self.dir.display().to_string(),
+            complete: false,
+            ticks: 0,
+            arm_commands: 0,
+            events: 0,
+            stop_tick: None,
+            bytes: 0,
+            max_bytes: self.options.max_bytes,
+            lost: self.ring_lost.plus(self.queue_dropped),
+            problems: problems(
+                self.ring_lost,
+                self.queue_dropped,
+                None,
+                self.options.max_bytes,
+            ),
+            error: Some(error),
+        }
+    }
+}
+
+impl SessionRecorder for Recorder {
+    fn start(&mut self, sensor: &str, arm: &str) {
+        self.send(Item::Start {
+            sensor: sensor.into(),
+            arm: arm.into(),
+        });
+    }
+
+    fn input(&mut self, input: &CoreInput) {
+        self.send(Item::Input(*input));
+    }
+
+    fn command(&mut self, command: &ArmCommand) {
+        self.send(Item::Command(*command));
+    }
+
+    fn event(&mut self, event: &TimedEvent) {
+        self.send(Item::Event(*event));
+    }
+
+    fn lost(&mut self, lost: Lost) {
+        self.ring_lost = self.ring_lost.plus(lost);
+        self.pending = self.pending.plus(lost);
+    }
+}
+
+/// The configuration as TOML, checked to read back to the identical
+/// `Config` (equal, and equal in every bit: `Debug` shows `-0.0`).
+fn config_text(config: &Config) -> Result<String, RecordError> {
+    let text = config
+        .to_toml()
+        .map_err(|e| RecordError::Config(e.to_string()))?;
+    match Config::from_toml_str(&text) {
+        Ok(back) if back == *config && format!("{back:?}") == format!("{config:?}") => Ok(text),
+        Ok(_) => Err(RecordError::Config(
+            "it does not read back to the same configuration".into(),
+        )),
+        Err(e) => Err(RecordError::Config(format!("it does not read back: {e}"))),
+    }
+}
+
+/// Whether a thread has made no progress for a while.
+struct Watch<'a> {
+    progress: &'a AtomicU64,
+    seen: u64,
+    since: Instant,
+    timeout: Duration,
+}
+
+impl<'a> Watch<'a> {
+    fn new(progress: &'a AtomicU64, timeout: Duration) -> Self {
+        Watch {
+            progress,
+            seen: progress.load(Ordering::Relaxed),
+            since: Instant::now(),
+            timeout,
+        }
+    }
+
+    fn stalled(&mut self) -> bool {
+        let now = self.progress.load(Ordering::Relaxed);
+        if now != self.seen {
+            self.seen = now;
+            self.since = Instant::now();
+        }
+        self.since.elapsed() >= self.timeout
+    }
+}
+
+/// Why a recording is incomplete, in words.
+fn problems(ring: Lost, queue: Lost, capped: Option<(Tick, Lost)>, max: u64) -> Vec<String> {
+    let counts = |l: Lost| {
+        format!(
+            "{} ticks, {} arm commands, {} events",
+            l.ticks, l.arm_commands, l.events
+        )
+    };
+    let mut out = Vec::new();
+    if !ring.is_empty() {
+        out.push(format!(
+            "the control thread's rings were full (the telemetry thread fell behind): {} lost",
+            counts(ring)
+        ));
+    }
+    if !queue.is_empty() {
+        out.push(format!(
+            "the recorder's queue was full (the disk did not keep up): {} dropped",
+            counts(queue)
+        ));
+    }
+    if let Some((tick, lost)) = capped {
+        out.push(format!(
+            "the size cap of {:.3} MB was reached at tick {tick}: {} not written",
+            max as f64 / 1e6,
+            counts(lost)
+        ));
+    }
+    out
+}
+
+/// What the writer has committed to the files (or holds to commit).
+#[derive(Debug, Clone, Copy, Default)]
+struct Counts {
+    ticks: u64,
+    arm_commands: u64,
+    events: u64,
+    first_tick: Option<Tick>,
+    last_tick: Option<Tick>,
+    stop_tick: Option<Tick>,
+}
+
+/// The writer thread's state.
+struct Writer {
+    dir: PathBuf,
+    options: RecordOptions,
+    progress: Arc<AtomicU64>,
+    meta: Meta,
+    samples: Option<StreamFile<File>>,
+    commands: Option<StreamFile<File>>,
+    events: Option<File>,
+    sample_enc: SampleEncoder,
+    command_enc: CommandEncoder,
+    sample_ops: Vec<u8>,
+    command_ops: Vec<u8>,
+    event_lines: Vec<u8>,
+    /// Everything given to the encoders.
+    given: Counts,
+    /// Everything written.
+    written: Counts,
+    event_bytes: u64,
+    /// Bytes of the binary streams once ended.
+    ended_bytes: u64,
+    /// Recording stopped at the cap: the tick, and what was not written.
+    capped: Option<(Tick, Lost)>,
+    /// Recording stopped on a write error.
+    error: Option<String>,
+    error_lost: Lost,
+    last_commit: Instant,
+}
+
+impl Writer {
+    fn new(dir: &Path, options: RecordOptions, progress: Arc<AtomicU64>) -> Writer {
+        Writer {
+            dir: dir.to_path_buf(),
+            options,
+            progress,
+            meta: Meta::starting("", "", options.max_bytes),
+            samples: None,
+            commands: None,
+            events: None,
+            sample_enc: SampleEncoder::default(),
+            command_enc: CommandEncoder::default(),
+            sample_ops: Vec::with_capacity(CHUNK_BYTES),
+            command_ops: Vec::new(),
+            event_lines: Vec::new(),
+            given: Counts::default(),
+            written: Counts::default(),
+            event_bytes: 0,
+            ended_bytes: 0,
+            capped: None,
+            error: None,
+            error_lost: Lost::default(),
+            last_commit: Instant::now(),
+        }
+    }
+
+    /// Recording, as opposed to stopped at the cap or by an error.
+    fn recording(&self) -> bool {
+        self.capped.is_none() && self.error.is_none()
+    }
+
+    fn fail(&mut self, file: &str, e: &std::io::Error) {
+        if self.error.is_none() {
+            self.error = Some(format!(
+                "cannot write {}: {e}",
+                self.dir.join(file).display()
+            ));
+        }
+    }
+
+    fn open(&mut self) {
+        let open = |name: &str| File::create(self.dir.join(name));
+        match open(SAMPLES).and_then(|f| StreamFile::start(f, Stream::Samples)) {
+            Ok(f) => self.samples = Some(f),
+            Err(e) => return self.fail(SAMPLES, &e),
+        }
+        match open(COMMANDS).and_then(|f| StreamFile::start(f, Stream::Commands)) {
+            Ok(f) => self.commands = Some(f),
+            Err(e) => return self.fail(COMMANDS, &e),
+        }
+        match open(EVENTS) {
+            Ok(f) => self.events = Some(f),
+            Err(e) => self.fail(EVENTS, &e),
+        }
+    }
+
+    fn run(mut self, rx: &Receiver<Item>) {
+        self.open();
+        loop {
+            let item = rx.recv_timeout(COMMIT_EVERY);
+            // Alive: `finish` gives up only on a writer stuck in a call.
+            self.progress.fetch_add(1, Ordering::Relaxed);
+            match item {
+                Ok(Item::Finish(finish)) => return self.finish(*finish),
+                Ok(item) => self.take(item),
+                Err(RecvTimeoutError::Timeout) => {}
+                // The run ended without `finish` (it failed to start):
+                // leave the files ended, the metadata saying so.
+                Err(RecvTimeoutError::Disconnected) => {
+                    self.end_streams(Lost::default());
+                    self.meta.problems = vec!["the run did not finish".into()];
+                    self.write_meta();
+                    return;
+                }
+            }
+            let big = self.sample_ops.len() + self.command_ops.len() + self.event_lines.len();
+            if big >= CHUNK_BYTES || self.last_commit.elapsed() >= COMMIT_EVERY {
+                self.commit(RESERVE_BYTES);
+            }
+        }
+    }
+
+    fn take(&mut self, item: Item) {
+        if !self.recording() {
+            let lost = match item {
+                Item::Input(_) => Lost {
+                    ticks: 1,
+                    ..Lost::default()
+                },
+                Item::Command(_) => Lost {
+                    arm_commands: 1,
+                    ..Lost::default()
+                },
+                Item::Event(_) => Lost {
+                    events: 1,
+                    ..Lost::default()
+                },
+                Item::Start { .. } | Item::Lost(_) | Item::Finish(_) => Lost::default(),
+            };
+            match &mut self.capped {
+                Some((_, not_written)) => *not_written = not_written.plus(lost),
+                None => self.error_lost = self.error_lost.plus(lost),
+            }
+            return;
+        }
+        match item {
+            Item::Start { sensor, arm } => {
+                self.meta.sensor = sensor;
+                self.meta.arm = arm;
+                self.write_meta();
+            }
+            Item::Input(input) => {
+                self.sample_enc.input(&mut self.sample_ops, &input);
+                let g = &mut self.given;
+                g.ticks += 1;
+                g.first_tick.get_or_insert(input.tick);
+                g.last_tick = Some(input.tick);
+                if input.began_stop {
+                    g.stop_tick = Some(input.tick);
+                }
+            }
+            Item::Command(command) => {
+                self.command_enc.command(&mut self.command_ops, &command);
+                self.given.arm_commands += 1;
+            }
+            Item::Event(event) => match serde_json::to_writer(&mut self.event_lines, &event) {
+                Ok(()) => {
+                    self.event_lines.push(b'\n');
+                    self.given.events += 1;
+                }
+                Err(e) => self.fail(EVENTS, &e.into()),
+            },
+            Item::Lost(lost) => {
+                self.sample_enc.lost(&mut self.sample_ops, lost.ticks);
+                self.command_enc
+                    .lost(&mut self.command_ops, lost.arm_commands);
+            }
+            Item::Finish(_) => {}
+        }
+    }
+
+    fn bytes(&self) -> u64 {
+        let stream = |f: &Option<StreamFile<File>>| f.as_ref().map_or(0, StreamFile::bytes);
+        stream(&self.samples) + stream(&self.commands) + self.ended_bytes + self.event_bytes
+    }
+
+    /// What was given to the encoders and is not written.
+    fn unwritten(&self) -> Lost {
+        Lost {
+            ticks: self.given.ticks - self.written.ticks,
+            arm_commands: self.given.arm_commands - self.written.arm_commands,
+            events: self.given.events - self.written.events,
+        }
+    }
+
+    /// Writes what the encoders produced if it fits under the cap with
+    /// `reserve` bytes to spare; if not, recording stops here (counted).
+    fn commit(&mut self, reserve: u64) {
+        self.last_commit = Instant::now();
+        if !self.recording() {
+            return;
+        }
+        let pending = self.sample_ops.len() + self.command_ops.len() + self.event_lines.len();
+        if self.bytes() + pending as u64 + reserve > self.options.max_bytes {
+            self.capped = Some((self.written.last_tick.unwrap_or(0), self.unwritten()));
+            return;
+        }
+        let results = [
+            (SAMPLES, write_stream(&mut self.samples, &self.sample_ops)),
+            (
+                COMMANDS,
+                write_stream(&mut self.commands, &self.command_ops),
+            ),
+            (EVENTS, write_file(&mut self.events, &self.event_lines)),
+        ];
+        for (file, result) in results {
+            if let Err(e) = result {
+                self.fail(file, &e);
+            }
+        }
+        if self.error.is_some() {
+            self.error_lost = self.unwritten();
+            return;
+        }
+        self.event_bytes += self.event_lines.len() as u64;
+        self.sample_ops.clear();
+        self.command_ops.clear();
+        self.event_lines.clear();
+        // The ticks of a run the encoder still holds are written with it
+        // (a run is of consecutive ticks).
+        let held = self.sample_enc.held();
+        self.written = Counts {
+            ticks: self.given.ticks - held,
+            last_tick: self.given.last_tick.map(|t| t.saturating_sub(held)),
+            ..self.given
+        };
+    }
+
+    /// Ends both streams (the runs held, the end markers: the reserve
+    /// under the cap keeps room for them) and flushes every file to the
+    /// disk.
+    fn end_streams(&mut self, pending: Lost) {
+        if self.recording() {
+            self.sample_enc.lost(&mut self.sample_ops, pending.ticks);
+            self.command_enc
+                .lost(&mut self.command_ops, pending.arm_commands);
+            self.sample_enc.flush(&mut self.sample_ops);
+            self.commit(2 * END_BYTES);
+        }
+        for (name, stream) in [
+            (SAMPLES, self.samples.take()),
+            (COMMANDS, self.commands.take()),
+        ] {
+            if let Some(stream) = stream {
+                self.ended_bytes += stream.bytes() + END_BYTES;
+                if let Err(e) = stream.end().and_then(|f| f.sync_all()) {
+                    self.fail(name, &e);
+                }
+            }
+        }
+        if let Some(events) = self.events.take()
+            && let Err(e) = events.sync_all()
+        {
+            self.fail(EVENTS, &e);
+        }
+    }
+
+    /// Ends the recording: the streams, `report.json` (with the
+    /// recording's summary in it), the final `meta.json`; replies with the
+    /// summary (which also says if writing those failed).
+    fn finish(mut self, finish: Finish) {
+        let Finish {
+            mut report,
+            pending,
+            ring_lost,
+            queue_dropped,
+            reply,
+        } = finish;
+        self.end_streams(pending);
+        let summary = self.summary(ring_lost, queue_dropped);
+        self.meta.status = "finished".into();
+        self.meta.complete = summary.complete;
+        self.meta.problems.clone_from(&summary.problems);
+        report.recording = Some(summary);
+        match serde_json::to_string_pretty(&report) {
+            Ok(text) => {
+                if let Err(e) = std::fs::write(self.dir.join(REPORT), text + "\n") {
+                    self.fail(REPORT, &e);
+                }
+            }
+            Err(e) => self.fail(REPORT, &e.into()),
+        }
+        self.write_meta();
+        let _ = reply.send(self.summary(ring_lost, queue_dropped));
+    }
+
+    fn summary(&self, ring_lost: Lost, queue_dropped: Lost) -> RecordingReport {
+        let cap_lost = self.capped.map_or(Lost::default(), |(_, lost)| lost);
+        let mut problems = problems(
+            ring_lost,
+            queue_dropped,
+            self.capped,
+            self.options.max_bytes,
+        );
+        if let Some(error) = &self.error {
+            problems.push(format!(
+                "{error}: {} ticks, {} arm commands, {} events not written",
+                self.error_lost.ticks, self.error_lost.arm_commands, self.error_lost.events
+            ));
+        }
+        RecordingReport {
+            dir: self.dir.display().to_string(),
+            complete: problems.is_empty(),
+            ticks: self.written.ticks,
+            arm_commands: self.written.arm_commands,
+            events: self.written.events,
+            stop_tick: self.written.stop_tick,
+            bytes: self.bytes(),
+            max_bytes: self.options.max_bytes,
+            lost: ring_lost
+                .plus(queue_dropped)
+                .plus(cap_lost)
+                .plus(self.error_lost),
+            problems,
+            error: self.error.clone(),
+        }
+    }
+
+    fn write_meta(&mut self) {
+        let w = self.written;
+        let bytes = self.bytes();
+        let meta = &mut self.meta;
+        (meta.first_tick, meta.last_tick, meta.stop_tick) =
+            (w.first_tick, w.last_tick, w.stop_tick);
+        (meta.ticks, meta.arm_commands, meta.events) = (w.ticks, w.arm_commands, w.events);
+        meta.bytes = bytes;
+        let written = serde_json::to_string_pretty(&self.meta)
+            .map_err(std::io::Error::from)
+            .and_then(|text| std::fs::write(self.dir.join(META), text + "\n"));
+        if let Err(e) = written {
+            self.fail(META, &e);
+        }
+    }
+}
+
+fn write_stream(file: &mut Option<StreamFile<File>>, ops: &[u8]) -> std::io::Result<()> {
+    match file {
+        Some(f) if !ops.is_empty() => f.write(ops),
+        _ => Ok(()),
+    }
+}
+
+fn write_file(file: &mut Option<File>, bytes: &[u8]) -> std::io::Result<()> {
+    match file {
+        Some(f) if !bytes.is_empty() => f.write_all(bytes),
+        _ => Ok(()),
+    }
+}
