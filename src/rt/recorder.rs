@@ -101,7 +101,8 @@ pub struct RecordingReport {
     pub max_bytes: u64,
     /// What is missing, whatever the cause.
     pub lost: Lost,
-    /// Why it is incomplete, in words (empty when complete).
+    /// Why it is incomplete, in words (empty when complete; a failure is
+    /// among them).
     pub problems: Vec<String>,
     /// The recording failed: a write error, or a writer that never
     /// finished (a stalled disk). The run's exit status is then 1.
@@ -112,7 +113,7 @@ impl RecordingReport {
     /// One line for the run report.
     pub fn to_line(&self) -> String {
         let counts = format!(
-            "{} ticks, {} arm commands, {} events, {:.1} kB (cap {:.1} MB)",
+            "{} ticks, {} arm commands, {} events, {:.1} kB (cap {} MB)",
             self.ticks,
             self.arm_commands,
             self.events,
@@ -122,14 +123,10 @@ impl RecordingReport {
         if self.complete {
             format!("recording: {}: complete: {counts}\n", self.dir)
         } else {
-            let mut why = self.problems.join("; ");
-            if let Some(error) = &self.error {
-                why = if why.is_empty() {
-                    error.clone()
-                } else {
-                    format!("{error}; {why}")
-                };
-            }
+            let why = match (self.problems.is_empty(), &self.error) {
+                (true, Some(error)) => error.clone(),
+                _ => self.problems.join("; "),
+            };
             format!(
                 "recording: {}: INCOMPLETE ({why}): {counts}; lost {} ticks, {} arm commands, {} events; replay will not claim equality\n",
                 self.dir, self.lost.ticks, self.lost.arm_commands, self.lost.events
@@ -184,7 +181,7 @@ mod tests {
         };
         assert_eq!(
             r.to_line(),
-            "recording: rec: complete: 10 ticks, 1 arm commands, 2 events, 1.5 kB (cap 200.0 MB)\n"
+            "recording: rec: complete: 10 ticks, 1 arm commands, 2 events, 1.5 kB (cap 200 MB)\n"
         );
         r.complete = false;
         r.lost.ticks = 4;

@@ -1,6 +1,7 @@
 //! The integration tests, in one binary (one link of the crate): golden
 //! replays, motion invariants, properties, stress, sessions, the runtime,
-//! the study, the Ruckig oracle, allocations and the import rules.
+//! session recordings, the study, the Ruckig oracle, allocations and the
+//! import rules.
 //! RealtimeSanitizer's tests are their own binary (`tests/rtsan.rs`): CI
 //! builds it again with the sanitizer's runtime.
 
@@ -19,6 +20,7 @@ mod golden;
 mod motion;
 mod motion_safety;
 mod properties;
+mod recording;
 mod ruckig_oracle;
 mod runtime;
 mod sessions;

@@ -124,6 +124,8 @@ pub struct Recorder {
     pending: Lost,
     ring_lost: Lost,
     queue_dropped: Lost,
+    /// Handed to the writer.
+    sent: Lost,
     /// The writer's loop count: it goes up unless the writer is stuck in
     /// a call (a stalled disk).
     progress: Arc<AtomicU64>,
@@ -161,6 +163,7 @@ impl Recorder {
             pending: Lost::default(),
             ring_lost: Lost::default(),
             queue_dropped: Lost::default(),
+            sent: Lost::default(),
             progress,
             thread: Some(thread),
         })
@@ -176,29 +179,17 @@ impl Recorder {
                 Err(_) => return self.dropped(&item),
             }
         }
-        if let Err(TrySendError::Full(item) | TrySendError::Disconnected(item)) =
-            self.tx.try_send(item)
-        {
-            self.dropped(&item);
+        let one = one(&item);
+        match self.tx.try_send(item) {
+            Ok(()) => self.sent = self.sent.plus(one),
+            Err(TrySendError::Full(item) | TrySendError::Disconnected(item)) => {
+                self.dropped(&item);
+            }
         }
     }
 
     fn dropped(&mut self, item: &Item) {
-        let lost = match item {
-            Item::Input(_) => Lost {
-                ticks: 1,
-                ..Lost::default()
-            },
-            Item::Command(_) => Lost {
-                arm_commands: 1,
-                ..Lost::default()
-            },
-            Item::Event(_) => Lost {
-                events: 1,
-                ..Lost::default()
-            },
-            Item::Start { .. } | Item::Lost(_) | Item::Finish(_) => Lost::default(),
-        };
+        let lost = one(item);
         self.queue_dropped = self.queue_dropped.plus(lost);
         self.pending = self.pending.plus(lost);
     }
@@ -256,13 +247,21 @@ impl Recorder {
         }
     }
 
-    /// The summary of a recording whose writer never finished.
+    /// The summary of a recording whose writer never finished: nothing
+    /// in it can be counted on (its files have no end markers).
     fn failed(&self, what: &str) -> RecordingReport {
         let secs = self.options.stall_timeout.as_secs_f64();
         let error = format!(
             "the recorder's writer {what} for {secs:.1} s (a stalled disk?): {} is unfinished",
             self.dir.display()
         );
+        let mut problems = problems(
+            self.ring_lost,
+            self.queue_dropped,
+            None,
+            self.options.max_bytes,
+        );
+        problems.push(error.clone());
         RecordingReport {
             dir: self.dir.display().to_string(),
             complete: false,
@@ -272,13 +271,8 @@ impl Recorder {
             stop_tick: None,
             bytes: 0,
             max_bytes: self.options.max_bytes,
-            lost: self.ring_lost.plus(self.queue_dropped),
-            problems: problems(
-                self.ring_lost,
-                self.queue_dropped,
-                None,
-                self.options.max_bytes,
-            ),
+            lost: self.ring_lost.plus(self.queue_dropped).plus(self.sent),
+            problems,
             error: Some(error),
         }
     }
@@ -307,6 +301,25 @@ impl SessionRecorder for Recorder {
     fn lost(&mut self, lost: Lost) {
         self.ring_lost = self.ring_lost.plus(lost);
         self.pending = self.pending.plus(lost);
+    }
+}
+
+/// One item of the kind of `item`, as a count.
+fn one(item: &Item) -> Lost {
+    match item {
+        Item::Input(_) => Lost {
+            ticks: 1,
+            ..Lost::default()
+        },
+        Item::Command(_) => Lost {
+            arm_commands: 1,
+            ..Lost::default()
+        },
+        Item::Event(_) => Lost {
+            events: 1,
+            ..Lost::default()
+        },
+        Item::Start { .. } | Item::Lost(_) | Item::Finish(_) => Lost::default(),
     }
 }
 
@@ -376,7 +389,7 @@ fn problems(ring: Lost, queue: Lost, capped: Option<(Tick, Lost)>, max: u64) -> 
     }
     if let Some((tick, lost)) = capped {
         out.push(format!(
-            "the size cap of {:.3} MB was reached at tick {tick}: {} not written",
+            "the size cap of {} MB was reached at tick {tick}: {} not written",
             max as f64 / 1e6,
             counts(lost)
         ));
@@ -508,21 +521,7 @@ impl Writer {
 
     fn take(&mut self, item: Item) {
         if !self.recording() {
-            let lost = match item {
-                Item::Input(_) => Lost {
-                    ticks: 1,
-                    ..Lost::default()
-                },
-                Item::Command(_) => Lost {
-                    arm_commands: 1,
-                    ..Lost::default()
-                },
-                Item::Event(_) => Lost {
-                    events: 1,
-                    ..Lost::default()
-                },
-                Item::Start { .. } | Item::Lost(_) | Item::Finish(_) => Lost::default(),
-            };
+            let lost = one(&item);
             match &mut self.capped {
                 Some((_, not_written)) => *not_written = not_written.plus(lost),
                 None => self.error_lost = self.error_lost.plus(lost),
@@ -666,6 +665,7 @@ impl Writer {
         let summary = self.summary(ring_lost, queue_dropped);
         self.meta.status = "finished".into();
         self.meta.complete = summary.complete;
+        self.meta.lost = summary.lost;
         self.meta.problems.clone_from(&summary.problems);
         report.recording = Some(summary);
         match serde_json::to_string_pretty(&report) {
@@ -740,5 +740,124 @@ fn write_file(file: &mut Option<File>, bytes: &[u8]) -> std::io::Result<()> {
     match file {
         Some(f) if !bytes.is_empty() => f.write_all(bytes),
         _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::arm::sim::SimArm;
+    use crate::rt::setup::RtOptions;
+    use crate::rt::stop::StopRequest;
+    use crate::rt::telemetry::CoreSample;
+    use crate::rt::threads::{RunOptions, run};
+    use crate::sensor::synthetic::SyntheticSensor;
+    use crate::tools::recording::format::{SampleDecoder, SampleItem};
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("sipnpuff-writer-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        dir
+    }
+
+    /// A real report of a very short run, to finish recordings with.
+    fn report() -> RunReport {
+        let config = Config::default();
+        let options = RunOptions {
+            seconds: Some(0.01),
+            rt: RtOptions::NONE,
+            spin_margin_ns: None,
+            stop: StopRequest::new(),
+        };
+        let sensor = SyntheticSensor::built_in_user(&config);
+        let arm = Box::new(SimArm::new(config.core()));
+        run(config.core(), sensor, arm, &options, &mut |_: &_| {}).unwrap()
+    }
+
+    #[test]
+    fn the_configuration_reads_back_identically_and_is_never_overwritten() {
+        let config = Config::from_toml_str(
+            "[detector]\nneutral_volts = 2.5000000000000004\nhysteresis_volts = 0.30000000000000004\n[arm]\nhome_rotation_vector_rad = [-0.0, 0.0, 0.1]\n",
+        )
+        .unwrap();
+        let text = config_text(&config).unwrap();
+        assert!(
+            text.contains("neutral_volts = 2.5000000000000004"),
+            "{text}"
+        );
+        assert!(text.contains("[-0.0, 0.0, 0.1]"), "{text}");
+        let dir = scratch("exists");
+        let recorder = Recorder::create(&dir, &config, RecordOptions::default()).unwrap();
+        let mut report = report();
+        assert!(recorder.finish(&mut report).complete);
+        assert_eq!(
+            std::fs::read_to_string(dir.join(CONFIG)).unwrap(),
+            text,
+            "config.toml"
+        );
+        let again = Recorder::create(&dir, &config, RecordOptions::default());
+        assert!(matches!(again, Err(RecordError::Exists(_))));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Noisy samples past a 2 kB cap, in three batches: what is written
+    /// ends cleanly and decodes to exactly the ticks counted as written;
+    /// written and not written add up to what was given.
+    #[test]
+    fn the_cap_stops_recording_cleanly_and_counts_the_rest() {
+        let dir = scratch("cap");
+        let options = RecordOptions {
+            max_bytes: 2000,
+            ..RecordOptions::default()
+        };
+        let mut recorder = Recorder::create(&dir, &Config::default(), options).unwrap();
+        recorder.start("test", "test");
+        for batch in 0..3u64 {
+            for t in batch * 100..(batch + 1) * 100 {
+                recorder.input(&CoreInput {
+                    tick: t,
+                    sample: CoreSample::Volts(2.5 + t as f64 * 1e-3),
+                    began_stop: false,
+                });
+            }
+            // The writer commits between batches (every 200 ms).
+            thread::sleep(Duration::from_millis(300));
+        }
+        let mut report = report();
+        let summary = recorder.finish(&mut report);
+        assert!(!summary.complete);
+        assert!(summary.error.is_none(), "{summary:?}");
+        assert_eq!(summary.ticks + summary.lost.ticks, 300, "{summary:?}");
+        assert!(summary.bytes <= 2000, "{summary:?}");
+        assert!(
+            summary.problems[0].contains("size cap of 0.002 MB"),
+            "{summary:?}"
+        );
+        let file = File::open(dir.join(SAMPLES)).unwrap();
+        assert_eq!(
+            file.metadata().unwrap().len() + std::fs::metadata(dir.join(COMMANDS)).unwrap().len(),
+            summary.bytes
+        );
+        let mut decoder = SampleDecoder::new(std::io::BufReader::new(file)).unwrap();
+        let mut ticks = 0;
+        while let Some(item) = decoder.next_item().unwrap() {
+            assert_eq!(
+                item,
+                SampleItem::Input {
+                    tick: ticks,
+                    sample: CoreSample::Volts(2.5 + ticks as f64 * 1e-3)
+                }
+            );
+            ticks += 1;
+        }
+        assert_eq!(ticks, summary.ticks);
+        let meta: Meta =
+            serde_json::from_str(&std::fs::read_to_string(dir.join(META)).unwrap()).unwrap();
+        assert_eq!(
+            (meta.ticks, meta.lost, meta.complete),
+            (summary.ticks, summary.lost, false)
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
