@@ -14,7 +14,8 @@
 //! * [`rt`]: the 1 kHz runtime around the core (scheduler, RT set-up,
 //!   threads, telemetry, the run report);
 //! * [`sim`]: the sensor model, simulated users and the paper's study;
-//! * [`tools`]: replay, benchmarks and the accuracy scorer;
+//! * [`tools`]: replay, session recordings, benchmarks and the accuracy
+//!   scorer;
 //! * [`cli`]: the `sipnpuff` command line, one file per command.
 //!
 //! Import rules (checked by `tests/it/architecture.rs`): `control` imports

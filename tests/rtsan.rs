@@ -43,6 +43,8 @@ fn control_loop_ticks_are_realtime_safe() {
     assert!(run.last_arm_command.is_zero(), "{run:?}");
     // One command per 10 ticks run.
     assert_eq!(run.arm_commands, run.ticks / 10, "{run:?}");
+    // With the session recorder's copy of each (`run --record`).
+    assert_eq!(run.recorded_commands, run.arm_commands, "{run:?}");
     assert!(run.events > 100, "{run:?}");
 }
 

@@ -450,6 +450,51 @@ fn a_damaged_recording_is_an_error_naming_the_file_and_offset() {
     assert!(e.contains("rec/meta.json: says 1"), "{e}");
 }
 
+/// `--events` and `--trace` work for a recording as for a CSV signal:
+/// the events are the recorded lines, the trace has a row per tick.
+#[test]
+fn a_recording_replays_to_events_and_trace_files() {
+    let scratch = scratch("files");
+    let (events, trace) = (scratch.join("events.jsonl"), scratch.join("trace.csv"));
+    let dir = short_recording();
+    let out = sipnpuff(&[
+        "replay",
+        dir.to_str().unwrap(),
+        "--events",
+        events.to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(out.stdout.is_empty());
+    assert_eq!(
+        std::fs::read_to_string(&events).unwrap(),
+        std::fs::read_to_string(dir.join("events.jsonl")).unwrap()
+    );
+    let trace = std::fs::read_to_string(&trace).unwrap();
+    let meta = json(&dir.join("meta.json"));
+    assert_eq!(
+        trace.lines().count() as u64,
+        meta["ticks"].as_u64().unwrap() + 1
+    );
+    assert!(trace.starts_with("tick,mode,vx,"), "{trace}");
+    // With another configuration it is replayed, not compared.
+    let paper = fixture("paper-example.toml");
+    let out = sipnpuff(&[
+        "replay",
+        dir.to_str().unwrap(),
+        "--config",
+        paper.to_str().unwrap(),
+    ]);
+    assert!(out.status.success());
+    assert!(
+        text(&out.stderr).contains("not compared: replayed with --config "),
+        "{}",
+        text(&out.stderr)
+    );
+    std::fs::remove_dir_all(&scratch).unwrap();
+}
+
 #[test]
 fn a_recorded_event_that_differs_is_named_with_its_line() {
     let dir = scratch("event-differs").join("rec");
