@@ -218,8 +218,8 @@ impl Recorder {
                     item = back;
                     thread::sleep(Duration::from_millis(10));
                 }
-                Err(TrySendError::Full(_)) => break self.failed("made no progress"),
-                Err(TrySendError::Disconnected(_)) => break self.failed("stopped"),
+                Err(TrySendError::Full(_)) => break self.failed(Stop::Stalled),
+                Err(TrySendError::Disconnected(_)) => break self.failed(Stop::Died),
             }
         };
         report.recording = Some(summary.clone());
@@ -241,20 +241,26 @@ impl Recorder {
                     return summary;
                 }
                 Err(RecvTimeoutError::Timeout) if !watch.stalled() => {}
-                Err(RecvTimeoutError::Timeout) => return self.failed("made no progress"),
-                Err(RecvTimeoutError::Disconnected) => return self.failed("stopped"),
+                Err(RecvTimeoutError::Timeout) => return self.failed(Stop::Stalled),
+                Err(RecvTimeoutError::Disconnected) => return self.failed(Stop::Died),
             }
         }
     }
 
     /// The summary of a recording whose writer never finished: nothing
     /// in it can be counted on (its files have no end markers).
-    fn failed(&self, what: &str) -> RecordingReport {
-        let secs = self.options.stall_timeout.as_secs_f64();
-        let error = format!(
-            "the recorder's writer {what} for {secs:.1} s (a stalled disk?): {} is unfinished",
-            self.dir.display()
-        );
+    fn failed(&self, stop: Stop) -> RecordingReport {
+        let error = match stop {
+            Stop::Stalled => format!(
+                "the recorder's writer made no progress for {:.1} s (a stalled disk?): {} is unfinished",
+                self.options.stall_timeout.as_secs_f64(),
+                self.dir.display()
+            ),
+            Stop::Died => format!(
+                "the recorder's writer stopped unexpectedly: {} is unfinished",
+                self.dir.display()
+            ),
+        };
         let mut problems = problems(
             self.ring_lost,
             self.queue_dropped,
@@ -302,6 +308,15 @@ impl SessionRecorder for Recorder {
         self.ring_lost = self.ring_lost.plus(lost);
         self.pending = self.pending.plus(lost);
     }
+}
+
+/// How a writer failed to finish.
+#[derive(Debug, Clone, Copy)]
+enum Stop {
+    /// No progress for the stall timeout.
+    Stalled,
+    /// Its thread ended without answering (it panicked).
+    Died,
 }
 
 /// One item of the kind of `item`, as a count.
