@@ -1,6 +1,6 @@
-//! `meta.json`: what a recording is and whether it is whole. Written when
-//! the run starts (`"status": "recording"`, incomplete) and again when it
-//! ends, so a recording whose process was killed says so.
+//! `meta.json`: what a recording is and whether it is whole. Written at
+//! the first tick recorded (`"status": "recording"`, incomplete) and again
+//! when the run ends, so a recording whose process was killed says so.
 
 use std::time::{SystemTime, UNIX_EPOCH};
 

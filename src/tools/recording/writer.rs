@@ -518,12 +518,16 @@ impl Writer {
                 Ok(Item::Finish(finish)) => return self.finish(*finish),
                 Ok(item) => self.take(item),
                 Err(RecvTimeoutError::Timeout) => {}
-                // The run ended without `finish` (it failed to start):
-                // leave the files ended, the metadata saying so.
+                // The run ended without `finish` (it failed): leave the
+                // files ended and, if a tick was recorded, the metadata
+                // saying so (with none, the directory is no recording and
+                // may be used again).
                 Err(RecvTimeoutError::Disconnected) => {
                     self.end_streams(Lost::default());
-                    self.meta.problems = vec!["the run did not finish".into()];
-                    self.write_meta();
+                    if self.given.ticks > 0 {
+                        self.meta.problems = vec!["the run did not finish".into()];
+                        self.write_meta();
+                    }
                     return;
                 }
             }
@@ -547,9 +551,13 @@ impl Writer {
             Item::Start { sensor, arm } => {
                 self.meta.sensor = sensor;
                 self.meta.arm = arm;
-                self.write_meta();
             }
             Item::Input(input) => {
+                // From the first tick the directory is a recording (one
+                // whose run is killed says so: "status": "recording").
+                if self.given.ticks == 0 {
+                    self.write_meta();
+                }
                 self.sample_enc.input(&mut self.sample_ops, &input);
                 let g = &mut self.given;
                 g.ticks += 1;
