@@ -21,7 +21,8 @@ use crate::rt::threads::{RunError, RunOptions, run as run_loop, run_recorded};
 use crate::sensor::csv::CsvSensor;
 use crate::sensor::synthetic::SyntheticSensor;
 use crate::sensor::{Sensor, SensorSpec};
-use crate::tools::recording::writer::{MIN_BYTES, RecordError, RecordOptions, Recorder};
+use crate::tools::recording::recorder::{RecordError, Recorder};
+use crate::tools::recording::writer::{MIN_BYTES, RecordOptions};
 
 /// `run`'s options.
 #[derive(clap::Args, Debug)]

@@ -13,12 +13,14 @@
 //! | `events.jsonl` | the events, one JSON line each, as `run` prints them |
 //! | `report.json` | the run's report, as `run --json` prints it, with the recording's summary |
 //!
-//! [`writer`] writes one from the telemetry thread; [`read`] opens and
-//! checks one; [`replay`] runs it through the core and compares.
+//! [`recorder`] (the telemetry thread's side) and [`writer`] (its own
+//! thread) write one; [`read`] opens and checks one; [`replay`] runs it
+//! through the core and compares.
 
 pub mod format;
 pub mod meta;
 pub mod read;
+pub mod recorder;
 pub mod replay;
 pub mod writer;
 

@@ -7,9 +7,9 @@ use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
 use crate::config::Config;
-use crate::tools::recording::format::{
-    CommandDecoder, CommandItem, FORMAT_VERSION, FormatError, SampleDecoder, SampleItem,
-};
+use crate::tools::recording::format::commands::{CommandDecoder, CommandItem};
+use crate::tools::recording::format::samples::{SampleDecoder, SampleItem};
+use crate::tools::recording::format::{FORMAT_VERSION, FormatError};
 use crate::tools::recording::meta::{FORMAT_NAME, Meta};
 use crate::tools::recording::{COMMANDS, CONFIG, EVENTS, META, SAMPLES};
 

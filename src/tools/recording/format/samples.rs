@@ -1,0 +1,352 @@
+//! `samples.bin`: the core's input, tick by tick ([the format](super)).
+
+use std::io::Read;
+
+use crate::control::Tick;
+use crate::rt::telemetry::{CoreInput, CoreSample};
+use crate::tools::recording::format::{Bytes, END, FormatError, Stream, op};
+
+const VALUE: u8 = 0x01;
+const REPEAT: u8 = 0x02;
+const MISSING: u8 = 0x03;
+const GAP: u8 = 0x04;
+const AT_TICK: u8 = 0x05;
+const STOP: u8 = 0x06;
+const LOST_TICKS: u8 = 0x07;
+
+/// Encodes the core's inputs into `samples.bin` ops (not the header or
+/// end marker: [`StreamFile`](super::StreamFile) writes those). Runs are held until they
+/// end; [`SampleEncoder::flush`] writes them out.
+#[derive(Debug, Default)]
+pub struct SampleEncoder {
+    next_tick: Tick,
+    last_bits: Option<u64>,
+    repeat: u64,
+    missing: u64,
+}
+
+impl SampleEncoder {
+    /// Appends one tick's input.
+    pub fn input(&mut self, out: &mut Vec<u8>, input: &CoreInput) {
+        if input.tick != self.next_tick {
+            self.flush(out);
+            if input.tick > self.next_tick {
+                op(out, GAP, input.tick - self.next_tick);
+            } else {
+                op(out, AT_TICK, input.tick);
+            }
+        }
+        match input.sample {
+            CoreSample::Volts(v) if self.last_bits == Some(v.to_bits()) => {
+                if self.missing > 0 {
+                    self.flush(out);
+                }
+                self.repeat += 1;
+            }
+            CoreSample::Volts(v) => {
+                self.flush(out);
+                out.push(VALUE);
+                out.extend_from_slice(&v.to_bits().to_le_bytes());
+                self.last_bits = Some(v.to_bits());
+            }
+            CoreSample::Missing => {
+                if self.repeat > 0 {
+                    self.flush(out);
+                }
+                self.missing += 1;
+            }
+        }
+        self.next_tick = input.tick.wrapping_add(1);
+        if input.began_stop {
+            self.flush(out);
+            out.push(STOP);
+        }
+    }
+
+    /// Appends a mark for `n` ticks that were lost before reaching the
+    /// recording.
+    pub fn lost(&mut self, out: &mut Vec<u8>, n: u64) {
+        if n > 0 {
+            self.flush(out);
+            op(out, LOST_TICKS, n);
+        }
+    }
+
+    /// Ticks in the runs held (not yet in the ops).
+    pub fn held(&self) -> u64 {
+        self.repeat + self.missing
+    }
+
+    /// Writes out the runs held.
+    pub fn flush(&mut self, out: &mut Vec<u8>) {
+        if self.repeat > 0 {
+            op(out, REPEAT, self.repeat);
+            self.repeat = 0;
+        }
+        if self.missing > 0 {
+            op(out, MISSING, self.missing);
+            self.missing = 0;
+        }
+    }
+}
+
+/// One item of `samples.bin`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SampleItem {
+    /// One tick's step.
+    Input {
+        /// The tick.
+        tick: Tick,
+        /// Its sample, or none.
+        sample: CoreSample,
+    },
+    /// `begin_stop` after the last step.
+    BeginStop,
+    /// Ticks lost before reaching the recording: what follows is not the
+    /// core's whole input.
+    Lost(u64),
+}
+
+/// Reads `samples.bin`, item by item, as a stream (an hour of recording
+/// never sits in memory).
+pub struct SampleDecoder<R: Read> {
+    bytes: Bytes<R>,
+    next_tick: Tick,
+    last: Option<f64>,
+    /// Ticks left of a run: (count, sample).
+    run: Option<(u64, CoreSample)>,
+    ended: bool,
+}
+
+impl<R: Read> SampleDecoder<R> {
+    /// Reads and checks the header.
+    pub fn new(input: R) -> Result<Self, FormatError> {
+        let mut bytes = Bytes::new(input);
+        bytes.header(Stream::Samples)?;
+        Ok(SampleDecoder {
+            bytes,
+            next_tick: 0,
+            last: None,
+            run: None,
+            ended: false,
+        })
+    }
+
+    fn tick(&mut self, sample: CoreSample) -> SampleItem {
+        let tick = self.next_tick;
+        self.next_tick = tick.wrapping_add(1);
+        SampleItem::Input { tick, sample }
+    }
+
+    /// The next item; `Ok(None)` after a valid end marker.
+    pub fn next_item(&mut self) -> Result<Option<SampleItem>, FormatError> {
+        if let Some((left, sample)) = self.run {
+            self.run = (left > 1).then_some((left - 1, sample));
+            return Ok(Some(self.tick(sample)));
+        }
+        if self.ended {
+            return Ok(None);
+        }
+        loop {
+            let tag = self.bytes.tag()?;
+            match tag {
+                VALUE => {
+                    let v = f64::from_bits(self.bytes.u64le()?);
+                    self.last = Some(v);
+                    return Ok(Some(self.tick(CoreSample::Volts(v))));
+                }
+                REPEAT | MISSING => {
+                    let n = self.bytes.count("a run")?;
+                    let sample = if tag == MISSING {
+                        CoreSample::Missing
+                    } else {
+                        let v = self.last.ok_or_else(|| {
+                            self.bytes
+                                .error("a repeat before any value (the file is corrupted)")
+                        })?;
+                        CoreSample::Volts(v)
+                    };
+                    self.run = (n > 1).then_some((n - 1, sample));
+                    return Ok(Some(self.tick(sample)));
+                }
+                GAP => {
+                    let n = self.bytes.count("a gap")?;
+                    self.next_tick = self.next_tick.wrapping_add(n);
+                }
+                AT_TICK => self.next_tick = self.bytes.varint()?,
+                STOP => return Ok(Some(SampleItem::BeginStop)),
+                LOST_TICKS => {
+                    return Ok(Some(SampleItem::Lost(self.bytes.count("a loss")?)));
+                }
+                END => {
+                    self.bytes.end()?;
+                    self.ended = true;
+                    return Ok(None);
+                }
+                other => {
+                    return Err(self
+                        .bytes
+                        .error(format!("unknown op 0x{other:02x} (the file is corrupted)")));
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tools::recording::format::StreamFile;
+
+    fn input(tick: Tick, volts: Option<f64>) -> CoreInput {
+        CoreInput {
+            tick,
+            sample: volts.map_or(CoreSample::Missing, CoreSample::Volts),
+            began_stop: false,
+        }
+    }
+
+    fn encode_samples(inputs: &[CoreInput]) -> Vec<u8> {
+        let mut file = StreamFile::start(Vec::new(), Stream::Samples).unwrap();
+        let mut enc = SampleEncoder::default();
+        let mut ops = Vec::new();
+        for i in inputs {
+            enc.input(&mut ops, i);
+        }
+        enc.flush(&mut ops);
+        file.write(&ops).unwrap();
+        file.end().unwrap()
+    }
+
+    fn decode_samples(bytes: &[u8]) -> Result<Vec<SampleItem>, FormatError> {
+        let mut dec = SampleDecoder::new(bytes)?;
+        let mut out = Vec::new();
+        while let Some(item) = dec.next_item()? {
+            out.push(item);
+        }
+        Ok(out)
+    }
+
+    #[test]
+    fn a_held_value_costs_one_run() {
+        let inputs: Vec<CoreInput> = (0..10_000).map(|t| input(t, Some(2.5))).collect();
+        let bytes = encode_samples(&inputs);
+        // Header, one value, one run of 9999, the end marker.
+        assert_eq!(bytes.len(), 10 + 9 + 3 + 5, "{bytes:?}");
+        let items = decode_samples(&bytes).unwrap();
+        assert_eq!(items.len(), 10_000);
+        assert_eq!(
+            items[9_999],
+            SampleItem::Input {
+                tick: 9_999,
+                sample: CoreSample::Volts(2.5)
+            }
+        );
+    }
+
+    #[test]
+    fn gaps_missing_runs_stops_and_bits_survive() {
+        let nan = f64::from_bits(0x7ff8_0000_dead_beef);
+        let mut inputs = vec![
+            input(5, Some(-0.0)),
+            input(6, Some(0.0)),
+            input(7, None),
+            input(8, None),
+            input(2008, Some(nan)),
+            input(2009, Some(nan)),
+            input(3, Some(1.0)),
+        ];
+        inputs[5].began_stop = true;
+        let bytes = encode_samples(&inputs);
+        let items = decode_samples(&bytes).unwrap();
+        let mut back = Vec::new();
+        for item in items {
+            match item {
+                SampleItem::Input { tick, sample } => back.push(CoreInput {
+                    tick,
+                    sample,
+                    began_stop: false,
+                }),
+                SampleItem::BeginStop => back.last_mut().unwrap().began_stop = true,
+                SampleItem::Lost(_) => panic!("nothing was lost"),
+            }
+        }
+        assert_eq!(back.len(), inputs.len());
+        for (a, b) in back.iter().zip(&inputs) {
+            assert_eq!((a.tick, a.began_stop), (b.tick, b.began_stop));
+            let bits = |s: CoreSample| match s {
+                CoreSample::Volts(v) => Some(v.to_bits()),
+                CoreSample::Missing => None,
+            };
+            assert_eq!(bits(a.sample), bits(b.sample));
+        }
+    }
+
+    #[test]
+    fn truncation_and_corruption_name_the_offset() {
+        let inputs: Vec<CoreInput> = (0..100)
+            .map(|t| input(t, Some(f64::from(t as u32) * 0.01)))
+            .collect();
+        let bytes = encode_samples(&inputs);
+        let e = decode_samples(&bytes[..bytes.len() - 5]).unwrap_err();
+        assert_eq!(e.offset, bytes.len() as u64 - 5);
+        assert!(e.message.contains("no end marker"), "{e}");
+        let e = decode_samples(&bytes[..bytes.len() - 2]).unwrap_err();
+        assert!(e.message.contains("ends inside this op"), "{e}");
+        // A flipped bit in a value: only the checksum can tell.
+        let mut bad = bytes.clone();
+        bad[10 + 9 * 50 + 3] ^= 0x10;
+        let e = decode_samples(&bad).unwrap_err();
+        assert_eq!(e.offset, bytes.len() as u64 - 5);
+        assert!(e.message.contains("checksum mismatch"), "{e}");
+        // A flipped op: named where it is.
+        let mut bad = bytes.clone();
+        bad[10 + 9 * 50] = 0x42;
+        let e = decode_samples(&bad).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "offset {}: unknown op 0x42 (the file is corrupted)",
+                10 + 9 * 50
+            )
+        );
+        let mut extra = bytes.clone();
+        extra.push(0);
+        assert!(
+            decode_samples(&extra)
+                .unwrap_err()
+                .message
+                .contains("1 bytes after the end marker")
+        );
+        let e = decode_samples(b"SIPNPUFFC\x01").unwrap_err();
+        assert!(e.message.contains("holds the commands stream"), "{e}");
+        let e = decode_samples(b"SIPNPUFFS\x09").unwrap_err();
+        assert!(e.message.contains("format version 9"), "{e}");
+        let e = decode_samples(b"tick,volts\n").unwrap_err();
+        assert!(e.message.contains("no SIPNPUFF header"), "{e}");
+        assert!(
+            decode_samples(b"")
+                .unwrap_err()
+                .message
+                .contains("too short")
+        );
+    }
+
+    #[test]
+    fn a_varint_past_64_bits_is_an_error() {
+        let mut bytes = Stream::Samples.header().to_vec();
+        bytes.push(REPEAT);
+        bytes.extend([0xff; 10]);
+        let e = decode_samples(&bytes).unwrap_err();
+        assert_eq!(e.offset, 10);
+        assert!(e.message.contains("longer than 64 bits"), "{e}");
+        let mut bytes = Stream::Samples.header().to_vec();
+        bytes.extend([REPEAT, 3]);
+        assert!(
+            decode_samples(&bytes)
+                .unwrap_err()
+                .message
+                .contains("a repeat before any value")
+        );
+    }
+}
