@@ -132,7 +132,9 @@ fn replay_recording(args: &ReplayArgs) -> anyhow::Result<u8> {
     let span = match (verdict.first_tick, verdict.last_tick) {
         (Some(first), Some(last)) => format!(
             "ticks {first}–{last}, {} skipped",
-            (last - first + 1).saturating_sub(verdict.ticks)
+            last.saturating_sub(first)
+                .saturating_add(1)
+                .saturating_sub(verdict.ticks)
         ),
         _ => "no ticks".into(),
     };

@@ -363,6 +363,94 @@ fn a_stalled_writer_drops_and_counts_and_never_holds_up_the_loop() {
     let _ = std::fs::remove_dir_all(&scratch);
 }
 
+/// A queue of 16 items fed a whole session in a tight loop (faster than
+/// any writer): items are dropped and counted, the streams mark where
+/// ticks and commands were lost, and replay compares only up to the
+/// first loss and never claims equality.
+#[test]
+fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() {
+    use sipnpuff::control::event::TimedEvent;
+    use sipnpuff::control::pipeline::Pipeline;
+    use sipnpuff::rt::recorder::SessionRecorder;
+    use sipnpuff::sim::script::run_script;
+    use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams};
+    use sipnpuff::tools::recording::read::Recording;
+
+    let scratch = scratch("dropped");
+    let dir = scratch.join("rec");
+    let config = Config::default();
+    let options = RecordOptions {
+        queue: 16,
+        ..RecordOptions::default()
+    };
+    let mut recorder = Recorder::create(&dir, &config, options).unwrap();
+    recorder.start("test", "test");
+    let (script, _) = run_script(&config);
+    let samples = SignalGenerator::new(SignalParams::clean(config.core().detector(), 3), &script);
+    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut ticks = 0;
+    for (tick, volts) in samples.enumerate() {
+        let tick = tick as u64;
+        let out = core.step(tick, volts);
+        recorder.input(&CoreInput {
+            tick,
+            sample: CoreSample::Volts(volts),
+            began_stop: false,
+        });
+        for &event in out.events.iter() {
+            recorder.event(&TimedEvent { tick, event });
+        }
+        if let Some(command) = &out.motion.arm_command {
+            recorder.command(command);
+        }
+        ticks += 1;
+    }
+    let mut report = sipnpuff::rt::threads::run(
+        config.core(),
+        SyntheticSensor::built_in_user(&config),
+        Box::new(SimArm::new(config.core())),
+        &RunOptions {
+            seconds: Some(0.01),
+            rt: RtOptions::NONE,
+            spin_margin_ns: None,
+            stop: StopRequest::new(),
+        },
+        &mut |_: &_| {},
+    )
+    .unwrap();
+    let summary = recorder.finish(&mut report);
+    assert!(summary.error.is_none(), "{summary:?}");
+    assert!(!summary.complete);
+    assert!(summary.lost.ticks > 0, "{summary:?}");
+    assert_eq!(summary.ticks + summary.lost.ticks, ticks, "{summary:?}");
+    assert!(summary.problems[0].contains("the recorder's queue was full"));
+
+    let recording = Recording::open(&dir).unwrap();
+    let contents = recording.check().unwrap();
+    assert_eq!(contents.ticks, summary.ticks);
+    assert!(contents.losses > 0, "{contents:?}");
+    let verdict = sipnpuff::tools::recording::replay::replay(
+        &recording,
+        &recording.config,
+        true,
+        &mut Vec::new(),
+        None,
+    )
+    .unwrap();
+    assert!(!verdict.complete && !verdict.identical(), "{verdict:?}");
+    assert!(
+        verdict.compared_through < verdict.last_tick,
+        "compared only up to the first loss: {verdict:?}"
+    );
+    let (code, _, stderr) = replay(&dir);
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains("NOT VERIFIED: the recording is incomplete (the recorder's queue was full"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(&scratch).unwrap();
+}
+
 /// A short recording of the built-in user to damage (made once): 3 s,
 /// its first bursts and match.
 fn short_recording() -> &'static Path {

@@ -8,8 +8,8 @@
 //! |---|---|
 //! | `meta.json` | format version, sipnpuff version, sensor, arm, start time, counts, losses, complete or not ([`meta`]) |
 //! | `config.toml` | the configuration in effect, as `sipnpuff config` prints it (reads back to the identical `Config`) |
-//! | `samples.bin` | every tick's input to the core: its tick, its sample or none, the safe stop ([`format`]) |
-//! | `commands.bin` | the 100 Hz arm commands the core produced ([`format`]) |
+//! | `samples.bin` | every tick's input to the core: its tick, its sample or none, the safe stop ([`mod@format`]) |
+//! | `commands.bin` | the 100 Hz arm commands the core produced ([`mod@format`]) |
 //! | `events.jsonl` | the events, one JSON line each, as `run` prints them |
 //! | `report.json` | the run's report, as `run --json` prints it, with the recording's summary |
 //!
