@@ -31,28 +31,10 @@ use evdev::{AbsoluteAxisCode, KeyCode};
 
 use crate::sensor::held::{HeldSamples, Holder, Link, hold};
 use crate::sensor::settings::{EvdevInput, EvdevSettings};
-use crate::sensor::{Producer, Sensor, SensorError, Started};
+use crate::sensor::{EvdevTarget, Producer, Sensor, SensorError, Started};
 
 /// What permission problems on input devices need.
 pub const PERMISSION_FIX: &str = "input devices belong to root and the `input` group: add the user to it (`sudo usermod -aG input $USER`, then log in again) or install a udev rule, e.g. /etc/udev/rules.d/70-sipnpuff.rules: SUBSYSTEM==\"input\", ATTRS{name}==\"*Breeze*\", MODE=\"0660\", GROUP=\"plugdev\"";
-
-/// Which input device: by node or by name.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum EvdevTarget {
-    /// `/dev/input/eventN`.
-    Path(PathBuf),
-    /// The first device (in event-number order) whose name contains this.
-    Name(String),
-}
-
-impl std::fmt::Display for EvdevTarget {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            EvdevTarget::Path(path) => write!(f, "evdev:{}", path.display()),
-            EvdevTarget::Name(name) => write!(f, "evdev:name={name}"),
-        }
-    }
-}
 
 // --------------------------------------------------------------- events
 
