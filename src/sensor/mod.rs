@@ -30,6 +30,7 @@
 //! finds what this machine has (`sipnpuff sensors`).
 
 pub mod csv;
+pub mod device;
 pub mod evdev;
 pub mod held;
 pub mod iio;
