@@ -28,7 +28,7 @@ use evdev::raw_stream::RawDevice;
 use evdev::{AbsoluteAxisCode, KeyCode};
 
 use crate::sensor::device::{self, DeviceReader};
-use crate::sensor::held::{HeldSamples, Holder, hold};
+use crate::sensor::held::{HeldSamples, Holder, Link, hold};
 use crate::sensor::settings::{EvdevInput, EvdevSettings};
 use crate::sensor::{EvdevTarget, Producer, Sensor, SensorError, Started};
 
@@ -605,16 +605,25 @@ impl DeviceReader for Reader {
         Ok(())
     }
 
+    /// An axis's value as the kernel holds it right after a reopen is
+    /// stale (0, a full sip, until the device's first report: usbhid
+    /// polls only while the node is open), so nothing is held until a
+    /// report arrives; the core stays in fault meanwhile. Keys are read
+    /// from the kernel's key state, which is current.
     fn try_reopen(&mut self, holder: &Holder) -> bool {
         let s = &self.sensor;
         let Ok(mut again) = EvdevSensor::open(&s.target, &s.settings, s.rest_volts, true) else {
             return false;
         };
-        let Ok(volts) = current_volts(&again.device, &mut again.mapper) else {
-            return false;
-        };
+        if again.is_analog() {
+            holder.link(Link::Waiting);
+        } else {
+            let Ok(volts) = current_volts(&again.device, &mut again.mapper) else {
+                return false;
+            };
+            holder.set(volts);
+        }
         self.sensor = again;
-        holder.set(volts);
         true
     }
 }

@@ -228,19 +228,23 @@ impl SerialSensor {
         Ok(sensor)
     }
 
-    /// Waits for the first sample, then times the next ones (up to 20
-    /// samples or 1.5 s).
+    /// Waits for the first sample, then counts the samples that follow
+    /// (at least 200 over at least 200 ms, or for 1.5 s). Lines arrive in
+    /// batches (a USB packet holds many), so the period is the time over
+    /// the number of samples, never the time between reads.
     fn measure_period(&mut self) -> Result<(), SensorError> {
         let answer = Duration::from_millis(u64::from(self.settings.answer_timeout_ms));
         let started = Instant::now();
-        let mut times: Vec<Instant> = Vec::new();
+        // The first read that held a sample, the last one, and the samples
+        // read after the first.
+        let mut first: Option<Instant> = None;
+        let mut last = started;
+        let mut counted = 0u32;
         let mut bad: Option<String> = None;
         let mut other_lines = 0u32;
         let mut buffer = [0u8; 512];
         loop {
-            let waited = started.elapsed();
-            let first = times.first().copied();
-            if first.is_none() && waited > answer {
+            if first.is_none() && started.elapsed() > answer {
                 let mut message = format!(
                     "sent nothing readable as `{}` in {} ms at {} baud",
                     self.settings.format.name(),
@@ -258,9 +262,13 @@ impl SerialSensor {
                     message,
                 });
             }
-            if first.is_some_and(|t| times.len() >= 21 || t.elapsed() > Duration::from_millis(1500))
-            {
-                break;
+            if let Some(t) = first {
+                let spent = t.elapsed();
+                if (counted >= 200 && spent >= Duration::from_millis(200))
+                    || spent > Duration::from_millis(1500)
+                {
+                    break;
+                }
             }
             let n = match self.port.read(&mut buffer) {
                 Ok(0) => return Err(self.gone("the port closed")),
@@ -271,25 +279,32 @@ impl SerialSensor {
             };
             let now = Instant::now();
             let format = self.format;
-            let mut last = None;
+            let mut samples = 0u32;
+            let mut latest = None;
             self.splitter
                 .feed(&buffer[..n], |line| match format.volts(line) {
-                    Ok(Some(v)) => last = Some(v),
+                    Ok(Some(v)) => {
+                        latest = Some(v);
+                        samples += 1;
+                    }
                     Ok(None) => other_lines += 1,
                     Err(e) => bad = Some(e),
                 });
-            if let Some(v) = last {
+            if let Some(v) = latest {
                 self.last_volts = v;
-                times.push(now);
+                if first.is_none() {
+                    first = Some(now);
+                } else {
+                    counted += samples;
+                    last = now;
+                }
             }
         }
-        let (Some(first), Some(last)) = (times.first(), times.last()) else {
-            return Ok(());
-        };
-        self.period_ms = if times.len() > 1 {
-            last.duration_since(*first).as_secs_f64() * 1000.0 / (times.len() - 1) as f64
-        } else {
-            f64::NAN
+        self.period_ms = match first {
+            Some(first) if counted > 0 => {
+                last.duration_since(first).as_secs_f64() * 1000.0 / f64::from(counted)
+            }
+            _ => f64::NAN,
         };
         Ok(())
     }
