@@ -4,9 +4,10 @@
  * on its own (the device appears, values arrive at the feeder's rate)
  * before `sipnpuff` reads it, so a failure says which layer broke.
  *
- *   probe evdev DEV SECONDS    input events: the device's name, ABS_X
- *                              events and their range, BTN_TRIGGER and
- *                              BTN_THUMB presses, SYN reports per second
+ *   probe evdev DEV SECONDS    input events: the device's name, its X
+ *                              axis, ABS_X events and their range,
+ *                              BTN_TRIGGER and BTN_THUMB presses, SYN
+ *                              reports (the input core sends only changes)
  *   probe lines DEV SECONDS    a tty in raw mode: lines per second, the
  *                              first and the last line
  *   probe sysfs FILE SECONDS   an IIO `_raw` file, pread on a kept-open fd
@@ -57,10 +58,10 @@ static int probe_evdev(const char *dev, double seconds)
         }
     }
     printf("probe evdev: name=\"%s\" abs_x=%s abs_min=%d abs_max=%d fuzz=%d flat=%d x_events=%ld "
-           "x_min=%ld x_max=%ld trigger_presses=%ld thumb_presses=%ld reports_per_s=%.1f\n",
+           "x_min=%ld x_max=%ld trigger_presses=%ld thumb_presses=%ld syn_reports=%ld\n",
            name, has_x ? "yes" : "no", has_x ? abs.minimum : 0, has_x ? abs.maximum : 0,
            has_x ? abs.fuzz : 0, has_x ? abs.flat : 0, x_events, x_events ? xmin : 0,
-           x_events ? xmax : 0, trig, thumb, syn / seconds);
+           x_events ? xmax : 0, trig, thumb, syn);
     return 0;
 }
 
