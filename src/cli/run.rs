@@ -11,16 +11,19 @@ use crate::cli::args::{
     ConfigArg, InterfaceArg, RtArgs, parse_seconds, with_interface, writable_dir,
 };
 use crate::cli::output::{self, StdoutEvents};
-#[cfg(test)]
 use crate::config::Config;
 use crate::rt::control_loop::StopReason;
 use crate::rt::report::RunReport;
 use crate::rt::signals;
 use crate::rt::stop::StopRequest;
 use crate::rt::threads::{RunOptions, run as run_loop};
-use crate::sensor::SensorSpec;
 use crate::sensor::csv::CsvSensor;
+use crate::sensor::evdev::EvdevSensor;
+use crate::sensor::iio::IioSensor;
+use crate::sensor::rezero;
+use crate::sensor::serial::SerialSensor;
 use crate::sensor::synthetic::SyntheticSensor;
+use crate::sensor::{Prepared, Sensor, SensorSpec};
 
 /// `run`'s options.
 #[derive(clap::Args, Debug)]
@@ -30,8 +33,14 @@ pub struct RunArgs {
     /// Run this long, s (default: until the scripted user or recording ends).
     #[arg(long, value_parser = parse_seconds)]
     seconds: Option<f64>,
-    /// Where samples come from: `synthetic` (the built-in scripted user)
-    /// or `csv:PATH` (a recording played in real time).
+    /// Where samples come from: `synthetic` (the built-in scripted user),
+    /// `csv:PATH` (a recording played in real time), or a device:
+    /// `evdev:/dev/input/eventN` or `evdev:name=SUBSTRING` (a USB HID
+    /// sip-and-puff device: an analog axis or switches), `serial:PATH[,baud=N]`
+    /// (a microcontroller's stream, FLipMouse or LipSync), or
+    /// `iio:/sys/bus/iio/devices/iio:deviceN/in_voltageM_raw` (an ADC).
+    /// Device settings: `[sensor]` in the config (`sipnpuff sensors`
+    /// lists what this machine has).
     #[arg(long, default_value = "synthetic", value_parser = SensorSpec::parse)]
     sensor: SensorSpec,
     /// The arm.
@@ -71,6 +80,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         ArmSpec::Sim => Box::new(SimArm::new(config.core())),
     };
     let mut events = StdoutEvents::default();
+    let settings = config.sensor();
+    let neutral = config.core().detector().neutral_volts;
     let report = match &args.sensor {
         SensorSpec::Synthetic => run_loop(
             config.core(),
@@ -86,6 +97,27 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             &options,
             &mut events,
         )?,
+        SensorSpec::Evdev(target) => {
+            let sensor = EvdevSensor::open(target, &settings.evdev, neutral, settings.reconnect)?;
+            let analog = sensor.is_analog();
+            let (config, sensor) = prepare_device(&config, sensor, analog)?;
+            run_loop(config.core(), sensor, arm, &options, &mut events)?
+        }
+        SensorSpec::Serial { path, baud } => {
+            let sensor =
+                SerialSensor::open(path, *baud, &settings.serial, neutral, settings.reconnect)?;
+            let detector = config.core().detector();
+            if let Some(note) = sensor.rate_note(detector.min_burst_ms, detector.long_burst_ms) {
+                note!("sipnpuff: {note}");
+            }
+            let (config, sensor) = prepare_device(&config, sensor, true)?;
+            run_loop(config.core(), sensor, arm, &options, &mut events)?
+        }
+        SensorSpec::Iio(path) => {
+            let sensor = IioSensor::open(path, &settings.iio, settings.reconnect)?;
+            let (config, sensor) = prepare_device(&config, sensor, true)?;
+            run_loop(config.core(), sensor, arm, &options, &mut events)?
+        }
     };
     let text = if args.json {
         serde_json::to_string(&report)? + "\n"
@@ -132,6 +164,58 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     } else {
         status
     })
+}
+
+/// Starts a device and, if it is analog and `[sensor] rezero` is on,
+/// measures its neutral at rest before anything can move (waiting, and
+/// saying why, while the user breathes into it). Returns the configuration
+/// with the measured neutral (the thresholds keep their distances from
+/// it) and the started device, described with what was measured.
+fn prepare_device<S: Sensor>(
+    config: &Config,
+    sensor: S,
+    analog: bool,
+) -> anyhow::Result<(Config, Prepared<S::Samples>)> {
+    let mut description = sensor.describe();
+    let mut started = sensor.start()?;
+    let settings = config.sensor();
+    if !(analog && settings.rezero) {
+        return Ok((
+            config.clone(),
+            Prepared {
+                description,
+                started,
+            },
+        ));
+    }
+    note!(
+        "sipnpuff: measuring the sensor's neutral for {} ms: please rest (no sip or puff)",
+        settings.rezero_ms
+    );
+    let neutral = rezero::measure(
+        &mut started.samples,
+        settings,
+        config.core().detector(),
+        |why| note!("sipnpuff: {why}"),
+    )?;
+    note!("sipnpuff: {neutral}");
+    let config = config
+        .clone()
+        .with_neutral_volts(neutral.volts)
+        .map_err(|errors| {
+            anyhow::anyhow!(
+                "the measured neutral {:.4} V puts a detector threshold outside 0–5 V: check the sensor's mapping ([sensor.evdev] volts_at_min/max, [sensor.serial] full_scale/volts_per_hpa, [sensor.iio] gain/offset_volts):\n{errors}",
+                neutral.volts
+            )
+        })?;
+    description += &format!("; {neutral}");
+    Ok((
+        config,
+        Prepared {
+            description,
+            started,
+        },
+    ))
 }
 
 /// The exit status of a finished run whose stdout failed with

@@ -25,6 +25,7 @@ use toml::Table;
 use crate::control::core_config::{CoreConfig, InterfaceSection};
 use crate::control::selection::scanning::ScanningConfig;
 use crate::control::selection::{Interface, SequenceEntry};
+use crate::sensor::settings::SensorSettings;
 pub use error::{ConfigError, ConfigErrors, ConfigFileError};
 use validate::Problems;
 
@@ -34,6 +35,7 @@ use validate::Problems;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Config {
     core: CoreConfig,
+    sensor: SensorSettings,
 }
 
 impl Config {
@@ -57,9 +59,17 @@ impl Config {
             .parse()
             .map_err(|e: toml::de::Error| ConfigErrors(vec![lines::syntax_error(text, &e)]))?;
         let mut problems = Problems::default();
-        let core = read::core(&mut root, Config::default().core(), &mut problems);
+        let defaults = Config::default();
+        // `[sensor]` is checked against the detector's levels: read after
+        // the core, which must not see it as an unknown section.
+        let mut sensor_root = Table::new();
+        if let Some(section) = root.remove("sensor") {
+            sensor_root.insert("sensor".into(), section);
+        }
+        let core = read::core(&mut root, defaults.core(), &mut problems);
+        let sensor = read::sensor(&mut sensor_root, &defaults.sensor, &core, &mut problems);
         if problems.errors.is_empty() {
-            Ok(Config { core })
+            Ok(Config { core, sensor })
         } else {
             let lines = lines::KeyLines::of(text);
             for error in &mut problems.errors {
@@ -70,11 +80,12 @@ impl Config {
     }
 
     /// Validates settings built in code.
-    fn validated(core: CoreConfig) -> Result<Config, ConfigErrors> {
+    fn validated(core: CoreConfig, sensor: SensorSettings) -> Result<Config, ConfigErrors> {
         let mut problems = Problems::default();
         validate::core(&mut problems, &core);
+        validate::sensor(&mut problems, &sensor, &core.detector);
         if problems.errors.is_empty() {
-            Ok(Config { core })
+            Ok(Config { core, sensor })
         } else {
             Err(ConfigErrors(problems.errors))
         }
@@ -86,38 +97,57 @@ impl Config {
         &self.core
     }
 
+    /// How sensor devices are read (`[sensor]`).
+    pub fn sensor(&self) -> &SensorSettings {
+        &self.sensor
+    }
+
+    /// The same configuration with the neutral measured at start: the
+    /// detector's thresholds keep their distances from it. An error if
+    /// that puts a threshold outside 0–5 V (the device's mapping is off).
+    pub fn with_neutral_volts(mut self, neutral_volts: f64) -> Result<Config, ConfigErrors> {
+        self.core.detector = self.core.detector.with_neutral(neutral_volts);
+        Config::validated(self.core, self.sensor)
+    }
+
+    /// The same configuration with other sensor settings, validated.
+    pub fn with_sensor(mut self, sensor: SensorSettings) -> Result<Config, ConfigErrors> {
+        self.sensor = sensor;
+        Config::validated(self.core, self.sensor)
+    }
+
     /// The same configuration with another selection interface (the
     /// `--interface` option).
     pub fn with_interface(mut self, interface: Interface) -> Result<Config, ConfigErrors> {
         self.core.interface = InterfaceSection { kind: interface };
-        Config::validated(self.core)
+        Config::validated(self.core, self.sensor)
     }
 
     /// The same configuration with other scanning settings (the study's
     /// sweeps), checked as the file's would be.
     pub fn with_scanning(mut self, scanning: ScanningConfig) -> Result<Config, ConfigErrors> {
         self.core.scanning = scanning;
-        Config::validated(self.core)
+        Config::validated(self.core, self.sensor)
     }
 
     /// The same configuration with another library, checked as the file's
     /// would be.
     pub fn with_sequences(mut self, sequences: Vec<SequenceEntry>) -> Result<Config, ConfigErrors> {
         self.core.sequences = sequences;
-        Config::validated(self.core)
+        Config::validated(self.core, self.sensor)
     }
 
     /// The same configuration with another sequence timeout, ms.
     pub fn with_sequence_timeout_ms(mut self, ms: u32) -> Result<Config, ConfigErrors> {
         self.core.matcher.sequence_timeout_ms = ms;
-        Config::validated(self.core)
+        Config::validated(self.core, self.sensor)
     }
 
     /// This config with another `command.motion_onset_ms` (0 = off),
     /// validated.
     pub fn with_motion_onset_ms(mut self, ms: u32) -> Result<Config, ConfigErrors> {
         self.core.command.motion_onset_ms = ms;
-        Config::validated(self.core)
+        Config::validated(self.core, self.sensor)
     }
 }
 

@@ -163,9 +163,12 @@ impl<S: Samples> TickWork for ControlTick<S> {
             self.sensor.try_read(skipped)
         };
         self.drops.samples += reading.discarded;
-        let out = match reading.volts {
-            Some(volts) => self.core.step(tick, volts),
-            None => self.core.step_missing(tick),
+        let out = match reading {
+            Reading {
+                volts: Some(volts), ..
+            } => self.core.step(tick, volts),
+            Reading { lost: true, .. } => self.core.step_lost(tick),
+            _ => self.core.step_missing(tick),
         };
         if let Some(command) = out.motion.arm_command {
             self.last_arm_command = command;
