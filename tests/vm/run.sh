@@ -136,21 +136,40 @@ for src in "$HERE"/feeders/*.c; do
 done
 
 # ------------------------------------------------------------ expected events
-# The pattern as a 1 ms CSV, checked line by line.
-step "expected events: sipnpuff replay of the pattern"
+step "expected events: sipnpuff replay of the patterns"
 EXP=$OUT/expected
 rm -rf "$EXP"
 mkdir -p "$EXP"
-awk -v file="$HERE/pattern.txt" '
-    BEGIN { print "tick,volts" }
-    { sub(/#.*/, "") }
-    NF == 0 { next }
-    NF != 2 || $1 !~ /^[0-9]+(\.[0-9]+)?$/ || $2 !~ /^[0-9]+$/ || $1 + 0 > 5 || $2 + 0 == 0 {
-        printf "%s line %d: expected `<volts 0..5> <ms>`\n", file, NR > "/dev/stderr"; bad = 1; exit 1 }
-    { steps++; if (steps == 1 && $2 + 0 < 3000) {
-        printf "%s line %d: the first step (the neutral) must last at least 3000 ms for the re-zero\n", file, NR > "/dev/stderr"; bad = 1; exit 1 }
-      for (i = 0; i < $2; i++) printf "%d,%s\n", t++, $1 }
-' "$HERE/pattern.txt" >"$OUT/pattern.csv" || die "bad pattern"
+
+# A pattern as a 1 ms CSV, checked line by line. Its `unplug`/`replug`
+# markers become NaN samples (the detector's sensor fault): GAP=none
+# ignores them, GAP=end is NaN from `unplug` to the end (no reconnect),
+# GAP=N is NaN from `unplug` to N ms after `replug`.
+pattern_csv() { # PATTERN GAP > CSV
+    awk -v file="$1" -v gap="$2" '
+        BEGIN { print "tick,volts"; nan_from = -1; nan_to = -1 }
+        { sub(/#.*/, "") }
+        NF == 0 { next }
+        NF == 1 && ($1 == "unplug" || $1 == "replug") {
+            if (steps == 0) { printf "%s line %d: the pattern must begin with the neutral\n", file, NR > "/dev/stderr"; exit 1 }
+            if ($1 == "unplug") unplug = t; else replug = t
+            next }
+        NF != 2 || $1 !~ /^[0-9]+(\.[0-9]+)?$/ || $2 !~ /^[0-9]+$/ || $1 + 0 > 5 || $2 + 0 == 0 {
+            printf "%s line %d: expected `<volts 0..5> <ms>`, `unplug` or `replug`\n", file, NR > "/dev/stderr"; exit 1 }
+        { steps++
+          if (steps == 1 && $2 + 0 < 3000) {
+              printf "%s line %d: the first step (the neutral) must last at least 3000 ms for the re-zero\n", file, NR > "/dev/stderr"; exit 1 }
+          for (i = 0; i < $2; i++) v[t++] = $1 }
+        END {
+            if (gap != "none" && unplug == "") { printf "%s: no `unplug`\n", file > "/dev/stderr"; exit 1 }
+            if (gap == "end") { nan_from = unplug; nan_to = t }
+            else if (gap != "none") {
+                if (replug == "") { printf "%s: no `replug`\n", file > "/dev/stderr"; exit 1 }
+                nan_from = unplug; nan_to = replug + gap }
+            for (i = 0; i < t; i++) printf "%d,%s\n", i, (i >= nan_from && i < nan_to ? "NaN" : v[i]) }
+    ' "$1"
+}
+pattern_csv "$HERE/pattern.txt" none >"$OUT/pattern.csv" || die "bad pattern"
 pattern_ms=$(($(wc -l <"$OUT/pattern.csv") - 1))
 
 expected_from() { # CSV NAME: replay it, keep the events and their bursts and modes
@@ -161,6 +180,20 @@ expected_from() { # CSV NAME: replay it, keep the events and their bursts and mo
 }
 expected_from "$OUT/pattern.csv" kHz
 echo "vm-harness: at 1 kHz: $(tr '\n' ' ' <"$EXP/kHz.txt")"
+
+# Switches are levels: a sip key held reads 0 V, a puff key 5 V, nothing
+# the neutral (src/sensor/evdev.rs).
+awk -F, 'NR == 1 { print; next } NR == 2 { n = $2 }
+         { printf "%s,%s\n", $1, ($2 < n ? "0.0" : $2 > n ? "5.0" : $2) }' "$OUT/pattern.csv" >"$OUT/switches.csv"
+expected_from "$OUT/switches.csv" switches
+
+# The unplug pattern: without reconnecting (the device is gone to the end)
+# and with (back 1 s after `replug`).
+pattern_csv "$HERE/pattern-unplug.txt" end >"$OUT/unplug.csv" || die "bad pattern"
+expected_from "$OUT/unplug.csv" unplug
+pattern_csv "$HERE/pattern-unplug.txt" 1000 >"$OUT/reconnect.csv" || die "bad pattern"
+expected_from "$OUT/reconnect.csv" reconnect
+echo "vm-harness: unplugged: $(tr '\n' ' ' <"$EXP/unplug.txt"); reconnecting: $(tr '\n' ' ' <"$EXP/reconnect.txt")"
 
 # A dialect samples the pattern every P ms; the loop holds each value until
 # the next. Which ms the samples fall on is chance: replay four phases. The
@@ -196,9 +229,9 @@ cp "$HERE/guest/init" "$RD/init"
 chmod 755 "$RD/init"
 cp "$BUILD"/bin/* "$RD/harness/bin/"
 cp "$kernel"/modules/* "$RD/harness/modules/"
-cp "$HERE/pattern.txt" "$HERE/guest.toml" "$HERE/guest/events.sed" "$OUT/pattern.csv" "$RD/harness/"
+cp "$HERE/pattern.txt" "$HERE/pattern-unplug.txt" "$HERE/guest.toml" "$HERE/guest/events.sed" \
+    "$OUT/pattern.csv" "$RD/harness/"
 cp "$EXP"/*.txt "$RD/harness/expected/"
-rm -f "$RD"/harness/expected/*.replay.txt
 if [ -n "${VM_TESTS:-}" ]; then
     printf '%s\n' $VM_TESTS >"$RD/harness/tests.txt"
 else

@@ -16,9 +16,15 @@
  *     --ends FILE                 log the moment each breath ends
  *     --linger                    after the pattern, keep sending its last
  *                                 level until SIGTERM
+ *     --udc-file PATH             the gadget's configfs UDC file, for the
+ *                                 pattern's `unplug` and `replug`
+ *     --keep-going                a failed write (the gadget unbound) is
+ *                                 counted and the pattern goes on
  *     --fifo PRIO, --cpu N        SCHED_FIFO priority, CPU
  *     --dev PATH                  default /dev/hidg0
  *     --start-when-open PATH      begin once another process has PATH open
+ *     --sync-rt                   then send the neutral until that process
+ *                                 runs a real-time thread (its control loop)
  *   hidfeed --prime VOLTS [--dev PATH]   write one report and exit
  *
  * A write blocks until the host side has taken the previous report (usbhid
@@ -79,6 +85,12 @@ int main(int argc, char **argv)
             period_us = parse_long(argv[++i], "--period-us", 100, 10000000);
         else if (!strcmp(a, "--linger"))
             linger = 1;
+        else if (!strcmp(a, "--sync-rt"))
+            sync_rt = 1;
+        else if (!strcmp(a, "--udc-file") && more)
+            udc_file = argv[++i];
+        else if (!strcmp(a, "--keep-going"))
+            keep_going = 1;
         else if (!strcmp(a, "--ends") && more)
             ends_path = argv[++i];
         else if (!strcmp(a, "--fifo") && more)

@@ -19,6 +19,8 @@
  *                              level until SIGTERM
  *     --fifo PRIO, --cpu N     SCHED_FIFO priority, CPU
  *     --start-when-open PATH   begin once another process has PATH open
+ *     --sync-rt                then send the neutral until that process
+ *                              runs a real-time thread (its control loop)
  */
 #include "common.h"
 #include <linux/i2c-dev.h>
@@ -87,6 +89,8 @@ int main(int argc, char **argv)
                 die("--addr must be a 7-bit address, got \"%s\"", argv[i]);
         } else if (!strcmp(a, "--linger"))
             linger = 1;
+        else if (!strcmp(a, "--sync-rt"))
+            sync_rt = 1;
         else if (!strcmp(a, "--ends") && more)
             ends_path = argv[++i];
         else if (!strcmp(a, "--fifo") && more)

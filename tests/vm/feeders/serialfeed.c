@@ -18,9 +18,16 @@
  *     --ends FILE              log the moment each breath ends
  *     --linger                 after the pattern, keep sending its last
  *                              level until SIGTERM
+ *     --udc-file PATH          the gadget's configfs UDC file, for the
+ *                              pattern's `unplug` and `replug`
+ *     --keep-going             a failed write (the gadget unbound) is
+ *                              counted and the pattern goes on
  *     --fifo PRIO, --cpu N     SCHED_FIFO priority, CPU
  *     --dev PATH               default /dev/ttyGS0
- *     --start-when-open PATH   (volts) begin once another process has PATH open
+ *     --start-when-open PATH   begin once another process has PATH open
+ *                              (the dialects: after their start command)
+ *     --sync-rt                then send the neutral until that process
+ *                              runs a real-time thread (its control loop)
  *     --wait-s N               how long to wait for the start command or the
  *                              reader (default 60)
  *
@@ -155,6 +162,12 @@ int main(int argc, char **argv)
             period_us = parse_long(argv[++i], "--period-us", 100, 10000000);
         else if (!strcmp(a, "--linger"))
             linger = 1;
+        else if (!strcmp(a, "--sync-rt"))
+            sync_rt = 1;
+        else if (!strcmp(a, "--keep-going"))
+            keep_going = 1;
+        else if (!strcmp(a, "--udc-file") && more)
+            udc_file = argv[++i];
         else if (!strcmp(a, "--ends") && more)
             ends_path = argv[++i];
         else if (!strcmp(a, "--fifo") && more)
@@ -200,7 +213,7 @@ int main(int argc, char **argv)
         wait_command(&s, "AT SR\r", wait_s);
     else if (format == LIPSYNC)
         wait_command(&s, "DM,1:2", wait_s);
-    else if (when_open)
+    if (when_open)
         wait_open(when_open, wait_s);
     struct play_stats st = play(&p, period_us, emit, &s, ends);
     print_stats(format == VOLTS ? "volts lines" : format == FLIPMOUSE ? "VALUES lines" : "DEBUG lines",
