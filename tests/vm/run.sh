@@ -231,9 +231,9 @@ cp "$BUILD"/bin/* "$RD/harness/bin/"
 cp "$kernel"/modules/* "$RD/harness/modules/"
 cp "$HERE/pattern.txt" "$HERE/pattern-unplug.txt" "$HERE/guest.toml" "$HERE/guest/events.sed" \
     "$OUT/pattern.csv" "$RD/harness/"
-cp "$EXP"/*.txt "$RD/harness/expected/"
+cp "$EXP"/*.txt "$EXP"/*.jsonl "$RD/harness/expected/"
 if [ -n "${VM_TESTS:-}" ]; then
-    printf '%s\n' $VM_TESTS >"$RD/harness/tests.txt"
+    printf "%s\n" $VM_TESTS >"$RD/harness/tests.txt" # one name a line
 else
     cp "$HERE/tests.txt" "$RD/harness/tests.txt"
 fi
@@ -283,6 +283,7 @@ if [ -f "$OUT/artifacts.txt" ]; then
         f != "" { print >> f }'
 fi
 failed=0
+passed=0
 {
     echo "VM harness: $(cat "$kernel/version"), boot and tests ${boot_seconds} s, whole run $((SECONDS - started)) s"
     for t in "${tests[@]}"; do
@@ -292,7 +293,7 @@ failed=0
             failed=1
         else
             echo "$line"
-            case "$line" in FAIL*) failed=1 ;; esac
+            case "$line" in FAIL*) failed=1 ;; *) passed=$((passed + 1)) ;; esac
         fi
     done
     if [ "$qemu_status" = 124 ] || [ "$qemu_status" = 137 ]; then
@@ -310,4 +311,5 @@ failed=0
 echo
 echo "==== VM harness summary (log: $OUT/console.log, artifacts: $OUT/artifacts/)"
 cat "$OUT/summary.txt"
+echo "vm-harness: ${passed} passed, $((${#tests[@]} - passed)) failed"
 exit $failed
