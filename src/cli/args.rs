@@ -168,7 +168,7 @@ mod tests {
             SensorSpec::parse("csv:a/b.csv"),
             Ok(SensorSpec::Csv(PathBuf::from("a/b.csv")))
         );
-        use crate::sensor::evdev::EvdevTarget;
+        use crate::sensor::EvdevTarget;
         assert_eq!(
             SensorSpec::parse("evdev:/dev/input/event3"),
             Ok(SensorSpec::Evdev(EvdevTarget::Path(

@@ -60,14 +60,9 @@ impl Config {
             .map_err(|e: toml::de::Error| ConfigErrors(vec![lines::syntax_error(text, &e)]))?;
         let mut problems = Problems::default();
         let defaults = Config::default();
-        // `[sensor]` is checked against the detector's levels: read after
-        // the core, which must not see it as an unknown section.
-        let mut sensor_root = Table::new();
-        if let Some(section) = root.remove("sensor") {
-            sensor_root.insert("sensor".into(), section);
-        }
+        // Before the core's sections, which report what is left as unknown.
+        let sensor = read::sensor(&mut root, &defaults.sensor, &mut problems);
         let core = read::core(&mut root, defaults.core(), &mut problems);
-        let sensor = read::sensor(&mut sensor_root, &defaults.sensor, &core, &mut problems);
         if problems.errors.is_empty() {
             Ok(Config { core, sensor })
         } else {
@@ -83,7 +78,7 @@ impl Config {
     fn validated(core: CoreConfig, sensor: SensorSettings) -> Result<Config, ConfigErrors> {
         let mut problems = Problems::default();
         validate::core(&mut problems, &core);
-        validate::sensor(&mut problems, &sensor, &core.detector);
+        validate::sensor(&mut problems, &sensor);
         if problems.errors.is_empty() {
             Ok(Config { core, sensor })
         } else {
@@ -259,6 +254,92 @@ mod tests {
     fn integer_volts_are_accepted() {
         let c = Config::from_toml_str("[detector]\npuff_threshold_volts = 4\n").unwrap();
         assert_eq!(c.core().detector().puff_threshold_volts, 4.0);
+    }
+
+    #[test]
+    fn sensor_settings_are_read_and_every_error_named_with_its_line() {
+        let c = Config::from_toml_str(
+            r#"
+            [sensor]
+            reconnect = true
+            [sensor.evdev]
+            input = "switches"
+            sip_keys = ["BTN_TRIGGER", "BTN_TRIGGER_HAPPY1"]
+            puff_keys = ["KEY_ENTER"]
+            [sensor.serial]
+            format = "lipsync"
+            volts_per_hpa = 0.1
+            [sensor.iio]
+            gain = 1.5151515151515151
+            "#,
+        )
+        .unwrap();
+        let s = c.sensor();
+        assert!(s.reconnect && s.rezero);
+        assert_eq!(s.evdev.input, crate::sensor::settings::EvdevInput::Switches);
+        assert_eq!(s.evdev.sip_keys, ["BTN_TRIGGER", "BTN_TRIGGER_HAPPY1"]);
+        assert_eq!(
+            s.serial.format,
+            crate::sensor::settings::SerialFormat::Lipsync
+        );
+        assert_eq!(s.iio.gain, 1.5151515151515151);
+        let text = r#"[sensor]
+rezero_ms = 0
+rezero_max_shift_fraction = 1.5
+colour = 1
+[sensor.evdev]
+input = "joystick"
+axis = "ABS_PRESSURE_X"
+sip_keys = ["BTN_SIP"]
+puff_keys = []
+volts_at_max = 0.0
+[sensor.serial]
+format = "modbus"
+baud = 0
+[sensor.iio]
+rate_hz = 5000
+gain = 0
+"#;
+        let errors = errors(text);
+        let found: Vec<(String, Option<usize>)> =
+            errors.iter().map(|e| (e.key.clone(), e.line)).collect();
+        for (key, line) in [
+            ("sensor.colour", 4),
+            ("sensor.evdev.input", 6),
+            ("sensor.serial.format", 12),
+            ("sensor.rezero_ms", 2),
+            ("sensor.rezero_max_shift_fraction", 3),
+            ("sensor.evdev.volts_at_max", 10),
+            ("sensor.evdev.axis", 7),
+            ("sensor.evdev.sip_keys", 8),
+            ("sensor.serial.baud", 13),
+            ("sensor.iio.gain", 16),
+            ("sensor.iio.rate_hz", 15),
+        ] {
+            assert!(
+                found.contains(&(key.to_string(), Some(line))),
+                "{key} at line {line}: {found:?}"
+            );
+        }
+        let messages: Vec<String> = errors.iter().map(|e| e.to_string()).collect();
+        let all = messages.join("\n");
+        assert!(
+            all.contains("\"ABS_PRESSURE_X\" is not a Linux absolute axis name"),
+            "{all}"
+        );
+        assert!(
+            all.contains("[\"BTN_SIP\"]: not Linux key or button names"),
+            "{all}"
+        );
+        assert!(
+            all.contains("\"modbus\" is not a format (known: volts, counts, flipmouse, lipsync)"),
+            "{all}"
+        );
+        // `puff_keys = []` only matters for switches.
+        assert!(
+            !found.iter().any(|(k, _)| k == "sensor.evdev.puff_keys"),
+            "{found:?}"
+        );
     }
 
     #[test]

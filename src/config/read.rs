@@ -74,12 +74,10 @@ pub(super) fn core(root: &mut Table, defaults: &CoreConfig, problems: &mut Probl
 }
 
 /// Reads `[sensor]` (and its `evdev`, `serial`, `iio` tables) out of a
-/// parsed file over `defaults`. Runs before [`core`], which reports what is
-/// left as unknown.
+/// parsed file over `defaults`.
 pub(super) fn sensor(
     root: &mut Table,
     defaults: &SensorSettings,
-    core: &CoreConfig,
     problems: &mut Problems,
 ) -> SensorSettings {
     let mut reader = Reader { problems };
@@ -91,7 +89,10 @@ pub(super) fn sensor(
         rezero: t.get("rezero", defaults.rezero),
         rezero_ms: t.get("rezero_ms", defaults.rezero_ms),
         rezero_timeout_ms: t.get("rezero_timeout_ms", defaults.rezero_timeout_ms),
-        rezero_max_shift_volts: t.get("rezero_max_shift_volts", defaults.rezero_max_shift_volts),
+        rezero_max_shift_fraction: t.get(
+            "rezero_max_shift_fraction",
+            defaults.rezero_max_shift_fraction,
+        ),
         reconnect: t.get("reconnect", defaults.reconnect),
         ..defaults.clone()
     };
@@ -152,7 +153,7 @@ pub(super) fn sensor(
         rate_hz: t.get("rate_hz", d.rate_hz),
     };
     t.finish();
-    validate::sensor(reader.problems, &c, &core.detector);
+    validate::sensor(reader.problems, &c);
     c
 }
 

@@ -504,7 +504,7 @@ pub(super) fn library(p: &mut Problems, entries: &[SequenceEntry]) {
 
 /// `[sensor]`: timers positive, the re-zero shift inside the band between
 /// the thresholds, mappings finite and not flat, key and axis names real.
-pub(super) fn sensor(p: &mut Problems, c: &SensorSettings, detector: &DetectorConfig) {
+pub(super) fn sensor(p: &mut Problems, c: &SensorSettings) {
     p.positive_ms("sensor.rezero_ms", c.rezero_ms);
     p.positive_ms("sensor.rezero_timeout_ms", c.rezero_timeout_ms);
     if c.rezero_timeout_ms < c.rezero_ms {
@@ -516,16 +516,13 @@ pub(super) fn sensor(p: &mut Problems, c: &SensorSettings, detector: &DetectorCo
             ),
         );
     }
-    let nearest = (detector.puff_threshold_volts - detector.neutral_volts)
-        .min(detector.neutral_volts - detector.sip_threshold_volts);
-    if nearest > 0.0 {
-        p.range(
-            "sensor.rezero_max_shift_volts",
-            c.rezero_max_shift_volts,
-            0.0,
-            true,
-            nearest,
-            "V",
+    if !(c.rezero_max_shift_fraction >= 0.0 && c.rezero_max_shift_fraction < 1.0) {
+        p.add(
+            "sensor.rezero_max_shift_fraction",
+            format!(
+                "{} must be at least 0 and below 1 (a fraction of the distance from the neutral to the nearer threshold: at 1 a breath held through the measurement could become the neutral)",
+                c.rezero_max_shift_fraction
+            ),
         );
     }
     let e = &c.evdev;

@@ -22,37 +22,18 @@
 use std::io;
 use std::os::fd::{AsRawFd, RawFd};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
 
 use evdev::raw_stream::RawDevice;
 use evdev::{AbsoluteAxisCode, KeyCode};
 
-use crate::sensor::held::{HeldSamples, Holder, Link, hold};
+use crate::sensor::device::{self, DeviceReader};
+use crate::sensor::held::{HeldSamples, Holder, hold};
 use crate::sensor::settings::{EvdevInput, EvdevSettings};
-use crate::sensor::{Producer, Sensor, SensorError, Started};
+use crate::sensor::{EvdevTarget, Producer, Sensor, SensorError, Started};
 
 /// What permission problems on input devices need.
 pub const PERMISSION_FIX: &str = "input devices belong to root and the `input` group: add the user to it (`sudo usermod -aG input $USER`, then log in again) or install a udev rule, e.g. /etc/udev/rules.d/70-sipnpuff.rules: SUBSYSTEM==\"input\", ATTRS{name}==\"*Breeze*\", MODE=\"0660\", GROUP=\"plugdev\"";
-
-/// Which input device: by node or by name.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum EvdevTarget {
-    /// `/dev/input/eventN`.
-    Path(PathBuf),
-    /// The first device (in event-number order) whose name contains this.
-    Name(String),
-}
-
-impl std::fmt::Display for EvdevTarget {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            EvdevTarget::Path(path) => write!(f, "evdev:{}", path.display()),
-            EvdevTarget::Name(name) => write!(f, "evdev:name={name}"),
-        }
-    }
-}
 
 // --------------------------------------------------------------- events
 
@@ -536,10 +517,7 @@ impl Sensor for EvdevSensor {
 
     fn start(self) -> Result<Started<HeldSamples>, SensorError> {
         let (holder, samples) = hold();
-        let mut reader = Reader {
-            sensor: self,
-            holder,
-        };
+        let mut reader = Reader { sensor: self };
         // The level now, before the first event: an axis at rest sends
         // nothing until it changes.
         let now = current_volts(&reader.sensor.device, &mut reader.sensor.mapper).map_err(|e| {
@@ -548,48 +526,32 @@ impl Sensor for EvdevSensor {
                 error: e,
             }
         })?;
-        reader.holder.set(now);
-        let producer = Producer::spawn("sensor-evdev", move |stop| reader.run(&stop))?;
+        holder.set(now);
+        let producer = Producer::spawn("sensor-evdev", move |stop| {
+            device::run(&mut reader, &holder, &stop)
+        })?;
         Ok(Started { samples, producer })
     }
 }
 
-/// The reader thread.
+/// The reader thread's side of the device.
 struct Reader {
     sensor: EvdevSensor,
-    holder: Holder,
 }
 
 /// How long a poll waits before checking the stop flag, ms.
 const POLL_MS: i32 = 50;
-/// How often a lost device is looked for again.
-const RECONNECT_EVERY: Duration = Duration::from_millis(250);
 
-impl Reader {
-    fn run(&mut self, stop: &Arc<AtomicBool>) -> Result<(), SensorError> {
-        loop {
-            match self.read_until_lost(stop) {
-                Ok(()) => return Ok(()),
-                Err(error) => {
-                    self.holder.link(Link::Lost);
-                    if !self.sensor.reconnect {
-                        return Err(SensorError::Disconnected {
-                            what: format!("{}", self.sensor.target),
-                            detail: format!(
-                                "{error} (the device went away; set `[sensor] reconnect = true` to resume when it returns)"
-                            ),
-                        });
-                    }
-                    if !self.reopen(stop) {
-                        return Ok(());
-                    }
-                }
-            }
-        }
+impl DeviceReader for Reader {
+    fn what(&self) -> String {
+        self.sensor.target.to_string()
     }
 
-    /// Reads events until stopped (`Ok`) or the device fails (`Err`).
-    fn read_until_lost(&mut self, stop: &Arc<AtomicBool>) -> io::Result<()> {
+    fn reconnects(&self) -> bool {
+        self.sensor.reconnect
+    }
+
+    fn read_until_lost(&mut self, holder: &Holder, stop: &AtomicBool) -> io::Result<()> {
         let fd = self.sensor.device.as_raw_fd();
         let mut buffer = [0u8; EVENT_BYTES * 64];
         while !stop.load(Ordering::Relaxed) {
@@ -632,38 +594,28 @@ impl Reader {
                 if event.kind == EV_SYN && event.code == SYN_DROPPED {
                     dropped = true;
                 } else if let Some(volts) = self.sensor.mapper.apply(event) {
-                    self.holder.set(volts);
+                    holder.set(volts);
                 }
             }
             if dropped {
                 // The kernel's buffer overflowed: read the state itself.
-                let volts = current_volts(&self.sensor.device, &mut self.sensor.mapper)?;
-                self.holder.set(volts);
+                holder.set(current_volts(&self.sensor.device, &mut self.sensor.mapper)?);
             }
         }
         Ok(())
     }
 
-    /// Looks for the device until it is back (`true`) or the run stops.
-    fn reopen(&mut self, stop: &Arc<AtomicBool>) -> bool {
-        while !stop.load(Ordering::Relaxed) {
-            std::thread::sleep(RECONNECT_EVERY);
-            let Ok(mut again) = EvdevSensor::open(
-                &self.sensor.target,
-                &self.sensor.settings,
-                self.sensor.rest_volts,
-                true,
-            ) else {
-                continue;
-            };
-            let Ok(volts) = current_volts(&again.device, &mut again.mapper) else {
-                continue;
-            };
-            self.sensor = again;
-            self.holder.set(volts);
-            return true;
-        }
-        false
+    fn try_reopen(&mut self, holder: &Holder) -> bool {
+        let s = &self.sensor;
+        let Ok(mut again) = EvdevSensor::open(&s.target, &s.settings, s.rest_volts, true) else {
+            return false;
+        };
+        let Ok(volts) = current_volts(&again.device, &mut again.mapper) else {
+            return false;
+        };
+        self.sensor = again;
+        holder.set(volts);
+        true
     }
 }
 
@@ -776,25 +728,15 @@ mod tests {
 
     #[test]
     fn a_missing_device_says_so() {
-        let e = EvdevSensor::open(
-            &EvdevTarget::Path("/dev/input/event-none".into()),
-            &EvdevSettings::default(),
-            2.5,
-            false,
-        )
-        .err()
-        .map(|e| e.to_string())
-        .unwrap_or_default();
+        let error = |target| {
+            EvdevSensor::open(&target, &EvdevSettings::default(), 2.5, false)
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default()
+        };
+        let e = error(EvdevTarget::Path("/dev/input/event-none".into()));
         assert!(e.contains("no such file or device"), "{e}");
-        let e = EvdevSensor::open(
-            &EvdevTarget::Name("no device is called this".into()),
-            &EvdevSettings::default(),
-            2.5,
-            false,
-        )
-        .err()
-        .map(|e| e.to_string())
-        .unwrap_or_default();
+        let e = error(EvdevTarget::Name("no device is called this".into()));
         assert!(e.contains("no input device's name contains"), "{e}");
     }
 }

@@ -17,11 +17,11 @@ use std::fs::File;
 use std::io;
 use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use crate::sensor::held::{HeldSamples, Holder, Link, hold};
+use crate::sensor::device::{self, DeviceReader};
+use crate::sensor::held::{HeldSamples, Holder, hold};
 use crate::sensor::settings::IioSettings;
 use crate::sensor::{Producer, Sensor, SensorError, Started};
 
@@ -190,52 +190,35 @@ impl Sensor for IioSensor {
     fn start(self) -> Result<Started<HeldSamples>, SensorError> {
         let (holder, samples) = hold();
         holder.set(self.conversion.volts(self.first_raw));
-        let mut reader = Reader {
-            sensor: self,
-            holder,
-        };
-        let producer = Producer::spawn("sensor-iio", move |stop| reader.run(&stop))?;
+        let mut reader = Reader { sensor: self };
+        let producer = Producer::spawn("sensor-iio", move |stop| {
+            device::run(&mut reader, &holder, &stop)
+        })?;
         Ok(Started { samples, producer })
     }
 }
 
-/// The reader thread.
+/// The reader thread's side of the channel.
 struct Reader {
     sensor: IioSensor,
-    holder: Holder,
 }
 
-impl Reader {
-    fn run(&mut self, stop: &Arc<AtomicBool>) -> Result<(), SensorError> {
-        loop {
-            match self.read_until_lost(stop) {
-                Ok(()) => return Ok(()),
-                Err(error) => {
-                    self.holder.link(Link::Lost);
-                    if !self.sensor.reconnect {
-                        return Err(SensorError::Disconnected {
-                            what: format!("iio:{}", self.sensor.path.display()),
-                            detail: format!(
-                                "{error} (the ADC went away; set `[sensor] reconnect = true` to resume when it returns)"
-                            ),
-                        });
-                    }
-                    if !self.reopen(stop) {
-                        return Ok(());
-                    }
-                }
-            }
-        }
+impl DeviceReader for Reader {
+    fn what(&self) -> String {
+        format!("iio:{}", self.sensor.path.display())
     }
 
-    /// Reads at `rate_hz` on absolute deadlines (no drift) until stopped
-    /// or a read fails.
-    fn read_until_lost(&mut self, stop: &Arc<AtomicBool>) -> io::Result<()> {
+    fn reconnects(&self) -> bool {
+        self.sensor.reconnect
+    }
+
+    /// Reads at `rate_hz` on absolute deadlines (no drift).
+    fn read_until_lost(&mut self, holder: &Holder, stop: &AtomicBool) -> io::Result<()> {
         let period = Duration::from_secs(1) / self.sensor.settings.rate_hz.max(1);
         let mut next = Instant::now();
         while !stop.load(Ordering::Relaxed) {
             let raw = read_raw(&self.sensor.file)?;
-            self.holder.set(self.sensor.conversion.volts(raw));
+            holder.set(self.sensor.conversion.volts(raw));
             next += period;
             let now = Instant::now();
             if next > now {
@@ -249,16 +232,13 @@ impl Reader {
         Ok(())
     }
 
-    fn reopen(&mut self, stop: &Arc<AtomicBool>) -> bool {
-        while !stop.load(Ordering::Relaxed) {
-            std::thread::sleep(Duration::from_millis(250));
-            if let Ok(again) = IioSensor::open(&self.sensor.path, &self.sensor.settings, true) {
-                self.holder.set(again.conversion.volts(again.first_raw));
-                self.sensor = again;
-                return true;
-            }
-        }
-        false
+    fn try_reopen(&mut self, holder: &Holder) -> bool {
+        let Ok(again) = IioSensor::open(&self.sensor.path, &self.sensor.settings, true) else {
+            return false;
+        };
+        holder.set(again.conversion.volts(again.first_raw));
+        self.sensor = again;
+        true
     }
 }
 

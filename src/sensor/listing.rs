@@ -67,6 +67,17 @@ pub enum Found {
     },
 }
 
+impl Found {
+    /// The `--sensor` lines that use it.
+    pub fn use_with(&self) -> &[String] {
+        match self {
+            Found::Evdev { use_with, .. }
+            | Found::Iio { use_with, .. }
+            | Found::Serial { use_with, .. } => use_with,
+        }
+    }
+}
+
 /// Everything found, input devices first.
 pub fn list() -> Vec<Found> {
     let mut found: Vec<Found> = event_nodes()
@@ -276,7 +287,7 @@ pub fn to_text(found: &[Found]) -> String {
                 axes,
                 keys,
                 error,
-                use_with,
+                ..
             } => {
                 out += &format!("evdev   {}  {name:?}\n", path.display());
                 if let Some(e) = error {
@@ -302,9 +313,6 @@ pub fn to_text(found: &[Found]) -> String {
                         }
                     );
                 }
-                for u in use_with {
-                    out += &format!("        use:  {u}\n");
-                }
             }
             Found::Iio {
                 path,
@@ -312,7 +320,7 @@ pub fn to_text(found: &[Found]) -> String {
                 scale_mv,
                 raw,
                 error,
-                use_with,
+                ..
             } => {
                 out += &format!("iio     {}  ({device:?}", path.display());
                 if let Some(scale) = scale_mv {
@@ -325,20 +333,15 @@ pub fn to_text(found: &[Found]) -> String {
                 if let Some(e) = error {
                     out += &format!("        cannot read it: {e}\n");
                 }
-                for u in use_with {
-                    out += &format!("        use:  {u}\n");
-                }
             }
             Found::Serial {
-                path,
-                description,
-                use_with,
+                path, description, ..
             } => {
                 out += &format!("serial  {}  ({description})\n", path.display());
-                for u in use_with {
-                    out += &format!("        use:  {u}\n");
-                }
             }
+        }
+        for u in f.use_with() {
+            out += &format!("        use:  {u}\n");
         }
     }
     out

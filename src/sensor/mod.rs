@@ -30,6 +30,7 @@
 //! finds what this machine has (`sipnpuff sensors`).
 
 pub mod csv;
+pub mod device;
 pub mod evdev;
 pub mod held;
 pub mod iio;
@@ -57,7 +58,7 @@ pub enum SensorSpec {
     Csv(PathBuf),
     /// `evdev:/dev/input/eventN` or `evdev:name=SUBSTRING`: an input
     /// device (USB HID) by its node or by (part of) its name.
-    Evdev(evdev::EvdevTarget),
+    Evdev(EvdevTarget),
     /// `serial:PATH[,baud=N]`: a serial port.
     Serial {
         /// The port, e.g. `/dev/ttyACM0`.
@@ -86,12 +87,12 @@ impl SensorSpec {
                     "evdev:name=",
                     "part of the device's name, e.g. `evdev:name=Breeze`",
                 )),
-                Some(name) => Ok(SensorSpec::Evdev(evdev::EvdevTarget::Name(name.into()))),
+                Some(name) => Ok(SensorSpec::Evdev(EvdevTarget::Name(name.into()))),
                 None if rest.is_empty() => Err(needs(
                     "evdev",
                     "a device, e.g. `evdev:/dev/input/event3` or `evdev:name=Breeze` (`sipnpuff sensors` lists them)",
                 )),
-                None => Ok(SensorSpec::Evdev(evdev::EvdevTarget::Path(rest.into()))),
+                None => Ok(SensorSpec::Evdev(EvdevTarget::Path(rest.into()))),
             },
             Some(("serial", rest)) => {
                 let (path, options) = rest.split_once(',').unwrap_or((rest, ""));
@@ -132,6 +133,24 @@ impl SensorSpec {
             self,
             SensorSpec::Evdev(_) | SensorSpec::Serial { .. } | SensorSpec::Iio(_)
         )
+    }
+}
+
+/// Which input device: by node or by name.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum EvdevTarget {
+    /// `/dev/input/eventN`.
+    Path(PathBuf),
+    /// The first device (in event-number order) whose name contains this.
+    Name(String),
+}
+
+impl std::fmt::Display for EvdevTarget {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            EvdevTarget::Path(path) => write!(f, "evdev:{}", path.display()),
+            EvdevTarget::Name(name) => write!(f, "evdev:name={name}"),
+        }
     }
 }
 

@@ -5,8 +5,8 @@
 //!
 //! The sensor is at rest when, over `rezero_ms` of samples, no sample is
 //! further from their mean than half the distance to the nearer threshold
-//! (a breath would be), and the mean is within `rezero_max_shift_volts` of
-//! the configured neutral (a breath held steady through the whole window
+//! (a breath would be), and the mean is within `rezero_max_shift_fraction`
+//! of that distance from the configured neutral (a breath held steady through the whole window
 //! would not be). Until then the measurement starts again and the user is
 //! told why; after `rezero_timeout_ms` it is an error. Not RT-safe: runs
 //! before the control loop starts.
@@ -70,7 +70,7 @@ impl RestWindow {
         RestWindow {
             needed,
             configured: detector.neutral_volts,
-            max_shift: settings.rezero_max_shift_volts,
+            max_shift: settings.rezero_max_shift_fraction * nearest,
             band: nearest / 2.0,
             values: Vec::with_capacity(needed),
         }
@@ -101,7 +101,7 @@ impl RestWindow {
         let shift = mean - self.configured;
         if shift.is_nan() || shift.abs() > self.max_shift {
             return Verdict::NotAtRest(format!(
-                "the rest level {mean:.3} V is {shift:+.3} V from detector.neutral_volts {:.3} V (more than sensor.rezero_max_shift_volts {:.3} V): a breath held in, or the sensor's mapping is off",
+                "the rest level {mean:.3} V is {shift:+.3} V from detector.neutral_volts {:.3} V (more than the {:.3} V sensor.rezero_max_shift_fraction allows): a breath held in, or the sensor's mapping is off",
                 self.configured, self.max_shift
             ));
         }

@@ -22,12 +22,12 @@
 
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use serialport::TTYPort;
 
+use crate::sensor::device::{self, DeviceReader};
 use crate::sensor::held::{HeldSamples, Holder, Link, hold};
 use crate::sensor::settings::{SerialFormat, SerialSettings};
 use crate::sensor::{Producer, Sensor, SensorError, Started};
@@ -357,52 +357,29 @@ impl Sensor for SerialSensor {
         if self.last_volts.is_finite() {
             holder.set(self.last_volts);
         }
-        let mut reader = Reader {
-            sensor: self,
-            holder,
-        };
-        let producer = Producer::spawn("sensor-serial", move |stop| reader.run(&stop))?;
+        let mut reader = Reader { sensor: self };
+        let producer = Producer::spawn("sensor-serial", move |stop| {
+            device::run(&mut reader, &holder, &stop)
+        })?;
         Ok(Started { samples, producer })
     }
 }
 
-/// The reader thread.
+/// The reader thread's side of the port.
 struct Reader {
     sensor: SerialSensor,
-    holder: Holder,
 }
 
-impl Reader {
-    fn run(&mut self, stop: &Arc<AtomicBool>) -> Result<(), SensorError> {
-        loop {
-            match self.read_until_lost(stop) {
-                Ok(()) => {
-                    let stop_command = self.sensor.format.stop_command();
-                    if !stop_command.is_empty() {
-                        // Best effort: the device stops streaming.
-                        let _ = self.sensor.port.write_all(stop_command);
-                    }
-                    return Ok(());
-                }
-                Err(error) => {
-                    self.holder.link(Link::Lost);
-                    if !self.sensor.reconnect {
-                        return Err(SensorError::Disconnected {
-                            what: format!("serial:{}", self.sensor.path.display()),
-                            detail: format!(
-                                "{error} (the port went away; set `[sensor] reconnect = true` to resume when it returns)"
-                            ),
-                        });
-                    }
-                    if !self.reopen(stop) {
-                        return Ok(());
-                    }
-                }
-            }
-        }
+impl DeviceReader for Reader {
+    fn what(&self) -> String {
+        format!("serial:{}", self.sensor.path.display())
     }
 
-    fn read_until_lost(&mut self, stop: &Arc<AtomicBool>) -> io::Result<()> {
+    fn reconnects(&self) -> bool {
+        self.sensor.reconnect
+    }
+
+    fn read_until_lost(&mut self, holder: &Holder, stop: &AtomicBool) -> io::Result<()> {
         let silence = Duration::from_millis(u64::from(self.sensor.settings.silence_ms));
         let mut last_sample = Instant::now();
         let mut buffer = [0u8; 4096];
@@ -421,7 +398,6 @@ impl Reader {
                 Err(e) => return Err(e),
             };
             let format = self.sensor.format;
-            let holder = &self.holder;
             let mut got = false;
             self.sensor.splitter.feed(&buffer[..n], |line| {
                 if let Ok(Some(v)) = format.volts(line) {
@@ -432,23 +408,29 @@ impl Reader {
             if got {
                 last_sample = Instant::now();
             } else if last_sample.elapsed() > silence {
-                self.holder.link(Link::Silent);
+                holder.link(Link::Silent);
             }
         }
         Ok(())
     }
 
-    /// Opens the port again until it answers (`true`) or the run stops.
-    fn reopen(&mut self, stop: &Arc<AtomicBool>) -> bool {
-        while !stop.load(Ordering::Relaxed) {
-            std::thread::sleep(Duration::from_millis(250));
-            if let Ok(port) = open_port(&self.sensor.path, self.sensor.baud, &self.sensor.format) {
+    fn try_reopen(&mut self, _holder: &Holder) -> bool {
+        match open_port(&self.sensor.path, self.sensor.baud, &self.sensor.format) {
+            Ok(port) => {
                 self.sensor.port = port;
                 self.sensor.splitter = LineSplitter::default();
-                return true;
+                true
             }
+            Err(_) => false,
         }
-        false
+    }
+
+    /// The device stops streaming (best effort: the port may be gone).
+    fn finish(&mut self) {
+        let stop_command = self.sensor.format.stop_command();
+        if !stop_command.is_empty() {
+            let _ = self.sensor.port.write_all(stop_command);
+        }
     }
 }
 

@@ -16,10 +16,11 @@ pub struct SensorSettings {
     /// Give up (an error at start) if the sensor has not been at rest for
     /// `rezero_ms` within this long, ms.
     pub rezero_timeout_ms: u32,
-    /// Largest distance, volts, from the configured
-    /// `detector.neutral_volts` a measured rest level may be: further is
-    /// taken for a breath held during the measurement, and measuring waits.
-    pub rezero_max_shift_volts: f64,
+    /// Largest distance from the configured `detector.neutral_volts` a
+    /// measured rest level may be, as a fraction of the distance from the
+    /// neutral to the nearer threshold: further is taken for a breath held
+    /// during the measurement, and measuring waits.
+    pub rezero_max_shift_fraction: f64,
     /// When the device goes away mid-run, keep looking for it and resume
     /// when it returns (the core recovers after `fault_recovery_ms` at
     /// rest); otherwise the run ends safely.
@@ -38,7 +39,7 @@ impl Default for SensorSettings {
             rezero: true,
             rezero_ms: 1000,
             rezero_timeout_ms: 30_000,
-            rezero_max_shift_volts: 0.25,
+            rezero_max_shift_fraction: 0.5,
             reconnect: false,
             evdev: EvdevSettings::default(),
             serial: SerialSettings::default(),

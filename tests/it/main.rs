@@ -21,6 +21,7 @@ mod motion_safety;
 mod properties;
 mod ruckig_oracle;
 mod runtime;
+mod sensors;
 mod sessions;
 mod stress;
 mod study;
