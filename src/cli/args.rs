@@ -168,8 +168,55 @@ mod tests {
             SensorSpec::parse("csv:a/b.csv"),
             Ok(SensorSpec::Csv(PathBuf::from("a/b.csv")))
         );
-        let e = SensorSpec::parse("evdev").unwrap_err();
-        assert!(e.contains("`synthetic` or `csv:PATH`"), "{e}");
+        use crate::sensor::EvdevTarget;
+        assert_eq!(
+            SensorSpec::parse("evdev:/dev/input/event3"),
+            Ok(SensorSpec::Evdev(EvdevTarget::Path(
+                "/dev/input/event3".into()
+            )))
+        );
+        assert_eq!(
+            SensorSpec::parse("evdev:name=Breeze Joystick"),
+            Ok(SensorSpec::Evdev(EvdevTarget::Name(
+                "Breeze Joystick".into()
+            )))
+        );
+        assert_eq!(
+            SensorSpec::parse("serial:/dev/ttyACM0"),
+            Ok(SensorSpec::Serial {
+                path: "/dev/ttyACM0".into(),
+                baud: None
+            })
+        );
+        assert_eq!(
+            SensorSpec::parse("serial:/dev/ttyUSB1,baud=9600"),
+            Ok(SensorSpec::Serial {
+                path: "/dev/ttyUSB1".into(),
+                baud: Some(9600)
+            })
+        );
+        assert_eq!(
+            SensorSpec::parse("iio:/sys/bus/iio/devices/iio:device0/in_voltage0_raw"),
+            Ok(SensorSpec::Iio(
+                "/sys/bus/iio/devices/iio:device0/in_voltage0_raw".into()
+            ))
+        );
+        for (bad, says) in [
+            (
+                "evdev",
+                "`synthetic`, `csv:PATH`, `evdev:/dev/input/eventN`",
+            ),
+            ("evdev:", "`sipnpuff sensors` lists them"),
+            ("evdev:name=", "part of the device's name"),
+            ("serial:,baud=9600", "a port"),
+            ("serial:/dev/ttyACM0,baud=fast", "only `,baud=N`"),
+            ("serial:/dev/ttyACM0,baud=0", "only `,baud=N`"),
+            ("iio:", "in_voltage0_raw"),
+            ("usb:1", "unknown sensor"),
+        ] {
+            let e = SensorSpec::parse(bad).unwrap_err();
+            assert!(e.contains(says), "{bad}: {e}");
+        }
         assert!(
             SensorSpec::parse("csv:")
                 .unwrap_err()

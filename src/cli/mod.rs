@@ -28,6 +28,7 @@ pub mod generate;
 pub mod output;
 pub mod replay;
 pub mod run;
+pub mod sensors;
 pub mod study;
 
 use std::process::ExitCode;
@@ -66,6 +67,10 @@ enum Command {
         #[command(subcommand)]
         what: bench::BenchCommand,
     },
+    /// List the sip-and-puff sensors this machine has (input devices with
+    /// axes or keys, IIO voltage channels, serial ports) with the
+    /// `--sensor` line for each.
+    Sensors(sensors::SensorsArgs),
     /// Check a configuration and print it, complete, as TOML that
     /// `--config` reads back (with the sequence table as comments).
     Config(config::ConfigArgs),
@@ -88,6 +93,7 @@ pub fn main() -> ExitCode {
         Command::Generate(args) => generate::generate(args).map(|()| output::COMPLETED),
         Command::Bench { what } => bench::bench(what),
         Command::Config(args) => config::config(args).map(|()| output::COMPLETED),
+        Command::Sensors(args) => sensors::sensors(args).map(|()| output::COMPLETED),
     };
     ExitCode::from(result.unwrap_or_else(|e| {
         let (status, say) = output::status_of(&e);

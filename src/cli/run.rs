@@ -1,7 +1,7 @@
 //! `sipnpuff run`: the main job.
 
 use std::io;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
@@ -11,17 +11,20 @@ use crate::cli::args::{
     ConfigArg, InterfaceArg, RtArgs, parse_seconds, with_interface, writable_dir,
 };
 use crate::cli::output::{self, StdoutEvents, invalid};
-#[cfg(test)]
 use crate::config::Config;
 use crate::rt::control_loop::StopReason;
 use crate::rt::report::RunReport;
 use crate::rt::signals;
 use crate::rt::stop::StopRequest;
-use crate::rt::threads::{RunError, RunOptions, run as run_loop, run_recorded};
+use crate::rt::threads::{RunOptions, run as run_loop, run_recorded};
 use crate::sensor::csv::CsvSensor;
+use crate::sensor::evdev::EvdevSensor;
+use crate::sensor::iio::IioSensor;
+use crate::sensor::rezero;
+use crate::sensor::serial::SerialSensor;
 use crate::sensor::synthetic::SyntheticSensor;
-use crate::sensor::{Sensor, SensorSpec};
-use crate::tools::recording::recorder::{RecordError, Recorder};
+use crate::sensor::{Prepared, Sensor, SensorSpec};
+use crate::tools::recording::recorder::{Recorder, check_dir};
 use crate::tools::recording::writer::{MIN_BYTES, RecordOptions};
 
 /// `run`'s options.
@@ -32,8 +35,14 @@ pub struct RunArgs {
     /// Run this long, s (default: until the scripted user or recording ends).
     #[arg(long, value_parser = parse_seconds)]
     seconds: Option<f64>,
-    /// Where samples come from: `synthetic` (the built-in scripted user)
-    /// or `csv:PATH` (a recording played in real time).
+    /// Where samples come from: `synthetic` (the built-in scripted user),
+    /// `csv:PATH` (a recording played in real time), or a device:
+    /// `evdev:/dev/input/eventN` or `evdev:name=SUBSTRING` (a USB HID
+    /// sip-and-puff device: an analog axis or switches), `serial:PATH[,baud=N]`
+    /// (a microcontroller's stream, FLipMouse or LipSync), or
+    /// `iio:/sys/bus/iio/devices/iio:deviceN/in_voltageM_raw` (an ADC).
+    /// Device settings: `[sensor]` in the config (`sipnpuff sensors`
+    /// lists what this machine has).
     #[arg(long, default_value = "synthetic", value_parser = SensorSpec::parse)]
     sensor: SensorSpec,
     /// The arm.
@@ -72,23 +81,19 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     if let Some(dir) = &args.histogram_dir {
         writable_dir(dir)?;
     }
-    let mut recorder = match &args.record {
-        None => None,
-        Some(dir) => {
-            let options = RecordOptions {
-                max_bytes: args.record_max_mb,
-                ..RecordOptions::default()
-            };
-            match Recorder::create(dir, &config, options) {
-                Ok(recorder) => Some(recorder),
-                // A directory that cannot be used: refused at start.
-                Err(e @ (RecordError::Exists(_) | RecordError::Io { .. })) => {
-                    return invalid(Err(anyhow::Error::new(e).context("--record")));
-                }
-                Err(e) => return Err(e.into()),
-            }
-        }
-    };
+    // The directory is checked now; the recording starts with the
+    // configuration the core gets (a device's measured neutral in it).
+    if let Some(dir) = &args.record {
+        invalid(check_dir(dir).map_err(|e| anyhow::Error::new(e).context("--record")))?;
+    }
+    let record = args.record.as_deref().map(|dir| Record {
+        dir,
+        options: RecordOptions {
+            max_bytes: args.record_max_mb,
+            ..RecordOptions::default()
+        },
+    });
+    let record = record.as_ref();
     let options = RunOptions {
         seconds: args.seconds,
         rt: args.rt.options()?,
@@ -100,15 +105,16 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         ArmSpec::Sim => Box::new(SimArm::new(config.core())),
     };
     let mut events = StdoutEvents::default();
-    let rec = recorder.as_mut();
-    let mut report = match &args.sensor {
+    let settings = config.sensor();
+    let neutral = config.core().detector().neutral_volts;
+    let report = match &args.sensor {
         SensorSpec::Synthetic => start(
             &config,
             SyntheticSensor::built_in_user(&config),
             arm,
             &options,
             &mut events,
-            rec,
+            record,
         )?,
         SensorSpec::Csv(path) => start(
             &config,
@@ -116,14 +122,30 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             arm,
             &options,
             &mut events,
-            rec,
+            record,
         )?,
+        SensorSpec::Evdev(target) => {
+            let sensor = EvdevSensor::open(target, &settings.evdev, neutral, settings.reconnect)?;
+            let analog = sensor.is_analog();
+            let (config, sensor) = prepare_device(&config, sensor, analog)?;
+            start(&config, sensor, arm, &options, &mut events, record)?
+        }
+        SensorSpec::Serial { path, baud } => {
+            let sensor =
+                SerialSensor::open(path, *baud, &settings.serial, neutral, settings.reconnect)?;
+            let detector = config.core().detector();
+            if let Some(note) = sensor.rate_note(detector.min_burst_ms, detector.long_burst_ms) {
+                note!("sipnpuff: {note}");
+            }
+            let (config, sensor) = prepare_device(&config, sensor, true)?;
+            start(&config, sensor, arm, &options, &mut events, record)?
+        }
+        SensorSpec::Iio(path) => {
+            let sensor = IioSensor::open(path, &settings.iio, settings.reconnect)?;
+            let (config, sensor) = prepare_device(&config, sensor, true)?;
+            start(&config, sensor, arm, &options, &mut events, record)?
+        }
     };
-    // The recording ends before the report is printed: its summary is in
-    // the report (and its `report.json`).
-    let recording_failed = recorder
-        .map(|recorder| recorder.finish(&mut report))
-        .is_some_and(|summary| summary.error.is_some());
     let text = if args.json {
         serde_json::to_string(&report)? + "\n"
     } else {
@@ -163,6 +185,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             }
         }
     }
+    let recording_failed = report.recording.as_ref().is_some_and(|r| r.error.is_some());
     let status = exit_status(&report, stdout_failed);
     Ok(
         if (histograms_failed || recording_failed) && status == output::COMPLETED {
@@ -173,19 +196,32 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     )
 }
 
-/// Runs the loop on `sensor`, recording if a recorder is given.
+/// `--record DIR`, checked.
+struct Record<'a> {
+    dir: &'a Path,
+    options: RecordOptions,
+}
+
+/// Runs the loop on `sensor`, the core built from `config` (the
+/// configuration in effect), and records the session if asked: the
+/// recording ends before the report is printed, its summary in the report
+/// (and its `report.json`).
 fn start<S: Sensor>(
-    config: &crate::config::Config,
+    config: &Config,
     sensor: S,
     arm: Box<dyn Arm>,
     options: &RunOptions,
     events: &mut StdoutEvents,
-    recorder: Option<&mut Recorder>,
-) -> Result<RunReport, RunError> {
-    match recorder {
-        Some(recorder) => run_recorded(config.core(), sensor, arm, options, events, recorder),
-        None => run_loop(config.core(), sensor, arm, options, events),
-    }
+    record: Option<&Record<'_>>,
+) -> anyhow::Result<RunReport> {
+    let Some(record) = record else {
+        return Ok(run_loop(config.core(), sensor, arm, options, events)?);
+    };
+    let mut recorder = Recorder::create(record.dir, config, record.options)
+        .map_err(|e| anyhow::Error::new(e).context("--record"))?;
+    let mut report = run_recorded(config.core(), sensor, arm, options, events, &mut recorder)?;
+    recorder.finish(&mut report);
+    Ok(report)
 }
 
 /// `--record-max-mb`: a positive number of megabytes (10^6 bytes), at
@@ -203,6 +239,58 @@ fn parse_megabytes(text: &str) -> Result<u64, String> {
             MIN_BYTES as f64 / 1e6
         ))
     }
+}
+
+/// Starts a device and, if it is analog and `[sensor] rezero` is on,
+/// measures its neutral at rest before anything can move (waiting, and
+/// saying why, while the user breathes into it). Returns the configuration
+/// with the measured neutral (the thresholds keep their distances from
+/// it) and the started device, described with what was measured.
+fn prepare_device<S: Sensor>(
+    config: &Config,
+    sensor: S,
+    analog: bool,
+) -> anyhow::Result<(Config, Prepared<S::Samples>)> {
+    let mut description = sensor.describe();
+    let mut started = sensor.start()?;
+    let settings = config.sensor();
+    if !(analog && settings.rezero) {
+        return Ok((
+            config.clone(),
+            Prepared {
+                description,
+                started,
+            },
+        ));
+    }
+    note!(
+        "sipnpuff: measuring the sensor's neutral for {} ms: please rest (no sip or puff)",
+        settings.rezero_ms
+    );
+    let neutral = rezero::measure(
+        &mut started.samples,
+        settings,
+        config.core().detector(),
+        |why| note!("sipnpuff: {why}"),
+    )?;
+    note!("sipnpuff: {neutral}");
+    let config = config
+        .clone()
+        .with_neutral_volts(neutral.volts)
+        .map_err(|errors| {
+            anyhow::anyhow!(
+                "the measured neutral {:.4} V puts a detector threshold outside 0–5 V: check the sensor's mapping ([sensor.evdev] volts_at_min/max, [sensor.serial] full_scale/volts_per_hpa, [sensor.iio] gain/offset_volts):\n{errors}",
+                neutral.volts
+            )
+        })?;
+    description += &format!("; {neutral}");
+    Ok((
+        config,
+        Prepared {
+            description,
+            started,
+        },
+    ))
 }
 
 /// The exit status of a finished run whose stdout failed with

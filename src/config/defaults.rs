@@ -31,6 +31,7 @@ impl Default for Config {
                 scanning: Default::default(),
                 sequences,
             },
+            sensor: Default::default(),
         }
     }
 }

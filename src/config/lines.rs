@@ -21,32 +21,7 @@ impl KeyLines {
         let mut lines = HashMap::new();
         if let Ok(root) = DeTable::parse(text) {
             let at = |offset: usize| line_column(text, offset);
-            for (key, value) in root.get_ref() {
-                let name = key.get_ref().to_string();
-                lines.insert(name.clone(), at(key.span().start));
-                match value.get_ref() {
-                    DeValue::Table(table) => {
-                        for (sub, _) in table {
-                            lines.insert(format!("{name}.{}", sub.get_ref()), at(sub.span().start));
-                        }
-                    }
-                    DeValue::Array(items) => {
-                        for (i, item) in items.iter().enumerate() {
-                            let entry = format!("{name} #{}", i + 1);
-                            lines.insert(entry.clone(), at(item.span().start));
-                            if let DeValue::Table(table) = item.get_ref() {
-                                for (sub, _) in table {
-                                    lines.insert(
-                                        format!("{entry}.{}", sub.get_ref()),
-                                        at(sub.span().start),
-                                    );
-                                }
-                            }
-                        }
-                    }
-                    _ => {}
-                }
-            }
+            index(root.get_ref(), "", &mut lines, &at);
         }
         KeyLines { lines }
     }
@@ -54,6 +29,33 @@ impl KeyLines {
     /// Line and column of `key`, if it is in the file.
     pub(super) fn find(&self, key: &str) -> Option<(usize, usize)> {
         self.lines.get(key).copied()
+    }
+}
+
+/// Indexes every key of `table` (and of its tables, at any depth:
+/// `sensor.evdev.axis`) under `prefix`; array entries are `name #N`.
+fn index(
+    table: &DeTable<'_>,
+    prefix: &str,
+    lines: &mut HashMap<String, (usize, usize)>,
+    at: &impl Fn(usize) -> (usize, usize),
+) {
+    for (key, value) in table {
+        let name = format!("{prefix}{}", key.get_ref());
+        lines.insert(name.clone(), at(key.span().start));
+        match value.get_ref() {
+            DeValue::Table(sub) => index(sub, &format!("{name}."), lines, at),
+            DeValue::Array(items) => {
+                for (i, item) in items.iter().enumerate() {
+                    let entry = format!("{name} #{}", i + 1);
+                    lines.insert(entry.clone(), at(item.span().start));
+                    if let DeValue::Table(sub) = item.get_ref() {
+                        index(sub, &format!("{entry}."), lines, at);
+                    }
+                }
+            }
+            _ => {}
+        }
     }
 }
 
@@ -96,6 +98,9 @@ mod tests {
         assert_eq!(lines.find("sequence #1.mode"), Some((7, 3)));
         assert_eq!(lines.find("sequence #1.actions"), Some((6, 1)));
         assert_eq!(lines.find("detector.glitch_ms"), None);
+        let nested = KeyLines::of("[sensor]\nreconnect = true\n[sensor.evdev]\naxis = \"ABS_Y\"\n");
+        assert_eq!(nested.find("sensor.evdev.axis"), Some((4, 1)));
+        assert_eq!(nested.find("sensor.reconnect"), Some((2, 1)));
     }
 
     #[test]

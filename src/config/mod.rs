@@ -25,6 +25,7 @@ use toml::Table;
 use crate::control::core_config::{CoreConfig, InterfaceSection};
 use crate::control::selection::scanning::ScanningConfig;
 use crate::control::selection::{Interface, SequenceEntry};
+use crate::sensor::settings::SensorSettings;
 pub use error::{ConfigError, ConfigErrors, ConfigFileError};
 use validate::Problems;
 
@@ -34,6 +35,7 @@ use validate::Problems;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Config {
     core: CoreConfig,
+    sensor: SensorSettings,
 }
 
 impl Config {
@@ -57,9 +59,12 @@ impl Config {
             .parse()
             .map_err(|e: toml::de::Error| ConfigErrors(vec![lines::syntax_error(text, &e)]))?;
         let mut problems = Problems::default();
-        let core = read::core(&mut root, Config::default().core(), &mut problems);
+        let defaults = Config::default();
+        // Before the core's sections, which report what is left as unknown.
+        let sensor = read::sensor(&mut root, &defaults.sensor, &mut problems);
+        let core = read::core(&mut root, defaults.core(), &mut problems);
         if problems.errors.is_empty() {
-            Ok(Config { core })
+            Ok(Config { core, sensor })
         } else {
             let lines = lines::KeyLines::of(text);
             for error in &mut problems.errors {
@@ -70,11 +75,12 @@ impl Config {
     }
 
     /// Validates settings built in code.
-    fn validated(core: CoreConfig) -> Result<Config, ConfigErrors> {
+    fn validated(core: CoreConfig, sensor: SensorSettings) -> Result<Config, ConfigErrors> {
         let mut problems = Problems::default();
         validate::core(&mut problems, &core);
+        validate::sensor(&mut problems, &sensor);
         if problems.errors.is_empty() {
-            Ok(Config { core })
+            Ok(Config { core, sensor })
         } else {
             Err(ConfigErrors(problems.errors))
         }
@@ -86,38 +92,57 @@ impl Config {
         &self.core
     }
 
+    /// How sensor devices are read (`[sensor]`).
+    pub fn sensor(&self) -> &SensorSettings {
+        &self.sensor
+    }
+
+    /// The same configuration with the neutral measured at start: the
+    /// detector's thresholds keep their distances from it. An error if
+    /// that puts a threshold outside 0–5 V (the device's mapping is off).
+    pub fn with_neutral_volts(mut self, neutral_volts: f64) -> Result<Config, ConfigErrors> {
+        self.core.detector = self.core.detector.with_neutral(neutral_volts);
+        Config::validated(self.core, self.sensor)
+    }
+
+    /// The same configuration with other sensor settings, validated.
+    pub fn with_sensor(mut self, sensor: SensorSettings) -> Result<Config, ConfigErrors> {
+        self.sensor = sensor;
+        Config::validated(self.core, self.sensor)
+    }
+
     /// The same configuration with another selection interface (the
     /// `--interface` option).
     pub fn with_interface(mut self, interface: Interface) -> Result<Config, ConfigErrors> {
         self.core.interface = InterfaceSection { kind: interface };
-        Config::validated(self.core)
+        Config::validated(self.core, self.sensor)
     }
 
     /// The same configuration with other scanning settings (the study's
     /// sweeps), checked as the file's would be.
     pub fn with_scanning(mut self, scanning: ScanningConfig) -> Result<Config, ConfigErrors> {
         self.core.scanning = scanning;
-        Config::validated(self.core)
+        Config::validated(self.core, self.sensor)
     }
 
     /// The same configuration with another library, checked as the file's
     /// would be.
     pub fn with_sequences(mut self, sequences: Vec<SequenceEntry>) -> Result<Config, ConfigErrors> {
         self.core.sequences = sequences;
-        Config::validated(self.core)
+        Config::validated(self.core, self.sensor)
     }
 
     /// The same configuration with another sequence timeout, ms.
     pub fn with_sequence_timeout_ms(mut self, ms: u32) -> Result<Config, ConfigErrors> {
         self.core.matcher.sequence_timeout_ms = ms;
-        Config::validated(self.core)
+        Config::validated(self.core, self.sensor)
     }
 
     /// This config with another `command.motion_onset_ms` (0 = off),
     /// validated.
     pub fn with_motion_onset_ms(mut self, ms: u32) -> Result<Config, ConfigErrors> {
         self.core.command.motion_onset_ms = ms;
-        Config::validated(self.core)
+        Config::validated(self.core, self.sensor)
     }
 }
 
@@ -229,6 +254,92 @@ mod tests {
     fn integer_volts_are_accepted() {
         let c = Config::from_toml_str("[detector]\npuff_threshold_volts = 4\n").unwrap();
         assert_eq!(c.core().detector().puff_threshold_volts, 4.0);
+    }
+
+    #[test]
+    fn sensor_settings_are_read_and_every_error_named_with_its_line() {
+        let c = Config::from_toml_str(
+            r#"
+            [sensor]
+            reconnect = true
+            [sensor.evdev]
+            input = "switches"
+            sip_keys = ["BTN_TRIGGER", "BTN_TRIGGER_HAPPY1"]
+            puff_keys = ["KEY_ENTER"]
+            [sensor.serial]
+            format = "lipsync"
+            volts_per_hpa = 0.1
+            [sensor.iio]
+            gain = 1.5151515151515151
+            "#,
+        )
+        .unwrap();
+        let s = c.sensor();
+        assert!(s.reconnect && s.rezero);
+        assert_eq!(s.evdev.input, crate::sensor::settings::EvdevInput::Switches);
+        assert_eq!(s.evdev.sip_keys, ["BTN_TRIGGER", "BTN_TRIGGER_HAPPY1"]);
+        assert_eq!(
+            s.serial.format,
+            crate::sensor::settings::SerialFormat::Lipsync
+        );
+        assert_eq!(s.iio.gain, 1.5151515151515151);
+        let text = r#"[sensor]
+rezero_ms = 0
+rezero_max_shift_fraction = 1.5
+colour = 1
+[sensor.evdev]
+input = "joystick"
+axis = "ABS_PRESSURE_X"
+sip_keys = ["BTN_SIP"]
+puff_keys = []
+volts_at_max = 0.0
+[sensor.serial]
+format = "modbus"
+baud = 0
+[sensor.iio]
+rate_hz = 5000
+gain = 0
+"#;
+        let errors = errors(text);
+        let found: Vec<(String, Option<usize>)> =
+            errors.iter().map(|e| (e.key.clone(), e.line)).collect();
+        for (key, line) in [
+            ("sensor.colour", 4),
+            ("sensor.evdev.input", 6),
+            ("sensor.serial.format", 12),
+            ("sensor.rezero_ms", 2),
+            ("sensor.rezero_max_shift_fraction", 3),
+            ("sensor.evdev.volts_at_max", 10),
+            ("sensor.evdev.axis", 7),
+            ("sensor.evdev.sip_keys", 8),
+            ("sensor.serial.baud", 13),
+            ("sensor.iio.gain", 16),
+            ("sensor.iio.rate_hz", 15),
+        ] {
+            assert!(
+                found.contains(&(key.to_string(), Some(line))),
+                "{key} at line {line}: {found:?}"
+            );
+        }
+        let messages: Vec<String> = errors.iter().map(|e| e.to_string()).collect();
+        let all = messages.join("\n");
+        assert!(
+            all.contains("\"ABS_PRESSURE_X\" is not a Linux absolute axis name"),
+            "{all}"
+        );
+        assert!(
+            all.contains("[\"BTN_SIP\"]: not Linux key or button names"),
+            "{all}"
+        );
+        assert!(
+            all.contains("\"modbus\" is not a format (known: volts, counts, flipmouse, lipsync)"),
+            "{all}"
+        );
+        // `puff_keys = []` only matters for switches.
+        assert!(
+            !found.iter().any(|(k, _)| k == "sensor.evdev.puff_keys"),
+            "{found:?}"
+        );
     }
 
     #[test]

@@ -10,7 +10,16 @@ impl Config {
     /// The complete configuration as TOML that [`Config::from_toml_str`]
     /// reads back to an equal `Config`.
     pub fn to_toml(&self) -> Result<String, toml::ser::Error> {
-        let text = toml::to_string(self.core())?;
+        /// `[sensor]` as a table of its own, after the core's sections.
+        #[derive(serde::Serialize)]
+        struct SensorSection<'a> {
+            sensor: &'a crate::sensor::settings::SensorSettings,
+        }
+        let mut text = toml::to_string(self.core())?;
+        text += "\n";
+        text += &toml::to_string(&SensorSection {
+            sensor: self.sensor(),
+        })?;
         let mut entries = self.core().sequences().iter();
         let mut out = String::from(
             "# sipnpuff configuration: every setting in effect (defaults filled in).\n\n",

@@ -21,9 +21,12 @@ use crate::control::motion::workspace::WorkspaceConfig;
 use crate::control::selection::matcher::MatcherConfig;
 use crate::control::selection::scanning::ScanningConfig;
 use crate::control::selection::{Interface, SequenceEntry};
+use crate::sensor::settings::{
+    EvdevInput, EvdevSettings, IioSettings, SensorSettings, SerialFormat, SerialSettings,
+};
 
 /// The sections a file may have, in the order they are read.
-pub const SECTIONS: [&str; 9] = [
+pub const SECTIONS: [&str; 10] = [
     "detector",
     "matcher",
     "command",
@@ -33,6 +36,7 @@ pub const SECTIONS: [&str; 9] = [
     "sequence",
     "interface",
     "scanning",
+    "sensor",
 ];
 
 /// Reads a parsed file over `defaults`. Every problem is in `problems`;
@@ -69,6 +73,90 @@ pub(super) fn core(root: &mut Table, defaults: &CoreConfig, problems: &mut Probl
     }
 }
 
+/// Reads `[sensor]` (and its `evdev`, `serial`, `iio` tables) out of a
+/// parsed file over `defaults`.
+pub(super) fn sensor(
+    root: &mut Table,
+    defaults: &SensorSettings,
+    problems: &mut Problems,
+) -> SensorSettings {
+    let mut reader = Reader { problems };
+    let mut t = reader.section(root, "sensor");
+    let evdev_table = t.table_key("evdev");
+    let serial_table = t.table_key("serial");
+    let iio_table = t.table_key("iio");
+    let mut c = SensorSettings {
+        rezero: t.get("rezero", defaults.rezero),
+        rezero_ms: t.get("rezero_ms", defaults.rezero_ms),
+        rezero_timeout_ms: t.get("rezero_timeout_ms", defaults.rezero_timeout_ms),
+        rezero_max_shift_fraction: t.get(
+            "rezero_max_shift_fraction",
+            defaults.rezero_max_shift_fraction,
+        ),
+        reconnect: t.get("reconnect", defaults.reconnect),
+        ..defaults.clone()
+    };
+    t.finish();
+
+    let mut t = reader.subsection(evdev_table, "sensor.evdev");
+    let d = &defaults.evdev;
+    let input: String = t.get("input", d.input.name().to_string());
+    c.evdev = EvdevSettings {
+        input: d.input,
+        axis: t.get("axis", d.axis.clone()),
+        volts_at_min: t.get("volts_at_min", d.volts_at_min),
+        volts_at_max: t.get("volts_at_max", d.volts_at_max),
+        sip_keys: t.get("sip_keys", d.sip_keys.clone()),
+        puff_keys: t.get("puff_keys", d.puff_keys.clone()),
+        grab: t.get("grab", d.grab),
+    };
+    t.finish();
+    match [EvdevInput::Axis, EvdevInput::Switches]
+        .into_iter()
+        .find(|i| i.name() == input)
+    {
+        Some(i) => c.evdev.input = i,
+        None => reader.problems.add(
+            "sensor.evdev.input",
+            format!("{input:?} is not `axis` or `switches`"),
+        ),
+    }
+
+    let mut t = reader.subsection(serial_table, "sensor.serial");
+    let d = &defaults.serial;
+    let format: String = t.get("format", d.format.name().to_string());
+    c.serial = SerialSettings {
+        baud: t.get("baud", d.baud),
+        format: d.format,
+        full_scale: t.get("full_scale", d.full_scale),
+        volts_per_hpa: t.get("volts_per_hpa", d.volts_per_hpa),
+        answer_timeout_ms: t.get("answer_timeout_ms", d.answer_timeout_ms),
+        silence_ms: t.get("silence_ms", d.silence_ms),
+    };
+    t.finish();
+    match SerialFormat::from_name(&format) {
+        Some(f) => c.serial.format = f,
+        None => reader.problems.add(
+            "sensor.serial.format",
+            format!(
+                "{format:?} is not a format (known: {})",
+                SerialFormat::ALL.map(SerialFormat::name).join(", ")
+            ),
+        ),
+    }
+
+    let mut t = reader.subsection(iio_table, "sensor.iio");
+    let d = &defaults.iio;
+    c.iio = IioSettings {
+        gain: t.get("gain", d.gain),
+        offset_volts: t.get("offset_volts", d.offset_volts),
+        rate_hz: t.get("rate_hz", d.rate_hz),
+    };
+    t.finish();
+    validate::sensor(reader.problems, &c);
+    c
+}
+
 /// Walks the TOML table, taking known keys out.
 struct Reader<'p> {
     problems: &'p mut Problems,
@@ -90,6 +178,16 @@ impl Reader<'_> {
             problems: &mut *self.problems,
             table,
             path: name.to_string(),
+            known: Vec::new(),
+        }
+    }
+
+    /// A table found inside a section, read like a section named `path`.
+    fn subsection<'r>(&'r mut self, table: Table, path: &'static str) -> Section<'r> {
+        Section {
+            problems: &mut *self.problems,
+            table,
+            path: path.to_string(),
             known: Vec::new(),
         }
     }
@@ -394,6 +492,22 @@ impl Section<'_> {
                     format!("wrong type ({found}): {}", e.message().trim()),
                 );
                 None
+            }
+        }
+    }
+
+    /// The table under `key` (empty if absent; reported if not a table).
+    fn table_key(&mut self, key: &'static str) -> Table {
+        self.known.push(key);
+        match self.table.remove(key) {
+            None => Table::new(),
+            Some(Value::Table(table)) => table,
+            Some(other) => {
+                self.problems.add(
+                    format!("{}.{key}", self.path),
+                    format!("must be a table, found {}", other.type_str()),
+                );
+                Table::new()
             }
         }
     }

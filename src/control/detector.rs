@@ -90,6 +90,20 @@ impl Default for DetectorConfig {
     }
 }
 
+impl DetectorConfig {
+    /// These settings around another neutral: the thresholds keep their
+    /// distances from it (a re-zero at start measures the neutral).
+    pub fn with_neutral(self, neutral_volts: f64) -> DetectorConfig {
+        let shift = neutral_volts - self.neutral_volts;
+        DetectorConfig {
+            neutral_volts,
+            puff_threshold_volts: self.puff_threshold_volts + shift,
+            sip_threshold_volts: self.sip_threshold_volts + shift,
+            ..self
+        }
+    }
+}
+
 /// A finished burst.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Burst {
@@ -152,6 +166,9 @@ pub enum FaultReason {
         /// How long the breath had been held, ms.
         held_ms: u64,
     },
+    /// The sensor's device went away (unplugged, unbound, its driver
+    /// gone): no sample can come until it returns.
+    Disconnected,
     /// The tick jumped by more than `stale_ms`: the process or the machine
     /// stalled (SIGSTOP, a VM pause). Whatever was held across the gap is
     /// dropped, never measured as a breath.
@@ -179,6 +196,7 @@ impl fmt::Display for FaultReason {
                 write!(f, "sensor sample {volts:.3} V is outside the 0–5 V range")
             }
             FaultReason::Stale { ms } => write!(f, "no sensor sample for {ms} ms"),
+            FaultReason::Disconnected => f.write_str("sensor disconnected — arm stopped"),
             FaultReason::Stuck { volts, held_ms } => write!(
                 f,
                 "breath held {held_ms} ms at {volts:.2} V: sensor stuck or offset shifted — arm stopped"
@@ -436,6 +454,17 @@ impl BurstDetector {
             self.fault(FaultReason::Stale { ms: since })
         } else {
             None
+        };
+        self.output(event)
+    }
+
+    /// A tick on which the sensor's device is known to be gone: the sensor
+    /// is in fault at once (a missing sample waits `stale_ms`; a device
+    /// that is gone will not send one). RT-safe.
+    pub fn step_lost(&mut self, now: Tick) -> DetectorOutput {
+        let event = match self.advance_to(now) {
+            Err(reason) => self.fault(reason),
+            Ok(()) => self.fault(FaultReason::Disconnected),
         };
         self.output(event)
     }

@@ -108,6 +108,13 @@ impl<I: SequenceIndex> Pipeline<I> {
         self.process(now, detected)
     }
 
+    /// A tick on which the sensor's device is known to be gone: the
+    /// sensor is in fault at once and the arm brakes. RT-safe.
+    pub fn step_lost(&mut self, now: Tick) -> TickOutput {
+        let detected = self.detector.step_lost(now);
+        self.process(now, detected)
+    }
+
     fn process(&mut self, now: Tick, detected: DetectorOutput) -> TickOutput {
         let gap = self.last_tick.map(|last| now.saturating_sub(last));
         self.last_tick = Some(now);

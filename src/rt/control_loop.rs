@@ -169,15 +169,13 @@ impl<S: Samples> TickWork for ControlTick<S> {
             self.sensor.try_read(skipped)
         };
         self.drops.samples += reading.discarded;
-        let out = match reading.volts {
-            Some(volts) => self.core.step(tick, volts),
-            None => self.core.step_missing(tick),
-        };
-        // What the core was given, for the session recorder: replay must
-        // make exactly these calls.
+        // The sample becomes the core's call in one place, here and in
+        // the replay of a recording; what the core was given is recorded.
+        let sample = CoreSample::of(&reading);
+        let out = sample.step(&mut self.core, tick);
         let mut input = CoreInput {
             tick,
-            sample: reading.volts.map_or(CoreSample::Missing, CoreSample::Volts),
+            sample,
             began_stop: false,
         };
         if let Some(command) = out.motion.arm_command {

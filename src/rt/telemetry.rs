@@ -10,6 +10,9 @@ use hdrhistogram::Histogram;
 use serde::{Serialize, Serializer};
 
 use crate::control::Tick;
+use crate::control::pipeline::{Pipeline, TickOutput};
+use crate::control::selection::index::SequenceIndex;
+use crate::sensor::Reading;
 
 /// Items dropped because a ring was full, cumulative. A full ring never
 /// blocks the control thread: the item is dropped and counted here.
@@ -37,6 +40,34 @@ pub enum CoreSample {
     /// No sample arrived: `Pipeline::step_missing(tick)`.
     #[default]
     Missing,
+    /// The sensor's device is gone (unplugged, unbound):
+    /// `Pipeline::step_lost(tick)`.
+    Disconnected,
+}
+
+impl CoreSample {
+    /// The sample a sensor's reading gives the core: its volts, else a
+    /// device gone, else none. RT-safe.
+    pub fn of(reading: &Reading) -> CoreSample {
+        match reading {
+            Reading {
+                volts: Some(volts), ..
+            } => CoreSample::Volts(*volts),
+            Reading { lost: true, .. } => CoreSample::Disconnected,
+            _ => CoreSample::Missing,
+        }
+    }
+
+    /// Steps `core` at `tick` with this sample: the one place a sample
+    /// becomes a call to the core, on the control thread and in the
+    /// replay of a recording. RT-safe.
+    pub fn step<I: SequenceIndex>(self, core: &mut Pipeline<I>, tick: Tick) -> TickOutput {
+        match self {
+            CoreSample::Volts(volts) => core.step(tick, volts),
+            CoreSample::Missing => core.step_missing(tick),
+            CoreSample::Disconnected => core.step_lost(tick),
+        }
+    }
 }
 
 /// Everything the control tick gave the core on one tick, in the order it

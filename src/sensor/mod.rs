@@ -20,11 +20,25 @@
 //! A tick with no sample is `Pipeline::step_missing`: after `stale_ms` the
 //! core faults and the arm brakes.
 //!
-//! Backends: [`synthetic`] (the built-in scripted user) and [`csv`]
-//! (recordings played in real time).
+//! Backends: [`synthetic`] (the built-in scripted user), [`csv`]
+//! (recordings played in real time), and the devices: [`evdev`] (USB HID
+//! sip-and-puff devices: an analog axis or switches), [`serial`] (a
+//! microcontroller's stream, the FLipMouse and LipSync dialects) and
+//! [`iio`] (an ADC through the kernel's IIO subsystem). A device's reader
+//! thread holds its latest value for the control thread ([`held`]); its
+//! neutral is measured before anything can move ([`rezero`]); [`listing`]
+//! finds what this machine has (`sipnpuff sensors`).
 
 pub mod csv;
+pub mod device;
+pub mod evdev;
+pub mod held;
+pub mod iio;
+pub mod listing;
+pub mod rezero;
 pub mod ring;
+pub mod serial;
+pub mod settings;
 pub mod synthetic;
 
 use std::fmt;
@@ -42,22 +56,100 @@ pub enum SensorSpec {
     Synthetic,
     /// `csv:PATH`: a recording played in real time.
     Csv(PathBuf),
+    /// `evdev:/dev/input/eventN` or `evdev:name=SUBSTRING`: an input
+    /// device (USB HID) by its node or by (part of) its name.
+    Evdev(EvdevTarget),
+    /// `serial:PATH[,baud=N]`: a serial port.
+    Serial {
+        /// The port, e.g. `/dev/ttyACM0`.
+        path: PathBuf,
+        /// The line speed, if given (else `sensor.serial.baud`).
+        baud: Option<u32>,
+    },
+    /// `iio:/sys/bus/iio/devices/iio:deviceN/in_voltageM_raw`: an ADC
+    /// channel.
+    Iio(PathBuf),
 }
 
 impl SensorSpec {
     /// The forms, for messages.
-    pub const FORMS: &str = "`synthetic` or `csv:PATH`";
+    pub const FORMS: &str = "`synthetic`, `csv:PATH`, `evdev:/dev/input/eventN`, `evdev:name=SUBSTRING`, `serial:PATH[,baud=N]` or `iio:/sys/bus/iio/devices/iio:deviceN/in_voltageM_raw`";
 
     /// Parses a `--sensor` value; the error lists the forms.
     pub fn parse(text: &str) -> Result<SensorSpec, String> {
+        let needs = |form: &str, example: &str| format!("`{form}:` needs {example}");
         match text.split_once(':') {
             None if text == "synthetic" => Ok(SensorSpec::Synthetic),
             Some(("csv", path)) if !path.is_empty() => Ok(SensorSpec::Csv(PathBuf::from(path))),
-            Some(("csv", _)) => Err("`csv:` needs a path, e.g. `csv:fixtures/demo.csv`".into()),
+            Some(("csv", _)) => Err(needs("csv", "a path, e.g. `csv:fixtures/demo.csv`")),
+            Some(("evdev", rest)) => match rest.strip_prefix("name=") {
+                Some("") => Err(needs(
+                    "evdev:name=",
+                    "part of the device's name, e.g. `evdev:name=Breeze`",
+                )),
+                Some(name) => Ok(SensorSpec::Evdev(EvdevTarget::Name(name.into()))),
+                None if rest.is_empty() => Err(needs(
+                    "evdev",
+                    "a device, e.g. `evdev:/dev/input/event3` or `evdev:name=Breeze` (`sipnpuff sensors` lists them)",
+                )),
+                None => Ok(SensorSpec::Evdev(EvdevTarget::Path(rest.into()))),
+            },
+            Some(("serial", rest)) => {
+                let (path, options) = rest.split_once(',').unwrap_or((rest, ""));
+                if path.is_empty() {
+                    return Err(needs("serial", "a port, e.g. `serial:/dev/ttyACM0`"));
+                }
+                let baud = match options {
+                    "" => None,
+                    _ => match options.strip_prefix("baud=").map(str::parse::<u32>) {
+                        Some(Ok(baud)) if baud > 0 => Some(baud),
+                        _ => {
+                            return Err(format!(
+                                "`serial:{rest}`: after the port, only `,baud=N` (N a positive number) is understood"
+                            ));
+                        }
+                    },
+                };
+                Ok(SensorSpec::Serial {
+                    path: path.into(),
+                    baud,
+                })
+            }
+            Some(("iio", path)) if !path.is_empty() => Ok(SensorSpec::Iio(path.into())),
+            Some(("iio", _)) => Err(needs(
+                "iio",
+                "a channel's raw file, e.g. `iio:/sys/bus/iio/devices/iio:device0/in_voltage0_raw`",
+            )),
             _ => Err(format!(
                 "unknown sensor {text:?}: choose {}",
                 SensorSpec::FORMS
             )),
+        }
+    }
+
+    /// A device (its neutral is measured at start; it may go away).
+    pub fn is_device(&self) -> bool {
+        matches!(
+            self,
+            SensorSpec::Evdev(_) | SensorSpec::Serial { .. } | SensorSpec::Iio(_)
+        )
+    }
+}
+
+/// Which input device: by node or by name.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum EvdevTarget {
+    /// `/dev/input/eventN`.
+    Path(PathBuf),
+    /// The first device (in event-number order) whose name contains this.
+    Name(String),
+}
+
+impl std::fmt::Display for EvdevTarget {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            EvdevTarget::Path(path) => write!(f, "evdev:{}", path.display()),
+            EvdevTarget::Name(name) => write!(f, "evdev:name={name}"),
         }
     }
 }
@@ -69,6 +161,9 @@ pub struct Reading {
     pub volts: Option<f64>,
     /// Older samples thrown away to catch up (the producer ran ahead).
     pub discarded: u64,
+    /// The device is gone (unplugged, unbound, its reader ended): the
+    /// core faults at once instead of waiting `stale_ms`.
+    pub lost: bool,
 }
 
 /// The control thread's side of a sensor. RT-safe: never blocks, never
@@ -98,6 +193,27 @@ pub trait Sensor {
 
     /// Starts delivering samples: spawns the producer thread, if any.
     fn start(self) -> Result<Started<Self::Samples>, SensorError>;
+}
+
+/// A device already opened, started and measured (its neutral) before the
+/// loop: the run takes it as it is.
+pub struct Prepared<S> {
+    /// What the device is, with what was measured.
+    pub description: String,
+    /// The started device.
+    pub started: Started<S>,
+}
+
+impl<S: Samples + 'static> Sensor for Prepared<S> {
+    type Samples = S;
+
+    fn describe(&self) -> String {
+        self.description.clone()
+    }
+
+    fn start(self) -> Result<Started<S>, SensorError> {
+        Ok(self.started)
+    }
 }
 
 /// A started sensor: the control thread's side and the producer's handle.
@@ -178,6 +294,16 @@ pub enum SensorError {
     Permission {
         /// The device or file.
         path: PathBuf,
+        /// What gives access (a group, a udev rule).
+        fix: String,
+    },
+    /// The device is there but is not a sip-and-puff sensor as configured
+    /// (no such axis or key, a port that sends nothing readable).
+    WrongDevice {
+        /// The device.
+        device: String,
+        /// What is wrong and what to check.
+        message: String,
     },
     /// The sensor went away while running.
     Disconnected {
@@ -206,12 +332,23 @@ impl SensorError {
     /// The error for a failed open of `path`: not found, permission, or
     /// another I/O problem.
     pub fn opening(path: &std::path::Path, error: std::io::Error) -> SensorError {
+        SensorError::opening_device(
+            path,
+            error,
+            "run as a user who may read it (e.g. in the file's group) or add a udev rule",
+        )
+    }
+
+    /// [`SensorError::opening`] for a device, whose permission error says
+    /// what gives access (`fix`).
+    pub fn opening_device(path: &std::path::Path, error: std::io::Error, fix: &str) -> SensorError {
         match error.kind() {
             std::io::ErrorKind::NotFound => SensorError::NotFound {
                 path: path.to_path_buf(),
             },
             std::io::ErrorKind::PermissionDenied => SensorError::Permission {
                 path: path.to_path_buf(),
+                fix: fix.to_string(),
             },
             _ => SensorError::Io {
                 what: format!("cannot open {}", path.display()),
@@ -229,11 +366,10 @@ impl fmt::Display for SensorError {
                 "{}: no such file or device (check the path; for a device, that it is plugged in)",
                 path.display()
             ),
-            SensorError::Permission { path } => write!(
-                f,
-                "{}: permission denied (run as a user who may read it, e.g. in the device's group, or add a udev rule)",
-                path.display()
-            ),
+            SensorError::Permission { path, fix } => {
+                write!(f, "{}: permission denied: {fix}", path.display())
+            }
+            SensorError::WrongDevice { device, message } => write!(f, "{device}: {message}"),
             SensorError::Disconnected { what, detail } => {
                 write!(f, "{what} disconnected: {detail}")
             }

@@ -110,7 +110,7 @@ impl Samples for SyntheticSamples {
         self.ended |= volts.is_none();
         Reading {
             volts: Some(volts.unwrap_or(self.rest_volts)),
-            discarded: 0,
+            ..Reading::default()
         }
     }
 

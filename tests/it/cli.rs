@@ -45,8 +45,11 @@ fn enumerated_options_list_their_choices() {
         e.contains("[possible values: bsp-dwell, asp-timeout, error-rate, library, motion-onset]"),
         "{e}"
     );
-    let e = refused(&["run", "--sensor", "evdev:/dev/input/event3"]);
-    assert!(e.contains("choose `synthetic` or `csv:PATH`"), "{e}");
+    let e = refused(&["run", "--sensor", "hid:/dev/hidraw0"]);
+    assert!(
+        e.contains("choose `synthetic`, `csv:PATH`, `evdev:/dev/input/eventN`, `evdev:name=SUBSTRING`, `serial:PATH[,baud=N]` or `iio:"),
+        "{e}"
+    );
     let e = refused(&["run", "--arm", "jaco"]);
     assert!(e.contains("[possible values: sim]"), "{e}");
 }

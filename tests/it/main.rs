@@ -23,6 +23,7 @@ mod properties;
 mod recording;
 mod ruckig_oracle;
 mod runtime;
+mod sensors;
 mod sessions;
 mod stress;
 mod study;

@@ -212,6 +212,62 @@ fn a_recorded_csv_run_with_a_stall_replays_bit_for_bit() {
     std::fs::remove_dir_all(&scratch).unwrap();
 }
 
+/// A serial device (a real kernel tty) resting at 2.6 V, re-zeroed at
+/// start, then unplugged: the recording holds the configuration the core
+/// ran with (the measured neutral, not the configured 2.5 V) and the
+/// ticks with the device gone (`Pipeline::step_lost`), and replays bit for
+/// bit.
+#[test]
+fn a_recorded_serial_device_that_is_unplugged_replays_bit_for_bit() {
+    use crate::sensors::{Pty, stream};
+    const BREATHS: [(f64, u64); 5] = [(2.6, 3000), (4.0, 800), (2.6, 400), (1.5, 150), (2.6, 1500)];
+    let scratch = scratch("serial");
+    let dir = scratch.join("rec");
+    let pty = Pty::open();
+    let sensor = format!("serial:{}", pty.path);
+    let feeder = stream(pty, &BREATHS, 1, |v| format!("{v:.3}\n"));
+    let run = Running::spawn(&[
+        "run",
+        "--json",
+        "--sensor",
+        &sensor,
+        "--config",
+        &shared_machine(),
+        "--record",
+        dir.to_str().unwrap(),
+    ]);
+    let (status, stdout, stderr) = run.finish();
+    feeder.join().unwrap();
+    // Unplugged: a fault, the run stopped safely, exit 1.
+    assert_eq!(status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("neutral 2.6000 V measured at rest"),
+        "{stderr}"
+    );
+    let meta = assert_replays_bit_for_bit(&dir, &stdout);
+    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+    let neutral = Config::from_toml_str(&config)
+        .unwrap()
+        .core()
+        .detector()
+        .neutral_volts;
+    assert!((neutral - 2.6).abs() < 1e-9, "{neutral}\n{meta}");
+    let file = std::io::BufReader::new(std::fs::File::open(dir.join("samples.bin")).unwrap());
+    let mut samples = SampleDecoder::new(file).unwrap();
+    let mut gone = 0;
+    while let Some(item) = samples.next_item().unwrap() {
+        if let SampleItem::Input {
+            sample: CoreSample::Disconnected,
+            ..
+        } = item
+        {
+            gone += 1;
+        }
+    }
+    assert!(gone > 0, "no tick with the device gone: {meta}");
+    std::fs::remove_dir_all(&scratch).unwrap();
+}
+
 /// Past `--record-max-mb` recording stops, the run goes on to its end,
 /// the report and metadata say what was not written, and replay compares
 /// what there is but does not claim equality.
@@ -628,38 +684,37 @@ fn a_recorded_event_that_differs_is_named_with_its_line() {
 }
 
 /// A core input: a sample (any bits: NaN payloads, -0.0, the rails, a few
-/// levels a sample-and-hold sensor repeats) or none, after a gap of
-/// skipped ticks, perhaps where the stop began.
-fn inputs() -> impl Strategy<Value = Vec<(u64, Option<f64>, bool)>> {
+/// levels a sample-and-hold sensor repeats), none, or the device gone,
+/// after a gap of skipped ticks, perhaps where the stop began.
+fn inputs() -> impl Strategy<Value = Vec<(u64, CoreSample, bool)>> {
     let value = prop_oneof![
         3 => prop::sample::select(vec![2.5, 2.5, 4.0, -0.0, 0.0, 5.0]),
         2 => any::<f64>(),
         1 => any::<u64>().prop_map(f64::from_bits),
     ];
+    let sample = prop_oneof![
+        8 => value.prop_map(CoreSample::Volts),
+        2 => Just(CoreSample::Missing),
+        1 => Just(CoreSample::Disconnected),
+    ];
     let gap = prop_oneof![6 => Just(0u64), 2 => 1u64..100, 1 => 0u64..u64::MAX / 4];
-    prop::collection::vec(
-        (
-            gap,
-            prop::option::weighted(0.8, value),
-            prop::bool::weighted(0.02),
-        ),
-        0..400,
-    )
+    prop::collection::vec((gap, sample, prop::bool::weighted(0.02)), 0..400)
 }
 
 proptest! {
-    /// Any sequence of values, missing samples, gaps, stops and losses
-    /// comes back tick for tick and bit for bit.
+    /// Any sequence of values, missing samples, ticks with the device
+    /// gone, gaps, stops and losses comes back tick for tick and bit for
+    /// bit.
     #[test]
     fn samples_round_trip(first in 0u64..5, items in inputs(), losses in prop::collection::vec((0usize..400, 1u64..1000), 0..3)) {
         let mut tick = first;
         let inputs: Vec<CoreInput> = items
             .iter()
-            .map(|&(gap, volts, began_stop)| {
+            .map(|&(gap, sample, began_stop)| {
                 tick = tick.wrapping_add(gap);
                 let input = CoreInput {
                     tick,
-                    sample: volts.map_or(CoreSample::Missing, CoreSample::Volts),
+                    sample,
                     began_stop,
                 };
                 tick = tick.wrapping_add(1);
@@ -700,6 +755,7 @@ proptest! {
             let bits = |item: &SampleItem| match *item {
                 SampleItem::Input { tick, sample: CoreSample::Volts(v) } => (0, tick, v.to_bits()),
                 SampleItem::Input { tick, sample: CoreSample::Missing } => (1, tick, 0),
+                SampleItem::Input { tick, sample: CoreSample::Disconnected } => (4, tick, 0),
                 SampleItem::BeginStop => (2, 0, 0),
                 SampleItem::Lost(n) => (3, n, 0),
             };

@@ -78,10 +78,7 @@ impl Recorder {
         options: RecordOptions,
     ) -> Result<Recorder, RecordError> {
         let io = |what: String| move |error| RecordError::Io { what, error };
-        std::fs::create_dir_all(dir).map_err(io(format!("cannot create {}", dir.display())))?;
-        if dir.join(META).exists() {
-            return Err(RecordError::Exists(dir.to_path_buf()));
-        }
+        check_dir(dir)?;
         let text = config_text(config)?;
         let path = dir.join(CONFIG);
         std::fs::write(&path, text).map_err(io(format!("cannot write {}", path.display())))?;
@@ -244,6 +241,20 @@ impl SessionRecorder for Recorder {
         self.ring_lost = self.ring_lost.plus(lost);
         self.pending = self.pending.plus(lost);
     }
+}
+
+/// Checks, before a run, that `dir` can hold a new recording: created if
+/// missing, writable, and not holding one already (never overwritten).
+pub fn check_dir(dir: &Path) -> Result<(), RecordError> {
+    let io = |what: String| move |error| RecordError::Io { what, error };
+    std::fs::create_dir_all(dir).map_err(io(format!("cannot create {}", dir.display())))?;
+    if dir.join(META).exists() {
+        return Err(RecordError::Exists(dir.to_path_buf()));
+    }
+    let probe = dir.join(format!(".sipnpuff-write-test-{}", std::process::id()));
+    std::fs::write(&probe, b"").map_err(io(format!("cannot write into {}", dir.display())))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
 }
 
 /// How a writer failed to finish.

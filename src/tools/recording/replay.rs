@@ -14,7 +14,6 @@ use crate::control::Tick;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
 use crate::control::pipeline::Pipeline;
-use crate::rt::telemetry::CoreSample;
 use crate::tools::recording::format::commands::{CommandDecoder, CommandItem};
 use crate::tools::recording::format::samples::SampleItem;
 use crate::tools::recording::read::{EventLines, Recording, RecordingError};
@@ -378,10 +377,7 @@ pub fn replay(
                 continue;
             }
         };
-        let output = match sample {
-            CoreSample::Volts(volts) => core.step(tick, volts),
-            CoreSample::Missing => core.step_missing(tick),
-        };
+        let output = sample.step(&mut core, tick);
         v.ticks += 1;
         v.first_tick.get_or_insert(tick);
         v.last_tick = Some(tick);

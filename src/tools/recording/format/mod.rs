@@ -19,7 +19,7 @@
 //! samples  0x01 bits:u64le    one tick, a new value          0x02 n   n ticks repeating the last value
 //!          0x03 n             n ticks without a sample        0x04 n   n ticks skipped before the next
 //!          0x05 t             the next tick is t (absolute)   0x06     begin_stop after the last tick
-//!          0x07 n             n ticks lost (not recorded)
+//!          0x07 n             n ticks lost (not recorded)      0x08 n   n ticks with the device gone
 //! commands 0x00–0x7f mask Δtick [bits:u64le per set bit]       one command: the mask says which of
 //!                                                              v(3), ω(3), fingers changed
 //!          0x80 seq           the next command's number       0x81 n   n commands lost

@@ -13,16 +13,19 @@ const GAP: u8 = 0x04;
 const AT_TICK: u8 = 0x05;
 const STOP: u8 = 0x06;
 const LOST_TICKS: u8 = 0x07;
+const DISCONNECTED: u8 = 0x08;
 
 /// Encodes the core's inputs into `samples.bin` ops (not the header or
-/// end marker: [`StreamFile`](super::StreamFile) writes those). Runs are held until they
-/// end; [`SampleEncoder::flush`] writes them out.
+/// end marker: [`StreamFile`](super::StreamFile) writes those). A run of
+/// ticks of one kind (repeating the last value, without a sample, with
+/// the device gone) is held until it ends; [`SampleEncoder::flush`]
+/// writes it out.
 #[derive(Debug, Default)]
 pub struct SampleEncoder {
     next_tick: Tick,
     last_bits: Option<u64>,
-    repeat: u64,
-    missing: u64,
+    /// The run held: its op and its ticks.
+    run: Option<(u8, u64)>,
 }
 
 impl SampleEncoder {
@@ -36,24 +39,25 @@ impl SampleEncoder {
                 op(out, AT_TICK, input.tick);
             }
         }
-        match input.sample {
-            CoreSample::Volts(v) if self.last_bits == Some(v.to_bits()) => {
-                if self.missing > 0 {
-                    self.flush(out);
-                }
-                self.repeat += 1;
-            }
+        let kind = match input.sample {
+            CoreSample::Volts(v) if self.last_bits == Some(v.to_bits()) => REPEAT,
             CoreSample::Volts(v) => {
                 self.flush(out);
                 out.push(VALUE);
                 out.extend_from_slice(&v.to_bits().to_le_bytes());
                 self.last_bits = Some(v.to_bits());
+                VALUE
             }
-            CoreSample::Missing => {
-                if self.repeat > 0 {
+            CoreSample::Missing => MISSING,
+            CoreSample::Disconnected => DISCONNECTED,
+        };
+        if kind != VALUE {
+            match &mut self.run {
+                Some((held, n)) if *held == kind => *n += 1,
+                _ => {
                     self.flush(out);
+                    self.run = Some((kind, 1));
                 }
-                self.missing += 1;
             }
         }
         self.next_tick = input.tick.wrapping_add(1);
@@ -72,20 +76,15 @@ impl SampleEncoder {
         }
     }
 
-    /// Ticks in the runs held (not yet in the ops).
+    /// Ticks in the run held (not yet in the ops).
     pub fn held(&self) -> u64 {
-        self.repeat + self.missing
+        self.run.map_or(0, |(_, n)| n)
     }
 
-    /// Writes out the runs held.
+    /// Writes out the run held.
     pub fn flush(&mut self, out: &mut Vec<u8>) {
-        if self.repeat > 0 {
-            op(out, REPEAT, self.repeat);
-            self.repeat = 0;
-        }
-        if self.missing > 0 {
-            op(out, MISSING, self.missing);
-            self.missing = 0;
+        if let Some((kind, n)) = self.run.take() {
+            op(out, kind, n);
         }
     }
 }
@@ -155,16 +154,15 @@ impl<R: Read> SampleDecoder<R> {
                     self.last = Some(v);
                     return Ok(Some(self.tick(CoreSample::Volts(v))));
                 }
-                REPEAT | MISSING => {
+                REPEAT | MISSING | DISCONNECTED => {
                     let n = self.bytes.count("a run")?;
-                    let sample = if tag == MISSING {
-                        CoreSample::Missing
-                    } else {
-                        let v = self.last.ok_or_else(|| {
+                    let sample = match tag {
+                        MISSING => CoreSample::Missing,
+                        DISCONNECTED => CoreSample::Disconnected,
+                        _ => CoreSample::Volts(self.last.ok_or_else(|| {
                             self.bytes
                                 .error("a repeat before any value (the file is corrupted)")
-                        })?;
-                        CoreSample::Volts(v)
+                        })?),
                     };
                     self.run = (n > 1).then_some((n - 1, sample));
                     return Ok(Some(self.tick(sample)));
@@ -247,16 +245,24 @@ mod tests {
     #[test]
     fn gaps_missing_runs_stops_and_bits_survive() {
         let nan = f64::from_bits(0x7ff8_0000_dead_beef);
+        let gone = |tick| CoreInput {
+            tick,
+            sample: CoreSample::Disconnected,
+            began_stop: false,
+        };
         let mut inputs = vec![
             input(5, Some(-0.0)),
             input(6, Some(0.0)),
             input(7, None),
             input(8, None),
+            gone(9),
+            gone(10),
+            input(11, None),
             input(2008, Some(nan)),
             input(2009, Some(nan)),
             input(3, Some(1.0)),
         ];
-        inputs[5].began_stop = true;
+        inputs[8].began_stop = true;
         let bytes = encode_samples(&inputs);
         let items = decode_samples(&bytes).unwrap();
         let mut back = Vec::new();
@@ -275,8 +281,9 @@ mod tests {
         for (a, b) in back.iter().zip(&inputs) {
             assert_eq!((a.tick, a.began_stop), (b.tick, b.began_stop));
             let bits = |s: CoreSample| match s {
-                CoreSample::Volts(v) => Some(v.to_bits()),
-                CoreSample::Missing => None,
+                CoreSample::Volts(v) => (0, v.to_bits()),
+                CoreSample::Missing => (1, 0),
+                CoreSample::Disconnected => (2, 0),
             };
             assert_eq!(bits(a.sample), bits(b.sample));
         }

@@ -1,0 +1,384 @@
+//! What sensors this machine has (`sipnpuff sensors`): input devices with
+//! absolute axes or keys, IIO voltage channels and serial ports, each with
+//! the `--sensor` line that uses it. The clinician's first step.
+
+use std::path::{Path, PathBuf};
+
+use evdev::raw_stream::RawDevice;
+use serde::Serialize;
+
+use crate::sensor::evdev::event_nodes;
+
+/// One absolute axis of an input device.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Axis {
+    /// Its Linux name (`ABS_X`).
+    pub name: String,
+    /// Reported minimum.
+    pub min: i32,
+    /// Reported maximum.
+    pub max: i32,
+    /// Position now.
+    pub value: i32,
+}
+
+/// Something that may be a sip-and-puff sensor.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum Found {
+    /// An input device.
+    Evdev {
+        /// `/dev/input/eventN`.
+        path: PathBuf,
+        /// Its name (empty if it could not be opened).
+        name: String,
+        /// Absolute axes.
+        axes: Vec<Axis>,
+        /// Keys and buttons, by name.
+        keys: Vec<String>,
+        /// Why it could not be opened, if it could not.
+        error: Option<String>,
+        /// How to use it.
+        use_with: Vec<String>,
+    },
+    /// An IIO voltage channel.
+    Iio {
+        /// Its `_raw` file.
+        path: PathBuf,
+        /// The IIO device's name.
+        device: String,
+        /// Its scale, mV per count.
+        scale_mv: Option<f64>,
+        /// Its value now.
+        raw: Option<i64>,
+        /// Why it could not be read, if it could not.
+        error: Option<String>,
+        /// How to use it.
+        use_with: Vec<String>,
+    },
+    /// A serial port with a device behind it.
+    Serial {
+        /// `/dev/ttyACM0`, …
+        path: PathBuf,
+        /// What the system says it is.
+        description: String,
+        /// How to use it.
+        use_with: Vec<String>,
+    },
+}
+
+impl Found {
+    /// The `--sensor` lines that use it.
+    pub fn use_with(&self) -> &[String] {
+        match self {
+            Found::Evdev { use_with, .. }
+            | Found::Iio { use_with, .. }
+            | Found::Serial { use_with, .. } => use_with,
+        }
+    }
+}
+
+/// Everything found, input devices first.
+pub fn list() -> Vec<Found> {
+    let mut found: Vec<Found> = event_nodes()
+        .iter()
+        .filter_map(|p| evdev_device(p))
+        .collect();
+    found.extend(iio_channels(Path::new("/sys/bus/iio/devices")));
+    found.extend(serial_ports());
+    found
+}
+
+/// An input device, if it has absolute axes or keys (or cannot be opened:
+/// then it is listed with the reason).
+fn evdev_device(path: &Path) -> Option<Found> {
+    let device = match RawDevice::open(path) {
+        Ok(device) => device,
+        Err(e) => {
+            let error = match e.kind() {
+                std::io::ErrorKind::PermissionDenied => {
+                    format!(
+                        "permission denied: {}",
+                        crate::sensor::evdev::PERMISSION_FIX
+                    )
+                }
+                _ => e.to_string(),
+            };
+            return Some(Found::Evdev {
+                path: path.to_path_buf(),
+                name: String::new(),
+                axes: Vec::new(),
+                keys: Vec::new(),
+                error: Some(error),
+                use_with: Vec::new(),
+            });
+        }
+    };
+    let name = device.name().unwrap_or("").to_string();
+    let state = device.get_abs_state().ok();
+    let axes: Vec<Axis> = device
+        .supported_absolute_axes()
+        .map(|set| {
+            set.iter()
+                .map(|code| {
+                    let info = state
+                        .as_ref()
+                        .and_then(|s| s.get(usize::from(code.0)).copied());
+                    Axis {
+                        name: format!("{code:?}"),
+                        min: info.map_or(0, |i| i.minimum),
+                        max: info.map_or(0, |i| i.maximum),
+                        value: info.map_or(0, |i| i.value),
+                    }
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let keys: Vec<String> = device
+        .supported_keys()
+        .map(|set| set.iter().map(|k| format!("{k:?}")).collect())
+        .unwrap_or_default();
+    if axes.is_empty() && keys.is_empty() {
+        return None;
+    }
+    let target = if name.is_empty() {
+        format!("evdev:{}", path.display())
+    } else {
+        format!("evdev:name={name}")
+    };
+    let mut use_with = Vec::new();
+    if let Some(axis) = axes.first() {
+        use_with.push(format!(
+            "--sensor '{target}'   (pressure on an axis; [sensor.evdev] axis = \"{}\" if not ABS_X)",
+            axis.name
+        ));
+    }
+    if keys.len() >= 2 {
+        use_with.push(format!(
+            "--sensor '{target}' with [sensor.evdev] input = \"switches\", sip_keys = [\"{}\"], puff_keys = [\"{}\"]   (switch closures; pick the keys the device sends)",
+            keys[0], keys[1]
+        ));
+    }
+    Some(Found::Evdev {
+        path: path.to_path_buf(),
+        name,
+        axes,
+        keys,
+        error: None,
+        use_with,
+    })
+}
+
+/// The voltage channels under an IIO devices directory.
+pub fn iio_channels(root: &Path) -> Vec<Found> {
+    let mut devices: Vec<PathBuf> = std::fs::read_dir(root)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("iio:device"))
+        })
+        .collect();
+    devices.sort();
+    let mut found = Vec::new();
+    for dir in devices {
+        let device = std::fs::read_to_string(dir.join("name"))
+            .map(|s| s.trim().to_string())
+            .unwrap_or_default();
+        let mut channels: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| {
+                p.file_name()
+                    .and_then(|n| n.to_str())
+                    .is_some_and(|n| n.starts_with("in_voltage") && n.ends_with("_raw"))
+            })
+            .collect();
+        channels.sort();
+        for path in channels {
+            let raw = std::fs::read(&path);
+            let (raw, error) = match raw {
+                Ok(bytes) => match crate::sensor::iio::parse_raw(&bytes) {
+                    Ok(v) => (Some(v), None),
+                    Err(e) => (None, Some(e)),
+                },
+                Err(e) => (None, Some(e.to_string())),
+            };
+            let scale_mv = scale_of(&path);
+            found.push(Found::Iio {
+                use_with: vec![format!("--sensor iio:{}", path.display())],
+                path,
+                device: device.clone(),
+                scale_mv,
+                raw,
+                error,
+            });
+        }
+    }
+    found
+}
+
+/// A channel's scale, from its own file or the shared one.
+fn scale_of(raw: &Path) -> Option<f64> {
+    let name = raw.file_name()?.to_str()?.strip_suffix("_raw")?;
+    let shared = name.trim_end_matches(|c: char| c.is_ascii_digit());
+    [format!("{name}_scale"), format!("{shared}_scale")]
+        .iter()
+        .find_map(|f| std::fs::read_to_string(raw.parent()?.join(f)).ok())
+        .and_then(|s| s.trim().parse().ok())
+}
+
+/// Serial ports with a device behind them (USB, or a UART the kernel
+/// bound a driver to).
+fn serial_ports() -> Vec<Found> {
+    let Ok(ports) = serialport::available_ports() else {
+        return Vec::new();
+    };
+    ports
+        .into_iter()
+        .map(|port| {
+            let description = match port.port_type {
+                serialport::SerialPortType::UsbPort(usb) => format!(
+                    "USB {:04x}:{:04x}{}{}",
+                    usb.vid,
+                    usb.pid,
+                    usb.manufacturer
+                        .map(|m| format!(" {m}"))
+                        .unwrap_or_default(),
+                    usb.product.map(|p| format!(" {p}")).unwrap_or_default()
+                ),
+                serialport::SerialPortType::PciPort => "PCI".into(),
+                serialport::SerialPortType::BluetoothPort => "Bluetooth".into(),
+                serialport::SerialPortType::Unknown => "serial port".into(),
+            };
+            let path = PathBuf::from(&port.port_name);
+            Found::Serial {
+                use_with: vec![
+                    format!(
+                        "--sensor serial:{}   (one value per line, volts; [sensor.serial] format = \"counts\", \"flipmouse\" or \"lipsync\" for others)",
+                        path.display()
+                    ),
+                ],
+                path,
+                description,
+            }
+        })
+        .collect()
+}
+
+/// Text for people.
+pub fn to_text(found: &[Found]) -> String {
+    let mut out = String::new();
+    if found.is_empty() {
+        out +=
+            "no input device with axes or keys, no IIO voltage channel and no serial port found\n";
+        out += "(plug the sensor in; if it is plugged in, check `dmesg` for its driver)\n";
+    }
+    for f in found {
+        match f {
+            Found::Evdev {
+                path,
+                name,
+                axes,
+                keys,
+                error,
+                ..
+            } => {
+                out += &format!("evdev   {}  {name:?}\n", path.display());
+                if let Some(e) = error {
+                    out += &format!("        cannot open it: {e}\n");
+                }
+                if !axes.is_empty() {
+                    let list: Vec<String> = axes
+                        .iter()
+                        .map(|a| format!("{} {}..{} (now {})", a.name, a.min, a.max, a.value))
+                        .collect();
+                    out += &format!("        axes: {}\n", list.join(", "));
+                }
+                if !keys.is_empty() {
+                    let shown: Vec<&str> = keys.iter().take(16).map(String::as_str).collect();
+                    let more = keys.len().saturating_sub(shown.len());
+                    out += &format!(
+                        "        keys: {}{}\n",
+                        shown.join(", "),
+                        if more > 0 {
+                            format!(" and {more} more")
+                        } else {
+                            String::new()
+                        }
+                    );
+                }
+            }
+            Found::Iio {
+                path,
+                device,
+                scale_mv,
+                raw,
+                error,
+                ..
+            } => {
+                out += &format!("iio     {}  ({device:?}", path.display());
+                if let Some(scale) = scale_mv {
+                    out += &format!(", {scale} mV per count");
+                    if let Some(raw) = raw {
+                        out += &format!(", now {raw} = {:.4} V", *raw as f64 * scale / 1000.0);
+                    }
+                }
+                out += ")\n";
+                if let Some(e) = error {
+                    out += &format!("        cannot read it: {e}\n");
+                }
+            }
+            Found::Serial {
+                path, description, ..
+            } => {
+                out += &format!("serial  {}  ({description})\n", path.display());
+            }
+        }
+        for u in f.use_with() {
+            out += &format!("        use:  {u}\n");
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn iio_voltage_channels_are_listed_with_scale_value_and_sensor_line() {
+        let root = std::env::temp_dir().join(format!("sipnpuff-iio-list-{}", std::process::id()));
+        let dev = root.join("iio:device0");
+        std::fs::create_dir_all(&dev).unwrap();
+        std::fs::write(dev.join("name"), "ads1015\n").unwrap();
+        std::fs::write(dev.join("in_voltage0_raw"), "40000\n").unwrap();
+        std::fs::write(dev.join("in_voltage1_raw"), "bad\n").unwrap();
+        std::fs::write(dev.join("in_voltage_scale"), "0.0625\n").unwrap();
+        std::fs::write(dev.join("in_temp_raw"), "1\n").unwrap();
+        let found = iio_channels(&root);
+        assert_eq!(found.len(), 2, "{found:?}");
+        let text = to_text(&found);
+        assert!(
+            text.contains("(\"ads1015\", 0.0625 mV per count, now 40000 = 2.5000 V)"),
+            "{text}"
+        );
+        assert!(
+            text.contains(&format!(
+                "use:  --sensor iio:{}",
+                dev.join("in_voltage0_raw").display()
+            )),
+            "{text}"
+        );
+        assert!(
+            text.contains("cannot read it: \"bad\" is not an integer"),
+            "{text}"
+        );
+        std::fs::remove_dir_all(&root).ok();
+    }
+}

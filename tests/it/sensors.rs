@@ -1,0 +1,305 @@
+//! `run --sensor serial:` against a real kernel tty: a pseudo-terminal
+//! whose master end this test writes like a microcontroller (or a
+//! FLipMouse) would. The kernel's tty layer is the same one a CDC-ACM or
+//! USB-serial port goes through; the USB side itself is proven in the VM
+//! harness (`tests/vm/`).
+
+use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use crate::common::{Running, fixture};
+
+/// A pseudo-terminal pair; the slave is in raw mode, as a real serial port
+/// is opened by sipnpuff.
+pub struct Pty {
+    master: OwnedFd,
+    /// Kept open so the line settings stay until the test ends.
+    _slave: OwnedFd,
+    pub path: String,
+}
+
+impl Pty {
+    pub fn open() -> Pty {
+        // Close-on-exec from the start: a sipnpuff started by a test
+        // running beside this one must not inherit the master, whose copy
+        // would keep the port from hanging up when this one closes.
+        // SAFETY: posix_openpt takes flags and returns a new fd or -1.
+        let master = unsafe { libc::posix_openpt(libc::O_RDWR | libc::O_NOCTTY | libc::O_CLOEXEC) };
+        assert!(master >= 0, "posix_openpt");
+        // SAFETY: the fd is new and ours to own.
+        let master = unsafe { OwnedFd::from_raw_fd(master) };
+        let mut name = [0 as libc::c_char; 128];
+        // SAFETY: a valid master fd; ptsname_r writes at most 128 bytes.
+        let rc = unsafe {
+            libc::grantpt(master.as_raw_fd());
+            libc::unlockpt(master.as_raw_fd());
+            libc::ptsname_r(master.as_raw_fd(), name.as_mut_ptr(), name.len())
+        };
+        assert_eq!(rc, 0, "ptsname_r");
+        // SAFETY: ptsname_r wrote a NUL-terminated name.
+        let path = unsafe { std::ffi::CStr::from_ptr(name.as_ptr()) }
+            .to_string_lossy()
+            .into_owned();
+        // SAFETY: opens the slave by its NUL-terminated name.
+        let slave = unsafe {
+            libc::open(
+                name.as_ptr(),
+                libc::O_RDWR | libc::O_NOCTTY | libc::O_CLOEXEC,
+            )
+        };
+        assert!(slave >= 0, "open {path}");
+        // SAFETY: the fd is new and ours to own.
+        let slave = unsafe { OwnedFd::from_raw_fd(slave) };
+        // SAFETY: a zeroed termios is filled by tcgetattr before use.
+        let mut t: libc::termios = unsafe { std::mem::zeroed() };
+        // SAFETY: a valid fd and termios.
+        unsafe {
+            libc::tcgetattr(slave.as_raw_fd(), &mut t);
+            libc::cfmakeraw(&mut t);
+            libc::tcsetattr(slave.as_raw_fd(), libc::TCSANOW, &t);
+        }
+        Pty {
+            master,
+            _slave: slave,
+            path,
+        }
+    }
+}
+
+/// Writes `bytes` to the master end (blocking while the slave's queue is
+/// full, as a real device's USB endpoint would NAK).
+fn write_all(fd: &OwnedFd, mut bytes: &[u8]) -> bool {
+    while !bytes.is_empty() {
+        // SAFETY: writes at most `bytes.len()` bytes from `bytes`.
+        let n = unsafe { libc::write(fd.as_raw_fd(), bytes.as_ptr().cast(), bytes.len()) };
+        if n <= 0 {
+            return false;
+        }
+        bytes = &bytes[n as usize..];
+    }
+    true
+}
+
+/// Reads what sipnpuff wrote to the port, waiting up to `timeout`.
+fn read_some(fd: &OwnedFd, timeout: Duration) -> Vec<u8> {
+    let mut poll = libc::pollfd {
+        fd: fd.as_raw_fd(),
+        events: libc::POLLIN,
+        revents: 0,
+    };
+    // SAFETY: one valid pollfd.
+    let ready = unsafe { libc::poll(&mut poll, 1, timeout.as_millis() as i32) };
+    if ready <= 0 {
+        return Vec::new();
+    }
+    let mut buffer = [0u8; 256];
+    // SAFETY: reads at most 256 bytes into `buffer`.
+    let n = unsafe { libc::read(fd.as_raw_fd(), buffer.as_mut_ptr().cast(), buffer.len()) };
+    buffer[..n.max(0) as usize].to_vec()
+}
+
+/// The scripted breaths: (volts, ms). A long puff then a short sip selects
+/// `rotate_y` in the built-in library.
+const PATTERN: [(f64, u64); 5] = [(2.5, 3000), (4.0, 800), (2.5, 400), (1.5, 150), (2.5, 2500)];
+
+/// Streams `steps` as one line every `period_ms` (on absolute deadlines),
+/// formatted by `line`; then closes the port (the device goes away).
+pub fn stream(
+    pty: Pty,
+    steps: &'static [(f64, u64)],
+    period_ms: u64,
+    line: fn(f64) -> String,
+) -> JoinHandle<()> {
+    std::thread::spawn(move || {
+        let period = Duration::from_millis(period_ms);
+        let mut next = Instant::now();
+        let levels = steps
+            .iter()
+            .flat_map(|&(v, ms)| std::iter::repeat_n(v, (ms / period_ms) as usize));
+        for v in levels {
+            if !write_all(&pty.master, line(v).as_bytes()) {
+                return;
+            }
+            next += period;
+            if let Some(wait) = next.checked_duration_since(Instant::now()) {
+                std::thread::sleep(wait);
+            }
+        }
+        // Dropping the pty closes the master: the port hangs up.
+    })
+}
+
+fn config() -> String {
+    fixture("shared-machine.toml").display().to_string()
+}
+
+/// Bursts (their action codes) and matched modes in the events.
+fn bursts_and_modes(lines: &[String]) -> (Vec<i64>, Vec<String>) {
+    let mut bursts = Vec::new();
+    let mut modes = Vec::new();
+    for line in lines {
+        let Ok(v) = serde_json::from_str::<serde_json::Value>(line) else {
+            continue;
+        };
+        match v["event"].as_str() {
+            Some("burst") => bursts.push(v["action"].as_i64().unwrap_or(0)),
+            Some("match") => modes.push(v["mode"].as_str().unwrap_or("").to_string()),
+            _ => {}
+        }
+    }
+    (bursts, modes)
+}
+
+#[test]
+fn a_1khz_serial_stream_gives_the_scripted_bursts_then_a_disconnect_is_a_fault() {
+    let pty = Pty::open();
+    let path = format!("serial:{}", pty.path);
+    let feeder = stream(pty, &PATTERN, 1, |v| format!("{v:.3}\n"));
+    let run = Running::spawn(&["run", "--sensor", &path, "--config", &config(), "--json"]);
+    let (status, lines, stderr) = run.finish();
+    feeder.join().unwrap();
+    assert_eq!(
+        bursts_and_modes(&lines),
+        (vec![-2, 1], vec!["rotate_y".to_string()]),
+        "{lines:?}\n{stderr}"
+    );
+    // The neutral was measured before anything could move, and said.
+    assert!(
+        stderr.contains("neutral 2.5000 V measured at rest (noise 0.0000 V rms"),
+        "{stderr}"
+    );
+    // The port hung up: a fault at once, the run ended safely, exit 1.
+    assert!(
+        lines
+            .iter()
+            .any(|l| l.contains(r#""event":"fault","reason":"sensor disconnected — arm stopped""#)),
+        "{lines:?}"
+    );
+    assert_eq!(status.code(), Some(1), "{stderr}");
+    let report: serde_json::Value = serde_json::from_str(lines.last().unwrap()).unwrap();
+    assert_eq!(report["stop_reason"], "sensor ended", "{report}");
+    assert_eq!(report["stream_ended_with_zero"], true);
+    assert_eq!(report["control_thread_allocations"], 0);
+    let errors = report["errors"].to_string();
+    assert!(errors.contains("disconnected"), "{errors}");
+    assert!(
+        report["sensor"]
+            .as_str()
+            .unwrap()
+            .contains("neutral 2.5000 V")
+    );
+}
+
+#[test]
+fn the_neutral_waits_while_the_user_breathes_and_says_so() {
+    // A puff during the first measurement, then rest: the neutral is
+    // measured after it, and the puff is never a burst.
+    const BREATHING: [(f64, u64); 4] = [(2.5, 300), (3.6, 700), (2.5, 1800), (2.5, 500)];
+    let pty = Pty::open();
+    let path = format!("serial:{}", pty.path);
+    let feeder = stream(pty, &BREATHING, 1, |v| format!("{v:.3}\r\n"));
+    let run = Running::spawn(&["run", "--sensor", &path, "--config", &config()]);
+    let (_, lines, stderr) = run.finish();
+    feeder.join().unwrap();
+    assert!(stderr.contains("a breath? — please rest"), "{stderr}");
+    assert!(
+        stderr.contains("neutral 2.5000 V measured at rest"),
+        "{stderr}"
+    );
+    assert_eq!(bursts_and_modes(&lines), (vec![], vec![]), "{lines:?}");
+}
+
+#[test]
+fn the_flipmouse_dialect_is_started_and_its_rate_is_said() {
+    // FLipMouse: nothing until `AT SR`, then a VALUES line every 50 ms.
+    // A 50 ms source can still time a long puff and a 300 ms sip.
+    const FLIP: [(f64, u64); 5] = [(2.5, 4000), (4.0, 900), (2.5, 600), (1.5, 300), (2.5, 2000)];
+    let pty = Pty::open();
+    let path = format!("serial:{}", pty.path);
+    let dir = std::env::temp_dir().join(format!("sipnpuff-flip-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("flip.toml");
+    std::fs::write(
+        &cfg,
+        "[detector]\nstale_ms = 1000\n[sensor.serial]\nformat = \"flipmouse\"\n",
+    )
+    .unwrap();
+    let run = Running::spawn(&["run", "--sensor", &path, "--config", cfg.to_str().unwrap()]);
+    let mut asked = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !String::from_utf8_lossy(&asked).contains("AT SR\r") && Instant::now() < deadline {
+        asked.extend(read_some(&pty.master, Duration::from_millis(100)));
+    }
+    assert!(
+        String::from_utf8_lossy(&asked).contains("AT SR\r"),
+        "{asked:?}"
+    );
+    let feeder = stream(pty, &FLIP, 50, |v| {
+        format!("VALUES:{},0,0,0,0,0,0,0,1\r\n", (v / 5.0 * 1023.0).round())
+    });
+    let (_, lines, stderr) = run.finish();
+    feeder.join().unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(stderr.contains("every 50 ms (20 per second)"), "{stderr}");
+    assert!(stderr.contains("a 40 ms burst cannot be timed"), "{stderr}");
+    assert_eq!(
+        bursts_and_modes(&lines),
+        (vec![-2, 1], vec!["rotate_y".to_string()]),
+        "{lines:?}\n{stderr}"
+    );
+}
+
+#[test]
+fn a_port_that_sends_nothing_is_an_error_at_start_saying_what_to_check() {
+    let pty = Pty::open();
+    let path = format!("serial:{},baud=9600", pty.path);
+    let started = Instant::now();
+    let run = Running::spawn(&["run", "--sensor", &path]);
+    let (status, lines, stderr) = run.finish();
+    drop(pty);
+    assert_eq!(status.code(), Some(1), "{stderr}");
+    assert!(lines.is_empty(), "nothing ran: {lines:?}");
+    assert!(
+        stderr.contains("sent nothing readable as `volts` in 2000 ms at 9600 baud"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("check the baud rate"), "{stderr}");
+    assert!(started.elapsed() >= Duration::from_secs(2));
+}
+
+#[test]
+fn missing_devices_and_wrong_forms_are_clear_errors() {
+    for (sensor, says) in [
+        (
+            "serial:/dev/ttyNONE7",
+            "/dev/ttyNONE7: no such file or device",
+        ),
+        (
+            "evdev:/dev/input/event999",
+            "/dev/input/event999: no such file or device",
+        ),
+        (
+            "evdev:name=no such device",
+            "no input device's name contains \"no such device\"",
+        ),
+        (
+            "iio:/sys/bus/iio/devices/iio:device99/in_voltage0_raw",
+            "no such file or device",
+        ),
+    ] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+            .args(["run", "--sensor", sensor])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{sensor}: {stderr}");
+        assert!(stderr.contains(says), "{sensor}: {stderr}");
+    }
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+        .args(["run", "--sensor", "usb:0"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("evdev:name=SUBSTRING"));
+}
