@@ -8,8 +8,16 @@
 //! zero command, so an arm that keeps executing its last command (a Gen3's
 //! twist runs until `Stop()`) is told to stand still.
 //!
+//! Feedback: a backend that measures the tool pose (a driver's
+//! `tool_pose` topic, the SDK's `GetCartesianPosition`) says so with
+//! [`Arm::measures_pose`]; the runtime then hands each measurement to the
+//! core, whose workspace and orientation limits use it instead of dead
+//! reckoning. A backend that can tell its link is gone says so from
+//! [`Arm::check_link`], polled every millisecond by the arm thread.
+//!
 //! Backends: [`sim`] (the simulated JACO).
 
+pub mod settings;
 pub mod sim;
 
 use std::fmt;
@@ -20,22 +28,104 @@ use serde::{Serialize, Serializer};
 use crate::control::motion::stream::ArmCommand;
 
 /// Which arm to drive: the `--arm` values, a contract documented in
-/// `--help` and `docs/commands.md`. A new backend adds its value here and
+/// `--help` and `docs/commands.md`. A new backend adds its form here and
 /// one line where the command line opens it (`cli/run.rs`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum ArmSpec {
-    /// The simulated JACO2.
+    /// `sim`: the simulated JACO2.
     Sim,
+    /// `ros2:TOPIC`: a ROS 2 topic (MoveIt Servo's `/servo_node/delta_twist_cmds`,
+    /// ros2_kortex's `/twist_controller/commands`, a JACO2 port's
+    /// `/j2n6s300_driver/in/cartesian_velocity`); settings in `[arm.ros2]`.
+    Ros2 {
+        /// The command topic, as given (a leading `/` optional).
+        topic: String,
+    },
+    /// `ros1:NAMESPACE`: a kinova-ros driver (e.g. `/j2n6s300_driver`),
+    /// the master from `ROS_MASTER_URI`; settings in `[arm.ros1]`.
+    Ros1 {
+        /// The driver's namespace, as given.
+        namespace: String,
+    },
+    /// `kinova-sdk:usb` or `kinova-sdk:eth`: a JACO2 through Kinova's own
+    /// library, loaded at run time; settings in `[arm.kinova_sdk]`.
+    KinovaSdk {
+        /// Which of Kinova's command layers.
+        link: SdkLink,
+    },
+}
+
+/// How Kinova's SDK reaches the arm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SdkLink {
+    /// `Kinova.API.USBCommandLayerUbuntu.so`.
+    Usb,
+    /// `Kinova.API.EthCommandLayerUbuntu.so`.
+    Eth,
+}
+
+impl ArmSpec {
+    /// Parses an `--arm` value; the error says which forms exist.
+    pub fn parse(text: &str) -> Result<ArmSpec, String> {
+        let forms = "`sim`, `ros2:TOPIC`, `ros1:NAMESPACE` or `kinova-sdk:usb|eth`";
+        match text.split_once(':') {
+            None if text == "sim" => Ok(ArmSpec::Sim),
+            Some(("ros2", topic)) if valid_ros_name(topic) => Ok(ArmSpec::Ros2 {
+                topic: topic.into(),
+            }),
+            Some(("ros2", topic)) => Err(format!(
+                "`ros2:` needs a topic name (letters, digits, `_` and `/`), e.g. `ros2:/servo_node/delta_twist_cmds`; got `{topic}`"
+            )),
+            Some(("ros1", namespace)) if valid_ros_name(namespace) => Ok(ArmSpec::Ros1 {
+                namespace: namespace.into(),
+            }),
+            Some(("ros1", namespace)) => Err(format!(
+                "`ros1:` needs the driver's namespace (letters, digits, `_` and `/`), e.g. `ros1:/j2n6s300_driver`; got `{namespace}`"
+            )),
+            Some(("kinova-sdk", "usb")) => Ok(ArmSpec::KinovaSdk { link: SdkLink::Usb }),
+            Some(("kinova-sdk", "eth")) => Ok(ArmSpec::KinovaSdk { link: SdkLink::Eth }),
+            Some(("kinova-sdk", other)) => Err(format!(
+                "`kinova-sdk:` takes `usb` or `eth` (Kinova's USB or Ethernet command layer); got `{other}`"
+            )),
+            _ => Err(format!("unknown arm `{text}`: use {forms}")),
+        }
+    }
+}
+
+/// A ROS graph name: non-empty; letters, digits, `_` and `/`; no `//`;
+/// not starting with a digit.
+fn valid_ros_name(name: &str) -> bool {
+    let bare = name.trim_start_matches('/');
+    !bare.is_empty()
+        && !bare.starts_with(|c: char| c.is_ascii_digit())
+        && !name.contains("//")
+        && !name.ends_with('/')
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '/')
+}
+
+impl fmt::Display for ArmSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ArmSpec::Sim => f.write_str("sim"),
+            ArmSpec::Ros2 { topic } => write!(f, "ros2:{topic}"),
+            ArmSpec::Ros1 { namespace } => write!(f, "ros1:{namespace}"),
+            ArmSpec::KinovaSdk { link: SdkLink::Usb } => f.write_str("kinova-sdk:usb"),
+            ArmSpec::KinovaSdk { link: SdkLink::Eth } => f.write_str("kinova-sdk:eth"),
+        }
+    }
 }
 
 /// What an arm reports.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ArmState {
-    /// Tool pose in the base frame.
+    /// Tool pose in the base frame (m; the orientation as a rotation from
+    /// the base frame).
     pub pose: Isometry3<f64>,
-    /// Finger position, units (0 open).
-    pub fingers: f64,
-    /// The command being executed (zero when none).
+    /// Finger position, JACO2 units (0 open), when the arm reports it.
+    pub fingers: Option<f64>,
+    /// The command being executed, or the last one sent (zero when none).
     pub executing: ArmCommand,
 }
 
@@ -46,7 +136,7 @@ impl Serialize for ArmState {
         struct Fields {
             position_m: [f64; 3],
             rotation_vector_rad: [f64; 3],
-            fingers: f64,
+            fingers: Option<f64>,
             executing: ArmCommand,
         }
         Fields {
@@ -105,8 +195,26 @@ pub trait Arm: Send {
     /// Sends one command, to be executed over the next 10 ms cycle.
     fn send(&mut self, command: &ArmCommand) -> Result<(), ArmError>;
 
-    /// The latest measured state, if the backend measures one.
+    /// The newest state the arm reported since the previous call, if any
+    /// (`None`: nothing new, or the backend measures nothing). Never
+    /// blocks.
     fn feedback(&mut self) -> Option<ArmState>;
+
+    /// Whether [`Arm::feedback`] carries a *measured* tool pose, which the
+    /// core then uses for its limits instead of dead reckoning (and whose
+    /// silence is a fault). The simulation's pose is the dead reckoning
+    /// itself: it says `false`.
+    fn measures_pose(&self) -> bool {
+        false
+    }
+
+    /// Whether the link still stands: `Err(ArmError::Disconnected)` once
+    /// the backend knows the other side is gone (the receiver, the
+    /// master, the device). Polled every millisecond by the arm thread;
+    /// never blocks.
+    fn check_link(&mut self) -> Result<(), ArmError> {
+        Ok(())
+    }
 
     /// Ends the stream and releases the arm. Call through [`end_stream`],
     /// which sends the zero command first.
@@ -125,4 +233,44 @@ pub fn end_stream(arm: &mut dyn Arm, last: Option<&ArmCommand>) -> Result<(), Ar
     let sent = arm.send(&zero);
     let stopped = arm.stop();
     sent.and(stopped)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_arm_forms_parse_and_print_back() {
+        for text in [
+            "sim",
+            "ros2:/servo_node/delta_twist_cmds",
+            "ros2:twist_controller/commands",
+            "ros1:/j2n6s300_driver",
+            "kinova-sdk:usb",
+            "kinova-sdk:eth",
+        ] {
+            assert_eq!(ArmSpec::parse(text).unwrap().to_string(), text);
+        }
+    }
+
+    #[test]
+    fn a_wrong_arm_says_which_forms_exist() {
+        let error = ArmSpec::parse("jaco").unwrap_err();
+        assert!(
+            error.contains("`ros2:TOPIC`") && error.contains("kinova-sdk"),
+            "{error}"
+        );
+        for bad in [
+            "ros2:",
+            "ros2:/a//b",
+            "ros2:/1x",
+            "ros2:/a b",
+            "ros1:/",
+            "ros1:ns/",
+        ] {
+            assert!(ArmSpec::parse(bad).is_err(), "{bad}");
+        }
+        let error = ArmSpec::parse("kinova-sdk:serial").unwrap_err();
+        assert!(error.contains("`usb` or `eth`"), "{error}");
+    }
 }

@@ -81,9 +81,14 @@ impl SimulatedJaco {
     pub fn state(&self) -> ArmState {
         ArmState {
             pose: self.pose,
-            fingers: self.fingers,
+            fingers: Some(self.fingers),
             executing: self.current,
         }
+    }
+
+    /// The finger position, JACO2 units.
+    pub fn fingers(&self) -> f64 {
+        self.fingers
     }
 
     /// Whether the tool is inside the workspace and the fingers in range.

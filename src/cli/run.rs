@@ -46,7 +46,12 @@ pub struct RunArgs {
     #[arg(long, default_value = "synthetic", value_parser = SensorSpec::parse)]
     sensor: SensorSpec,
     /// The arm.
-    #[arg(long, value_enum, default_value = "sim")]
+    /// The arm: `sim` (the simulated JACO2), `ros2:TOPIC` (MoveIt Servo,
+    /// ros2_kortex's twist controller, a JACO2 ROS 2 port), `ros1:NAMESPACE`
+    /// (kinova-ros's driver, e.g. `ros1:/j2n6s300_driver`; the master from
+    /// `ROS_MASTER_URI`) or `kinova-sdk:usb|eth` (Kinova's own library).
+    /// Settings: `[arm]` in the config (docs/arms.md).
+    #[arg(long, default_value = "sim", value_parser = ArmSpec::parse)]
     arm: ArmSpec,
     /// Selection interface (default: the config's `interface.kind`).
     #[arg(long, value_enum)]
@@ -69,6 +74,17 @@ pub struct RunArgs {
     record_max_mb: u64,
     #[command(flatten)]
     rt: RtArgs,
+}
+
+/// Opens the `--arm` backend (not yet connected: the arm thread connects
+/// it, with `[arm] connect_timeout_ms`).
+fn open_arm(spec: &ArmSpec, config: &Config) -> anyhow::Result<Box<dyn Arm>> {
+    Ok(match spec {
+        ArmSpec::Sim => Box::new(SimArm::new(config.core())),
+        ArmSpec::Ros2 { .. } | ArmSpec::Ros1 { .. } | ArmSpec::KinovaSdk { .. } => {
+            anyhow::bail!("--arm {spec}: this backend is not in this build yet")
+        }
+    })
 }
 
 /// Runs the loop with the chosen sensor and arm; prints events as they
@@ -101,9 +117,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         stop: stop_request()?,
     };
     // The backends, one line each.
-    let arm: Box<dyn Arm> = match args.arm {
-        ArmSpec::Sim => Box::new(SimArm::new(config.core())),
-    };
+    let arm = open_arm(&args.arm, &config)?;
     let mut events = StdoutEvents::default();
     let settings = config.sensor();
     let neutral = config.core().detector().neutral_volts;

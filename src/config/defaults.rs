@@ -32,6 +32,7 @@ impl Default for Config {
                 sequences,
             },
             sensor: Default::default(),
+            arm: Default::default(),
         }
     }
 }

@@ -22,6 +22,7 @@ use std::path::Path;
 
 use toml::Table;
 
+use crate::arm::settings::ArmSettings;
 use crate::control::core_config::{CoreConfig, InterfaceSection};
 use crate::control::selection::scanning::ScanningConfig;
 use crate::control::selection::{Interface, SequenceEntry};
@@ -36,6 +37,7 @@ use validate::Problems;
 pub struct Config {
     core: CoreConfig,
     sensor: SensorSettings,
+    arm: ArmSettings,
 }
 
 impl Config {
@@ -62,9 +64,10 @@ impl Config {
         let defaults = Config::default();
         // Before the core's sections, which report what is left as unknown.
         let sensor = read::sensor(&mut root, &defaults.sensor, &mut problems);
+        let arm = read::arm(&mut root, &defaults.arm, &mut problems);
         let core = read::core(&mut root, defaults.core(), &mut problems);
         if problems.errors.is_empty() {
-            Ok(Config { core, sensor })
+            Ok(Config { core, sensor, arm })
         } else {
             let lines = lines::KeyLines::of(text);
             for error in &mut problems.errors {
@@ -75,12 +78,13 @@ impl Config {
     }
 
     /// Validates settings built in code.
-    fn validated(core: CoreConfig, sensor: SensorSettings) -> Result<Config, ConfigErrors> {
+    fn into_validated(self) -> Result<Config, ConfigErrors> {
         let mut problems = Problems::default();
-        validate::core(&mut problems, &core);
-        validate::sensor(&mut problems, &sensor);
+        validate::core(&mut problems, &self.core);
+        validate::sensor(&mut problems, &self.sensor);
+        validate::arm(&mut problems, &self.arm);
         if problems.errors.is_empty() {
-            Ok(Config { core, sensor })
+            Ok(self)
         } else {
             Err(ConfigErrors(problems.errors))
         }
@@ -97,52 +101,64 @@ impl Config {
         &self.sensor
     }
 
+    /// How arm backends are reached (`[arm]`'s `connect_timeout_ms` and
+    /// its `ros2`, `ros1`, `kinova_sdk` tables).
+    pub fn arm(&self) -> &ArmSettings {
+        &self.arm
+    }
+
+    /// The same configuration with other arm settings, validated.
+    pub fn with_arm(mut self, arm: ArmSettings) -> Result<Config, ConfigErrors> {
+        self.arm = arm;
+        self.into_validated()
+    }
+
     /// The same configuration with the neutral measured at start: the
     /// detector's thresholds keep their distances from it. An error if
     /// that puts a threshold outside 0–5 V (the device's mapping is off).
     pub fn with_neutral_volts(mut self, neutral_volts: f64) -> Result<Config, ConfigErrors> {
         self.core.detector = self.core.detector.with_neutral(neutral_volts);
-        Config::validated(self.core, self.sensor)
+        self.into_validated()
     }
 
     /// The same configuration with other sensor settings, validated.
     pub fn with_sensor(mut self, sensor: SensorSettings) -> Result<Config, ConfigErrors> {
         self.sensor = sensor;
-        Config::validated(self.core, self.sensor)
+        self.into_validated()
     }
 
     /// The same configuration with another selection interface (the
     /// `--interface` option).
     pub fn with_interface(mut self, interface: Interface) -> Result<Config, ConfigErrors> {
         self.core.interface = InterfaceSection { kind: interface };
-        Config::validated(self.core, self.sensor)
+        self.into_validated()
     }
 
     /// The same configuration with other scanning settings (the study's
     /// sweeps), checked as the file's would be.
     pub fn with_scanning(mut self, scanning: ScanningConfig) -> Result<Config, ConfigErrors> {
         self.core.scanning = scanning;
-        Config::validated(self.core, self.sensor)
+        self.into_validated()
     }
 
     /// The same configuration with another library, checked as the file's
     /// would be.
     pub fn with_sequences(mut self, sequences: Vec<SequenceEntry>) -> Result<Config, ConfigErrors> {
         self.core.sequences = sequences;
-        Config::validated(self.core, self.sensor)
+        self.into_validated()
     }
 
     /// The same configuration with another sequence timeout, ms.
     pub fn with_sequence_timeout_ms(mut self, ms: u32) -> Result<Config, ConfigErrors> {
         self.core.matcher.sequence_timeout_ms = ms;
-        Config::validated(self.core, self.sensor)
+        self.into_validated()
     }
 
     /// This config with another `command.motion_onset_ms` (0 = off),
     /// validated.
     pub fn with_motion_onset_ms(mut self, ms: u32) -> Result<Config, ConfigErrors> {
         self.core.command.motion_onset_ms = ms;
-        Config::validated(self.core, self.sensor)
+        self.into_validated()
     }
 }
 

@@ -15,7 +15,13 @@ impl Config {
         struct SensorSection<'a> {
             sensor: &'a crate::sensor::settings::SensorSettings,
         }
-        let mut text = toml::to_string(self.core())?;
+        // The backends' settings go into the core's `[arm]` table.
+        let mut core = toml::Table::try_from(self.core())?;
+        let backends = toml::Table::try_from(self.arm())?;
+        if let Some(toml::Value::Table(arm)) = core.get_mut("arm") {
+            arm.extend(backends);
+        }
+        let mut text = toml::to_string(&core)?;
         text += "\n";
         text += &toml::to_string(&SensorSection {
             sensor: self.sensor(),

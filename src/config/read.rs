@@ -9,6 +9,9 @@ use std::collections::HashSet;
 use serde::de::DeserializeOwned;
 use toml::{Table, Value};
 
+use crate::arm::settings::{
+    ArmSettings, KinovaSdkSettings, Ros1Settings, Ros2Message, Ros2Settings,
+};
 use crate::config::validate::{self, Problems};
 use crate::control::action::{Action, ActionSeq, MAX_SEQUENCE_LEN};
 use crate::control::core_config::{CoreConfig, InterfaceSection};
@@ -154,6 +157,73 @@ pub(super) fn sensor(
     };
     t.finish();
     validate::sensor(reader.problems, &c);
+    c
+}
+
+/// Reads the arm backends' settings out of `[arm]` (`connect_timeout_ms`
+/// and the `ros2`, `ros1`, `kinova_sdk` tables) over `defaults`, leaving
+/// the rest of `[arm]` to the core.
+pub(super) fn arm(
+    root: &mut Table,
+    defaults: &ArmSettings,
+    problems: &mut Problems,
+) -> ArmSettings {
+    let mut reader = Reader { problems };
+    let mut taken = Table::new();
+    if let Some(Value::Table(arm)) = root.get_mut("arm") {
+        for key in ["connect_timeout_ms", "ros2", "ros1", "kinova_sdk"] {
+            if let Some(value) = arm.remove(key) {
+                taken.insert(key.into(), value);
+            }
+        }
+    }
+    let mut t = reader.subsection(taken, "arm");
+    let ros2_table = t.table_key("ros2");
+    let ros1_table = t.table_key("ros1");
+    let sdk_table = t.table_key("kinova_sdk");
+    let mut c = ArmSettings {
+        connect_timeout_ms: t.get("connect_timeout_ms", defaults.connect_timeout_ms),
+        ..defaults.clone()
+    };
+    t.finish();
+
+    let mut t = reader.subsection(ros2_table, "arm.ros2");
+    let d = &defaults.ros2;
+    let message: String = t.get("message", d.message.name().to_string());
+    c.ros2 = Ros2Settings {
+        message: d.message,
+        frame_id: t.get("frame_id", d.frame_id.clone()),
+        pose_topic: t.get("pose_topic", d.pose_topic.clone()),
+        domain_id: t.get("domain_id", d.domain_id),
+    };
+    t.finish();
+    match Ros2Message::from_name(&message) {
+        Some(m) => c.ros2.message = m,
+        None => reader.problems.add(
+            "arm.ros2.message",
+            format!(
+                "{message:?} is not a message (known: {})",
+                Ros2Message::ALL.map(Ros2Message::name).join(", ")
+            ),
+        ),
+    }
+
+    let mut t = reader.subsection(ros1_table, "arm.ros1");
+    let d = &defaults.ros1;
+    c.ros1 = Ros1Settings {
+        fingers: t.get("fingers", d.fingers),
+        tool_pose: t.get("tool_pose", d.tool_pose),
+        master_check_ms: t.get("master_check_ms", d.master_check_ms),
+    };
+    t.finish();
+
+    let mut t = reader.subsection(sdk_table, "arm.kinova_sdk");
+    let d = &defaults.kinova_sdk;
+    c.kinova_sdk = KinovaSdkSettings {
+        library_dir: t.get("library_dir", d.library_dir.clone()),
+    };
+    t.finish();
+    validate::arm(reader.problems, &c);
     c
 }
 

@@ -6,6 +6,7 @@
 
 use std::collections::HashSet;
 
+use crate::arm::settings::ArmSettings;
 use crate::config::error::ConfigError;
 use crate::control::action::ActionSeq;
 use crate::control::core_config::CoreConfig;
@@ -504,6 +505,37 @@ pub(super) fn library(p: &mut Problems, entries: &[SequenceEntry]) {
 
 /// `[sensor]`: timers positive, the re-zero shift inside the band between
 /// the thresholds, mappings finite and not flat, key and axis names real.
+pub(super) fn arm(p: &mut Problems, c: &ArmSettings) {
+    p.positive_ms("arm.connect_timeout_ms", c.connect_timeout_ms);
+    p.positive_ms("arm.ros1.master_check_ms", c.ros1.master_check_ms);
+    // ROS 2 maps a domain to UDP ports: above 232 they overflow.
+    if c.ros2.domain_id > 232 {
+        p.add(
+            "arm.ros2.domain_id",
+            format!("{} is not a ROS 2 domain (0–232)", c.ros2.domain_id),
+        );
+    }
+    if c.ros2.frame_id.is_empty() {
+        p.add(
+            "arm.ros2.frame_id",
+            "must name the frame the twist is in (e.g. \"base_link\")",
+        );
+    }
+    let pose = &c.ros2.pose_topic;
+    if !pose.is_empty() && crate::arm::ArmSpec::parse(&format!("ros2:{pose}")).is_err() {
+        p.add(
+            "arm.ros2.pose_topic",
+            format!("{pose:?} is not a topic name (letters, digits, `_` and `/`; empty for none)"),
+        );
+    }
+    if c.kinova_sdk.library_dir.is_empty() {
+        p.add(
+            "arm.kinova_sdk.library_dir",
+            "must name the folder holding Kinova's command-layer libraries",
+        );
+    }
+}
+
 pub(super) fn sensor(p: &mut Problems, c: &SensorSettings) {
     p.positive_ms("sensor.rezero_ms", c.rezero_ms);
     p.positive_ms("sensor.rezero_timeout_ms", c.rezero_timeout_ms);

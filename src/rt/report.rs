@@ -134,8 +134,16 @@ impl RunReport {
                 let p = arm.pose.translation.vector;
                 let r = arm.pose.rotation.scaled_axis();
                 s += &format!(
-                    "arm: {} commands at 100 Hz; final position ({:.4}, {:.4}, {:.4}) m, rotation vector ({:.4}, {:.4}, {:.4}) rad, fingers {:.0}\n",
-                    self.arm_commands, p.x, p.y, p.z, r.x, r.y, r.z, arm.fingers
+                    "arm: {} commands at 100 Hz; final position ({:.4}, {:.4}, {:.4}) m, rotation vector ({:.4}, {:.4}, {:.4}) rad, fingers {}\n",
+                    self.arm_commands,
+                    p.x,
+                    p.y,
+                    p.z,
+                    r.x,
+                    r.y,
+                    r.z,
+                    arm.fingers
+                        .map_or("not reported".into(), |f| format!("{f:.0}"))
                 );
             }
             None => {

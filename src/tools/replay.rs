@@ -84,7 +84,7 @@ pub fn trace_row(
     {
         write!(out, ",{value}")?;
     }
-    writeln!(out, ",{}", state.fingers)
+    writeln!(out, ",{}", arm.fingers())
 }
 
 /// Replays every sample of `signal` through a fresh core and the simulated
@@ -130,6 +130,6 @@ pub fn replay<R: Read>(
     let state = arm.state();
     summary.final_position = state.pose.translation.vector.into();
     summary.final_rotation_vector = state.pose.rotation.scaled_axis().into();
-    summary.final_fingers = state.fingers;
+    summary.final_fingers = arm.fingers();
     Ok(summary)
 }

@@ -415,6 +415,6 @@ pub fn replay(
     v.summary.samples = v.ticks;
     v.summary.final_position = state.pose.translation.vector.into();
     v.summary.final_rotation_vector = state.pose.rotation.scaled_axis().into();
-    v.summary.final_fingers = state.fingers;
+    v.summary.final_fingers = arm.fingers();
     Ok(v)
 }

@@ -1,0 +1,135 @@
+//! The arm backends' settings: `connect_timeout_ms` in `[arm]`, and the
+//! `[arm.ros2]`, `[arm.ros1]` and `[arm.kinova_sdk]` tables. Read and
+//! validated by `config/` like every other section; used only when a
+//! backend is opened (never on the control thread). The measured-pose
+//! checks the core makes live with the core (`[arm.feedback]`).
+
+use serde::Serialize;
+
+/// The backends' settings.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ArmSettings {
+    /// Give up connecting (no receiver matched, no master, no arm) after
+    /// this long, ms: an error at start, before anything moves.
+    pub connect_timeout_ms: u32,
+    /// `--arm ros2:TOPIC`.
+    pub ros2: Ros2Settings,
+    /// `--arm ros1:NAMESPACE`.
+    pub ros1: Ros1Settings,
+    /// `--arm kinova-sdk:usb|eth`.
+    pub kinova_sdk: KinovaSdkSettings,
+}
+
+impl Default for ArmSettings {
+    fn default() -> Self {
+        ArmSettings {
+            connect_timeout_ms: 10_000,
+            ros2: Ros2Settings::default(),
+            ros1: Ros1Settings::default(),
+            kinova_sdk: KinovaSdkSettings::default(),
+        }
+    }
+}
+
+/// The message a ROS 2 command topic carries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Ros2Message {
+    /// `geometry_msgs/msg/TwistStamped` (MoveIt Servo, ros2_kortex's
+    /// twist controller): float64, m/s and rad/s.
+    TwistStamped,
+    /// `kinova_msgs/msg/PoseVelocity` (the JACO2 ROS 2 ports): float32.
+    PoseVelocity,
+    /// `kinova_msgs/msg/PoseVelocityWithFingerVelocity`: float32, the
+    /// three fingers' velocities in JACO2 units per second.
+    PoseVelocityWithFingerVelocity,
+}
+
+impl Ros2Message {
+    /// Every message, in the order the docs list them.
+    pub const ALL: [Ros2Message; 3] = [
+        Ros2Message::TwistStamped,
+        Ros2Message::PoseVelocity,
+        Ros2Message::PoseVelocityWithFingerVelocity,
+    ];
+
+    /// The config name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Ros2Message::TwistStamped => "twist_stamped",
+            Ros2Message::PoseVelocity => "pose_velocity",
+            Ros2Message::PoseVelocityWithFingerVelocity => "pose_velocity_with_finger_velocity",
+        }
+    }
+
+    /// The message for a config name.
+    pub fn from_name(name: &str) -> Option<Ros2Message> {
+        Ros2Message::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
+/// `[arm.ros2]`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Ros2Settings {
+    /// What the command topic carries.
+    pub message: Ros2Message,
+    /// `header.frame_id` of a `TwistStamped` (MoveIt Servo transforms the
+    /// twist from this frame; the commands are in the arm's base frame).
+    pub frame_id: String,
+    /// The measured tool pose (`geometry_msgs/msg/PoseStamped`, in the
+    /// base frame): empty for none (the limits then trust dead reckoning).
+    pub pose_topic: String,
+    /// The ROS 2 domain (`ROS_DOMAIN_ID`), 0–232.
+    pub domain_id: u16,
+}
+
+impl Default for Ros2Settings {
+    fn default() -> Self {
+        Ros2Settings {
+            message: Ros2Message::TwistStamped,
+            frame_id: "base_link".into(),
+            pose_topic: String::new(),
+            domain_id: 0,
+        }
+    }
+}
+
+/// `[arm.ros1]`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Ros1Settings {
+    /// Publish `PoseVelocityWithFingerVelocity` on
+    /// `<ns>/in/cartesian_velocity_with_finger_velocity` (the fingers move
+    /// too) rather than `PoseVelocity` on `<ns>/in/cartesian_velocity`.
+    pub fingers: bool,
+    /// Subscribe to `<ns>/out/tool_pose` and close the loop on it.
+    pub tool_pose: bool,
+    /// How often the master is asked whether it is still there, ms (it
+    /// going away is a fault).
+    pub master_check_ms: u32,
+}
+
+impl Default for Ros1Settings {
+    fn default() -> Self {
+        Ros1Settings {
+            fingers: true,
+            tool_pose: true,
+            master_check_ms: 100,
+        }
+    }
+}
+
+/// `[arm.kinova_sdk]`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct KinovaSdkSettings {
+    /// The folder holding Kinova's `Kinova.API.USBCommandLayerUbuntu.so`
+    /// and `Kinova.API.EthCommandLayerUbuntu.so`.
+    pub library_dir: String,
+}
+
+impl Default for KinovaSdkSettings {
+    fn default() -> Self {
+        KinovaSdkSettings {
+            library_dir: "/opt/kinova/API".into(),
+        }
+    }
+}
