@@ -27,6 +27,7 @@ impl Default for Config {
                 motion: Default::default(),
                 workspace: Default::default(),
                 home: Default::default(),
+                feedback: Default::default(),
                 interface: Default::default(),
                 scanning: Default::default(),
                 sequences,

@@ -18,7 +18,9 @@ impl Config {
         // The backends' settings go into the core's `[arm]` table.
         let mut core = toml::Table::try_from(self.core())?;
         let backends = toml::Table::try_from(self.arm())?;
+        let feedback = toml::Value::try_from(self.core().feedback())?;
         if let Some(toml::Value::Table(arm)) = core.get_mut("arm") {
+            arm.insert("feedback".into(), feedback);
             arm.extend(backends);
         }
         let mut text = toml::to_string(&core)?;

@@ -18,6 +18,7 @@ use crate::control::core_config::{CoreConfig, InterfaceSection};
 use crate::control::detector::DetectorConfig;
 use crate::control::mode::Mode;
 use crate::control::modes::CommandConfig;
+use crate::control::motion::feedback::FeedbackConfig;
 use crate::control::motion::home::HomeConfig;
 use crate::control::motion::limits::MotionConfig;
 use crate::control::motion::workspace::WorkspaceConfig;
@@ -51,7 +52,7 @@ pub(super) fn core(root: &mut Table, defaults: &CoreConfig, problems: &mut Probl
     let command = reader.command(root, defaults.command);
     let motion = reader.motion(root, defaults.motion);
     let workspace = reader.workspace(root, defaults.workspace);
-    let home = reader.home(root, defaults.home, &workspace);
+    let (home, feedback) = reader.home(root, defaults.home, defaults.feedback, &workspace);
     let sequences = reader
         .sequences(root)
         .unwrap_or_else(|| defaults.sequences.clone());
@@ -70,6 +71,7 @@ pub(super) fn core(root: &mut Table, defaults: &CoreConfig, problems: &mut Probl
         motion,
         workspace,
         home,
+        feedback,
         interface: InterfaceSection { kind: interface },
         scanning,
         sequences,
@@ -400,8 +402,20 @@ impl Reader<'_> {
         c
     }
 
-    fn home(&mut self, root: &mut Table, d: HomeConfig, workspace: &WorkspaceConfig) -> HomeConfig {
+    /// `[arm]`'s home pose and its `feedback` table (the backends' keys
+    /// were taken out by [`arm`]).
+    fn home(
+        &mut self,
+        root: &mut Table,
+        d: HomeConfig,
+        fd: FeedbackConfig,
+        workspace: &WorkspaceConfig,
+    ) -> (HomeConfig, FeedbackConfig) {
         let mut t = self.section(root, "arm");
+        // Known here, read by `arm`: for the unknown-key message.
+        t.known
+            .extend(["connect_timeout_ms", "ros2", "ros1", "kinova_sdk"]);
+        let feedback_table = t.table_key("feedback");
         let c = HomeConfig {
             home_position_m: t.get("home_position_m", d.home_position_m),
             home_rotation_vector_rad: t.get("home_rotation_vector_rad", d.home_rotation_vector_rad),
@@ -409,7 +423,16 @@ impl Reader<'_> {
         };
         t.finish();
         validate::home(self.problems, &c, workspace);
-        c
+        let mut t = self.subsection(feedback_table, "arm.feedback");
+        let f = FeedbackConfig {
+            timeout_ms: t.get("timeout_ms", fd.timeout_ms),
+            tolerance_m: t.get("tolerance_m", fd.tolerance_m),
+            tolerance_rad: t.get("tolerance_rad", fd.tolerance_rad),
+            window_ms: t.get("window_ms", fd.window_ms),
+        };
+        t.finish();
+        validate::feedback(self.problems, &f);
+        (c, f)
     }
 
     /// `[[sequence]]` entries; `None` when the file has none (use defaults).

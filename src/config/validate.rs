@@ -13,6 +13,7 @@ use crate::control::core_config::CoreConfig;
 use crate::control::detector::{DetectorConfig, REZERO_WINDOW_MS};
 use crate::control::mode::Mode;
 use crate::control::modes::CommandConfig;
+use crate::control::motion::feedback::{FeedbackConfig, MAX_WINDOW_MS};
 use crate::control::motion::home::HomeConfig;
 use crate::control::motion::limits::{self, MotionConfig, caps};
 use crate::control::motion::workspace::WorkspaceConfig;
@@ -89,6 +90,7 @@ pub(super) fn core(p: &mut Problems, c: &CoreConfig) {
     motion(p, &c.motion);
     workspace(p, &c.workspace);
     home(p, &c.home, &c.workspace);
+    feedback(p, &c.feedback);
     library(p, &c.sequences);
     scanning(p, &c.scanning);
 }
@@ -505,6 +507,30 @@ pub(super) fn library(p: &mut Problems, entries: &[SequenceEntry]) {
 
 /// `[sensor]`: timers positive, the re-zero shift inside the band between
 /// the thresholds, mappings finite and not flat, key and axis names real.
+pub(super) fn feedback(p: &mut Problems, c: &FeedbackConfig) {
+    p.positive_ms("arm.feedback.timeout_ms", c.timeout_ms);
+    if c.window_ms == 0 || c.window_ms > MAX_WINDOW_MS {
+        p.add(
+            "arm.feedback.window_ms",
+            format!(
+                "{} ms must be from 1 to {MAX_WINDOW_MS} ms (how far back the commanded path is kept)",
+                c.window_ms
+            ),
+        );
+    }
+    for (key, value, unit, most) in [
+        ("arm.feedback.tolerance_m", c.tolerance_m, "m", 0.5),
+        ("arm.feedback.tolerance_rad", c.tolerance_rad, "rad", 1.0),
+    ] {
+        if !(value > 0.0 && value <= most) {
+            p.add(
+                key,
+                format!("{value} {unit} must be above 0 and at most {most} {unit}"),
+            );
+        }
+    }
+}
+
 pub(super) fn arm(p: &mut Problems, c: &ArmSettings) {
     p.positive_ms("arm.connect_timeout_ms", c.connect_timeout_ms);
     p.positive_ms("arm.ros1.master_check_ms", c.ros1.master_check_ms);

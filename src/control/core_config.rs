@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use crate::control::detector::DetectorConfig;
 use crate::control::modes::CommandConfig;
+use crate::control::motion::feedback::FeedbackConfig;
 use crate::control::motion::home::HomeConfig;
 use crate::control::motion::limits::MotionConfig;
 use crate::control::motion::workspace::WorkspaceConfig;
@@ -28,6 +29,9 @@ pub struct CoreConfig {
     pub(crate) workspace: WorkspaceConfig,
     #[serde(rename = "arm")]
     pub(crate) home: HomeConfig,
+    /// `[arm.feedback]` (printed into `[arm]` by `config::print`).
+    #[serde(skip)]
+    pub(crate) feedback: FeedbackConfig,
     pub(crate) interface: InterfaceSection,
     pub(crate) scanning: ScanningConfig,
     #[serde(rename = "sequence")]
@@ -69,6 +73,11 @@ impl CoreConfig {
     /// The arm at power-up (the `[arm]` section).
     pub fn home(&self) -> &HomeConfig {
         &self.home
+    }
+
+    /// How a measured arm pose is checked (`[arm.feedback]`).
+    pub fn feedback(&self) -> &FeedbackConfig {
+        &self.feedback
     }
 
     /// The user-defined sequences, in file order.

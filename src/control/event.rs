@@ -12,6 +12,7 @@ use crate::control::detector::{Burst, FaultReason};
 use crate::control::mode::Mode;
 use crate::control::modes::DetectionReason;
 use crate::control::motion::MotionEvent;
+use crate::control::motion::feedback::ArmFault;
 use crate::control::selection::matcher::ResetReason;
 
 /// Something worth telling the user, the clinician or the log. `Copy`.
@@ -60,10 +61,23 @@ pub enum Event {
         /// The neutral before, volts.
         previous_volts: f64,
     },
+    /// The arm cannot be trusted or reached (its link lost, its measured
+    /// pose silent or off the commanded path): the arm brakes to rest and
+    /// the interface stays in detection mode for good.
+    ArmFault {
+        /// Why, in plain words in the log.
+        #[serde(serialize_with = "plain_words")]
+        reason: ArmFault,
+    },
     /// From the motion layer (save, go to, workspace limits), logged under
     /// its own event name.
     #[serde(untagged)]
     Motion(MotionEvent),
+}
+
+/// A reason written as the sentence a person reads.
+fn plain_words<S: serde::Serializer>(reason: &ArmFault, serializer: S) -> Result<S::Ok, S::Error> {
+    serializer.collect_str(reason)
 }
 
 /// An event and the tick it happened on: one line of the event log.
@@ -79,8 +93,8 @@ pub struct TimedEvent {
 /// Most events one tick can produce: a fault also resets the sequence and
 /// leaves command mode (3); a burst, a match and two motion events (4);
 /// with scanning, a burst, a selection, a highlight and two motion events
-/// (5).
-pub const MAX_EVENTS_PER_TICK: usize = 6;
+/// (5); an arm fault or a pose correction adds one.
+pub const MAX_EVENTS_PER_TICK: usize = 8;
 
 /// The events of one tick, inline. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq)]

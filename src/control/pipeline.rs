@@ -3,6 +3,8 @@
 //! deterministic: the same samples give the same outputs in replay, in
 //! tests and on the real-time thread.
 
+use nalgebra::Isometry3;
+
 use crate::control::Tick;
 use crate::control::action::ActionSeq;
 use crate::control::core_config::CoreConfig;
@@ -10,6 +12,7 @@ use crate::control::detector::{BurstDetector, DetectorEvent, DetectorOutput};
 use crate::control::event::{Event, Events};
 use crate::control::mode::{Held, ModeState};
 use crate::control::modes::{ModeMachine, ModeOutput};
+use crate::control::motion::feedback::ArmFault;
 use crate::control::motion::stream::ARM_STOPS_AFTER_TICKS;
 use crate::control::motion::{Motion, MotionOutput};
 use crate::control::selection::Interface;
@@ -48,6 +51,12 @@ pub struct Pipeline<I: SequenceIndex = TrieIndex> {
     motion: Motion,
     /// The previous tick, to see gaps.
     last_tick: Option<Tick>,
+    /// The newest measured arm pose not yet taken in.
+    measured: Option<Isometry3<f64>>,
+    /// The arm's backend lost its link; taken in on the next step.
+    link_lost: bool,
+    /// The arm fault, once there is one (it never clears).
+    arm_fault: Option<ArmFault>,
 }
 
 /// How a mode is selected in detection mode.
@@ -60,6 +69,30 @@ enum Selector<I: SequenceIndex> {
 }
 
 impl<I: SequenceIndex> Pipeline<I> {
+    /// Takes in what the arm said since the last step: its link lost, a
+    /// measured pose (logged if it moved the estimate), or silence.
+    /// Returns a new arm fault.
+    fn take_arm_news(&mut self, now: Tick, out: &mut TickOutput) -> Option<ArmFault> {
+        if std::mem::take(&mut self.link_lost) {
+            return Some(ArmFault::LinkLost);
+        }
+        if self.arm_fault.is_some() {
+            return None;
+        }
+        if let Some(pose) = self.measured.take() {
+            match self.motion.measure(now, &pose) {
+                Err(fault) => return Some(fault),
+                Ok(Some(event)) => {
+                    if out.events.push(Event::Motion(event)).is_err() {
+                        out.dropped_events = out.dropped_events.saturating_add(1);
+                    }
+                }
+                Ok(None) => {}
+            }
+        }
+        self.motion.check_feedback(now)
+    }
+
     /// Builds the pipeline from a validated config.
     pub fn new(config: &CoreConfig) -> Self {
         Pipeline {
@@ -72,9 +105,41 @@ impl<I: SequenceIndex> Pipeline<I> {
                 Interface::Bsp => Selector::Scanning(Scanner::new(config.scanning())),
             },
             modes: ModeMachine::new(config.command()),
-            motion: Motion::new(config.motion(), config.workspace(), config.home()),
+            motion: Motion::new(config.motion(), config.workspace(), config.home())
+                .with_feedback(config.feedback()),
             last_tick: None,
+            measured: None,
+            link_lost: false,
+            arm_fault: None,
         }
+    }
+
+    /// The arm measures its pose: motion starts from `pose` (measured
+    /// before the first tick) instead of the configured home, and from
+    /// now on measurements are expected ([`Pipeline::observe_arm`]): the
+    /// limits use them, and their silence or disagreement with the
+    /// commanded motion is an [`ArmFault`]. Not RT-safe (start-up).
+    pub fn start_measured(&mut self, pose: Isometry3<f64>) {
+        self.motion.start_measured(pose);
+    }
+
+    /// A pose the arm measured: taken in at the next step (the newest
+    /// wins). RT-safe.
+    pub fn observe_arm(&mut self, pose: &Isometry3<f64>) {
+        self.measured = Some(*pose);
+    }
+
+    /// The arm's backend lost its link (the receiver, the master or the
+    /// device went away): at the next step, an arm fault; the arm brakes
+    /// and the interface stays in detection mode. RT-safe.
+    pub fn arm_link_lost(&mut self) {
+        self.link_lost = true;
+    }
+
+    /// The arm fault, if there was one (the run should end once the arm
+    /// is still).
+    pub fn arm_fault(&self) -> Option<ArmFault> {
+        self.arm_fault
     }
 
     /// Safe stop: from the next tick the interface is in detection mode for
@@ -143,6 +208,18 @@ impl<I: SequenceIndex> Pipeline<I> {
 
         out.held = detected.held;
         out.faulted = detected.faulted;
+        if let Some(fault) = self.take_arm_news(now, &mut out) {
+            if self.arm_fault.is_none() {
+                self.arm_fault = Some(fault);
+                emit(&mut out, Event::ArmFault { reason: fault });
+            }
+            // From this tick the interface is in detection mode for good:
+            // every target is zero and the arm brakes.
+            self.modes.stop();
+            if let Selector::Sequences(matcher) = &mut self.selector {
+                matcher.interrupt();
+            }
+        }
         let in_detection = self.modes.state() == ModeState::Detection;
 
         let mut decision = None;
@@ -226,6 +303,7 @@ impl<I: SequenceIndex> Pipeline<I> {
             emit(&mut out, Event::Detection { reason });
         }
         out.motion = self.motion.step(now, &command);
+        // (An arm fault's stop takes effect through the mode machine.)
         for event in out.motion.events.into_iter().flatten() {
             emit(&mut out, Event::Motion(event));
         }

@@ -154,7 +154,10 @@ pub fn observe(config: &Config, params: SignalParams, script: &[Step]) -> Observ
                 }
                 Event::Recovered => seen.recoveries += 1,
                 Event::Rezeroed { .. } => seen.rezeroes += 1,
-                Event::Detection { .. } | Event::Highlight { .. } | Event::Motion(_) => {}
+                Event::Detection { .. }
+                | Event::Highlight { .. }
+                | Event::Motion(_)
+                | Event::ArmFault { .. } => {}
             }
         }
         tick += 1;

@@ -56,7 +56,7 @@ fn core_step_never_allocates() {
                 Event::Motion(MotionEvent::GotoReached) => 8,
                 Event::Motion(MotionEvent::WorkspaceLimit { boundary: _ }) => 9,
                 Event::Rezeroed { .. } => 10,
-                Event::Highlight { .. } | Event::Motion(_) => 11,
+                Event::Highlight { .. } | Event::Motion(_) | Event::ArmFault { .. } => 11,
             };
             counts[kind] += 1;
         }

@@ -34,6 +34,7 @@ pub fn assert_session(
                 | Event::Fault { .. }
                 | Event::Recovered
                 | Event::Rezeroed { .. }
+                | Event::ArmFault { .. }
                 | Event::Motion(MotionEvent::TrajectoryError) => {
                     panic!("unexpected {event:?} at tick {t}")
                 }

@@ -35,6 +35,7 @@
 
 mod boundaries;
 pub mod braking;
+pub mod feedback;
 mod goto;
 pub mod home;
 pub mod limits;
@@ -50,6 +51,7 @@ use serde::{Serialize, Serializer};
 use crate::control::Tick;
 use crate::control::mode::{Direction, Mode, ModeState};
 use crate::control::modes::ModeOutput;
+use feedback::{ArmFault, FeedbackConfig, Measurement, PoseTracker};
 use home::HomeConfig;
 use limits::MotionConfig;
 use orientation::OrientationLimits;
@@ -111,7 +113,19 @@ pub enum MotionEvent {
     /// config): the arm brakes on the fallback profile until still.
     #[serde(serialize_with = "trajectory_error")]
     TrajectoryError,
+    /// The measured pose moved the estimate by at least
+    /// [`LOGGED_CORRECTION_M`]: the limits now see where the arm really is.
+    PoseCorrected {
+        /// The translation added to the estimate, m.
+        by_m: [f64; 3],
+        /// The corrected position, m, base frame.
+        position_m: [f64; 3],
+    },
 }
+
+/// Corrections from the measured pose this large are logged, m (smaller
+/// ones are the arm's noise and lag).
+pub const LOGGED_CORRECTION_M: f64 = 0.002;
 
 /// The event log says why nothing moves.
 fn no_saved_point<S: Serializer>(serializer: S) -> Result<S::Ok, S::Error> {
@@ -218,6 +232,8 @@ pub struct Motion {
     goto_done: bool,
     previous_direction: Direction,
     decimator: Decimator,
+    /// The measured pose, when the arm reports one.
+    tracker: PoseTracker,
 }
 
 impl std::fmt::Debug for Motion {
@@ -290,7 +306,58 @@ impl Motion {
             goto_done: false,
             previous_direction: Direction::Still,
             decimator: Decimator::default(),
+            tracker: PoseTracker::new(FeedbackConfig::default()),
         }
+    }
+
+    /// The same motion layer checking measured poses with `config`. Not
+    /// RT-safe.
+    pub fn with_feedback(mut self, config: &FeedbackConfig) -> Self {
+        self.tracker = PoseTracker::new(*config);
+        self
+    }
+
+    /// The arm reports its pose, measured: the first measurement, `pose`,
+    /// is where the motion starts (instead of the configured home), and
+    /// from now on measurements are expected ([`Motion::measure`]); their
+    /// silence is a fault. Call before the first tick. Not RT-safe.
+    pub fn start_measured(&mut self, pose: Isometry3<f64>) {
+        self.pose = pose;
+        self.tracker.start();
+    }
+
+    /// The measured-pose tracker (its figures for the report).
+    pub fn feedback(&self) -> &PoseTracker {
+        &self.tracker
+    }
+
+    /// A pose measured by the arm, taken at tick `now` (before the tick's
+    /// step): checked against the commanded path and, if it fits, the
+    /// estimate the limits use moves to agree with it. Returns the
+    /// correction event to log, or the fault. RT-safe.
+    pub fn measure(
+        &mut self,
+        now: Tick,
+        measured: &Isometry3<f64>,
+    ) -> Result<Option<MotionEvent>, ArmFault> {
+        match self.tracker.measure(now, measured, &mut self.pose) {
+            Some(Measurement::Fault(fault)) => Err(fault),
+            Some(Measurement::Corrected { by, .. })
+                if Vector3::from(by).norm() >= LOGGED_CORRECTION_M =>
+            {
+                Ok(Some(MotionEvent::PoseCorrected {
+                    by_m: by,
+                    position_m: self.pose.translation.vector.into(),
+                }))
+            }
+            _ => Ok(None),
+        }
+    }
+
+    /// Whether measurements have been silent too long at tick `now`.
+    /// RT-safe.
+    pub fn check_feedback(&mut self, now: Tick) -> Option<ArmFault> {
+        self.tracker.check_silence(now)
     }
 
     /// An output with no motion at the current pose (a placeholder before
@@ -464,6 +531,8 @@ impl Motion {
         }
         self.last = twist;
         self.integrate(&mean);
+        let still = twist == [0.0; 7] && mean == [0.0; 7];
+        self.tracker.record(now, &self.pose, still);
         if reached {
             self.switch_to_velocity_plan();
         }
