@@ -8,9 +8,17 @@
 //! Commands are sent in order, all of them: each is 10 ms of the path the
 //! core's pose estimate (and its workspace checks) assumed, so the arm
 //! retraces that path even after a stall of this thread.
+//!
+//! Every millisecond it also asks the backend whether its link stands
+//! ([`Arm::check_link`]) and for news of the measured pose
+//! ([`Arm::feedback`]), which goes to the control thread through its own
+//! ring when the backend measures the pose: a lost link reaches the core
+//! within a millisecond of the backend knowing it.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+
+use nalgebra::Isometry3;
 
 use crate::arm::{Arm, ArmError, ArmState, end_stream};
 use crate::control::motion::stream::ArmCommand;
@@ -38,6 +46,16 @@ impl ArmStream {
             last: None,
             ended: false,
         })
+    }
+
+    /// Whether the arm reports a measured pose.
+    pub fn measures_pose(&self) -> bool {
+        self.arm.measures_pose()
+    }
+
+    /// The arm's newest state, if it has one (at start: where it is).
+    pub fn feedback(&mut self) -> Option<ArmState> {
+        self.arm.feedback()
     }
 
     /// Sends one command.
@@ -75,24 +93,43 @@ pub struct ArmReport {
     pub ended_with_zero: bool,
     /// The first error the arm gave, if any (the run was then stopped).
     pub error: Option<ArmError>,
+    /// States the arm reported.
+    pub reports: u64,
+    /// Measured poses the control thread's full ring could not take
+    /// (dropped and counted; the newest wins anyway).
+    pub feedback_drops: u64,
 }
 
+/// Where the measured poses go: the control thread's ring, when the arm
+/// measures its pose.
+pub type FeedbackProducer = rtrb::Producer<Isometry3<f64>>;
+
 /// Runs until the command ring is abandoned (the control loop ended) and
-/// drained. On an error from the arm: ends the stream at once (zero
-/// command, stop), sets `fault` so the control loop stops safely, and
-/// sends nothing more.
+/// drained. On an error from the arm (a refused command, a lost link):
+/// ends the stream at once (zero command, stop), sets `fault` so the
+/// control loop stops safely, and sends nothing more. `state` is the
+/// arm's state at the start; measured poses go to `measured`, if given.
 pub fn run_arm(
     mut stream: ArmStream,
     commands: &mut rtrb::Consumer<ArmCommand>,
     fault: &Arc<AtomicBool>,
+    state: Option<ArmState>,
+    mut measured: Option<FeedbackProducer>,
 ) -> ArmReport {
     let mut clock = MonotonicClock;
     let mut scheduler = Scheduler::new(clock.now_ns() + ARM_POLL_NS, ARM_POLL_NS, None);
     let mut report = ArmReport {
-        state: stream.arm.feedback(),
+        state: state.or_else(|| stream.arm.feedback()),
         commands: 0,
         ended_with_zero: false,
         error: None,
+        reports: 0,
+        feedback_drops: 0,
+    };
+    let fail = |stream: &mut ArmStream, report: &mut ArmReport, error: ArmError| {
+        report.ended_with_zero = stream.end().is_ok();
+        report.error = Some(error);
+        fault.store(true, Ordering::Relaxed);
     };
     let mut since_feedback = 0u32;
     loop {
@@ -108,19 +145,28 @@ pub fn run_arm(
             }
             match stream.send(&command) {
                 Ok(()) => sent = true,
-                Err(error) => {
-                    report.ended_with_zero = stream.end().is_ok();
-                    report.error = Some(error);
-                    fault.store(true, Ordering::Relaxed);
-                }
+                Err(error) => fail(&mut stream, &mut report, error),
             }
         }
-        // Feedback at the stream's rate, and at the end.
+        if report.error.is_none()
+            && let Err(error) = stream.arm.check_link()
+        {
+            fail(&mut stream, &mut report, error);
+        }
+        // A measured pose as soon as it comes; otherwise the state at the
+        // stream's rate, and at the end.
         since_feedback += 1;
-        if sent || since_feedback >= 10 || abandoned {
+        if measured.is_some() || sent || since_feedback >= 10 || abandoned {
             since_feedback = 0;
             if let Some(state) = stream.arm.feedback() {
                 report.state = Some(state);
+                report.reports += 1;
+                if report.error.is_none()
+                    && let Some(ring) = measured.as_mut()
+                    && ring.push(state.pose).is_err()
+                {
+                    report.feedback_drops += 1;
+                }
             }
         }
         if abandoned {
@@ -227,7 +273,7 @@ mod tests {
         }
         drop(tx);
         let fault = Arc::new(AtomicBool::new(false));
-        let report = run_arm(stream, &mut rx, &fault);
+        let report = run_arm(stream, &mut rx, &fault, None, None);
         let calls = calls.lock().unwrap().clone();
         (calls, report, fault.load(Ordering::Relaxed))
     }

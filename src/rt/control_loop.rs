@@ -16,7 +16,10 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+use nalgebra::Isometry3;
+
 use crate::control::event::TimedEvent;
+use crate::control::motion::feedback::ArmFault;
 use crate::control::motion::stream::ArmCommand;
 use crate::control::pipeline::Pipeline;
 use crate::rt::alloc_counter;
@@ -67,6 +70,12 @@ pub struct WorkSummary {
     /// Ticks from the start of the stop to the first still tick: the brake
     /// (0 if the arm was already still).
     pub braking_ticks: u64,
+    /// The core's arm fault, if there was one.
+    pub arm_fault: Option<ArmFault>,
+    /// Measured poses the core took in.
+    pub measured_poses: u64,
+    /// The largest correction they made to the pose estimate, m.
+    pub largest_correction_m: f64,
 }
 
 /// One tick of work at each deadline. RT-safe: implementations must not
@@ -115,6 +124,10 @@ pub struct ControlTick<S: Samples> {
     last_arm_command: ArmCommand,
     velocity_at_stop: [f64; 7],
     braking_ticks: Option<u64>,
+    /// The arm's measured poses, when it reports them.
+    measured: Option<rtrb::Consumer<Isometry3<f64>>>,
+    /// The core was told the arm's link is lost.
+    told_link_lost: bool,
 }
 
 impl<S: Samples> ControlTick<S> {
@@ -135,7 +148,17 @@ impl<S: Samples> ControlTick<S> {
             last_arm_command: ArmCommand::default(),
             velocity_at_stop: [0.0; 7],
             braking_ticks: None,
+            measured: None,
+            told_link_lost: false,
         }
+    }
+
+    /// The arm measures its pose: each tick the newest measurement from
+    /// `measured` goes to the core before the sample (the core was started
+    /// at the measured pose, [`Pipeline::start_measured`]).
+    pub fn with_measured_poses(mut self, measured: rtrb::Consumer<Isometry3<f64>>) -> Self {
+        self.measured = Some(measured);
+        self
     }
 
     /// Numbers the pipeline's ticks 0, 1, 2, … whatever the scheduler's
@@ -169,10 +192,28 @@ impl<S: Samples> TickWork for ControlTick<S> {
             self.sensor.try_read(skipped)
         };
         self.drops.samples += reading.discarded;
+        // What the arm said, before the sample: a lost link (the arm
+        // thread ended its stream), the newest measured pose.
+        if stop == Some(StopReason::ArmFault) && !self.told_link_lost {
+            self.told_link_lost = true;
+            self.core.arm_link_lost();
+        }
+        if let Some(measured) = &mut self.measured {
+            let mut newest = None;
+            while let Ok(pose) = measured.pop() {
+                newest = Some(pose);
+            }
+            if let Some(pose) = newest {
+                self.core.observe_arm(&pose);
+            }
+        }
         // The sample becomes the core's call in one place, here and in
         // the replay of a recording; what the core was given is recorded.
         let sample = CoreSample::of(&reading);
         let out = sample.step(&mut self.core, tick);
+        // The core found the arm untrustworthy (its measured pose silent
+        // or off the commanded path): the run ends once it is still.
+        let stop = stop.or(self.core.arm_fault().map(|_| StopReason::ArmFault));
         let mut input = CoreInput {
             tick,
             sample,
@@ -249,6 +290,9 @@ impl<S: Samples> TickWork for ControlTick<S> {
             last_arm_command: self.last_arm_command,
             velocity_at_stop: self.velocity_at_stop,
             braking_ticks: self.braking_ticks.unwrap_or(0),
+            arm_fault: self.core.arm_fault(),
+            measured_poses: self.core.motion().feedback().measurements(),
+            largest_correction_m: self.core.motion().feedback().largest_correction_m(),
         }
     }
 }

@@ -70,6 +70,18 @@ pub struct RunReport {
     pub errors: Vec<String>,
     /// `run --record`: what the recording holds (`null` otherwise).
     pub recording: Option<RecordingReport>,
+    /// The arm reports a measured pose, which the limits used.
+    pub arm_measured: bool,
+    /// Measured poses the core took in.
+    pub measured_poses: u64,
+    /// Measured poses dropped on their way to the control thread.
+    pub measured_pose_drops: u64,
+    /// The largest correction the measured poses made to the pose
+    /// estimate, m.
+    pub largest_correction_m: f64,
+    /// Why the core stopped the arm, if the arm failed or its measured
+    /// pose could not be trusted (also in `errors`).
+    pub arm_fault: Option<String>,
 }
 
 impl RunReport {
@@ -134,8 +146,9 @@ impl RunReport {
                 let p = arm.pose.translation.vector;
                 let r = arm.pose.rotation.scaled_axis();
                 s += &format!(
-                    "arm: {} commands at 100 Hz; final position ({:.4}, {:.4}, {:.4}) m, rotation vector ({:.4}, {:.4}, {:.4}) rad, fingers {}\n",
+                    "arm: {} commands at 100 Hz; final {}position ({:.4}, {:.4}, {:.4}) m, rotation vector ({:.4}, {:.4}, {:.4}) rad, fingers {}\n",
                     self.arm_commands,
+                    if self.arm_measured { "measured " } else { "" },
                     p.x,
                     p.y,
                     p.z,
@@ -152,6 +165,14 @@ impl RunReport {
                     self.arm_commands
                 );
             }
+        }
+        if self.arm_measured {
+            s += &format!(
+                "arm feedback: {} measured poses taken in ({} dropped), largest correction of the estimate {:.1} mm\n",
+                self.measured_poses,
+                self.measured_pose_drops,
+                self.largest_correction_m * 1000.0
+            );
         }
         let v = self.velocity_at_stop;
         if v == [0.0; 7] {

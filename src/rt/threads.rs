@@ -32,10 +32,11 @@ use std::time::{Duration, Instant};
 
 use rtrb::RingBuffer;
 
-use crate::arm::{Arm, ArmError};
+use crate::arm::{Arm, ArmError, ArmState};
 use crate::control::core_config::CoreConfig;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
+use crate::control::motion::workspace;
 use crate::control::pipeline::Pipeline;
 use crate::rt::arm_thread::{ArmStream, run_arm};
 use crate::rt::clock::{MonotonicClock, SimClock};
@@ -50,6 +51,10 @@ use crate::rt::telemetry::{Drops, Latencies, TickRecord};
 use crate::sensor::{Samples, Sensor, SensorError};
 
 const ARM_RING: usize = 256;
+/// Measured poses to the control thread: 64 ms at 1 kHz of feedback.
+const FEEDBACK_RING: usize = 64;
+/// After connecting, how long a measuring arm has to report its pose.
+const FIRST_POSE_WAIT: Duration = Duration::from_secs(2);
 const RECORD_RING: usize = 16_384;
 const EVENT_RING: usize = 1024;
 /// Copies of arm commands for the recorder: 10 s at 100 Hz.
@@ -212,17 +217,31 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
     let producer = started.producer;
     // From here on the arm's stream ends with a zero command, whatever
     // happens (the stream's guard sees to it if a thread cannot start).
-    let stream = ArmStream::connect(arm).map_err(RunError::Arm)?;
-    let core = Pipeline::new(config);
+    let mut stream = ArmStream::connect(arm).map_err(RunError::Arm)?;
+    let mut core = Pipeline::new(config);
+    // An arm that measures its pose: the motion starts where it is, and
+    // its measurements reach the core through their own ring.
+    let (initial, measured, feedback) = if stream.measures_pose() {
+        let state = first_measured_state(&mut stream, config)?;
+        core.start_measured(state.pose);
+        let (tx, rx) = RingBuffer::new(FEEDBACK_RING);
+        (Some(state), Some(tx), Some(rx))
+    } else {
+        (None, None, None)
+    };
+    let arm_measured = measured.is_some();
     let limit_ticks = options.seconds.map(|s| (s * 1000.0).round() as u64);
-    let work = ControlTick::new(core, started.samples, outputs, limit_ticks.is_none());
+    let mut work = ControlTick::new(core, started.samples, outputs, limit_ticks.is_none());
+    if let Some(feedback) = feedback {
+        work = work.with_measured_poses(feedback);
+    }
 
     // Set by the arm thread when the arm fails: the loop stops safely.
     let arm_fault = Arc::new(AtomicBool::new(false));
     let fault = arm_fault.clone();
     let arm_thread = thread::Builder::new()
         .name("arm".into())
-        .spawn(move || run_arm(stream, &mut arm_rx, &fault))
+        .spawn(move || run_arm(stream, &mut arm_rx, &fault, initial, measured))
         .map_err(|e| RunError::Thread(format!("cannot start the arm thread: {e}")))?;
 
     let cpu_before = cpu_seconds();
@@ -335,6 +354,11 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
     if let Some(e) = &arm.error {
         errors.push(e.to_string());
     }
+    let arm_fault = result.work.arm_fault.map(|f| f.to_string());
+    if let (Some(fault), None) = (&arm_fault, &arm.error) {
+        // The core's own finding (the arm's backend had no error).
+        errors.push(format!("arm: {fault}"));
+    }
     Ok(RunReport {
         sensor: sensor_name,
         arm_name,
@@ -360,7 +384,45 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
         cpu_percent,
         errors,
         recording: None,
+        arm_measured,
+        measured_poses: result.work.measured_poses,
+        measured_pose_drops: arm.feedback_drops,
+        largest_correction_m: result.work.largest_correction_m,
+        arm_fault,
     })
+}
+
+/// The pose a measuring arm reports after connecting (its backend waits
+/// for the first one while connecting; this waits a little more), which
+/// must be inside the workspace: the limits could not bring an arm back
+/// from outside.
+fn first_measured_state(stream: &mut ArmStream, config: &CoreConfig) -> Result<ArmState, RunError> {
+    let deadline = Instant::now() + FIRST_POSE_WAIT;
+    let state = loop {
+        if let Some(state) = stream.feedback() {
+            break state;
+        }
+        if Instant::now() >= deadline {
+            return Err(RunError::Arm(ArmError::Unavailable {
+                detail: format!(
+                    "the arm was to report its measured pose but none came within {} ms of connecting: is the driver publishing it?",
+                    FIRST_POSE_WAIT.as_millis()
+                ),
+            }));
+        }
+        thread::sleep(Duration::from_millis(5));
+    };
+    let p = state.pose.translation.vector;
+    if !workspace::contains(&p, config.workspace()) {
+        let w = config.workspace();
+        return Err(RunError::Arm(ArmError::Unavailable {
+            detail: format!(
+                "the arm's measured position ({:.3}, {:.3}, {:.3}) m is outside the workspace (reach {} m, base {} m, table z = {} m): move it inside with its own controls before starting",
+                p.x, p.y, p.z, w.reach_m, w.min_radius_m, w.table_z_m
+            ),
+        }));
+    }
+    Ok(state)
 }
 
 /// Process CPU time (user + system), s.

@@ -417,7 +417,7 @@ fn a_lost_link_is_a_fault_on_the_next_tick_and_the_arm_brakes() {
     assert!(outs.last().unwrap().motion.is_still());
     assert_eq!(core.arm_fault(), Some(ArmFault::LinkLost));
     let text = ArmFault::LinkLost.to_string();
-    assert_eq!(text, "arm link lost — arm stopped");
+    assert_eq!(text, "arm link lost or a command refused — arm stopped");
 }
 
 #[test]

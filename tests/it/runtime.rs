@@ -473,3 +473,119 @@ fn a_stopped_and_continued_process_reports_the_stall_and_stops_safely() {
         "{text}"
     );
 }
+
+/// An arm that measures its pose (the commands executed exactly, reported
+/// every 10 ms) until `silent_after` sends, and whose link breaks after
+/// `lost_after` sends.
+struct MeasuringArm {
+    arm: SimArm,
+    sends: usize,
+    silent_after: usize,
+    lost_after: usize,
+    fresh: bool,
+}
+
+impl MeasuringArm {
+    fn new(config: &Config, silent_after: usize, lost_after: usize) -> Box<MeasuringArm> {
+        Box::new(MeasuringArm {
+            arm: SimArm::new(config.core()),
+            sends: 0,
+            silent_after,
+            lost_after,
+            fresh: true,
+        })
+    }
+}
+
+impl Arm for MeasuringArm {
+    fn describe(&self) -> String {
+        "measuring".into()
+    }
+    fn connect(&mut self) -> Result<(), ArmError> {
+        Ok(())
+    }
+    fn send(&mut self, command: &ArmCommand) -> Result<(), ArmError> {
+        self.sends += 1;
+        self.fresh = true;
+        self.arm.send(command)
+    }
+    fn feedback(&mut self) -> Option<ArmState> {
+        let fresh = std::mem::take(&mut self.fresh) && self.sends <= self.silent_after;
+        fresh.then(|| self.arm.feedback()).flatten()
+    }
+    fn measures_pose(&self) -> bool {
+        true
+    }
+    fn check_link(&mut self) -> Result<(), ArmError> {
+        if self.sends > self.lost_after {
+            return Err(ArmError::Disconnected {
+                detail: "the receiver went away".into(),
+            });
+        }
+        Ok(())
+    }
+    fn stop(&mut self) -> Result<(), ArmError> {
+        self.arm.stop()
+    }
+}
+
+/// Runs the built-in user with `arm` for up to 30 s; returns the report
+/// and the arm-fault events.
+fn measured_run(arm: Box<MeasuringArm>) -> (RunReport, Vec<String>) {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let config = Config::default();
+    let sensor = SyntheticSensor::built_in_user(&config);
+    let mut faults = Vec::new();
+    let report = run(
+        config.core(),
+        sensor,
+        arm,
+        &options(30.0),
+        &mut |e: &sipnpuff::control::event::TimedEvent| {
+            if let Event::ArmFault { reason } = e.event {
+                faults.push(reason.to_string());
+            }
+        },
+    )
+    .unwrap();
+    (report, faults)
+}
+
+#[test]
+fn a_measuring_arm_closes_the_loop_and_its_silence_stops_the_run() {
+    let config = Config::default();
+    let (report, faults) = measured_run(MeasuringArm::new(&config, 400, usize::MAX));
+    assert!(report.arm_measured);
+    assert!(report.measured_poses >= 300, "{}", report.measured_poses);
+    assert_eq!(report.stop_reason, StopReason::ArmFault);
+    assert_eq!(faults.len(), 1, "{faults:?}");
+    // 251 ms after the last pose, or a little more if the loop skipped a
+    // tick just then (a loaded machine).
+    let ms: u64 = faults[0]
+        .strip_prefix("no measured arm pose for ")
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{faults:?}"));
+    assert!((251..1000).contains(&ms), "{faults:?}");
+    let text = report.to_text();
+    assert!(
+        text.contains(&format!("ERROR: arm: {}", faults[0])),
+        "{text}"
+    );
+    assert!(text.contains("final measured position"), "{text}");
+    assert!(text.contains("arm feedback: "), "{text}");
+    assert!(report.stream_ended_with_zero && report.last_arm_command.is_zero());
+    assert_eq!(report.final_velocity, [0.0; 7]);
+    assert_eq!(report.control_thread_allocations, 0);
+}
+
+#[test]
+fn a_lost_link_reaches_the_core_and_stops_the_run() {
+    let config = Config::default();
+    let (report, faults) = measured_run(MeasuringArm::new(&config, usize::MAX, 500));
+    assert_eq!(report.stop_reason, StopReason::ArmFault);
+    assert_eq!(faults, ["arm link lost or a command refused — arm stopped"]);
+    assert_eq!(report.errors, ["arm disconnected: the receiver went away"]);
+    assert!(report.stream_ended_with_zero);
+    assert_eq!(report.final_velocity, [0.0; 7]);
+}

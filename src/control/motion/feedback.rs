@@ -77,7 +77,8 @@ impl Default for FeedbackConfig {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum ArmFault {
-    /// The backend lost its link (the receiver, the master, the device).
+    /// The backend lost its link (the receiver, the master, the device)
+    /// or the arm refused a command (the report says which).
     LinkLost,
     /// No measured pose for `ms`.
     PoseSilent {
@@ -101,7 +102,7 @@ pub enum ArmFault {
 impl std::fmt::Display for ArmFault {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            ArmFault::LinkLost => f.write_str("arm link lost — arm stopped"),
+            ArmFault::LinkLost => f.write_str("arm link lost or a command refused — arm stopped"),
             ArmFault::PoseSilent { ms } => {
                 write!(f, "no measured arm pose for {ms} ms — arm stopped")
             }
