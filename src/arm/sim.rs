@@ -86,6 +86,11 @@ impl SimulatedJaco {
         }
     }
 
+    /// Puts the tool at `pose` (a recording's measured start).
+    pub fn move_to(&mut self, pose: Isometry3<f64>) {
+        self.pose = pose;
+    }
+
     /// The finger position, JACO2 units.
     pub fn fingers(&self) -> f64 {
         self.fingers

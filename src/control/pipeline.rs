@@ -118,7 +118,8 @@ impl<I: SequenceIndex> Pipeline<I> {
     /// before the first tick) instead of the configured home, and from
     /// now on measurements are expected ([`Pipeline::observe_arm`]): the
     /// limits use them, and their silence or disagreement with the
-    /// commanded motion is an [`ArmFault`]. Not RT-safe (start-up).
+    /// commanded motion is an [`ArmFault`]. Call before the first step.
+    /// RT-safe.
     pub fn start_measured(&mut self, pose: Isometry3<f64>) {
         self.motion.start_measured(pose);
     }

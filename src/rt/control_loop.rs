@@ -28,7 +28,7 @@ use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
 use crate::rt::setup::{RtOptions, Setting, setup_current_thread};
 pub use crate::rt::stop::StopReason;
 use crate::rt::stop::StopRequest;
-use crate::rt::telemetry::{CoreInput, CoreSample, Drops, TickRecord};
+use crate::rt::telemetry::{ArmInput, ArmPose, CoreInput, CoreSample, Drops, TickRecord};
 use crate::sensor::{Reading, Samples};
 
 /// The control period: 1 ms.
@@ -126,6 +126,8 @@ pub struct ControlTick<S: Samples> {
     braking_ticks: Option<u64>,
     /// The arm's measured poses, when it reports them.
     measured: Option<rtrb::Consumer<Isometry3<f64>>>,
+    /// Where a measuring arm starts, given to the core on the first tick.
+    start_pose: Option<Isometry3<f64>>,
     /// The core was told the arm's link is lost.
     told_link_lost: bool,
 }
@@ -149,14 +151,21 @@ impl<S: Samples> ControlTick<S> {
             velocity_at_stop: [0.0; 7],
             braking_ticks: None,
             measured: None,
+            start_pose: None,
             told_link_lost: false,
         }
     }
 
-    /// The arm measures its pose: each tick the newest measurement from
-    /// `measured` goes to the core before the sample (the core was started
-    /// at the measured pose, [`Pipeline::start_measured`]).
-    pub fn with_measured_poses(mut self, measured: rtrb::Consumer<Isometry3<f64>>) -> Self {
+    /// The arm measures its pose: the motion starts at `start` (given to
+    /// the core on the first tick, [`Pipeline::start_measured`]), then each
+    /// tick the newest measurement from `measured` goes to the core before
+    /// the sample.
+    pub fn with_measured_poses(
+        mut self,
+        start: Isometry3<f64>,
+        measured: rtrb::Consumer<Isometry3<f64>>,
+    ) -> Self {
+        self.start_pose = Some(start);
         self.measured = Some(measured);
         self
     }
@@ -192,23 +201,27 @@ impl<S: Samples> TickWork for ControlTick<S> {
             self.sensor.try_read(skipped)
         };
         self.drops.samples += reading.discarded;
-        // What the arm said, before the sample: a lost link (the arm
-        // thread ended its stream), the newest measured pose.
+        // What the arm said, before the sample: on the first tick where a
+        // measuring arm starts; then a lost link (the arm thread ended its
+        // stream) and the newest measured pose.
+        let mut arm = ArmInput::default();
         if stop == Some(StopReason::ArmFault) && !self.told_link_lost {
             self.told_link_lost = true;
-            self.core.arm_link_lost();
+            arm.link_lost = true;
         }
-        if let Some(measured) = &mut self.measured {
+        if let Some(start) = self.start_pose.take() {
+            arm.pose = Some((ArmPose::Start, start));
+        } else if let Some(measured) = &mut self.measured {
             let mut newest = None;
             while let Ok(pose) = measured.pop() {
                 newest = Some(pose);
             }
-            if let Some(pose) = newest {
-                self.core.observe_arm(&pose);
-            }
+            arm.pose = newest.map(|pose| (ArmPose::Measured, pose));
         }
-        // The sample becomes the core's call in one place, here and in
-        // the replay of a recording; what the core was given is recorded.
+        // What the arm said and the sample become the core's calls in one
+        // place each, here and in the replay of a recording; what the core
+        // was given is recorded.
+        arm.apply(&mut self.core);
         let sample = CoreSample::of(&reading);
         let out = sample.step(&mut self.core, tick);
         // The core found the arm untrustworthy (its measured pose silent
@@ -216,6 +229,7 @@ impl<S: Samples> TickWork for ControlTick<S> {
         let stop = stop.or(self.core.arm_fault().map(|_| StopReason::ArmFault));
         let mut input = CoreInput {
             tick,
+            arm,
             sample,
             began_stop: false,
         };

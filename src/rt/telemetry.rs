@@ -7,6 +7,7 @@
 use std::io::Write;
 
 use hdrhistogram::Histogram;
+use nalgebra::Isometry3;
 use serde::{Serialize, Serializer};
 
 use crate::control::Tick;
@@ -70,16 +71,58 @@ impl CoreSample {
     }
 }
 
+/// What the arm told the core before one tick's step. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ArmInput {
+    /// A pose: the measured start (`Pipeline::start_measured`, on the
+    /// first tick) or a measurement (`Pipeline::observe_arm`).
+    pub pose: Option<(ArmPose, Isometry3<f64>)>,
+    /// `Pipeline::arm_link_lost()`.
+    pub link_lost: bool,
+}
+
+/// Which call a recorded pose was.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ArmPose {
+    /// `Pipeline::start_measured`: where the motion starts.
+    Start,
+    /// `Pipeline::observe_arm`: a measurement.
+    Measured,
+}
+
+impl ArmInput {
+    /// Nothing from the arm.
+    pub fn is_empty(&self) -> bool {
+        self.pose.is_none() && !self.link_lost
+    }
+
+    /// Gives `core` what the arm said: the one place arm news become core
+    /// calls, on the control thread and in the replay of a recording.
+    /// RT-safe (`start_measured` is called on the first tick only).
+    pub fn apply<I: SequenceIndex>(&self, core: &mut Pipeline<I>) {
+        match self.pose {
+            Some((ArmPose::Start, pose)) => core.start_measured(pose),
+            Some((ArmPose::Measured, pose)) => core.observe_arm(&pose),
+            None => {}
+        }
+        if self.link_lost {
+            core.arm_link_lost();
+        }
+    }
+}
+
 /// Everything the control tick gave the core on one tick, in the order it
-/// gave it: the step (its tick and sample), then, on the tick the safe
-/// stop began, `Pipeline::begin_stop()`. With the configuration, the
-/// sequence of these is the core's whole input: `replay` of a recording
-/// repeats exactly these calls. `Copy`, 32 bytes.
+/// gave it: what the arm said, the step (its tick and sample), then, on
+/// the tick the safe stop began, `Pipeline::begin_stop()`. With the
+/// configuration, the sequence of these is the core's whole input:
+/// `replay` of a recording repeats exactly these calls. `Copy`.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct CoreInput {
     /// The tick given to the core (skipped ticks and stalls show as
     /// jumps).
     pub tick: Tick,
+    /// What the arm said before the step.
+    pub arm: ArmInput,
     /// The sample, or none.
     pub sample: CoreSample,
     /// `Pipeline::begin_stop()` was called after this tick's step.

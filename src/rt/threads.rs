@@ -218,22 +218,21 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
     // From here on the arm's stream ends with a zero command, whatever
     // happens (the stream's guard sees to it if a thread cannot start).
     let mut stream = ArmStream::connect(arm).map_err(RunError::Arm)?;
-    let mut core = Pipeline::new(config);
+    let core = Pipeline::new(config);
     // An arm that measures its pose: the motion starts where it is, and
     // its measurements reach the core through their own ring.
     let (initial, measured, feedback) = if stream.measures_pose() {
         let state = first_measured_state(&mut stream, config)?;
-        core.start_measured(state.pose);
         let (tx, rx) = RingBuffer::new(FEEDBACK_RING);
-        (Some(state), Some(tx), Some(rx))
+        (Some(state), Some(tx), Some((state.pose, rx)))
     } else {
         (None, None, None)
     };
     let arm_measured = measured.is_some();
     let limit_ticks = options.seconds.map(|s| (s * 1000.0).round() as u64);
     let mut work = ControlTick::new(core, started.samples, outputs, limit_ticks.is_none());
-    if let Some(feedback) = feedback {
-        work = work.with_measured_poses(feedback);
+    if let Some((start, feedback)) = feedback {
+        work = work.with_measured_poses(start, feedback);
     }
 
     // Set by the arm thread when the arm fails: the loop stops safely.

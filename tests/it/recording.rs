@@ -461,6 +461,7 @@ fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() 
             tick,
             sample: CoreSample::Volts(volts),
             began_stop: false,
+            ..CoreInput::default()
         });
         for &event in out.events.iter() {
             recorder.event(&TimedEvent { tick, event });
@@ -725,6 +726,7 @@ proptest! {
                     tick,
                     sample,
                     began_stop,
+                    ..CoreInput::default()
                 };
                 tick = tick.wrapping_add(1);
                 input
@@ -741,7 +743,7 @@ proptest! {
                 }
             }
             enc.input(&mut ops, input);
-            expected.push(SampleItem::Input { tick: input.tick, sample: input.sample });
+            expected.push(SampleItem::Input { tick: input.tick, arm: input.arm, sample: input.sample });
             if input.began_stop {
                 expected.push(SampleItem::BeginStop);
             }
@@ -762,9 +764,9 @@ proptest! {
         prop_assert_eq!(back.len(), expected.len());
         for (a, b) in back.iter().zip(&expected) {
             let bits = |item: &SampleItem| match *item {
-                SampleItem::Input { tick, sample: CoreSample::Volts(v) } => (0, tick, v.to_bits()),
-                SampleItem::Input { tick, sample: CoreSample::Missing } => (1, tick, 0),
-                SampleItem::Input { tick, sample: CoreSample::Disconnected } => (4, tick, 0),
+                SampleItem::Input { tick, sample: CoreSample::Volts(v), .. } => (0, tick, v.to_bits()),
+                SampleItem::Input { tick, sample: CoreSample::Missing, .. } => (1, tick, 0),
+                SampleItem::Input { tick, sample: CoreSample::Disconnected, .. } => (4, tick, 0),
                 SampleItem::BeginStop => (2, 0, 0),
                 SampleItem::Lost(n) => (3, n, 0),
             };
@@ -807,4 +809,102 @@ proptest! {
         let bits = |c: &ArmCommand| (c.seq, c.tick, [c.linear, c.angular].concat().iter().map(|v| v.to_bits()).collect::<Vec<_>>(), c.fingers.to_bits());
         prop_assert_eq!(back.iter().map(bits).collect::<Vec<_>>(), commands.iter().map(bits).collect::<Vec<_>>());
     }
+}
+
+/// An arm that executes each command 3 % further than commanded and
+/// reports its pose after each, until it falls silent after `silent_after`
+/// commands: the core corrects its estimate from the measurements, then
+/// faults on their silence.
+struct FastMeasuringArm {
+    jaco: sipnpuff::arm::sim::SimulatedJaco,
+    sends: usize,
+    silent_after: usize,
+    fresh: bool,
+}
+
+impl sipnpuff::arm::Arm for FastMeasuringArm {
+    fn describe(&self) -> String {
+        "a measuring arm 3 % fast".into()
+    }
+    fn connect(&mut self) -> Result<(), sipnpuff::arm::ArmError> {
+        Ok(())
+    }
+    fn send(&mut self, command: &ArmCommand) -> Result<(), sipnpuff::arm::ArmError> {
+        let mut fast = *command;
+        fast.linear = fast.linear.map(|v| v * 1.03);
+        self.jaco.command(&fast);
+        for _ in 0..10 {
+            self.jaco.advance_ms();
+        }
+        self.sends += 1;
+        self.fresh = true;
+        Ok(())
+    }
+    fn feedback(&mut self) -> Option<sipnpuff::arm::ArmState> {
+        let fresh = std::mem::take(&mut self.fresh) || self.sends == 0;
+        (fresh && self.sends <= self.silent_after).then(|| self.jaco.state())
+    }
+    fn measures_pose(&self) -> bool {
+        true
+    }
+    fn stop(&mut self) -> Result<(), sipnpuff::arm::ArmError> {
+        self.jaco.halt();
+        Ok(())
+    }
+}
+
+/// The measured poses, the corrections they made and the fault their
+/// silence caused are in the recording: replay reproduces the run bit for
+/// bit.
+#[test]
+fn a_run_with_a_measuring_arm_replays_bit_for_bit() {
+    let dir = scratch("measuring-arm");
+    let config = Config::default();
+    let mut recorder = Recorder::create(&dir, &config, RecordOptions::default()).unwrap();
+    let run_options = RunOptions {
+        seconds: Some(20.0),
+        rt: RtOptions::NONE,
+        spin_margin_ns: None,
+        stop: StopRequest::new(),
+    };
+    let mut printed = Vec::new();
+    let arm = FastMeasuringArm {
+        jaco: sipnpuff::arm::sim::SimulatedJaco::new(config.core()),
+        sends: 0,
+        silent_after: 1200,
+        fresh: true,
+    };
+    let mut report = run_recorded(
+        config.core(),
+        SyntheticSensor::built_in_user(&config),
+        Box::new(arm),
+        &run_options,
+        &mut |e: &sipnpuff::control::event::TimedEvent| {
+            printed.push(serde_json::to_string(e).unwrap());
+        },
+        &mut recorder,
+    )
+    .unwrap();
+    let recording = recorder.finish(&mut report);
+    assert!(recording.complete, "{recording:?}");
+    assert!(report.arm_measured && report.measured_poses > 1000);
+    assert!(report.largest_correction_m > 0.0);
+    assert!(
+        printed
+            .iter()
+            .any(|e| e.contains("\"event\":\"pose_corrected\"")),
+        "the arm's 3 % showed as corrections"
+    );
+    let fault = printed
+        .iter()
+        .find(|e| e.contains("\"event\":\"arm_fault\""))
+        .expect("the silence was a fault");
+    assert!(fault.contains("no measured arm pose"), "{fault}");
+    let (code, replayed, stderr) = replay(&dir);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(
+        stderr.contains("identical to the recording, bit for bit"),
+        "{stderr}"
+    );
+    assert_eq!(replayed.lines().collect::<Vec<_>>(), printed);
 }

@@ -320,7 +320,7 @@ impl Motion {
     /// The arm reports its pose, measured: the first measurement, `pose`,
     /// is where the motion starts (instead of the configured home), and
     /// from now on measurements are expected ([`Motion::measure`]); their
-    /// silence is a fault. Call before the first tick. Not RT-safe.
+    /// silence is a fault. Call before the first tick. RT-safe.
     pub fn start_measured(&mut self, pose: Isometry3<f64>) {
         self.pose = pose;
         self.tracker.start();

@@ -388,6 +388,7 @@ mod tests {
                     tick: t,
                     sample: CoreSample::Volts(2.5 + t as f64 * 1e-3),
                     began_stop: false,
+                    ..CoreInput::default()
                 });
             }
             // The writer commits between batches (every 200 ms).
@@ -415,6 +416,7 @@ mod tests {
                 item,
                 SampleItem::Input {
                     tick: ticks,
+                    arm: Default::default(),
                     sample: CoreSample::Volts(2.5 + ticks as f64 * 1e-3)
                 }
             );

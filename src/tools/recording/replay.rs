@@ -14,6 +14,7 @@ use crate::control::Tick;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
 use crate::control::pipeline::Pipeline;
+use crate::rt::telemetry::ArmPose;
 use crate::tools::recording::format::commands::{CommandDecoder, CommandItem};
 use crate::tools::recording::format::samples::SampleItem;
 use crate::tools::recording::read::{EventLines, Recording, RecordingError};
@@ -365,7 +366,18 @@ pub fn replay(
         .map_err(|e| RecordingError::format(recording.path(SAMPLES), e))?
     {
         let (tick, sample) = match item {
-            SampleItem::Input { tick, sample } => (tick, sample),
+            SampleItem::Input {
+                tick,
+                arm: news,
+                sample,
+            } => {
+                news.apply(&mut core);
+                if let Some((ArmPose::Start, pose)) = news.pose {
+                    // The trace's arm starts where the real one did.
+                    arm.move_to(pose);
+                }
+                (tick, sample)
+            }
             SampleItem::BeginStop => {
                 core.begin_stop();
                 v.stop_tick = v.last_tick;

@@ -172,9 +172,6 @@ pub(super) struct Writer {
     /// Recording stopped on a write error.
     error: Option<String>,
     error_lost: Lost,
-    /// The arm reported measured poses, which the core took in: not in
-    /// the recording, so a replay cannot verify the run.
-    arm_measured: bool,
     last_commit: Instant,
 }
 
@@ -200,7 +197,6 @@ impl Writer {
             capped: None,
             error: None,
             error_lost: Lost::default(),
-            arm_measured: false,
             last_commit: Instant::now(),
         }
     }
@@ -411,7 +407,6 @@ impl Writer {
             queue_dropped,
             reply,
         } = finish;
-        self.arm_measured = report.arm_measured;
         self.end_streams(pending);
         let summary = self.summary(ring_lost, queue_dropped);
         self.meta.status = "finished".into();
@@ -445,12 +440,7 @@ impl Writer {
                 self.error_lost.ticks, self.error_lost.arm_commands, self.error_lost.events
             ));
         }
-        if self.arm_measured {
-            problems.push(
-                "the arm's measured poses are not recorded: replay cannot reproduce what they changed"
-                    .into(),
-            );
-        }
+
         RecordingReport {
             dir: self.dir.display().to_string(),
             complete: problems.is_empty(),

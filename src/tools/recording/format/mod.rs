@@ -15,11 +15,15 @@
 //!   an error naming the offset, never a silent wrong replay.
 //!
 //! ```text
-//! header   "SIPNPUFF" kind ('S' or 'C') version (1)
+//! header   "SIPNPUFF" kind ('S' or 'C') version (2; version 1 lacks the arm's ops)
 //! samples  0x01 bits:u64le    one tick, a new value          0x02 n   n ticks repeating the last value
 //!          0x03 n             n ticks without a sample        0x04 n   n ticks skipped before the next
 //!          0x05 t             the next tick is t (absolute)   0x06     begin_stop after the last tick
 //!          0x07 n             n ticks lost (not recorded)      0x08 n   n ticks with the device gone
+//!          0x09 bits:u64le×7  the arm's measured start pose     0x0a bits:u64le×7  a measured pose
+//!          0x0b               the arm's link lost               (each before the next tick's step;
+//!                                                              a pose is x, y, z, then the unit
+//!                                                              quaternion i, j, k, w)
 //! commands 0x00–0x7f mask Δtick [bits:u64le per set bit]       one command: the mask says which of
 //!                                                              v(3), ω(3), fingers changed
 //!          0x80 seq           the next command's number       0x81 n   n commands lost
@@ -38,8 +42,10 @@ use std::io::{self, Read, Write};
 pub mod commands;
 pub mod samples;
 
-/// The version of both streams this build writes and reads.
-pub const FORMAT_VERSION: u8 = 1;
+/// The version of both streams this build writes; it reads every version
+/// up to it (version 2 added the arm's ops, 0x09–0x0b; a version 1 file
+/// has none).
+pub const FORMAT_VERSION: u8 = 2;
 /// Every stream starts with these bytes.
 pub const MAGIC: &[u8; 8] = b"SIPNPUFF";
 /// Bytes of the header.
@@ -315,9 +321,9 @@ impl<R: Read> Bytes<R> {
                 }
             )));
         }
-        if h[9] != FORMAT_VERSION {
+        if !(1..=FORMAT_VERSION).contains(&h[9]) {
             return Err(self.error(format!(
-                "format version {}, this sipnpuff reads version {FORMAT_VERSION}",
+                "format version {}, this sipnpuff reads versions 1 to {FORMAT_VERSION}",
                 h[9]
             )));
         }

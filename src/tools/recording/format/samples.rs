@@ -2,8 +2,10 @@
 
 use std::io::Read;
 
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
+
 use crate::control::Tick;
-use crate::rt::telemetry::{CoreInput, CoreSample};
+use crate::rt::telemetry::{ArmInput, ArmPose, CoreInput, CoreSample};
 use crate::tools::recording::format::{Bytes, END, FormatError, Stream, op};
 
 const VALUE: u8 = 0x01;
@@ -14,6 +16,27 @@ const AT_TICK: u8 = 0x05;
 const STOP: u8 = 0x06;
 const LOST_TICKS: u8 = 0x07;
 const DISCONNECTED: u8 = 0x08;
+const START_POSE: u8 = 0x09;
+const MEASURED_POSE: u8 = 0x0a;
+const LINK_LOST: u8 = 0x0b;
+
+/// A pose as the 7 `f64`s stored: x, y, z, then the quaternion i, j, k, w.
+fn pose_bits(pose: &Isometry3<f64>) -> [u64; 7] {
+    let t = pose.translation.vector;
+    let q = pose.rotation.quaternion().coords;
+    [t.x, t.y, t.z, q.x, q.y, q.z, q.w].map(f64::to_bits)
+}
+
+/// The pose the 7 stored `f64`s give back, bit for bit.
+fn pose_from_bits(bits: [u64; 7]) -> Isometry3<f64> {
+    let [x, y, z, i, j, k, w] = bits.map(f64::from_bits);
+    Isometry3::from_parts(
+        Translation3::new(x, y, z),
+        // Stored from a unit quaternion: taken back as it is (normalising
+        // would change the last bits).
+        UnitQuaternion::new_unchecked(Quaternion::new(w, i, j, k)),
+    )
+}
 
 /// Encodes the core's inputs into `samples.bin` ops (not the header or
 /// end marker: [`StreamFile`](super::StreamFile) writes those). A run of
@@ -37,6 +60,21 @@ impl SampleEncoder {
                 op(out, GAP, input.tick - self.next_tick);
             } else {
                 op(out, AT_TICK, input.tick);
+            }
+        }
+        if !input.arm.is_empty() {
+            self.flush(out);
+            if let Some((kind, pose)) = &input.arm.pose {
+                out.push(match kind {
+                    ArmPose::Start => START_POSE,
+                    ArmPose::Measured => MEASURED_POSE,
+                });
+                for b in pose_bits(pose) {
+                    out.extend_from_slice(&b.to_le_bytes());
+                }
+            }
+            if input.arm.link_lost {
+                out.push(LINK_LOST);
             }
         }
         let kind = match input.sample {
@@ -96,6 +134,8 @@ pub enum SampleItem {
     Input {
         /// The tick.
         tick: Tick,
+        /// What the arm said before it.
+        arm: ArmInput,
         /// Its sample, or none.
         sample: CoreSample,
     },
@@ -114,6 +154,8 @@ pub struct SampleDecoder<R: Read> {
     last: Option<f64>,
     /// Ticks left of a run: (count, sample).
     run: Option<(u64, CoreSample)>,
+    /// What the arm said before the next tick.
+    arm: ArmInput,
     ended: bool,
 }
 
@@ -127,6 +169,7 @@ impl<R: Read> SampleDecoder<R> {
             next_tick: 0,
             last: None,
             run: None,
+            arm: ArmInput::default(),
             ended: false,
         })
     }
@@ -134,7 +177,8 @@ impl<R: Read> SampleDecoder<R> {
     fn tick(&mut self, sample: CoreSample) -> SampleItem {
         let tick = self.next_tick;
         self.next_tick = tick.wrapping_add(1);
-        SampleItem::Input { tick, sample }
+        let arm = std::mem::take(&mut self.arm);
+        SampleItem::Input { tick, arm, sample }
     }
 
     /// The next item; `Ok(None)` after a valid end marker.
@@ -172,6 +216,19 @@ impl<R: Read> SampleDecoder<R> {
                     self.next_tick = self.next_tick.wrapping_add(n);
                 }
                 AT_TICK => self.next_tick = self.bytes.varint()?,
+                START_POSE | MEASURED_POSE => {
+                    let mut bits = [0u64; 7];
+                    for b in &mut bits {
+                        *b = self.bytes.u64le()?;
+                    }
+                    let kind = if tag == START_POSE {
+                        ArmPose::Start
+                    } else {
+                        ArmPose::Measured
+                    };
+                    self.arm.pose = Some((kind, pose_from_bits(bits)));
+                }
+                LINK_LOST => self.arm.link_lost = true,
                 STOP => return Ok(Some(SampleItem::BeginStop)),
                 LOST_TICKS => {
                     return Ok(Some(SampleItem::Lost(self.bytes.count("a loss")?)));
@@ -199,6 +256,7 @@ mod tests {
     fn input(tick: Tick, volts: Option<f64>) -> CoreInput {
         CoreInput {
             tick,
+            arm: ArmInput::default(),
             sample: volts.map_or(CoreSample::Missing, CoreSample::Volts),
             began_stop: false,
         }
@@ -237,6 +295,7 @@ mod tests {
             items[9_999],
             SampleItem::Input {
                 tick: 9_999,
+                arm: ArmInput::default(),
                 sample: CoreSample::Volts(2.5)
             }
         );
@@ -247,6 +306,7 @@ mod tests {
         let nan = f64::from_bits(0x7ff8_0000_dead_beef);
         let gone = |tick| CoreInput {
             tick,
+            arm: ArmInput::default(),
             sample: CoreSample::Disconnected,
             began_stop: false,
         };
@@ -263,13 +323,25 @@ mod tests {
             input(3, Some(1.0)),
         ];
         inputs[8].began_stop = true;
+        // The arm's news, in the middle of runs too: a start pose (an
+        // awkward quaternion: its bits must survive), a measurement, a lost
+        // link with a measurement.
+        let q = nalgebra::UnitQuaternion::from_scaled_axis(nalgebra::Vector3::new(0.1, -2.0, 0.3));
+        let pose = |x: f64| Isometry3::from_parts(Translation3::new(x, -0.26, 1.0 / 3.0), q);
+        inputs[0].arm.pose = Some((ArmPose::Start, pose(0.21)));
+        inputs[3].arm.pose = Some((ArmPose::Measured, pose(-0.0)));
+        inputs[5].arm = ArmInput {
+            pose: Some((ArmPose::Measured, pose(0.3))),
+            link_lost: true,
+        };
         let bytes = encode_samples(&inputs);
         let items = decode_samples(&bytes).unwrap();
         let mut back = Vec::new();
         for item in items {
             match item {
-                SampleItem::Input { tick, sample } => back.push(CoreInput {
+                SampleItem::Input { tick, arm, sample } => back.push(CoreInput {
                     tick,
+                    arm,
                     sample,
                     began_stop: false,
                 }),
@@ -280,6 +352,13 @@ mod tests {
         assert_eq!(back.len(), inputs.len());
         for (a, b) in back.iter().zip(&inputs) {
             assert_eq!((a.tick, a.began_stop), (b.tick, b.began_stop));
+            let arm_bits = |arm: &ArmInput| {
+                (
+                    arm.pose.map(|(kind, pose)| (kind, pose_bits(&pose))),
+                    arm.link_lost,
+                )
+            };
+            assert_eq!(arm_bits(&a.arm), arm_bits(&b.arm));
             let bits = |s: CoreSample| match s {
                 CoreSample::Volts(v) => (0, v.to_bits()),
                 CoreSample::Missing => (1, 0),
