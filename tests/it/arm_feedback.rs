@@ -441,3 +441,54 @@ fn taking_in_measurements_allocates_nothing() {
     assert_eq!(alloc_counter::thread_allocations() - before, 0);
     assert!(core.motion().feedback().measurements() > 100);
 }
+
+#[test]
+fn a_measured_pose_past_the_margin_lets_the_arm_move_away_only() {
+    // The estimate says 1 mm above the table margin; the arm is measured
+    // 8 mm lower (past the margin). Down must not move; up must.
+    let config = Config::default();
+    let w = config.core().workspace();
+    let mut start = home(&config);
+    start.translation.vector.z = w.table_z_m + w.stop_margin_m + 0.001;
+    let mut script = vec![Step::Rest { ms: 200 }];
+    script.extend(select(&TRANSLATE_Z));
+    script.extend([
+        hold(Breath::Sip, 1500),
+        Step::Rest { ms: 500 },
+        hold(Breath::Puff, 1000),
+        Step::Rest { ms: 500 },
+    ]);
+    let mut arm = RealArm::at(start, 1.0, 0);
+    arm.pose.translation.vector.z -= 0.008;
+    let mut core: Pipeline = Pipeline::new(config.core());
+    core.start_measured(start);
+    let params = SignalParams::clean(config.core().detector(), 7);
+    let (mut lowest_command, mut highest) = (0.0f64, f64::MIN);
+    let mut limits = 0;
+    for (t, volts) in SignalGenerator::new(params, &script).enumerate() {
+        let out = core.step(t as u64, volts);
+        lowest_command = lowest_command.min(out.motion.linear[2]);
+        highest = highest.max(arm.pose.translation.vector.z);
+        limits += out
+            .events
+            .iter()
+            .filter(|e| format!("{e:?}").contains("Table"))
+            .count();
+        assert!(
+            !out.events
+                .iter()
+                .any(|e| matches!(e, Event::ArmFault { .. })),
+            "{:?}",
+            out.events
+        );
+        if let Some(measured) = arm.tick(t as u64, out.motion.arm_command.as_ref()) {
+            core.observe_arm(&measured);
+        }
+    }
+    assert_eq!(lowest_command, 0.0, "nothing moved down");
+    assert!(limits >= 1, "the table limit was reported");
+    assert!(
+        highest > start.translation.vector.z + 0.05,
+        "up moved: {highest}"
+    );
+}
