@@ -492,3 +492,46 @@ fn a_measured_pose_past_the_margin_lets_the_arm_move_away_only() {
         "up moved: {highest}"
     );
 }
+
+#[test]
+fn a_pose_that_is_not_a_pose_is_a_fault_and_never_reaches_the_estimate() {
+    // A malformed message: NaN or infinite coordinates, a quaternion that
+    // is not a rotation.
+    let config = Config::default();
+    let nan = |pose: &mut Isometry3<f64>| pose.translation.vector.x = f64::NAN;
+    let inf = |pose: &mut Isometry3<f64>| pose.translation.vector.z = f64::INFINITY;
+    let zero_quaternion = |pose: &mut Isometry3<f64>| {
+        pose.rotation =
+            UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(0.0, 0.0, 0.0, 0.0));
+    };
+    let cases: [&dyn Fn(&mut Isometry3<f64>); 3] = [&nan, &inf, &zero_quaternion];
+    for spoil in cases {
+        let mut core: Pipeline = Pipeline::new(config.core());
+        core.start_measured(home(&config));
+        let neutral = config.core().detector().neutral_volts;
+        let mut faults = Vec::new();
+        for t in 0..300u64 {
+            if t == 100 {
+                let mut bad = home(&config);
+                spoil(&mut bad);
+                core.observe_arm(&bad);
+            } else if t.is_multiple_of(10) {
+                core.observe_arm(&home(&config));
+            }
+            let out = core.step(t, neutral);
+            let p = out.motion.pose.translation.vector;
+            assert!(p.iter().all(|v| v.is_finite()), "tick {t}: {p:?}");
+            faults.extend(out.events.iter().filter_map(|e| match e {
+                Event::ArmFault { reason } => Some((t, *reason)),
+                _ => None,
+            }));
+        }
+        assert_eq!(faults.len(), 1, "{faults:?}");
+        assert_eq!(faults[0].0, 100);
+        assert!(matches!(faults[0].1, ArmFault::PoseInvalid));
+        assert_eq!(
+            faults[0].1.to_string(),
+            "the arm reported a pose that is not one (not finite, or not a rotation) — arm stopped"
+        );
+    }
+}

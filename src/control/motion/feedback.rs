@@ -80,6 +80,10 @@ pub enum ArmFault {
     /// The backend lost its link (the receiver, the master, the device)
     /// or the arm refused a command (the report says which).
     LinkLost,
+    /// The arm reported something that is not a pose: a coordinate not
+    /// finite, or a quaternion that is not a rotation (a malformed
+    /// message).
+    PoseInvalid,
     /// No measured pose for `ms`.
     PoseSilent {
         /// Time since the last measurement, ms.
@@ -103,6 +107,9 @@ impl std::fmt::Display for ArmFault {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             ArmFault::LinkLost => f.write_str("arm link lost or a command refused — arm stopped"),
+            ArmFault::PoseInvalid => f.write_str(
+                "the arm reported a pose that is not one (not finite, or not a rotation) — arm stopped",
+            ),
             ArmFault::PoseSilent { ms } => {
                 write!(f, "no measured arm pose for {ms} ms — arm stopped")
             }
@@ -265,6 +272,11 @@ impl PoseTracker {
         }
         self.last_measured = Some(now);
         self.measurements += 1;
+        if !is_a_pose(measured) {
+            // Nothing of it may reach the estimate.
+            self.faulted = true;
+            return Some(Measurement::Fault(ArmFault::PoseInvalid));
+        }
         let c = self.config;
         let (nearest, distance, angle, oldest) = match self.nearest(measured) {
             Some(found) => found,
@@ -379,6 +391,14 @@ impl PoseTracker {
             (point, distance, angle, back == window && points == window)
         })
     }
+}
+
+/// Finite coordinates and a unit quaternion (within rounding): a pose.
+fn is_a_pose(pose: &Isometry3<f64>) -> bool {
+    let q = pose.rotation.quaternion();
+    pose.translation.vector.iter().all(|v| v.is_finite())
+        && q.coords.iter().all(|v| v.is_finite())
+        && (q.norm() - 1.0).abs() < 1e-6
 }
 
 /// Distance (m) and angle (rad) between two poses.
