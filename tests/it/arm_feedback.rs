@@ -504,7 +504,8 @@ fn a_pose_that_is_not_a_pose_is_a_fault_and_never_reaches_the_estimate() {
         pose.rotation =
             UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(0.0, 0.0, 0.0, 0.0));
     };
-    let cases: [&dyn Fn(&mut Isometry3<f64>); 3] = [&nan, &inf, &zero_quaternion];
+    type Spoil<'a> = &'a dyn Fn(&mut Isometry3<f64>);
+    let cases: [Spoil; 3] = [&nan, &inf, &zero_quaternion];
     for spoil in cases {
         let mut core: Pipeline = Pipeline::new(config.core());
         core.start_measured(home(&config));
