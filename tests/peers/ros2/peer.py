@@ -1,0 +1,262 @@
+#!/usr/bin/env python3
+"""The ROS 2 peer of sipnpuff's tests: Eclipse Cyclone DDS (the DDS under
+rmw_cyclonedds), an implementation independent of sipnpuff's rustdds.
+
+Subscribes to the command topic as a ROS 2 node would (DDS topic
+`rt/<topic>`, type `<pkg>::msg::dds_::<Type>_`, rclcpp's default QoS:
+reliable, volatile, keep-last 10) and writes every message, with its
+receive time (CLOCK_MONOTONIC, ns), as one JSON line to --out. Floats are
+written as their IEEE bits too, so a test compares them exactly.
+Optionally publishes a PoseStamped on `rt/<pose_topic>` at 100 Hz.
+
+Prints `ready` on stdout once its reader (and pose writer) exist. SIGTERM
+and SIGINT end it cleanly: the participant is deleted (Cyclone tells the
+other side it leaves); SIGKILL of course does not.
+"""
+
+import argparse
+import json
+import os
+import signal
+import struct
+import sys
+import threading
+import time
+from dataclasses import dataclass
+
+from cyclonedds.core import Listener, Qos, Policy
+from cyclonedds.domain import DomainParticipant
+from cyclonedds.idl import IdlStruct
+import cyclonedds.idl.annotations as annotate
+from cyclonedds.idl.types import float32, float64, int32, uint32
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+
+@dataclass
+@annotate.final
+class Time_(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: int32
+    nanosec: uint32
+
+
+@dataclass
+@annotate.final
+class Header_(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time_
+    frame_id: str
+
+
+@dataclass
+@annotate.final
+class Vector3_(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+@annotate.final
+class Twist_(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
+    linear: Vector3_
+    angular: Vector3_
+
+
+@dataclass
+@annotate.final
+class TwistStamped_(IdlStruct, typename="geometry_msgs::msg::dds_::TwistStamped_"):
+    header: Header_
+    twist: Twist_
+
+
+@dataclass
+@annotate.final
+class PoseVelocity_(IdlStruct, typename="kinova_msgs::msg::dds_::PoseVelocity_"):
+    twist_linear_x: float32
+    twist_linear_y: float32
+    twist_linear_z: float32
+    twist_angular_x: float32
+    twist_angular_y: float32
+    twist_angular_z: float32
+
+
+@dataclass
+@annotate.final
+class PoseVelocityWithFingerVelocity_(
+    IdlStruct, typename="kinova_msgs::msg::dds_::PoseVelocityWithFingerVelocity_"
+):
+    twist_linear_x: float32
+    twist_linear_y: float32
+    twist_linear_z: float32
+    twist_angular_x: float32
+    twist_angular_y: float32
+    twist_angular_z: float32
+    finger1: float32
+    finger2: float32
+    finger3: float32
+
+
+@dataclass
+@annotate.final
+class Point_(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+@annotate.final
+class Quaternion_(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
+    x: float64
+    y: float64
+    z: float64
+    w: float64
+
+
+@dataclass
+@annotate.final
+class Pose_(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
+    position: Point_
+    orientation: Quaternion_
+
+
+@dataclass
+@annotate.final
+class PoseStamped_(IdlStruct, typename="geometry_msgs::msg::dds_::PoseStamped_"):
+    header: Header_
+    pose: Pose_
+
+
+TYPES = {
+    "twist_stamped": TwistStamped_,
+    "pose_velocity": PoseVelocity_,
+    "pose_velocity_with_finger_velocity": PoseVelocityWithFingerVelocity_,
+}
+
+
+def f64_bits(v):
+    return struct.unpack("<Q", struct.pack("<d", v))[0]
+
+
+def f32_bits(v):
+    return struct.unpack("<I", struct.pack("<f", v))[0]
+
+
+def record(sample, kind):
+    """The message's values (floats as floats and as bits)."""
+    if kind == "twist_stamped":
+        t = sample.twist
+        values = [t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z]
+        return {
+            "sec": sample.header.stamp.sec,
+            "nanosec": sample.header.stamp.nanosec,
+            "frame_id": sample.header.frame_id,
+            "values": values,
+            "bits": [f64_bits(v) for v in values],
+        }
+    names = [
+        "twist_linear_x",
+        "twist_linear_y",
+        "twist_linear_z",
+        "twist_angular_x",
+        "twist_angular_y",
+        "twist_angular_z",
+    ]
+    if kind == "pose_velocity_with_finger_velocity":
+        names += ["finger1", "finger2", "finger3"]
+    values = [getattr(sample, n) for n in names]
+    return {"values": values, "bits": [f32_bits(v) for v in values]}
+
+
+def dds_topic(name):
+    return "rt/" + name.lstrip("/")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--topic", required=True, help="the ROS 2 command topic")
+    parser.add_argument("--message", default="twist_stamped", choices=sorted(TYPES))
+    parser.add_argument("--out", required=True, help="JSON lines, one per message")
+    parser.add_argument("--domain", type=int, default=0)
+    parser.add_argument("--pose-topic", help="publish a PoseStamped here at 100 Hz")
+    parser.add_argument(
+        "--pose",
+        type=float,
+        nargs=7,
+        default=[0.3, -0.2, 0.45, 0.0, 0.0, 0.0, 1.0],
+        metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"),
+    )
+    args = parser.parse_args()
+
+    stop = threading.Event()
+
+    def on_signal(signum, _frame):
+        stop.set()
+
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
+
+    out = open(args.out, "w", buffering=1)
+    lock = threading.Lock()
+    kind = args.message
+
+    dp = DomainParticipant(args.domain)
+    # rclcpp's default (rmw_qos_profile_default): reliable, volatile, keep-last 10.
+    qos = Qos(
+        Policy.Reliability.Reliable(duration(seconds=1)),
+        Policy.Durability.Volatile,
+        Policy.History.KeepLast(10),
+    )
+    topic = Topic(dp, dds_topic(args.topic), TYPES[kind], qos=qos)
+
+    class OnData(Listener):
+        def on_data_available(self, reader):
+            now = time.monotonic_ns()
+            for sample in reader.take(N=64):
+                if type(sample).__name__ == "InvalidSample":
+                    continue  # a writer's unregister or dispose: no data
+                line = {"t_ns": now}
+                line.update(record(sample, kind))
+                with lock:
+                    out.write(json.dumps(line) + "\n")
+
+    reader = DataReader(dp, topic, qos=qos, listener=OnData())
+
+    pose_writer = None
+    if args.pose_topic:
+        pose_topic = Topic(dp, dds_topic(args.pose_topic), PoseStamped_, qos=qos)
+        pose_writer = DataWriter(dp, pose_topic, qos=qos)
+
+    print("ready", flush=True)
+
+    x, y, z, qx, qy, qz, qw = args.pose
+    next_t = time.monotonic()
+    while not stop.is_set():
+        if pose_writer is not None:
+            ns = time.time_ns()
+            pose_writer.write(
+                PoseStamped_(
+                    header=Header_(
+                        stamp=Time_(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000),
+                        frame_id="base_link",
+                    ),
+                    pose=Pose_(
+                        position=Point_(x=x, y=y, z=z),
+                        orientation=Quaternion_(x=qx, y=qy, z=qz, w=qw),
+                    ),
+                )
+            )
+        next_t += 0.01
+        stop.wait(max(0.0, next_t - time.monotonic()))
+
+    # A clean end: delete the entities (the participant's goodbye).
+    dp.__del__()  # deletes the reader and writer with it
+    with lock:
+        out.close()
+    os._exit(0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
