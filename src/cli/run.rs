@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
+use crate::arm::kinova_sdk::KinovaSdkArm;
 use crate::arm::sim::SimArm;
 use crate::arm::{Arm, ArmSpec};
 use crate::cli::args::{
@@ -81,7 +82,8 @@ pub struct RunArgs {
 fn open_arm(spec: &ArmSpec, config: &Config) -> anyhow::Result<Box<dyn Arm>> {
     Ok(match spec {
         ArmSpec::Sim => Box::new(SimArm::new(config.core())),
-        ArmSpec::Ros2 { .. } | ArmSpec::Ros1 { .. } | ArmSpec::KinovaSdk { .. } => {
+        ArmSpec::KinovaSdk { link } => Box::new(KinovaSdkArm::new(*link, config.arm())),
+        ArmSpec::Ros2 { .. } | ArmSpec::Ros1 { .. } => {
             anyhow::bail!("--arm {spec}: this backend is not in this build yet")
         }
     })
