@@ -128,8 +128,12 @@ pub struct KinovaSdkSettings {
     /// The arm's serial number (e.g. `PJ00000001030703130`); empty for the
     /// first arm found, as kinova-ros does.
     pub serial_number: String,
-    /// A library call that has not returned after this long, ms, is a lost
-    /// link (the arm thread's check, not a timeout inside the library).
+    /// A library call that has not returned, or a command the SDK thread
+    /// has not taken, after this long, ms, is a lost link (the arm
+    /// thread's check, not a timeout inside the library). The JACO2 itself
+    /// stops when points stop arriving; this decides when the core is
+    /// told. Long enough for a normal thread's scheduling delays on a
+    /// loaded machine (80 ms were seen here).
     pub call_timeout_ms: u32,
     /// `kinova-sdk:eth`: this machine's address on the arm's network.
     pub local_ip: String,
@@ -152,7 +156,7 @@ impl Default for KinovaSdkSettings {
         KinovaSdkSettings {
             library_dir: "/opt/kinova/API".into(),
             serial_number: String::new(),
-            call_timeout_ms: 100,
+            call_timeout_ms: 500,
             local_ip: "192.168.100.100".into(),
             subnet_mask: "255.255.255.0".into(),
             robot_ip: "192.168.100.11".into(),

@@ -28,13 +28,14 @@ use std::time::{Duration, Instant};
 
 use self::abi::{EthernetCommConfig, inet_addr};
 use self::library::{KinovaLibrary, command_layer_names};
-use self::worker::{Busy, Request, Shared, Worker};
+use self::worker::{Busy, Request, Shared, Worker, elapsed_ns};
 use crate::arm::settings::ArmSettings;
 use crate::arm::{Arm, ArmError, ArmState, SdkLink};
 use crate::control::motion::stream::ArmCommand;
 
-/// Commands the SDK thread may fall behind by before `send` fails: 80 ms.
-const QUEUE: usize = 8;
+/// Commands the SDK thread may fall behind by (640 ms): more than the
+/// call timeout allows, so a stall is reported by its age first.
+const QUEUE: usize = 64;
 
 /// How long `stop` waits for the SDK thread beyond the call timeout.
 const STOP_GRACE: Duration = Duration::from_millis(1000);
@@ -57,6 +58,10 @@ struct Running {
     shared: Arc<Mutex<Shared>>,
     busy: Arc<Busy>,
     stopping: bool,
+    /// Requests queued so far.
+    pushed: u64,
+    /// When request `n` was queued (ns after the epoch), at `n % QUEUE`.
+    pushed_at: [u64; QUEUE],
 }
 
 impl KinovaSdkArm {
@@ -111,10 +116,29 @@ impl KinovaSdkArm {
                 detail: format!("{}: {failure}", self.describe()),
             });
         }
-        let (call, ns) = running.busy.current(self.epoch)?;
         let limit = self.call_timeout();
-        if Duration::from_nanos(ns) > limit {
+        if let Some((call, ns)) = running.busy.current(self.epoch)
+            && Duration::from_nanos(ns) > limit
+        {
             return Some(self.hanging(call, ns));
+        }
+        // The oldest command not yet taken, whatever holds it up (a call,
+        // or the thread not running).
+        let taken = running.busy.taken();
+        if running.pushed > taken {
+            let pushed_at = running.pushed_at[(taken % QUEUE as u64) as usize];
+            let ns = elapsed_ns(self.epoch).saturating_sub(pushed_at);
+            if Duration::from_nanos(ns) > limit {
+                return Some(ArmError::Disconnected {
+                    detail: format!(
+                        "{}: the SDK thread has not taken a command for {} ms                          (`[arm.kinova_sdk] call_timeout_ms` = {}; {} commands waiting)",
+                        self.describe(),
+                        ns / 1_000_000,
+                        self.settings.kinova_sdk.call_timeout_ms,
+                        running.pushed - taken
+                    ),
+                });
+            }
         }
         None
     }
@@ -192,6 +216,8 @@ impl Arm for KinovaSdkArm {
                     shared,
                     busy,
                     stopping: false,
+                    pushed: 0,
+                    pushed_at: [0; QUEUE],
                 });
                 Ok(())
             }
@@ -247,7 +273,12 @@ impl Arm for KinovaSdkArm {
             return Err(failure);
         }
         match running.requests.try_send(Request::Point(*command)) {
-            Ok(()) => Ok(()),
+            Ok(()) => {
+                running.pushed_at[(running.pushed % QUEUE as u64) as usize] =
+                    elapsed_ns(self.epoch);
+                running.pushed += 1;
+                Ok(())
+            }
             Err(TrySendError::Full(_)) => {
                 let busy = running.busy.current(self.epoch);
                 Err(match busy {

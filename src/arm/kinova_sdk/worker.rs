@@ -104,6 +104,8 @@ impl Call {
 pub struct Busy {
     call: AtomicU8,
     since_ns: AtomicU64,
+    /// Requests taken off the queue so far.
+    taken: AtomicU64,
 }
 
 impl Busy {
@@ -113,9 +115,15 @@ impl Busy {
         let since = self.since_ns.load(Ordering::Acquire);
         Some((call, elapsed_ns(epoch).saturating_sub(since)))
     }
+
+    /// Requests the SDK thread has taken off the queue.
+    pub fn taken(&self) -> u64 {
+        self.taken.load(Ordering::Acquire)
+    }
 }
 
-fn elapsed_ns(epoch: Instant) -> u64 {
+/// Nanoseconds since `epoch`.
+pub fn elapsed_ns(epoch: Instant) -> u64 {
     u64::try_from(epoch.elapsed().as_nanos()).unwrap_or(u64::MAX)
 }
 
@@ -339,6 +347,7 @@ impl Worker {
         let mut executing = ArmCommand::default();
         // Until Stop, or the backend went away without one (stop anyway).
         while let Ok(request) = self.requests.recv() {
+            self.busy.taken.fetch_add(1, Ordering::AcqRel);
             let mut stop = false;
             let mut sent = false;
             let mut next = Some(request);
@@ -370,6 +379,9 @@ impl Worker {
                     }
                 }
                 next = self.requests.try_recv().ok();
+                if next.is_some() {
+                    self.busy.taken.fetch_add(1, Ordering::AcqRel);
+                }
             }
             if sent && !failed {
                 match self.measure(executing) {
