@@ -413,6 +413,22 @@ fn usb_streams_the_cores_commands_at_100_hz_and_reads_the_measured_pose() {
         d[d.len() - 1]
     );
     assert!((rate - 100.0).abs() <= 2.0, "{rate} Hz");
+    // Each point's time at the library against its core tick (1 ms each):
+    // the spread of that offset is the jitter the path to the library adds.
+    let mut offsets: Vec<f64> = stream
+        .iter()
+        .zip(&commands)
+        .map(|(s, c)| s.ns as f64 / 1e6 - c.tick as f64)
+        .collect();
+    offsets.sort_by(f64::total_cmp);
+    let base = offsets[0];
+    eprintln!(
+        "kinova-sdk:usb point time minus its core tick, above the smallest: p50 {:.3} ms, p99 \
+         {:.3} ms, max {:.3} ms",
+        quantile(&offsets, 0.5) - base,
+        quantile(&offsets, 0.99) - base,
+        offsets[offsets.len() - 1] - base
+    );
 
     // The measured pose: the last GetCartesianPosition, Euler XYZ.
     let last = run
