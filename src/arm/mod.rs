@@ -15,8 +15,10 @@
 //! reckoning. A backend that can tell its link is gone says so from
 //! [`Arm::check_link`], polled every millisecond by the arm thread.
 //!
-//! Backends: [`sim`] (the simulated JACO), [`ros2`] (a ROS 2 topic).
+//! Backends: [`sim`] (the simulated JACO), [`ros2`] (a ROS 2 topic),
+//! [`kinova_sdk`] (a JACO2 through Kinova's own library).
 
+pub mod kinova_sdk;
 pub mod ros2;
 pub mod settings;
 pub mod sim;

@@ -122,14 +122,47 @@ impl Default for Ros1Settings {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct KinovaSdkSettings {
     /// The folder holding Kinova's `Kinova.API.USBCommandLayerUbuntu.so`
-    /// and `Kinova.API.EthCommandLayerUbuntu.so`.
+    /// and `Kinova.API.EthCommandLayerUbuntu.so` (or kinova-ros's
+    /// `USBCommandLayerUbuntu.so` and `EthCommandLayerUbuntu.so`).
     pub library_dir: String,
+    /// The arm's serial number (e.g. `PJ00000001030703130`); empty for the
+    /// first arm found, as kinova-ros does.
+    pub serial_number: String,
+    /// A library call that has not returned, or a command the SDK thread
+    /// has not taken, after this long, ms, is a lost link (the arm
+    /// thread's check, not a timeout inside the library). The JACO2 itself
+    /// stops when points stop arriving; this decides when the core is
+    /// told. Long enough for a normal thread's scheduling delays on a
+    /// loaded machine (80 ms were seen here).
+    pub call_timeout_ms: u32,
+    /// `kinova-sdk:eth`: this machine's address on the arm's network.
+    pub local_ip: String,
+    /// `kinova-sdk:eth`: that network's mask.
+    pub subnet_mask: String,
+    /// `kinova-sdk:eth`: the arm's address (set in Kinova's Development
+    /// Center, General/Ethernet).
+    pub robot_ip: String,
+    /// `kinova-sdk:eth`: the arm's UDP port.
+    pub robot_port: u16,
+    /// `kinova-sdk:eth`: this machine's command port.
+    pub local_cmd_port: u16,
+    /// `kinova-sdk:eth`: this machine's broadcast port.
+    pub local_broadcast_port: u16,
 }
 
 impl Default for KinovaSdkSettings {
+    /// kinova-ros's defaults (`robot_parameters.yaml`, `kinova_comm.cpp`).
     fn default() -> Self {
         KinovaSdkSettings {
             library_dir: "/opt/kinova/API".into(),
+            serial_number: String::new(),
+            call_timeout_ms: 500,
+            local_ip: "192.168.100.100".into(),
+            subnet_mask: "255.255.255.0".into(),
+            robot_ip: "192.168.100.11".into(),
+            robot_port: 55000,
+            local_cmd_port: 25000,
+            local_broadcast_port: 25025,
         }
     }
 }

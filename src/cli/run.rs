@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
+use crate::arm::kinova_sdk::KinovaSdkArm;
 use crate::arm::ros2::Ros2Arm;
 use crate::arm::sim::SimArm;
 use crate::arm::{Arm, ArmSpec};
@@ -90,7 +91,8 @@ fn open_arm(spec: &ArmSpec, config: &Config) -> anyhow::Result<Box<dyn Arm>> {
                 settings.connect_timeout_ms,
             ))
         }
-        ArmSpec::Ros1 { .. } | ArmSpec::KinovaSdk { .. } => {
+        ArmSpec::KinovaSdk { link } => Box::new(KinovaSdkArm::new(*link, config.arm())),
+        ArmSpec::Ros1 { .. } => {
             anyhow::bail!("--arm {spec}: this backend is not in this build yet")
         }
     })

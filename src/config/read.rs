@@ -223,6 +223,14 @@ pub(super) fn arm(
     let d = &defaults.kinova_sdk;
     c.kinova_sdk = KinovaSdkSettings {
         library_dir: t.get("library_dir", d.library_dir.clone()),
+        serial_number: t.get("serial_number", d.serial_number.clone()),
+        call_timeout_ms: t.get("call_timeout_ms", d.call_timeout_ms),
+        local_ip: t.get("local_ip", d.local_ip.clone()),
+        subnet_mask: t.get("subnet_mask", d.subnet_mask.clone()),
+        robot_ip: t.get("robot_ip", d.robot_ip.clone()),
+        robot_port: t.get("robot_port", d.robot_port),
+        local_cmd_port: t.get("local_cmd_port", d.local_cmd_port),
+        local_broadcast_port: t.get("local_broadcast_port", d.local_broadcast_port),
     };
     t.finish();
     validate::arm(reader.problems, &c);

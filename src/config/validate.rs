@@ -560,6 +560,32 @@ pub(super) fn arm(p: &mut Problems, c: &ArmSettings) {
             "must name the folder holding Kinova's command-layer libraries",
         );
     }
+    let sdk = &c.kinova_sdk;
+    p.positive_ms("arm.kinova_sdk.call_timeout_ms", sdk.call_timeout_ms);
+    for (key, value) in [
+        ("arm.kinova_sdk.local_ip", &sdk.local_ip),
+        ("arm.kinova_sdk.subnet_mask", &sdk.subnet_mask),
+        ("arm.kinova_sdk.robot_ip", &sdk.robot_ip),
+    ] {
+        if value.parse::<std::net::Ipv4Addr>().is_err() {
+            p.add(
+                key,
+                format!("{value:?} is not an IPv4 address (e.g. \"192.168.100.100\")"),
+            );
+        }
+    }
+    for (key, value) in [
+        ("arm.kinova_sdk.robot_port", sdk.robot_port),
+        ("arm.kinova_sdk.local_cmd_port", sdk.local_cmd_port),
+        (
+            "arm.kinova_sdk.local_broadcast_port",
+            sdk.local_broadcast_port,
+        ),
+    ] {
+        if value == 0 {
+            p.add(key, "must be a UDP port (1–65535)");
+        }
+    }
 }
 
 pub(super) fn sensor(p: &mut Problems, c: &SensorSettings) {

@@ -14,6 +14,7 @@ static ALLOCATOR: CountingAllocator = CountingAllocator;
 mod allocations;
 mod architecture;
 mod arm_feedback;
+mod arm_kinova_sdk;
 mod arm_ros2;
 mod cli;
 mod common;
