@@ -536,3 +536,30 @@ fn a_pose_that_is_not_a_pose_is_a_fault_and_never_reaches_the_estimate() {
         );
     }
 }
+#[test]
+fn an_arm_held_still_at_a_turned_pose_stays_trusted_for_minutes() {
+    // Found against the Kinova SDK stand-in: with a tool turned away from
+    // the base frame, each correction's rounding compounded (a quaternion
+    // multiplied by its own not-quite-unit turn) until the estimate's
+    // rotation was 1e221 and a still arm "disagreed by 180°" after 0.6 s.
+    // Kinova's pose comes as float32 Euler angles.
+    let config = Config::default();
+    let r = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), f64::from(0.3f32))
+        * UnitQuaternion::from_axis_angle(&Vector3::y_axis(), f64::from(-0.2f32))
+        * UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 1.0);
+    let mut pose = home(&config);
+    pose.rotation = r;
+    let mut core: Pipeline = Pipeline::new(config.core());
+    core.start_measured(pose);
+    let neutral = config.core().detector().neutral_volts;
+    for t in 0..180_000u64 {
+        if t.is_multiple_of(10) {
+            core.observe_arm(&pose);
+        }
+        let out = core.step(t, neutral);
+        assert!(out.events.is_empty(), "tick {t}: {:?}", out.events);
+        let q = out.motion.pose.rotation.quaternion().norm();
+        assert!((q - 1.0).abs() < 1e-12, "tick {t}: |q| = {q}");
+    }
+    assert!(core.motion().pose().rotation.angle_to(&r) < 1e-9);
+}

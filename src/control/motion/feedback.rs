@@ -306,7 +306,7 @@ impl PoseTracker {
             }
         }
         let by = measured.translation.vector - nearest.translation.vector;
-        let turn = measured.rotation * nearest.rotation.inverse();
+        let turn = unit(measured.rotation * nearest.rotation.inverse());
         let (sum_m, sum_rad) = self.add_correction(now, by, turn.scaled_axis());
         if sum_m.norm() > c.tolerance_m || sum_rad.norm() > c.tolerance_rad {
             let expected = Isometry3::from_parts(
@@ -315,9 +315,12 @@ impl PoseTracker {
             );
             return Some(self.fault(measured, &expected, sum_m.norm(), sum_rad.norm()));
         }
+        // Renormalised: a product of rounded unit quaternions drifts from
+        // unit length, and turning the path by turns computed from it
+        // would compound the drift every measurement.
         let shift = |pose: &mut Isometry3<f64>| {
             pose.translation.vector += by;
-            pose.rotation = turn * pose.rotation;
+            pose.rotation = unit(turn * pose.rotation);
         };
         shift(estimate);
         for point in self.path.iter_mut() {
@@ -391,6 +394,11 @@ impl PoseTracker {
             (point, distance, angle, back == window && points == window)
         })
     }
+}
+
+/// `q` brought back to unit length.
+fn unit(q: UnitQuaternion<f64>) -> UnitQuaternion<f64> {
+    UnitQuaternion::new_normalize(q.into_inner())
 }
 
 /// Finite coordinates and a unit quaternion (within rounding): a pose.
