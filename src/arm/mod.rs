@@ -15,8 +15,9 @@
 //! reckoning. A backend that can tell its link is gone says so from
 //! [`Arm::check_link`], polled every millisecond by the arm thread.
 //!
-//! Backends: [`sim`] (the simulated JACO).
+//! Backends: [`sim`] (the simulated JACO), [`ros1`] (kinova-ros over ROS 1).
 
+pub mod ros1;
 pub mod settings;
 pub mod sim;
 

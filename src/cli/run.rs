@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
+use crate::arm::ros1::Ros1Arm;
 use crate::arm::sim::SimArm;
 use crate::arm::{Arm, ArmSpec};
 use crate::cli::args::{
@@ -81,7 +82,12 @@ pub struct RunArgs {
 fn open_arm(spec: &ArmSpec, config: &Config) -> anyhow::Result<Box<dyn Arm>> {
     Ok(match spec {
         ArmSpec::Sim => Box::new(SimArm::new(config.core())),
-        ArmSpec::Ros2 { .. } | ArmSpec::Ros1 { .. } | ArmSpec::KinovaSdk { .. } => {
+        ArmSpec::Ros1 { namespace } => Box::new(Ros1Arm::new(
+            namespace,
+            &config.arm().ros1,
+            config.arm().connect_timeout_ms,
+        )),
+        ArmSpec::Ros2 { .. } | ArmSpec::KinovaSdk { .. } => {
             anyhow::bail!("--arm {spec}: this backend is not in this build yet")
         }
     })
