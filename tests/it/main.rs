@@ -13,6 +13,7 @@ static ALLOCATOR: CountingAllocator = CountingAllocator;
 
 mod allocations;
 mod architecture;
+mod arm_ros1;
 mod cli;
 mod common;
 mod faults;

@@ -468,8 +468,14 @@ impl Arm for Ros1Arm {
         Ok(())
     }
 
+    /// Once the link is lost, only zero commands go out (to whoever still
+    /// listens: the driver when only the master is gone), so the stream's
+    /// end still reaches the arm; a moving command is refused.
     fn send(&mut self, command: &ArmCommand) -> Result<(), ArmError> {
-        self.link()?;
+        let link = self.link();
+        if link.is_err() && !command.is_zero() {
+            return link;
+        }
         let Some(node) = &self.node else {
             return Err(ArmError::Disconnected {
                 detail: "the ROS 1 node is not connected".into(),
