@@ -634,3 +634,34 @@ fn no_driver_and_no_pose_are_clear_errors_within_the_timeout() {
         took.as_secs_f64() * 1e3
     );
 }
+
+#[test]
+fn sipnpuff_killed_mid_motion_the_stream_just_stops() {
+    let name = "sipnpuff-killed";
+    if !peers_installed(name) {
+        return;
+    }
+    let graph = Graph::start(name);
+    let peer = graph.subscriber(false);
+    let config = graph.config(false, false, 10_000);
+    let mut run = graph.sipnpuff(&config, &["--seconds", "60"]);
+    run.wait_until_moving();
+    let killed_ns = monotonic_ns();
+    run.signal(libc::SIGKILL);
+    let (status, _, _) = run.finish();
+    assert_eq!(status.code(), None, "killed by a signal");
+    let got = received(&peer, Duration::from_millis(1000));
+    let after = got.messages.iter().filter(|(t, _)| *t > killed_ns).count();
+    let (t, last) = got.messages.last().unwrap();
+    eprintln!(
+        "{name}: SIGKILL of sipnpuff: {after} message(s) after it, the last {:.1} ms after, moving: {last:?} (the JACO2 stops when its stream stops)",
+        (t - killed_ns) as f64 / 1e6
+    );
+    // No zero is possible; what counts is that nothing more comes (at most
+    // what was already in the socket).
+    assert!(after <= 2, "{after} messages after SIGKILL");
+    assert!(
+        last.iter().any(|&x| x != 0.0),
+        "killed mid-motion: {last:?}"
+    );
+}

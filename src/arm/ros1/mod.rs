@@ -171,7 +171,7 @@ impl Ros1Arm {
             if gone.is_empty() {
                 return Ok(());
             }
-            let driver_gone = gone.iter().any(|c| *c == self.namespace);
+            let driver_gone = gone.contains(&self.namespace);
             if !driver_gone && !subscribers.is_empty() {
                 return Ok(());
             }
@@ -572,8 +572,10 @@ mod tests {
 
     #[test]
     fn topics_and_hint_follow_the_namespace() {
-        let mut settings = Ros1Settings::default();
-        settings.fingers = false;
+        let mut settings = Ros1Settings {
+            fingers: false,
+            ..Ros1Settings::default()
+        };
         let arm = Ros1Arm::new("j2n6s300_driver", &settings, 100);
         assert_eq!(
             arm.command_topic(),

@@ -245,30 +245,22 @@ pub fn receive_poses(
     if let Some(error) = fields.get("error") {
         return Err(io::Error::new(io::ErrorKind::InvalidData, error.clone()));
     }
-    // Short reads so `stop` is seen; a message is read whole once begun.
+    // Short reads so `stop` is seen; a partial read is kept, never lost.
     stream.set_read_timeout(Some(Duration::from_millis(50)))?;
     let mut len = [0u8; 4];
-    while !stop.load(Ordering::Relaxed) {
-        match stream.read_exact(&mut len) {
-            Ok(()) => {}
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                ) =>
-            {
-                continue;
-            }
-            Err(e) => return Err(e),
+    let mut body = Vec::new();
+    loop {
+        if !read_full(&mut stream, &mut len, &stop)? {
+            return Ok(());
         }
         let n = u32::from_le_bytes(len) as usize;
         if n > MAX_READ {
             return Err(io::Error::new(io::ErrorKind::InvalidData, "a huge message"));
         }
-        let mut body = vec![0u8; n];
-        stream.set_read_timeout(Some(Duration::from_secs(2)))?;
-        stream.read_exact(&mut body)?;
-        stream.set_read_timeout(Some(Duration::from_millis(50)))?;
+        body.resize(n, 0);
+        if !read_full(&mut stream, &mut body, &stop)? {
+            return Ok(());
+        }
         let mut slot = lock(&slot);
         match msg::decode_pose_stamped(&body) {
             Ok(pose) => {
@@ -278,7 +270,30 @@ pub fn receive_poses(
             Err(e) => slot.error = Some(e),
         }
     }
-    Ok(())
+}
+
+/// Fills `buf` from a stream with a read timeout, through timeouts, until
+/// `stop` (then `false`); the end of the stream is an error.
+fn read_full(stream: &mut TcpStream, buf: &mut [u8], stop: &AtomicBool) -> io::Result<bool> {
+    let mut at = 0;
+    while at < buf.len() {
+        if stop.load(Ordering::Relaxed) {
+            return Ok(false);
+        }
+        match stream.read(&mut buf[at..]) {
+            Ok(0) => return Err(io::ErrorKind::UnexpectedEof.into()),
+            Ok(n) => at += n,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock
+                        | io::ErrorKind::TimedOut
+                        | io::ErrorKind::Interrupted
+                ) => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(true)
 }
 
 #[cfg(test)]
