@@ -123,9 +123,20 @@ impl Ros1Arm {
             .next()
             .unwrap_or("")
             .trim_end_matches("_driver");
-        let robot = if robot.is_empty() { "j2n6s300" } else { robot };
+        // A robot type is like j2n6s300 (letter digit letter digit letter
+        // three digits); another name is kinova_robotName's.
+        let is_type = robot.len() == 8
+            && robot.chars().enumerate().all(|(i, c)| match i {
+                0 | 2 | 4 => c.is_ascii_lowercase(),
+                _ => c.is_ascii_digit(),
+            });
+        let args = if is_type {
+            format!("kinova_robotType:={robot}")
+        } else {
+            format!("kinova_robotType:=j2n6s300 kinova_robotName:={robot}")
+        };
         format!(
-            "is the kinova driver running: roslaunch kinova_bringup kinova_robot.launch kinova_robotType:={robot}?"
+            "is the kinova driver running: roslaunch kinova_bringup kinova_robot.launch {args}?"
         )
     }
 
@@ -590,5 +601,10 @@ mod tests {
             "/m1n6s200_driver/in/cartesian_velocity_with_finger_velocity"
         );
         assert!(arm.launch_hint().contains("kinova_robotType:=m1n6s200?"));
+        let arm = Ros1Arm::new("/left_driver", &settings, 100);
+        assert!(
+            arm.launch_hint()
+                .contains("kinova_robotType:=j2n6s300 kinova_robotName:=left?")
+        );
     }
 }
