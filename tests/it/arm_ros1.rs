@@ -544,7 +544,8 @@ fn no_master_is_a_clear_error() {
     // Needs no peer: nothing listens on the port.
     let dir = scratch("no-master");
     let config = dir.join("config.toml");
-    std::fs::write(&config, "[arm]\nconnect_timeout_ms = 2000\n").unwrap();
+    // A long timeout: these errors must not wait for it.
+    std::fs::write(&config, "[arm]\nconnect_timeout_ms = 60000\n").unwrap();
     let port = free_port();
     let run = |uri: Option<&str>| {
         let mut command = Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
@@ -575,7 +576,7 @@ fn no_master_is_a_clear_error() {
             && stderr.contains("export ROS_MASTER_URI=http://"),
         "{stderr}"
     );
-    assert!(took < Duration::from_secs(5), "{took:?}");
+    assert!(took < Duration::from_secs(30), "{took:?}");
     let (code, stderr, took) = run(Some(&format!("http://127.0.0.1:{port}")));
     assert_eq!(code, Some(1));
     assert!(
@@ -583,7 +584,11 @@ fn no_master_is_a_clear_error() {
             && stderr.contains("roscore"),
         "{stderr}"
     );
-    assert!(took < Duration::from_secs(5), "{took:?}");
+    assert!(took < Duration::from_secs(30), "{took:?}");
+    eprintln!(
+        "no-master: nothing on the port: the error after {:.0} ms",
+        took.as_secs_f64() * 1e3
+    );
     let (code, stderr, _) = run(Some("localhost:11311"));
     assert_eq!(code, Some(1));
     assert!(stderr.contains("is not http://HOST:PORT"), "{stderr}");
