@@ -30,7 +30,7 @@ mod xmlrpc;
 
 use std::collections::HashSet;
 use std::io::Read;
-use std::net::{Shutdown, TcpListener, TcpStream};
+use std::net::{Shutdown, TcpListener};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::{self, JoinHandle};
@@ -221,13 +221,8 @@ impl Ros1Arm {
         let host = match std::env::var("ROS_IP").or_else(|_| std::env::var("ROS_HOSTNAME")) {
             Ok(host) if !host.is_empty() => host,
             _ => {
-                use std::net::ToSocketAddrs;
-                let address = (master.host.as_str(), master.port)
-                    .to_socket_addrs()
-                    .map_err(|e| no_master(&e))?
-                    .next()
-                    .ok_or_else(|| no_master(&"no address"))?;
-                let probe = TcpStream::connect_timeout(&address, ask).map_err(|e| no_master(&e))?;
+                let probe = xmlrpc::connect_any(&master.host, master.port, ask)
+                    .map_err(|e| no_master(&e))?;
                 probe
                     .local_addr()
                     .map_err(|e| no_master(&e))?

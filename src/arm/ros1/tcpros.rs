@@ -225,12 +225,7 @@ pub fn receive_poses(
     slot: Arc<Mutex<PoseSlot>>,
     stop: Arc<AtomicBool>,
 ) -> io::Result<()> {
-    use std::net::ToSocketAddrs;
-    let address = (host.as_str(), port)
-        .to_socket_addrs()?
-        .next()
-        .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, host.clone()))?;
-    let mut stream = TcpStream::connect_timeout(&address, Duration::from_secs(2))?;
+    let mut stream = super::xmlrpc::connect_any(&host, port, Duration::from_secs(2))?;
     stream.set_nodelay(true)?;
     stream.set_write_timeout(Some(Duration::from_secs(2)))?;
     stream.set_read_timeout(Some(Duration::from_secs(2)))?;

@@ -184,11 +184,7 @@ pub fn call(
     params: &[Value],
     timeout: Duration,
 ) -> Result<Value, CallError> {
-    let address = (uri.host.as_str(), uri.port)
-        .to_socket_addrs()?
-        .next()
-        .ok_or_else(|| CallError::Protocol(format!("`{}` has no address", uri.host)))?;
-    let mut stream = TcpStream::connect_timeout(&address, timeout)?;
+    let mut stream = connect_any(&uri.host, uri.port, timeout)?;
     stream.set_read_timeout(Some(timeout))?;
     stream.set_write_timeout(Some(timeout))?;
     stream.set_nodelay(true)?;
@@ -204,6 +200,22 @@ pub fn call(
     stream.write_all(request.as_bytes())?;
     let (_, body) = read_http(&mut stream)?;
     parse_response(&body)
+}
+
+/// Connects to the first of `host`'s addresses that answers (`localhost`
+/// may name ::1 first, and a ROS 1 master listens on IPv4).
+pub fn connect_any(host: &str, port: u16, timeout: Duration) -> std::io::Result<TcpStream> {
+    let mut last = std::io::Error::new(
+        std::io::ErrorKind::NotFound,
+        format!("`{host}` has no address"),
+    );
+    for address in (host, port).to_socket_addrs()? {
+        match TcpStream::connect_timeout(&address, timeout) {
+            Ok(stream) => return Ok(stream),
+            Err(e) => last = e,
+        }
+    }
+    Err(last)
 }
 
 /// Reads one HTTP message: (head, body). The body's length is the
