@@ -261,6 +261,20 @@ impl Ros1Arm {
             .map_err(|e| no_master(&e))?
             .as_int()
             .unwrap_or(0);
+        // One controller per arm: a live /sipnpuff is not displaced (the
+        // master would shut it down); a stale registration (a killed
+        // sipnpuff) does not answer and is taken over.
+        if let Ok(other) =
+            node::master_call(&shared, "lookupNode", &[s(NODE_NAME), s(NODE_NAME)], ask)
+            && let Some(uri) = other.as_str().and_then(HttpUri::parse)
+            && let Ok(other_pid) = node::api_call(&uri, "getPid", &[s(NODE_NAME)], ask)
+        {
+            return Err(Self::unavailable(format!(
+                "another {NODE_NAME} (pid {}, {}) is registered with the ROS master at {master_text} and answering: one controller per arm; stop it first",
+                other_pid.as_int().unwrap_or(0),
+                other.as_str().unwrap_or("")
+            )));
+        }
         let subscribers: Subscribers = Arc::new(Mutex::new(Vec::new()));
         let accept_stop = Arc::new(AtomicBool::new(false));
         let mut node = Node {
