@@ -304,4 +304,69 @@ mod tests {
         assert!(decode_header(&[9, 0, 0, 0, b'a']).is_err());
         assert!(read_block(&mut &[255u8, 255, 255, 255][..]).is_err());
     }
+
+    /// A client's handshake with our publication: its response header.
+    fn subscribe(port: u16, md5sum: &str, kind: &str) -> (TcpStream, HashMap<String, String>) {
+        let mut stream = TcpStream::connect(("127.0.0.1", port)).unwrap();
+        let header = encode_header(&[
+            ("callerid", "/driver"),
+            ("topic", "/ns/in/cartesian_velocity"),
+            ("md5sum", md5sum),
+            ("type", kind),
+        ]);
+        stream.write_all(&header).unwrap();
+        let fields = decode_header(&read_block(&mut stream).unwrap()).unwrap();
+        (stream, fields)
+    }
+
+    #[test]
+    fn the_publication_checks_headers_and_sees_a_closed_subscriber() {
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let port = listener.local_addr().unwrap().port();
+        let subscribers: Subscribers = Arc::new(Mutex::new(Vec::new()));
+        let stop = Arc::new(AtomicBool::new(false));
+        let (s, st) = (subscribers.clone(), stop.clone());
+        let server = thread::spawn(move || {
+            serve_publication(
+                listener,
+                "/ns/in/cartesian_velocity".into(),
+                "/sipnpuff".into(),
+                msg::POSE_VELOCITY,
+                s,
+                st,
+            )
+        });
+        // A wrong md5sum: an error header, not added.
+        let (_, fields) = subscribe(port, "0123", "kinova_msgs/PoseVelocity");
+        assert!(fields["error"].contains("md5sum 0123"), "{fields:?}");
+        // AnyMsg's `*`: our header, added.
+        let (mut client, fields) = subscribe(port, "*", "*");
+        assert_eq!(fields["md5sum"], msg::POSE_VELOCITY.md5sum);
+        assert_eq!(fields["type"], "kinova_msgs/PoseVelocity");
+        while lock(&subscribers).is_empty() {
+            thread::sleep(Duration::from_millis(1));
+        }
+        let mut frame = [0u8; msg::MAX_FRAME];
+        let c = crate::control::motion::stream::ArmCommand {
+            linear: [0.1, 0.0, 0.0],
+            ..Default::default()
+        };
+        let len = msg::encode_command(&c, false, &mut frame);
+        {
+            let mut subs = lock(&subscribers);
+            assert_eq!(subs[0].caller_id, "/driver");
+            assert!(!closed(&subs[0].stream));
+            write_frame(&mut subs[0], &frame[..len]).unwrap();
+        }
+        assert_eq!(read_block(&mut client).unwrap(), frame[4..len].to_vec());
+        drop(client);
+        // The close is seen without blocking, at once.
+        let started = std::time::Instant::now();
+        while !closed(&lock(&subscribers)[0].stream) {
+            assert!(started.elapsed() < Duration::from_secs(5));
+            thread::sleep(Duration::from_millis(1));
+        }
+        stop.store(true, Ordering::Relaxed);
+        server.join().unwrap();
+    }
 }
