@@ -20,33 +20,26 @@
 //! written" can be built on it. rosrust 0.9.12 is a process-wide
 //! singleton that takes SIGINT unless told not to, notices a closed
 //! subscriber only after a failed write in its own thread, and cannot
-//! flush. What is needed here is small: see `node.rs`, `tcpros.rs`,
-//! `xmlrpc.rs`, `msg.rs`.
+//! flush. What is needed here is small: `session.rs` (connect, shut
+//! down), `node.rs` (master and slave APIs), `tcpros.rs`, `xmlrpc.rs`,
+//! `msg.rs`.
 
 mod msg;
 mod node;
+mod session;
 mod tcpros;
 mod xmlrpc;
 
-use std::collections::HashSet;
-use std::io::Read;
-use std::net::{Shutdown, TcpListener};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
-use std::thread::{self, JoinHandle};
-use std::time::{Duration, Instant};
+use std::sync::atomic::Ordering;
+use std::time::Duration;
 
 use crate::arm::settings::Ros1Settings;
 use crate::arm::{Arm, ArmError, ArmState};
 use crate::control::motion::stream::ArmCommand;
 
 use msg::MsgType;
-use node::Shared;
-use tcpros::{PoseSlot, Subscribers, lock};
-use xmlrpc::{HttpUri, s};
-
-/// This node's name.
-pub const NODE_NAME: &str = "/sipnpuff";
+use session::{Node, Plan};
+use tcpros::lock;
 
 /// Bytes a subscriber may leave unread before it counts as gone: 100
 /// commands (1 s) — a JACO2 would execute a backlog late.
@@ -63,16 +56,6 @@ pub struct Ros1Arm {
     poses_seen: u64,
     /// Once the link is lost, the reason (said again on every call).
     lost: Option<String>,
-}
-
-/// A connected node.
-struct Node {
-    shared: Arc<Shared>,
-    subscribers: Subscribers,
-    /// Stops accepting subscribers (first step of the stop).
-    accept_stop: Arc<AtomicBool>,
-    threads: Vec<JoinHandle<()>>,
-    subscribed: bool,
 }
 
 impl Ros1Arm {
@@ -140,10 +123,6 @@ impl Ros1Arm {
         )
     }
 
-    fn unavailable(detail: String) -> ArmError {
-        ArmError::Unavailable { detail }
-    }
-
     fn lose(&mut self, reason: String) -> ArmError {
         if self.lost.is_none() {
             self.lost = Some(reason);
@@ -193,282 +172,6 @@ impl Ros1Arm {
             gone.join(", ")
         )))
     }
-
-    /// Starts the node: registers the publisher, waits for the driver's
-    /// subscriber, then (with `tool_pose`) for the first pose.
-    fn start(&mut self) -> Result<Node, ArmError> {
-        let topic = self.command_topic();
-        let master_text = std::env::var("ROS_MASTER_URI").map_err(|_| {
-            Self::unavailable(format!(
-                "ROS_MASTER_URI is not set: export ROS_MASTER_URI=http://HOST:11311 (the machine running roscore, e.g. http://localhost:11311) to publish {topic}"
-            ))
-        })?;
-        let master = HttpUri::parse(&master_text).ok_or_else(|| {
-            Self::unavailable(format!(
-                "ROS_MASTER_URI `{master_text}` is not http://HOST:PORT (e.g. http://localhost:11311)"
-            ))
-        })?;
-        let no_master = |e: &dyn std::fmt::Display| {
-            Self::unavailable(format!(
-                "no ROS master answers at {master_text} (ROS_MASTER_URI): {e}; is roscore running there (roscore, or the kinova launch file, which starts one)?"
-            ))
-        };
-        let ask = self
-            .connect_timeout
-            .clamp(Duration::from_millis(100), Duration::from_secs(3));
-        // Our address: ROS_IP, ROS_HOSTNAME, else the one the master is
-        // reached from (loopback for a local master).
-        let host = match std::env::var("ROS_IP").or_else(|_| std::env::var("ROS_HOSTNAME")) {
-            Ok(host) if !host.is_empty() => host,
-            _ => {
-                let probe = xmlrpc::connect_any(&master.host, master.port, ask)
-                    .map_err(|e| no_master(&e))?;
-                probe
-                    .local_addr()
-                    .map_err(|e| no_master(&e))?
-                    .ip()
-                    .to_string()
-            }
-        };
-        let io = |what: &str, e: std::io::Error| Self::unavailable(format!("{what}: {e}"));
-        let slave = TcpListener::bind("0.0.0.0:0").map_err(|e| io("the node's XML-RPC port", e))?;
-        let publication = TcpListener::bind("0.0.0.0:0").map_err(|e| io("the TCPROS port", e))?;
-        let api_port = slave
-            .local_addr()
-            .map_err(|e| io("the XML-RPC port", e))?
-            .port();
-        let tcpros_port = publication
-            .local_addr()
-            .map_err(|e| io("the TCPROS port", e))?
-            .port();
-        let stop = Arc::new(AtomicBool::new(false));
-        let shared = Arc::new(Shared {
-            caller_id: NODE_NAME.into(),
-            host: host.clone(),
-            api_uri: format!("http://{host}:{api_port}/"),
-            master,
-            master_text: master_text.clone(),
-            pub_topic: topic.clone(),
-            tcpros_port,
-            sub_topic: self.settings.tool_pose.then(|| self.pose_topic()),
-            poses: Arc::new(Mutex::new(PoseSlot::default())),
-            pose_publishers: Mutex::new(HashSet::new()),
-            lost: Mutex::new(None),
-            lost_flag: AtomicBool::new(false),
-            stop: stop.clone(),
-        });
-        let pid = node::master_call(&shared, "getPid", &[s(NODE_NAME)], ask)
-            .map_err(|e| no_master(&e))?
-            .as_int()
-            .unwrap_or(0);
-        // One controller per arm: a live /sipnpuff is not displaced (the
-        // master would shut it down); a stale registration (a killed
-        // sipnpuff) does not answer and is taken over.
-        if let Ok(other) =
-            node::master_call(&shared, "lookupNode", &[s(NODE_NAME), s(NODE_NAME)], ask)
-            && let Some(uri) = other.as_str().and_then(HttpUri::parse)
-            && let Ok(other_pid) = node::api_call(&uri, "getPid", &[s(NODE_NAME)], ask)
-        {
-            return Err(Self::unavailable(format!(
-                "another {NODE_NAME} (pid {}, {}) is registered with the ROS master at {master_text} and answering: one controller per arm; stop it first",
-                other_pid.as_int().unwrap_or(0),
-                other.as_str().unwrap_or("")
-            )));
-        }
-        let subscribers: Subscribers = Arc::new(Mutex::new(Vec::new()));
-        let accept_stop = Arc::new(AtomicBool::new(false));
-        let mut node = Node {
-            shared: shared.clone(),
-            subscribers: subscribers.clone(),
-            accept_stop: accept_stop.clone(),
-            threads: Vec::new(),
-            subscribed: false,
-        };
-        let spawn = |name: &str, f: Box<dyn FnOnce() + Send>| {
-            thread::Builder::new()
-                .name(name.into())
-                .spawn(f)
-                .map_err(|e| Self::unavailable(format!("a thread for ROS 1: {e}")))
-        };
-        let s2 = shared.clone();
-        node.threads.push(spawn(
-            "ros1-xmlrpc",
-            Box::new(move || node::serve_slave_api(slave, s2)),
-        )?);
-        let (t, c, m, subs) = (
-            topic.clone(),
-            NODE_NAME.to_owned(),
-            self.msg_type,
-            subscribers,
-        );
-        node.threads.push(spawn(
-            "ros1-tcpros",
-            Box::new(move || tcpros::serve_publication(publication, t, c, m, subs, accept_stop)),
-        )?);
-        let result = self.register(&mut node, pid, ask);
-        if let Err(e) = result {
-            Self::shutdown(&mut node, false);
-            return Err(e);
-        }
-        Ok(node)
-    }
-
-    fn register(&mut self, node: &mut Node, pid: i32, ask: Duration) -> Result<(), ArmError> {
-        let shared = node.shared.clone();
-        let topic = self.command_topic();
-        let registering = |what: &str, e: xmlrpc::CallError| {
-            Self::unavailable(format!(
-                "the ROS master at {} refused {what}: {e}",
-                shared.master_text
-            ))
-        };
-        node::master_call(
-            &shared,
-            "registerPublisher",
-            &[
-                s(NODE_NAME),
-                s(&topic),
-                s(self.msg_type.name),
-                s(&shared.api_uri),
-            ],
-            ask,
-        )
-        .map_err(|e| registering("registerPublisher", e))?;
-        let deadline = Instant::now() + self.connect_timeout;
-        while lock(&node.subscribers).is_empty() {
-            if shared.lost_flag.load(Ordering::Acquire) {
-                return Err(Self::unavailable(
-                    lock(&shared.lost).clone().unwrap_or_default(),
-                ));
-            }
-            if Instant::now() >= deadline {
-                return Err(Self::unavailable(format!(
-                    "nothing subscribed to {topic} ({}) within {} ms (master {}): {}",
-                    self.msg_type.name,
-                    self.connect_timeout.as_millis(),
-                    shared.master_text,
-                    self.launch_hint()
-                )));
-            }
-            thread::sleep(Duration::from_millis(5));
-        }
-        if let Some(pose_topic) = shared.sub_topic.clone() {
-            let publishers = node::master_call(
-                &shared,
-                "registerSubscriber",
-                &[
-                    s(NODE_NAME),
-                    s(&pose_topic),
-                    s(msg::POSE_STAMPED.name),
-                    s(&shared.api_uri),
-                ],
-                ask,
-            )
-            .map_err(|e| registering("registerSubscriber", e))?;
-            node.subscribed = true;
-            let uris: Vec<String> = publishers
-                .as_array()
-                .unwrap_or(&[])
-                .iter()
-                .filter_map(|v| v.as_str().map(str::to_owned))
-                .collect();
-            node::connect_publishers(&shared, &uris);
-            let deadline = Instant::now() + self.connect_timeout;
-            while lock(&shared.poses).count == 0 {
-                if Instant::now() >= deadline {
-                    let why = lock(&shared.poses)
-                        .error
-                        .clone()
-                        .map_or(String::new(), |e| format!(" (last problem: {e})"));
-                    return Err(Self::unavailable(format!(
-                        "no {} on {pose_topic} within {} ms{why}: is the kinova driver publishing its tool pose? (or set [arm.ros1] tool_pose = false to run on dead reckoning)",
-                        msg::POSE_STAMPED.name,
-                        self.connect_timeout.as_millis()
-                    )));
-                }
-                thread::sleep(Duration::from_millis(5));
-            }
-        }
-        let period = Duration::from_millis(u64::from(self.settings.master_check_ms.max(1)));
-        let s2 = shared.clone();
-        node.threads.push(
-            thread::Builder::new()
-                .name("ros1-master".into())
-                .spawn(move || node::watch_master(s2, period, pid))
-                .map_err(|e| Self::unavailable(format!("a thread for ROS 1: {e}")))?,
-        );
-        Ok(())
-    }
-
-    /// Ends a node: stops accepting; (with `flush`) writes what is pending
-    /// to each subscriber, half-closes and waits (up to 0.5 s) for the
-    /// subscriber to close its side — it has then read everything, the
-    /// zero command included; unregisters from the master if it answers;
-    /// ends the threads. Returns what could not be confirmed.
-    fn shutdown(node: &mut Node, flush: bool) -> Option<String> {
-        node.accept_stop.store(true, Ordering::Relaxed);
-        let mut unconfirmed = Vec::new();
-        if flush {
-            let deadline = Instant::now() + Duration::from_millis(500);
-            let mut subscribers = std::mem::take(&mut *lock(&node.subscribers));
-            for sub in &mut subscribers {
-                let wrote = sub
-                    .stream
-                    .set_nonblocking(false)
-                    .and_then(|()| {
-                        sub.stream
-                            .set_write_timeout(Some(Duration::from_millis(200)))
-                    })
-                    .and_then(|()| std::io::Write::write_all(&mut sub.stream, &sub.pending))
-                    .and_then(|()| sub.stream.shutdown(Shutdown::Write));
-                if wrote.is_err() {
-                    unconfirmed.push(sub.caller_id.clone());
-                    continue;
-                }
-                // The subscriber closes once it has read up to our FIN.
-                let mut sink = [0u8; 256];
-                let confirmed = loop {
-                    let left = deadline.saturating_duration_since(Instant::now());
-                    if left.is_zero() || sub.stream.set_read_timeout(Some(left)).is_err() {
-                        break false;
-                    }
-                    match sub.stream.read(&mut sink) {
-                        Ok(0) => break true,
-                        Ok(_) => {}
-                        Err(e) if e.kind() == std::io::ErrorKind::ConnectionReset => break true,
-                        Err(_) => break false,
-                    }
-                };
-                if !confirmed {
-                    unconfirmed.push(sub.caller_id.clone());
-                }
-            }
-        }
-        let shared = &node.shared;
-        if !shared.lost_flag.load(Ordering::Acquire) {
-            let ask = Duration::from_millis(500);
-            let _ = node::master_call(
-                shared,
-                "unregisterPublisher",
-                &[s(NODE_NAME), s(&shared.pub_topic), s(&shared.api_uri)],
-                ask,
-            );
-            if let (true, Some(topic)) = (node.subscribed, &shared.sub_topic) {
-                let _ = node::master_call(
-                    shared,
-                    "unregisterSubscriber",
-                    &[s(NODE_NAME), s(topic), s(&shared.api_uri)],
-                    ask,
-                );
-            }
-        }
-        shared.stop.store(true, Ordering::Relaxed);
-        for t in node.threads.drain(..) {
-            let _ = t.join();
-        }
-        lock(&node.subscribers).clear();
-        (!unconfirmed.is_empty()).then(|| unconfirmed.join(", "))
-    }
 }
 
 impl Arm for Ros1Arm {
@@ -483,7 +186,17 @@ impl Arm for Ros1Arm {
 
     fn connect(&mut self) -> Result<(), ArmError> {
         if self.node.is_none() {
-            self.node = Some(self.start()?);
+            let plan = Plan {
+                topic: self.command_topic(),
+                msg_type: self.msg_type,
+                pose_topic: self.settings.tool_pose.then(|| self.pose_topic()),
+                connect_timeout: self.connect_timeout,
+                master_check: Duration::from_millis(u64::from(
+                    self.settings.master_check_ms.max(1),
+                )),
+                launch_hint: self.launch_hint(),
+            };
+            self.node = Some(session::start(&plan)?);
         }
         Ok(())
     }
@@ -566,7 +279,7 @@ impl Arm for Ros1Arm {
         let Some(mut node) = self.node.take() else {
             return Ok(());
         };
-        match Self::shutdown(&mut node, true) {
+        match session::shutdown(&mut node, true) {
             None => Ok(()),
             Some(who) => Err(ArmError::Disconnected {
                 detail: format!(
@@ -581,7 +294,7 @@ impl Arm for Ros1Arm {
 impl Drop for Ros1Arm {
     fn drop(&mut self) {
         if let Some(mut node) = self.node.take() {
-            let _ = Self::shutdown(&mut node, true);
+            let _ = session::shutdown(&mut node, true);
         }
     }
 }

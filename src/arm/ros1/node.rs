@@ -14,6 +14,9 @@ use std::time::{Duration, Instant};
 use super::tcpros::{self, PoseSlot, lock};
 use super::xmlrpc::{self, CallError, HttpUri, Value, s};
 
+/// This node's name.
+pub const NODE_NAME: &str = "/sipnpuff";
+
 /// What the node's threads share.
 pub struct Shared {
     /// Our node name, e.g. `/sipnpuff`.
