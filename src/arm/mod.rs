@@ -16,9 +16,11 @@
 //! [`Arm::check_link`], polled every millisecond by the arm thread.
 //!
 //! Backends: [`sim`] (the simulated JACO), [`ros2`] (a ROS 2 topic),
-//! [`kinova_sdk`] (a JACO2 through Kinova's own library).
+//! [`ros1`] (kinova-ros over ROS 1), [`kinova_sdk`] (a JACO2 through
+//! Kinova's own library).
 
 pub mod kinova_sdk;
+pub mod ros1;
 pub mod ros2;
 pub mod settings;
 pub mod sim;

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 use crate::arm::kinova_sdk::KinovaSdkArm;
+use crate::arm::ros1::Ros1Arm;
 use crate::arm::ros2::Ros2Arm;
 use crate::arm::sim::SimArm;
 use crate::arm::{Arm, ArmSpec};
@@ -91,10 +92,12 @@ fn open_arm(spec: &ArmSpec, config: &Config) -> anyhow::Result<Box<dyn Arm>> {
                 settings.connect_timeout_ms,
             ))
         }
+        ArmSpec::Ros1 { namespace } => Box::new(Ros1Arm::new(
+            namespace,
+            &config.arm().ros1,
+            config.arm().connect_timeout_ms,
+        )),
         ArmSpec::KinovaSdk { link } => Box::new(KinovaSdkArm::new(*link, config.arm())),
-        ArmSpec::Ros1 { .. } => {
-            anyhow::bail!("--arm {spec}: this backend is not in this build yet")
-        }
     })
 }
 

@@ -15,6 +15,7 @@ mod allocations;
 mod architecture;
 mod arm_feedback;
 mod arm_kinova_sdk;
+mod arm_ros1;
 mod arm_ros2;
 mod cli;
 mod common;
