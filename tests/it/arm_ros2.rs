@@ -110,6 +110,17 @@ struct Peer {
 impl Peer {
     /// Starts the peer on `topic` and waits until its reader exists.
     fn start(dir: &Path, topic: &str, message: &str, pose_topic: Option<&str>) -> Peer {
+        Peer::start_with(dir, topic, message, pose_topic, &[])
+    }
+
+    /// [`Peer::start`] with more of the peer's options (`--follow`, …).
+    fn start_with(
+        dir: &Path,
+        topic: &str,
+        message: &str,
+        pose_topic: Option<&str>,
+        extra: &[&str],
+    ) -> Peer {
         let out = dir.join("peer.jsonl");
         let mut command = Command::new(peer_python().unwrap());
         command
@@ -121,6 +132,7 @@ impl Peer {
         if let Some(pose) = pose_topic {
             command.args(["--pose-topic", pose]);
         }
+        command.args(extra);
         let mut child = command.spawn().expect("the peer starts");
         let mut line = String::new();
         BufReader::new(child.stdout.take().unwrap())
@@ -632,4 +644,123 @@ fn a_stop_request_ends_the_stream_with_a_zero_at_the_peer() {
     );
     // Nothing moving after the last zero.
     assert!(messages[first_zero_after..].iter().all(|m| m.is_zero()));
+}
+
+/// Runs the built-in user for `seconds` against a peer that publishes the
+/// pose of an arm executing the commands it receives (`--follow`), with
+/// `extra` peer options; returns sipnpuff's outcome and the arm-fault
+/// reasons it printed.
+fn closed_loop(
+    name: &str,
+    seconds: &'static str,
+    extra: &'static [&'static str],
+) -> (Outcome, Vec<String>) {
+    let dir = scratch(name);
+    let topic = topic(name);
+    let pose_topic = format!("/sipnpuff_test_{name}_{}/tool_pose", std::process::id());
+    let outcome = in_private_network(move || {
+        let mut options = vec!["--follow"];
+        options.extend(extra);
+        let peer = Peer::start_with(&dir, &topic, "twist_stamped", Some(&pose_topic), &options);
+        let config = config(&dir, "", &format!("pose_topic = \"{pose_topic}\""));
+        let run = spawn_run(&[
+            "--config",
+            config.to_str().unwrap(),
+            "--arm",
+            &format!("ros2:{topic}"),
+            "--seconds",
+            seconds,
+            "--json",
+        ]);
+        let outcome = finish_run(run);
+        drop(peer);
+        outcome
+    });
+    let faults = outcome
+        .stdout
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| v["event"] == "arm_fault")
+        .map(|v| v["reason"].as_str().unwrap().to_string())
+        .collect();
+    (outcome, faults)
+}
+
+/// The loop closed through a real receiver: the peer's arm executes each
+/// command and publishes its pose; sipnpuff's limits run on it for the
+/// whole session without a fault.
+#[test]
+fn the_loop_closes_on_the_peers_pose() {
+    if !ready("the_loop_closes_on_the_peers_pose") {
+        return;
+    }
+    let (outcome, faults) = closed_loop("follow", "12", &[]);
+    assert!(
+        outcome.status.success(),
+        "{}\n{}",
+        outcome.stdout,
+        outcome.stderr
+    );
+    assert_eq!(faults, Vec::<String>::new());
+    let report = outcome.report.expect("a JSON report");
+    assert_eq!(report["arm_measured"], true);
+    let poses = report["measured_poses"].as_u64().unwrap();
+    assert!(poses > 900, "{poses} measured poses in 12 s");
+    // The peer executes the commands exactly: what is corrected is the
+    // transport's lag at most, never centimetres.
+    let largest = report["largest_correction_m"].as_f64().unwrap();
+    assert!(largest < 0.002, "largest correction {largest} m");
+    assert!(report["stream_ended_with_zero"] == true);
+    eprintln!(
+        "closed loop through Cyclone DDS: {poses} poses in 12 s, largest correction {:.2} mm",
+        largest * 1000.0
+    );
+}
+
+/// The peer's pose falls silent mid-session: an arm fault, a brake, a
+/// clear report, exit status 1.
+#[test]
+fn a_silent_pose_topic_is_a_fault_with_a_brake() {
+    if !ready("a_silent_pose_topic_is_a_fault_with_a_brake") {
+        return;
+    }
+    let (outcome, faults) = closed_loop("silent", "20", &["--pose-silent-after", "8"]);
+    assert_eq!(outcome.status.code(), Some(1), "{}", outcome.stderr);
+    assert_eq!(faults.len(), 1, "{faults:?}");
+    assert!(
+        faults[0].starts_with("no measured arm pose for "),
+        "{faults:?}"
+    );
+    let report = outcome.report.expect("a JSON report");
+    assert_eq!(report["stop_reason"], "arm fault");
+    assert_eq!(report["stream_ended_with_zero"], true);
+    assert_eq!(
+        report["final_velocity"],
+        serde_json::json!([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    );
+    let errors = report["errors"].to_string();
+    assert!(errors.contains("arm: no measured arm pose"), "{errors}");
+}
+
+/// The peer's arm is pushed 10 cm mid-session: an arm fault naming what
+/// was measured and what was expected, a brake, exit status 1.
+#[test]
+fn a_pose_far_from_the_commanded_one_is_a_fault_with_a_brake() {
+    if !ready("a_pose_far_from_the_commanded_one_is_a_fault_with_a_brake") {
+        return;
+    }
+    let (outcome, faults) = closed_loop("pushed", "20", &["--pose-jump-after", "8", "0.1"]);
+    assert_eq!(outcome.status.code(), Some(1), "{}", outcome.stderr);
+    assert_eq!(faults.len(), 1, "{faults:?}");
+    assert!(
+        faults[0].contains("from the commanded one (arm blocked or moved by hand?)"),
+        "{faults:?}"
+    );
+    let report = outcome.report.expect("a JSON report");
+    assert_eq!(report["stop_reason"], "arm fault");
+    assert_eq!(report["stream_ended_with_zero"], true);
+    assert_eq!(
+        report["final_velocity"],
+        serde_json::json!([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    );
 }

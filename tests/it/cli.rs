@@ -51,7 +51,12 @@ fn enumerated_options_list_their_choices() {
         "{e}"
     );
     let e = refused(&["run", "--arm", "jaco"]);
-    assert!(e.contains("[possible values: sim]"), "{e}");
+    assert!(
+        e.contains(
+            "unknown arm `jaco`: use `sim`, `ros2:TOPIC`, `ros1:NAMESPACE` or `kinova-sdk:usb|eth`"
+        ),
+        "{e}"
+    );
 }
 
 #[test]

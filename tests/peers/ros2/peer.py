@@ -7,7 +7,11 @@ Subscribes to the command topic as a ROS 2 node would (DDS topic
 reliable, volatile, keep-last 10) and writes every message, with its
 receive time (CLOCK_MONOTONIC, ns), as one JSON line to --out. Floats are
 written as their IEEE bits too, so a test compares them exactly.
-Optionally publishes a PoseStamped on `rt/<pose_topic>` at 100 Hz.
+Optionally publishes a PoseStamped on `rt/<pose_topic>` at 100 Hz: a
+fixed pose, or (--follow) the pose an arm executing each command for its
+10 ms cycle would have, as a JACO2 driver's tool pose; --pose-silent-after
+stops it (the driver's pose gone quiet), --pose-jump-after moves it (the
+arm pushed).
 
 Prints `ready` on stdout once its reader (and pose writer) exist. SIGTERM
 and SIGINT end it cleanly: the participant is deleted (Cyclone tells the
@@ -170,6 +174,52 @@ def record(sample, kind):
     return {"values": values, "bits": [f32_bits(v) for v in values]}
 
 
+def quat_mul(a, b):
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    )
+
+
+def quat_exp(w, dt):
+    """The rotation by the vector w·dt (rad), as (x, y, z, w)."""
+    import math
+
+    angle = math.sqrt(sum(c * c for c in w)) * dt
+    if angle == 0.0:
+        return (0.0, 0.0, 0.0, 1.0)
+    s = math.sin(angle / 2) / (angle / dt)
+    return (w[0] * s, w[1] * s, w[2] * s, math.cos(angle / 2))
+
+
+class Arm:
+    """The pose of an arm executing each command for one 10 ms cycle."""
+
+    def __init__(self, pose):
+        self.lock = threading.Lock()
+        self.position = list(pose[:3])
+        self.orientation = tuple(pose[3:])
+
+    def execute(self, values):
+        v, w = values[0:3], values[3:6]
+        with self.lock:
+            for i in range(3):
+                self.position[i] += v[i] * 0.01
+            self.orientation = quat_mul(quat_exp(w, 0.01), self.orientation)
+
+    def push(self, dx):
+        with self.lock:
+            self.position[0] += dx
+
+    def pose(self):
+        with self.lock:
+            return list(self.position) + list(self.orientation)
+
+
 def dds_topic(name):
     return "rt/" + name.lstrip("/")
 
@@ -188,7 +238,21 @@ def main():
         default=[0.3, -0.2, 0.45, 0.0, 0.0, 0.0, 1.0],
         metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"),
     )
+    parser.add_argument(
+        "--follow", action="store_true", help="the pose follows the commands received"
+    )
+    parser.add_argument(
+        "--pose-silent-after", type=float, metavar="S", help="stop publishing the pose after S s"
+    )
+    parser.add_argument(
+        "--pose-jump-after",
+        type=float,
+        nargs=2,
+        metavar=("S", "DX"),
+        help="after S s, move the pose by DX m along x",
+    )
     args = parser.parse_args()
+    arm = Arm(args.pose)
 
     stop = threading.Event()
 
@@ -219,6 +283,8 @@ def main():
                     continue  # a writer's unregister or dispose: no data
                 line = {"t_ns": now}
                 line.update(record(sample, kind))
+                if args.follow:
+                    arm.execute(line["values"])
                 with lock:
                     out.write(json.dumps(line) + "\n")
 
@@ -231,10 +297,17 @@ def main():
 
     print("ready", flush=True)
 
-    x, y, z, qx, qy, qz, qw = args.pose
-    next_t = time.monotonic()
+    started = time.monotonic()
+    next_t = started
+    jumped = False
     while not stop.is_set():
-        if pose_writer is not None:
+        since = time.monotonic() - started
+        if args.pose_jump_after and not jumped and since >= args.pose_jump_after[0]:
+            arm.push(args.pose_jump_after[1])
+            jumped = True
+        silent = args.pose_silent_after is not None and since >= args.pose_silent_after
+        if pose_writer is not None and not silent:
+            x, y, z, qx, qy, qz, qw = arm.pose()
             ns = time.time_ns()
             pose_writer.write(
                 PoseStamped_(
