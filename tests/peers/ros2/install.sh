@@ -17,6 +17,6 @@ if [ ! -x "$venv/bin/python" ]; then
     python3 -m venv "$venv"
 fi
 if ! "$venv/bin/python" -c 'import cyclonedds' 2>/dev/null; then
-    "$venv/bin/pip" install --quiet --disable-pip-version-check 'cyclonedds>=0.10.5'
+    "$venv/bin/pip" install --quiet --disable-pip-version-check 'cyclonedds==11.0.1'
 fi
 "$venv/bin/python" -c 'import importlib.metadata as m; print("cyclonedds", m.version("cyclonedds"))'
