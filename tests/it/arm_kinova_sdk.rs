@@ -25,6 +25,8 @@ use sipnpuff::control::motion::stream::ArmCommand;
 use sipnpuff::tools::recording::format::commands::CommandItem;
 use sipnpuff::tools::recording::read::Recording;
 
+use crate::common::have_peer;
+
 /// The stand-in's starting orientation (Euler XYZ, rad): not the identity,
 /// so the conversion to a rotation is exercised end to end.
 const START: [f64; 6] = [0.21, -0.26, 0.48, 0.3, -0.2, 1.0];
@@ -68,15 +70,12 @@ fn compiler() -> Option<String> {
 /// required.
 fn standin(name: &str, defines: &[&str]) -> Option<PathBuf> {
     let Some(cc) = compiler() else {
-        if std::env::var("SIPNPUFF_REQUIRE_PEERS").as_deref() == Ok("1") {
-            panic!(
-                "no C compiler (cc, gcc or $CC) to build the Kinova SDK stand-in, and \
-                 SIPNPUFF_REQUIRE_PEERS=1: run tests/peers/kinova_sdk/install.sh"
-            );
-        }
-        eprintln!(
-            "NOTICE: skipping the kinova-sdk tests: no C compiler to build the stand-in \
-             (tests/peers/kinova_sdk/install.sh installs gcc)"
+        have_peer(
+            name,
+            Some(
+                "no C compiler (cc, gcc or $CC) to build the Kinova SDK stand-in: run tests/peers/kinova_sdk/install.sh"
+                    .into(),
+            ),
         );
         return None;
     };
@@ -289,6 +288,7 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
 
 #[test]
 fn usb_streams_the_cores_commands_at_100_hz_and_reads_the_measured_pose() {
+    let _cpu = crate::common::real_time();
     let Some(lib) = standin("usb", &[]) else {
         return;
     };
@@ -463,6 +463,7 @@ fn usb_streams_the_cores_commands_at_100_hz_and_reads_the_measured_pose() {
 
 #[test]
 fn eth_uses_the_ethernet_layer_with_the_configured_addresses() {
+    let _cpu = crate::common::real_time();
     let Some(lib) = standin("eth", &[]) else {
         return;
     };
@@ -505,6 +506,7 @@ fn eth_uses_the_ethernet_layer_with_the_configured_addresses() {
 
 #[test]
 fn a_failing_send_is_a_lost_link_and_the_arm_is_still_stopped() {
+    let _cpu = crate::common::real_time();
     let Some(lib) = standin("fail", &[]) else {
         return;
     };
@@ -547,6 +549,7 @@ fn a_failing_send_is_a_lost_link_and_the_arm_is_still_stopped() {
 
 #[test]
 fn a_hanging_call_is_a_lost_link_within_the_call_timeout() {
+    let _cpu = crate::common::real_time();
     let Some(lib) = standin("hang", &[]) else {
         return;
     };
@@ -571,6 +574,7 @@ fn a_hanging_call_is_a_lost_link_within_the_call_timeout() {
 
 #[test]
 fn init_failure_says_what_to_check_and_touches_nothing_else() {
+    let _cpu = crate::common::real_time();
     let Some(lib) = standin("init", &[]) else {
         return;
     };
@@ -596,6 +600,7 @@ fn init_failure_says_what_to_check_and_touches_nothing_else() {
 
 #[test]
 fn no_arm_found_is_a_clear_error_and_the_api_is_closed() {
+    let _cpu = crate::common::real_time();
     let Some(lib) = standin("nodevice", &[]) else {
         return;
     };
@@ -619,6 +624,7 @@ fn no_arm_found_is_a_clear_error_and_the_api_is_closed() {
 
 #[test]
 fn an_init_that_never_returns_gives_up_after_the_connect_timeout() {
+    let _cpu = crate::common::real_time();
     let Some(lib) = standin("slow", &[]) else {
         return;
     };
@@ -650,6 +656,7 @@ fn an_init_that_never_returns_gives_up_after_the_connect_timeout() {
 
 #[test]
 fn a_missing_library_or_symbol_is_named() {
+    let _cpu = crate::common::real_time();
     let Some(lib) = standin("nosend", &["STANDIN_OMIT_SEND"]) else {
         return;
     };
@@ -678,6 +685,7 @@ fn a_missing_library_or_symbol_is_named() {
 
 #[test]
 fn sigint_mid_motion_sends_a_zero_point_then_closes() {
+    let _cpu = crate::common::real_time();
     let Some(lib) = standin("sigint", &[]) else {
         return;
     };

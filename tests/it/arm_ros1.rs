@@ -21,7 +21,7 @@ use serde_json::Value;
 use sipnpuff::control::motion::stream::ArmCommand;
 use sipnpuff::tools::recording::format::commands::{CommandDecoder, CommandItem};
 
-use crate::common::Running;
+use crate::common::{Running, have_peer, monotonic_ns};
 
 const NS: &str = "/j2n6s300_driver";
 const PYTHON: &str = "/usr/bin/python3";
@@ -37,28 +37,12 @@ fn peers_installed(test: &str) -> bool {
             .stderr(Stdio::null())
             .status()
             .is_ok_and(|s| s.success());
-    if !ok {
-        let notice = format!(
-            "{test}: SKIPPED: Debian's ROS 1 (rosmaster, python3-rospy, python3-geometry-msgs) is not installed: run tests/peers/ros1/install.sh as root"
-        );
-        assert!(
-            std::env::var("SIPNPUFF_REQUIRE_PEERS").as_deref() != Ok("1"),
-            "{notice} (SIPNPUFF_REQUIRE_PEERS=1)"
-        );
-        eprintln!("{notice}");
-    }
-    ok
-}
-
-/// The CLOCK_MONOTONIC time, ns (the peers' `time.monotonic_ns()`).
-fn monotonic_ns() -> i64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: a valid clock id and a pointer to a timespec we own.
-    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
-    ts.tv_sec * 1_000_000_000 + ts.tv_nsec
+    have_peer(
+        test,
+        (!ok).then(|| {
+            "Debian's ROS 1 (rosmaster, python3-rospy, python3-geometry-msgs) is not installed: run tests/peers/ros1/install.sh as root".into()
+        }),
+    )
 }
 
 fn free_port() -> u16 {
@@ -436,16 +420,19 @@ fn stream_run(name: &str, fingers: bool) {
 
 #[test]
 fn pose_velocity_stream_is_the_core_s_commands_at_100_hz_and_ends_with_zero() {
+    let _cpu = crate::common::real_time();
     stream_run("pose-velocity", false);
 }
 
 #[test]
 fn finger_velocity_stream_carries_the_fingers_on_its_own_topic() {
+    let _cpu = crate::common::real_time();
     stream_run("finger-velocity", true);
 }
 
 #[test]
 fn the_driver_killed_mid_run_is_a_fault_with_a_brake() {
+    let _cpu = crate::common::real_time();
     let name = "driver-killed";
     if !peers_installed(name) {
         return;
@@ -488,6 +475,7 @@ fn the_driver_killed_mid_run_is_a_fault_with_a_brake() {
 
 #[test]
 fn the_master_killed_mid_run_is_a_fault_and_the_driver_still_gets_the_zero() {
+    let _cpu = crate::common::real_time();
     let name = "master-killed";
     if !peers_installed(name) {
         return;
@@ -526,6 +514,7 @@ fn the_master_killed_mid_run_is_a_fault_and_the_driver_still_gets_the_zero() {
 
 #[test]
 fn the_tool_pose_is_the_measured_arm_pose() {
+    let _cpu = crate::common::real_time();
     let name = "tool-pose";
     if !peers_installed(name) {
         return;
@@ -558,6 +547,7 @@ fn the_tool_pose_is_the_measured_arm_pose() {
 
 #[test]
 fn no_master_is_a_clear_error() {
+    let _cpu = crate::common::real_time();
     // Needs no peer: nothing listens on the port.
     let dir = scratch("no-master");
     let config = dir.join("config.toml");
@@ -614,6 +604,7 @@ fn no_master_is_a_clear_error() {
 
 #[test]
 fn no_driver_and_no_pose_are_clear_errors_within_the_timeout() {
+    let _cpu = crate::common::real_time();
     let name = "no-driver";
     if !peers_installed(name) {
         return;
@@ -659,6 +650,7 @@ fn no_driver_and_no_pose_are_clear_errors_within_the_timeout() {
 
 #[test]
 fn sipnpuff_killed_mid_motion_the_stream_just_stops() {
+    let _cpu = crate::common::real_time();
     let name = "sipnpuff-killed";
     if !peers_installed(name) {
         return;
@@ -695,6 +687,7 @@ fn sipnpuff_killed_mid_motion_the_stream_just_stops() {
 
 #[test]
 fn a_second_sipnpuff_is_refused_and_the_first_drives_on() {
+    let _cpu = crate::common::real_time();
     let name = "second-sipnpuff";
     if !peers_installed(name) {
         return;

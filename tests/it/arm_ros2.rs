@@ -20,6 +20,8 @@ use sipnpuff::control::motion::stream::ArmCommand;
 use sipnpuff::tools::recording::format::commands::CommandItem;
 use sipnpuff::tools::recording::read::Recording;
 
+use crate::common::{have_peer, monotonic_ns};
+
 /// The peer's Python, if installed.
 fn peer_python() -> Option<PathBuf> {
     let python = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/peers/cyclonedds/bin/python");
@@ -33,22 +35,16 @@ fn peer_script() -> PathBuf {
 /// Whether the test can run; says why not (or fails, when peers are
 /// required).
 fn ready(test: &str) -> bool {
-    let required = std::env::var("SIPNPUFF_REQUIRE_PEERS").is_ok_and(|v| v == "1");
-    let why = if peer_python().is_none() {
-        Some("the Cyclone DDS peer is not installed (tests/peers/ros2/install.sh)")
-    } else if unsafe { libc::geteuid() } != 0 {
-        Some("not root: no private network namespace for DDS")
+    // SAFETY: geteuid has no preconditions.
+    let root = unsafe { libc::geteuid() } == 0;
+    let missing = if peer_python().is_none() {
+        Some("the Cyclone DDS peer is not installed (tests/peers/ros2/install.sh)".into())
+    } else if !root {
+        Some("not root: no private network namespace for DDS".into())
     } else {
         None
     };
-    match why {
-        None => true,
-        Some(why) if required => panic!("{test}: {why} (SIPNPUFF_REQUIRE_PEERS=1)"),
-        Some(why) => {
-            eprintln!("SKIPPED {test}: {why}");
-            false
-        }
-    }
+    have_peer(test, missing)
 }
 
 /// Runs `body` on a thread in a new network namespace with only loopback
@@ -77,17 +73,6 @@ fn in_private_network<T: Send + 'static>(body: impl FnOnce() -> T + Send + 'stat
     })
     .join()
     .unwrap_or_else(|e| std::panic::resume_unwind(e))
-}
-
-/// CLOCK_MONOTONIC, ns: the clock of the peer's receive times.
-fn monotonic_ns() -> i64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: a valid pointer to a timespec.
-    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
-    ts.tv_sec * 1_000_000_000 + ts.tv_nsec
 }
 
 /// A scratch directory.
@@ -342,6 +327,7 @@ fn assert_stream(received: &[Received], commands: &[ArmCommand], message: &str) 
 /// stamped now in the configured frame, a zero at the end, nothing after.
 #[test]
 fn a_twist_stream_reaches_cyclone_dds_whole_at_100_hz() {
+    let _cpu = crate::common::real_time();
     if !ready("a_twist_stream_reaches_cyclone_dds_whole_at_100_hz") {
         return;
     }
@@ -427,6 +413,7 @@ pub fn assert_rate(rate: f64, report: &serde_json::Value) {
 /// (2) The JACO2 ports' messages: float32, the three fingers equal.
 #[test]
 fn the_kinova_messages_arrive_as_float32() {
+    let _cpu = crate::common::real_time();
     if !ready("the_kinova_messages_arrive_as_float32") {
         return;
     }
@@ -471,6 +458,7 @@ fn the_kinova_messages_arrive_as_float32() {
 /// unmatch tells). The run ends with a fault naming the receiver.
 #[test]
 fn a_receiver_killed_mid_run_is_a_fault() {
+    let _cpu = crate::common::real_time();
     if !ready("a_receiver_killed_mid_run_is_a_fault") {
         return;
     }
@@ -520,6 +508,7 @@ fn a_receiver_killed_mid_run_is_a_fault() {
 /// (4) A pose published by the peer is the report's measured arm pose.
 #[test]
 fn a_pose_from_the_peer_is_the_measured_pose() {
+    let _cpu = crate::common::real_time();
     if !ready("a_pose_from_the_peer_is_the_measured_pose") {
         return;
     }
@@ -561,6 +550,7 @@ fn a_pose_from_the_peer_is_the_measured_pose() {
 /// (5) Nobody subscribed: a clear error within the timeout, status non-zero.
 #[test]
 fn no_subscriber_is_a_clear_error_within_the_timeout() {
+    let _cpu = crate::common::real_time();
     if !ready("no_subscriber_is_a_clear_error_within_the_timeout") {
         return;
     }
@@ -601,6 +591,7 @@ fn no_subscriber_is_a_clear_error_within_the_timeout() {
 /// message at the peer, and how long after the signal they came.
 #[test]
 fn a_stop_request_ends_the_stream_with_a_zero_at_the_peer() {
+    let _cpu = crate::common::real_time();
     if !ready("a_stop_request_ends_the_stream_with_a_zero_at_the_peer") {
         return;
     }
@@ -691,6 +682,7 @@ fn closed_loop(
 /// whole session without a fault.
 #[test]
 fn the_loop_closes_on_the_peers_pose() {
+    let _cpu = crate::common::real_time();
     if !ready("the_loop_closes_on_the_peers_pose") {
         return;
     }
@@ -721,6 +713,7 @@ fn the_loop_closes_on_the_peers_pose() {
 /// clear report, exit status 1.
 #[test]
 fn a_silent_pose_topic_is_a_fault_with_a_brake() {
+    let _cpu = crate::common::real_time();
     if !ready("a_silent_pose_topic_is_a_fault_with_a_brake") {
         return;
     }
@@ -746,6 +739,7 @@ fn a_silent_pose_topic_is_a_fault_with_a_brake() {
 /// was measured and what was expected, a brake, exit status 1.
 #[test]
 fn a_pose_far_from_the_commanded_one_is_a_fault_with_a_brake() {
+    let _cpu = crate::common::real_time();
     if !ready("a_pose_far_from_the_commanded_one_is_a_fault_with_a_brake") {
         return;
     }

@@ -858,6 +858,7 @@ impl sipnpuff::arm::Arm for FastMeasuringArm {
 /// bit.
 #[test]
 fn a_run_with_a_measuring_arm_replays_bit_for_bit() {
+    let _cpu = crate::common::real_time();
     let dir = scratch("measuring-arm");
     let config = Config::default();
     let mut recorder = Recorder::create(&dir, &config, RecordOptions::default()).unwrap();
@@ -888,12 +889,12 @@ fn a_run_with_a_measuring_arm_replays_bit_for_bit() {
     let recording = recorder.finish(&mut report);
     assert!(recording.complete, "{recording:?}");
     assert!(report.arm_measured && report.measured_poses > 1000);
-    assert!(report.largest_correction_m > 0.0);
+    // The arm's 3 % is corrected a little at every measurement (each far
+    // below the 2 mm that is logged as an event).
     assert!(
-        printed
-            .iter()
-            .any(|e| e.contains("\"event\":\"pose_corrected\"")),
-        "the arm's 3 % showed as corrections"
+        report.largest_correction_m > 1e-5,
+        "the arm's 3 % showed as corrections: {}",
+        report.largest_correction_m
     );
     let fault = printed
         .iter()

@@ -533,6 +533,7 @@ impl Arm for MeasuringArm {
 /// and the arm-fault events.
 fn measured_run(arm: Box<MeasuringArm>) -> (RunReport, Vec<String>) {
     let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let _cpu = crate::common::real_time();
     let config = Config::default();
     let sensor = SyntheticSensor::built_in_user(&config);
     let mut faults = Vec::new();

@@ -122,12 +122,14 @@ fn harsh_and_every_other_saturating(config: &Config, seed: u64) -> SignalParams 
 
 #[test]
 fn the_harsh_timing_bound_is_30_ms() {
+    let _cpu = crate::common::cpu_heavy();
     let config = Config::default();
     assert_eq!(timing_bound_ms(&config, &harsh(&config, 0)), 30);
 }
 
 #[test]
 fn the_counter_sees_allocations() {
+    let _cpu = crate::common::cpu_heavy();
     let before = thread_allocations();
     drop(std::hint::black_box(vec![0u8; 16]));
     assert_eq!(thread_allocations() - before, 1);
@@ -140,6 +142,7 @@ fn the_counter_sees_allocations() {
 /// reset at the sequence timeout (no single-burst entry in the library).
 #[test]
 fn boundary_lengths_are_classified_to_the_millisecond() {
+    let _cpu = crate::common::cpu_heavy();
     let config = Config::default();
     let d = config.core().detector();
     let mut lengths = Vec::new();
@@ -201,6 +204,7 @@ fn random_sessions(
 /// of 600 ms, through both libraries, on the harsh signal.
 #[test]
 fn fast_trains_on_a_harsh_signal() {
+    let _cpu = crate::common::cpu_heavy();
     let style = UserStyle {
         timing: Timing {
             short_ms: 100,
@@ -222,6 +226,7 @@ fn fast_trains_on_a_harsh_signal() {
 /// the next, so every hold begins while detecting.
 #[test]
 fn ten_second_holds_and_saturation() {
+    let _cpu = crate::common::cpu_heavy();
     let config = Config::default();
     let d = config.core().detector();
     let style = UserStyle {
@@ -269,6 +274,7 @@ fn ten_second_holds_and_saturation() {
 /// and the user goes on as before.
 #[test]
 fn nan_dropouts_fault_and_recover() {
+    let _cpu = crate::common::cpu_heavy();
     let config = Config::default();
     let recovery = config.core().detector().fault_recovery_ms;
     let dropouts = [1, 2, 5, 20, 100, 1000, 5000];

@@ -42,8 +42,11 @@ use crate::control::motion::stream::ArmCommand;
 use messages::{CommandMessage, PoseStamped};
 
 /// How long `stop` waits for the receivers to acknowledge the last (zero)
-/// command before deleting the writer.
-pub const STOP_ACK_WAIT: Duration = Duration::from_millis(100);
+/// command before deleting the writer. The zero has gone out already;
+/// this only confirms it, so it may be generous: the writer asks for
+/// acknowledgements every 100 ms, and a receiver on a loaded machine
+/// answers late.
+pub const STOP_ACK_WAIT: Duration = Duration::from_millis(500);
 
 /// How often `connect` looks again while it waits.
 const CONNECT_POLL: Duration = Duration::from_millis(2);
