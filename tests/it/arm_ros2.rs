@@ -677,6 +677,26 @@ fn closed_loop(
     (outcome, faults)
 }
 
+/// One arm fault whose reason contains `reason`; the run braked to zero,
+/// ended the stream with a zero and exited 1. Returns the report.
+fn assert_one_braked_arm_fault(
+    outcome: &Outcome,
+    faults: &[String],
+    reason: &str,
+) -> serde_json::Value {
+    assert_eq!(outcome.status.code(), Some(1), "{}", outcome.stderr);
+    assert_eq!(faults.len(), 1, "{faults:?}");
+    assert!(faults[0].contains(reason), "{faults:?}");
+    let report = outcome.report.clone().expect("a JSON report");
+    assert_eq!(report["stop_reason"], "arm fault");
+    assert_eq!(report["stream_ended_with_zero"], true, "{report}");
+    assert_eq!(
+        report["final_velocity"],
+        serde_json::json!([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    );
+    report
+}
+
 /// The loop closed through a real receiver: the peer's arm executes each
 /// command and publishes its pose; sipnpuff's limits run on it for the
 /// whole session without a fault.
@@ -718,19 +738,7 @@ fn a_silent_pose_topic_is_a_fault_with_a_brake() {
         return;
     }
     let (outcome, faults) = closed_loop("silent", "20", &["--pose-silent-after", "8"]);
-    assert_eq!(outcome.status.code(), Some(1), "{}", outcome.stderr);
-    assert_eq!(faults.len(), 1, "{faults:?}");
-    assert!(
-        faults[0].starts_with("no measured arm pose for "),
-        "{faults:?}"
-    );
-    let report = outcome.report.expect("a JSON report");
-    assert_eq!(report["stop_reason"], "arm fault");
-    assert_eq!(report["stream_ended_with_zero"], true);
-    assert_eq!(
-        report["final_velocity"],
-        serde_json::json!([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-    );
+    let report = assert_one_braked_arm_fault(&outcome, &faults, "no measured arm pose for ");
     let errors = report["errors"].to_string();
     assert!(errors.contains("arm: no measured arm pose"), "{errors}");
 }
@@ -744,17 +752,11 @@ fn a_pose_far_from_the_commanded_one_is_a_fault_with_a_brake() {
         return;
     }
     let (outcome, faults) = closed_loop("pushed", "20", &["--pose-jump-after", "8", "0.1"]);
-    assert_eq!(outcome.status.code(), Some(1), "{}", outcome.stderr);
-    assert_eq!(faults.len(), 1, "{faults:?}");
-    assert!(
-        faults[0].contains("from the commanded one (arm blocked or moved by hand?)"),
-        "{faults:?}"
+    let report = assert_one_braked_arm_fault(
+        &outcome,
+        &faults,
+        "from the commanded one (arm blocked or moved by hand?)",
     );
-    let report = outcome.report.expect("a JSON report");
-    assert_eq!(report["stop_reason"], "arm fault");
-    assert_eq!(report["stream_ended_with_zero"], true);
-    assert_eq!(
-        report["final_velocity"],
-        serde_json::json!([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-    );
+    let errors = report["errors"].to_string();
+    assert!(errors.contains("arm: the measured arm pose is"), "{errors}");
 }
