@@ -30,6 +30,7 @@ use std::sync::atomic::AtomicBool;
 use std::thread;
 use std::time::{Duration, Instant};
 
+use nalgebra::{UnitQuaternion, Vector3};
 use rtrb::RingBuffer;
 
 use crate::arm::{Arm, ArmError, ArmState};
@@ -51,6 +52,8 @@ use crate::rt::telemetry::{Drops, Latencies, TickRecord};
 use crate::sensor::{Samples, Sensor, SensorError};
 
 const ARM_RING: usize = 256;
+/// One arm command's cycle, s.
+const ARM_CYCLE_S: f64 = 0.01;
 /// Measured poses to the control thread: 64 ms at 1 kHz of feedback.
 const FEEDBACK_RING: usize = 64;
 /// After connecting, how long a measuring arm has to report its pose.
@@ -436,6 +439,50 @@ fn cpu_seconds() -> f64 {
     t(usage.ru_utime) + t(usage.ru_stime)
 }
 
+/// The simulated loop's measuring arm, on the control thread (a thread of
+/// its own would fall behind a simulated clock): after each tick that made
+/// a command, the pose that command leads to after its 10 ms, into the
+/// measured-pose ring, as an arm's backend would send it. RT-safe.
+struct EchoingArm<S: Samples> {
+    work: ControlTick<S>,
+    /// `None`: the arm measures nothing.
+    poses: Option<rtrb::Producer<nalgebra::Isometry3<f64>>>,
+    pose: nalgebra::Isometry3<f64>,
+    last_seq: Option<u64>,
+}
+
+impl<S: Samples> TickWork for EchoingArm<S> {
+    fn tick(
+        &mut self,
+        wake: &crate::rt::scheduler::Wake,
+        stop: Option<StopReason>,
+    ) -> crate::rt::control_loop::TickOutcome {
+        let outcome = self.work.tick(wake, stop);
+        if let Some(poses) = &mut self.poses {
+            let command = self.work.summary().last_arm_command;
+            if self.last_seq != Some(command.seq) && (command.seq > 0 || !command.is_zero()) {
+                self.last_seq = Some(command.seq);
+                let dt = ARM_CYCLE_S;
+                self.pose.translation.vector += Vector3::from(command.linear) * dt;
+                self.pose.rotation =
+                    UnitQuaternion::from_scaled_axis(Vector3::from(command.angular) * dt)
+                        * self.pose.rotation;
+                // A full ring drops the pose: the next one follows.
+                let _ = poses.push(self.pose);
+            }
+        }
+        outcome
+    }
+
+    fn stopping(&self) -> bool {
+        self.work.stopping()
+    }
+
+    fn summary(&self) -> crate::rt::control_loop::WorkSummary {
+        self.work.summary()
+    }
+}
+
 /// What [`run_simulated`] did.
 #[derive(Debug, Clone)]
 pub struct SimulatedRun {
@@ -455,6 +502,8 @@ pub struct SimulatedRun {
     pub stop_reason: StopReason,
     /// The last command sent to the arm.
     pub last_arm_command: ArmCommand,
+    /// Measured poses the core took in ([`run_simulated_measured`]).
+    pub measured_poses: u64,
 }
 
 /// The production control loop and tick (the same functions [`run`]
@@ -464,6 +513,18 @@ pub struct SimulatedRun {
 /// the loop itself: under RTSan, any allocation, lock or blocking call
 /// inside a tick aborts the process.
 pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRun {
+    simulate(config, samples, false)
+}
+
+/// [`run_simulated`] with an arm that measures its pose: the drain thread
+/// executes each command for its 10 ms (from the configured home) and
+/// sends the pose back through the measured-pose ring, so the ticks
+/// checked take in a measurement every 10 ms.
+pub fn run_simulated_measured<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRun {
+    simulate(config, samples, true)
+}
+
+fn simulate<S: Samples>(config: &CoreConfig, samples: S, measured: bool) -> SimulatedRun {
     // With the recorder's command ring: the loop checked is the loop of
     // `run --record`.
     let Rings {
@@ -481,7 +542,19 @@ pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRu
         stop: StopRequest::new(),
         arm_fault: Arc::new(AtomicBool::new(false)),
     };
-    let mut work = ControlTick::new(Pipeline::new(config), samples, outputs, true);
+    let work = ControlTick::new(Pipeline::new(config), samples, outputs, true);
+    let home = config.home().pose();
+    let (poses, poses_rx) = RingBuffer::new(FEEDBACK_RING);
+    let mut work = EchoingArm {
+        work: if measured {
+            work.with_measured_poses(home, poses_rx)
+        } else {
+            work
+        },
+        poses: measured.then_some(poses),
+        pose: home,
+        last_seq: None,
+    };
     // The loop's rings are drained on another thread, as in `run`.
     let (result, (ticks, events, arm_commands, recorded)) = thread::scope(|scope| {
         let drain = scope.spawn(move || {
@@ -530,5 +603,6 @@ pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRu
         allocations: result.allocations,
         stop_reason: result.work.stop_reason,
         last_arm_command: result.work.last_arm_command,
+        measured_poses: result.work.measured_poses,
     }
 }
