@@ -21,6 +21,7 @@
 
 pub mod kinova_sdk;
 pub mod ros1;
+#[cfg(feature = "ros2")]
 pub mod ros2;
 pub mod settings;
 pub mod sim;
