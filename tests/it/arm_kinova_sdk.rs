@@ -25,7 +25,7 @@ use sipnpuff::control::motion::stream::ArmCommand;
 use sipnpuff::tools::recording::format::commands::CommandItem;
 use sipnpuff::tools::recording::read::Recording;
 
-use crate::common::have_peer;
+use crate::common::{assert_rate, have_peer};
 
 /// The stand-in's starting orientation (Euler XYZ, rad): not the identity,
 /// so the conversion to a rotation is exercised end to end.
@@ -188,6 +188,11 @@ impl Run {
     }
 }
 
+/// These tests are about the SDK's calls, not the pose's silence: a loaded
+/// test machine once starved the SDK thread past the default 250 ms (an
+/// arm fault, rightly); 1 s keeps them about what they test.
+const FEEDBACK_TIMEOUT_MS: u32 = 1000;
+
 /// The config: the library folder, the home pose the stand-in starts at,
 /// and `extra` lines for `[arm.kinova_sdk]`.
 fn config(dir: &Path, library_dir: &Path, arm: &str, extra: &str) -> PathBuf {
@@ -197,6 +202,7 @@ fn config(dir: &Path, library_dir: &Path, arm: &str, extra: &str) -> PathBuf {
         &path,
         format!(
             "[arm]\nhome_position_m = [{}, {}, {}]\nhome_rotation_vector_rad = [{}, {}, {}]\n{arm}\n\
+             [arm.feedback]\ntimeout_ms = {FEEDBACK_TIMEOUT_MS}\n\
              [arm.kinova_sdk]\nlibrary_dir = {:?}\n{extra}\n",
             START[0],
             START[1],
@@ -412,7 +418,7 @@ fn usb_streams_the_cores_commands_at_100_hz_and_reads_the_measured_pose() {
         d[0],
         d[d.len() - 1]
     );
-    assert!((rate - 100.0).abs() <= 2.0, "{rate} Hz");
+    assert_rate(rate, &report);
     // Each point's time at the library against its core tick (1 ms each):
     // the spread of that offset is the jitter the path to the library adds.
     let mut offsets: Vec<f64> = stream

@@ -203,3 +203,21 @@ pub fn monotonic_ns() -> i64 {
     unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
     ts.tv_sec * 1_000_000_000 + ts.tv_nsec
 }
+
+/// The rate at the receiver is 100 Hz ± 2 % of what the control loop ran:
+/// a command every 10 of its ticks, so a loop that had to skip ticks (a
+/// machine loaded by other tests) sends fewer — its report says how many.
+/// On a loop that skipped none this is exactly 100 Hz ± 2 %.
+pub fn assert_rate(rate: f64, report: &serde_json::Value) {
+    let run = report["stats"]["ticks_run"].as_f64().unwrap();
+    let skipped = report["stats"]["skipped_ticks"].as_f64().unwrap();
+    let expected = 100.0 * run / (run + skipped);
+    eprintln!(
+        "rate at the receiver {rate:.2} Hz; the control loop skipped {skipped} of {} ticks: {expected:.2} Hz expected",
+        run + skipped
+    );
+    assert!(
+        (rate / expected - 1.0).abs() <= 0.02,
+        "rate {rate:.2} Hz, {expected:.2} Hz expected"
+    );
+}
