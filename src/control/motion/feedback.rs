@@ -323,7 +323,9 @@ impl PoseTracker {
             pose.rotation = unit(turn * pose.rotation);
         };
         shift(estimate);
-        for point in self.path.iter_mut() {
+        // Only the points stored: until the ring is full they are its
+        // first `stored` slots.
+        for point in self.path.iter_mut().take(self.stored) {
             shift(point);
         }
         self.largest_correction_m = self.largest_correction_m.max(by.norm());
