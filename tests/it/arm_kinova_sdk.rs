@@ -254,6 +254,7 @@ fn run(
     let config = config(dir, library_dir, "", extra);
     let log = dir.join("calls.log");
     let output = command(arm, &config, &log, env, args).output().unwrap();
+    crate::common::witness(&String::from_utf8_lossy(&output.stdout));
     Run {
         status: output.status,
         stdout: String::from_utf8_lossy(&output.stdout).into(),
@@ -294,490 +295,501 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
 
 #[test]
 fn usb_streams_the_cores_commands_at_100_hz_and_reads_the_measured_pose() {
-    let _cpu = crate::common::real_time();
-    let Some(lib) = standin("usb", &[]) else {
-        return;
-    };
-    let dir = temp_dir("usb-run");
-    let record = dir.join("rec");
-    let run = run(
-        &dir,
-        &lib,
-        "kinova-sdk:usb",
-        "",
-        &[],
-        &["--seconds", "8", "--record", record.to_str().unwrap()],
-    );
-    assert!(run.status.success(), "{}", run.all());
-    let report = run.report();
-    assert_eq!(report["errors"], serde_json::json!([]), "{}", run.all());
-    assert_eq!(report["stream_ended_with_zero"], true);
-    assert_eq!(report["drops"]["arm_commands"], 0);
-    assert_eq!(report["drops"]["recorded_commands"], 0);
-
-    // The layouts the C compiler made of the headers' declarations.
-    let init = &run.calls[0];
-    for (key, size) in [
-        ("sizeof_trajectory_point", size_of::<TrajectoryPoint>()),
-        ("sizeof_user_position", size_of::<UserPosition>()),
-        ("sizeof_cartesian_position", size_of::<CartesianPosition>()),
-        ("sizeof_kinova_device", size_of::<KinovaDevice>()),
-        (
-            "sizeof_ethernet_comm_config",
-            size_of::<EthernetCommConfig>(),
-        ),
-        (
-            "offset_limitations",
-            std::mem::offset_of!(TrajectoryPoint, Limitations),
-        ),
-        (
-            "offset_hand_mode",
-            std::mem::offset_of!(UserPosition, HandMode),
-        ),
-    ] {
-        assert_eq!(init.int(key) as usize, size, "{key}");
-    }
-
-    // The sequence: connect; a point and a measurement per command; the
-    // zero point; the stop.
-    let names = run.names();
-    assert_eq!(names[..CONNECT.len()], CONNECT, "{names:?}");
-    assert_eq!(names[names.len() - 3..], STOP, "{names:?}");
-    let streamed = &names[CONNECT.len()..names.len() - 3];
-    assert!(
-        streamed
-            .iter()
-            .all(|n| *n == "SendAdvanceTrajectory" || *n == "GetCartesianPosition"),
-        "{streamed:?}"
-    );
-    assert_eq!(streamed.last(), Some(&"GetCartesianPosition"));
-    assert!(
-        run.calls
-            .iter()
-            .all(|c| c.fields.get("returns").or(c.fields.get("result")).unwrap() == "1"),
-        "every call succeeded"
-    );
-
-    // Every command the core made, as f32, in order; then one zero point.
-    let recording = Recording::open(&record).unwrap();
-    let mut decoder = recording.commands().unwrap();
-    let mut commands: Vec<ArmCommand> = Vec::new();
-    while let Some(item) = decoder.next_item().unwrap() {
-        match item {
-            CommandItem::Command(c) => commands.push(c),
-            CommandItem::Lost(n) => panic!("{n} commands lost from the recording"),
-        }
-    }
-    let sends = run.sends();
-    assert_eq!(report["arm_commands"], commands.len() as u64);
-    assert_eq!(sends.len(), commands.len() + 1, "the commands and one zero");
-    let mut moving = 0;
-    for (send, command) in sends.iter().zip(&commands) {
-        let want = [
-            command.linear[0] as f32,
-            command.linear[1] as f32,
-            command.linear[2] as f32,
-            command.angular[0] as f32,
-            command.angular[1] as f32,
-            command.angular[2] as f32,
-            command.fingers as f32,
-            command.fingers as f32,
-            command.fingers as f32,
-        ];
-        let got = ["x", "y", "z", "tx", "ty", "tz", "f1", "f2", "f3"].map(|k| send.f32(k));
-        assert_eq!(got, want, "point {} vs {command:?}", send.int("n"));
-        moving += usize::from(!command.is_zero());
-    }
-    assert!(
-        moving > 50,
-        "the scripted user moved the arm ({moving} points)"
-    );
-    for send in &sends {
-        assert_eq!(send.int("type"), 7, "CARTESIAN_VELOCITY");
-        assert_eq!(send.int("hand_mode"), 2, "VELOCITY_MODE");
-        assert_eq!(send.f32("delay"), 0.0);
-        assert_eq!(send.fields["actuators"], "0,0,0,0,0,0,0");
-        assert_eq!(send.int("limitations_active"), 0);
-        assert_eq!(send.int("synchro"), 0);
-        assert_eq!(send.fields["limitations"], "0,0,0,0,0,0,0,0,0");
-        assert_eq!((send.int("control"), send.int("cartesian")), (1, 1));
-    }
-    assert!(sends.last().unwrap().is_zero_point());
-
-    // 100 Hz at the library, over the stream (the core's ticks).
-    let stream = &sends[..sends.len() - 1];
-    let span_ms = (stream.last().unwrap().ns - stream[0].ns) as f64 / 1e6;
-    let rate = (stream.len() - 1) as f64 / span_ms * 1000.0;
-    let d = intervals_ms(stream);
-    eprintln!(
-        "kinova-sdk:usb at the stand-in: {} points, {rate:.3} Hz; interval p50 {:.3} ms, \
-         p99 {:.3} ms, min {:.3} ms, max {:.3} ms",
-        stream.len(),
-        quantile(&d, 0.5),
-        quantile(&d, 0.99),
-        d[0],
-        d[d.len() - 1]
-    );
-    assert_rate(rate, &report);
-    // Each point's time at the library against its core tick (1 ms each):
-    // the spread of that offset is the jitter the path to the library adds.
-    let mut offsets: Vec<f64> = stream
-        .iter()
-        .zip(&commands)
-        .map(|(s, c)| s.ns as f64 / 1e6 - c.tick as f64)
-        .collect();
-    offsets.sort_by(f64::total_cmp);
-    let base = offsets[0];
-    eprintln!(
-        "kinova-sdk:usb point time minus its core tick, above the smallest: p50 {:.3} ms, p99 \
-         {:.3} ms, max {:.3} ms",
-        quantile(&offsets, 0.5) - base,
-        quantile(&offsets, 0.99) - base,
-        offsets[offsets.len() - 1] - base
-    );
-
-    // The measured pose: the last GetCartesianPosition, Euler XYZ.
-    let last = run
-        .calls
-        .iter()
-        .rev()
-        .find(|c| c.name == "GetCartesianPosition")
-        .unwrap();
-    let arm = &report["arm"];
-    for (i, k) in ["x", "y", "z"].iter().enumerate() {
-        assert_eq!(
-            arm["position_m"][i].as_f64().unwrap(),
-            f64::from(last.f32(k))
+    crate::common::real_time(|| {
+        let Some(lib) = standin("usb", &[]) else {
+            return;
+        };
+        let dir = temp_dir("usb-run");
+        let record = dir.join("rec");
+        let run = run(
+            &dir,
+            &lib,
+            "kinova-sdk:usb",
+            "",
+            &[],
+            &["--seconds", "8", "--record", record.to_str().unwrap()],
         );
-    }
-    assert!(
-        f64::from(last.f32("x")) > START[0] + 0.05,
-        "it moved: {last:?}"
-    );
-    let want = euler_xyz(
-        f64::from(last.f32("tx")),
-        f64::from(last.f32("ty")),
-        f64::from(last.f32("tz")),
-    )
-    .scaled_axis();
-    for i in 0..3 {
-        let got = arm["rotation_vector_rad"][i].as_f64().unwrap();
-        assert!((got - want[i]).abs() < 1e-9, "{got} vs {want:?}");
-    }
-    assert_eq!(arm["fingers"].as_f64(), Some(f64::from(last.f32("f1"))));
+        assert!(run.status.success(), "{}", run.all());
+        let report = run.report();
+        assert_eq!(report["errors"], serde_json::json!([]), "{}", run.all());
+        assert_eq!(report["stream_ended_with_zero"], true);
+        assert_eq!(report["drops"]["arm_commands"], 0);
+        assert_eq!(report["drops"]["recorded_commands"], 0);
+
+        // The layouts the C compiler made of the headers' declarations.
+        let init = &run.calls[0];
+        for (key, size) in [
+            ("sizeof_trajectory_point", size_of::<TrajectoryPoint>()),
+            ("sizeof_user_position", size_of::<UserPosition>()),
+            ("sizeof_cartesian_position", size_of::<CartesianPosition>()),
+            ("sizeof_kinova_device", size_of::<KinovaDevice>()),
+            (
+                "sizeof_ethernet_comm_config",
+                size_of::<EthernetCommConfig>(),
+            ),
+            (
+                "offset_limitations",
+                std::mem::offset_of!(TrajectoryPoint, Limitations),
+            ),
+            (
+                "offset_hand_mode",
+                std::mem::offset_of!(UserPosition, HandMode),
+            ),
+        ] {
+            assert_eq!(init.int(key) as usize, size, "{key}");
+        }
+
+        // The sequence: connect; a point and a measurement per command; the
+        // zero point; the stop.
+        let names = run.names();
+        assert_eq!(names[..CONNECT.len()], CONNECT, "{names:?}");
+        assert_eq!(names[names.len() - 3..], STOP, "{names:?}");
+        let streamed = &names[CONNECT.len()..names.len() - 3];
+        assert!(
+            streamed
+                .iter()
+                .all(|n| *n == "SendAdvanceTrajectory" || *n == "GetCartesianPosition"),
+            "{streamed:?}"
+        );
+        assert_eq!(streamed.last(), Some(&"GetCartesianPosition"));
+        assert!(
+            run.calls
+                .iter()
+                .all(|c| c.fields.get("returns").or(c.fields.get("result")).unwrap() == "1"),
+            "every call succeeded"
+        );
+
+        // Every command the core made, as f32, in order; then one zero point.
+        let recording = Recording::open(&record).unwrap();
+        let mut decoder = recording.commands().unwrap();
+        let mut commands: Vec<ArmCommand> = Vec::new();
+        while let Some(item) = decoder.next_item().unwrap() {
+            match item {
+                CommandItem::Command(c) => commands.push(c),
+                CommandItem::Lost(n) => panic!("{n} commands lost from the recording"),
+            }
+        }
+        let sends = run.sends();
+        assert_eq!(report["arm_commands"], commands.len() as u64);
+        assert_eq!(sends.len(), commands.len() + 1, "the commands and one zero");
+        let mut moving = 0;
+        for (send, command) in sends.iter().zip(&commands) {
+            let want = [
+                command.linear[0] as f32,
+                command.linear[1] as f32,
+                command.linear[2] as f32,
+                command.angular[0] as f32,
+                command.angular[1] as f32,
+                command.angular[2] as f32,
+                command.fingers as f32,
+                command.fingers as f32,
+                command.fingers as f32,
+            ];
+            let got = ["x", "y", "z", "tx", "ty", "tz", "f1", "f2", "f3"].map(|k| send.f32(k));
+            assert_eq!(got, want, "point {} vs {command:?}", send.int("n"));
+            moving += usize::from(!command.is_zero());
+        }
+        assert!(
+            moving > 50,
+            "the scripted user moved the arm ({moving} points)"
+        );
+        for send in &sends {
+            assert_eq!(send.int("type"), 7, "CARTESIAN_VELOCITY");
+            assert_eq!(send.int("hand_mode"), 2, "VELOCITY_MODE");
+            assert_eq!(send.f32("delay"), 0.0);
+            assert_eq!(send.fields["actuators"], "0,0,0,0,0,0,0");
+            assert_eq!(send.int("limitations_active"), 0);
+            assert_eq!(send.int("synchro"), 0);
+            assert_eq!(send.fields["limitations"], "0,0,0,0,0,0,0,0,0");
+            assert_eq!((send.int("control"), send.int("cartesian")), (1, 1));
+        }
+        assert!(sends.last().unwrap().is_zero_point());
+
+        // 100 Hz at the library, over the stream (the core's ticks).
+        let stream = &sends[..sends.len() - 1];
+        let span_ms = (stream.last().unwrap().ns - stream[0].ns) as f64 / 1e6;
+        let rate = (stream.len() - 1) as f64 / span_ms * 1000.0;
+        let d = intervals_ms(stream);
+        eprintln!(
+            "kinova-sdk:usb at the stand-in: {} points, {rate:.3} Hz; interval p50 {:.3} ms, \
+         p99 {:.3} ms, min {:.3} ms, max {:.3} ms",
+            stream.len(),
+            quantile(&d, 0.5),
+            quantile(&d, 0.99),
+            d[0],
+            d[d.len() - 1]
+        );
+        assert_rate(rate, &report);
+        // Each point's time at the library against its core tick (1 ms each):
+        // the spread of that offset is the jitter the path to the library adds.
+        let mut offsets: Vec<f64> = stream
+            .iter()
+            .zip(&commands)
+            .map(|(s, c)| s.ns as f64 / 1e6 - c.tick as f64)
+            .collect();
+        offsets.sort_by(f64::total_cmp);
+        let base = offsets[0];
+        eprintln!(
+            "kinova-sdk:usb point time minus its core tick, above the smallest: p50 {:.3} ms, p99 \
+         {:.3} ms, max {:.3} ms",
+            quantile(&offsets, 0.5) - base,
+            quantile(&offsets, 0.99) - base,
+            offsets[offsets.len() - 1] - base
+        );
+
+        // The measured pose: the last GetCartesianPosition, Euler XYZ.
+        let last = run
+            .calls
+            .iter()
+            .rev()
+            .find(|c| c.name == "GetCartesianPosition")
+            .unwrap();
+        let arm = &report["arm"];
+        for (i, k) in ["x", "y", "z"].iter().enumerate() {
+            assert_eq!(
+                arm["position_m"][i].as_f64().unwrap(),
+                f64::from(last.f32(k))
+            );
+        }
+        assert!(
+            f64::from(last.f32("x")) > START[0] + 0.05,
+            "it moved: {last:?}"
+        );
+        let want = euler_xyz(
+            f64::from(last.f32("tx")),
+            f64::from(last.f32("ty")),
+            f64::from(last.f32("tz")),
+        )
+        .scaled_axis();
+        for i in 0..3 {
+            let got = arm["rotation_vector_rad"][i].as_f64().unwrap();
+            assert!((got - want[i]).abs() < 1e-9, "{got} vs {want:?}");
+        }
+        assert_eq!(arm["fingers"].as_f64(), Some(f64::from(last.f32("f1"))));
+    });
 }
 
 #[test]
 fn eth_uses_the_ethernet_layer_with_the_configured_addresses() {
-    let _cpu = crate::common::real_time();
-    let Some(lib) = standin("eth", &[]) else {
-        return;
-    };
-    let dir = temp_dir("eth-run");
-    let run = run(
-        &dir,
-        &lib,
-        "kinova-sdk:eth",
-        "local_ip = \"10.1.2.3\"\nsubnet_mask = \"255.255.0.0\"\nrobot_ip = \"10.1.9.8\"\n\
+    crate::common::real_time(|| {
+        let Some(lib) = standin("eth", &[]) else {
+            return;
+        };
+        let dir = temp_dir("eth-run");
+        let run = run(
+            &dir,
+            &lib,
+            "kinova-sdk:eth",
+            "local_ip = \"10.1.2.3\"\nsubnet_mask = \"255.255.0.0\"\nrobot_ip = \"10.1.9.8\"\n\
          robot_port = 55001\nlocal_cmd_port = 25001\nlocal_broadcast_port = 25026",
-        &[],
-        &["--seconds", "1"],
-    );
-    assert!(run.status.success(), "{}", run.all());
-    assert_eq!(run.report()["stream_ended_with_zero"], true);
-    let names = run.names();
-    assert!(
-        names.iter().all(|n| n.starts_with("Ethernet_")),
-        "{names:?}"
-    );
-    let bare: Vec<&str> = names.iter().map(|n| &n["Ethernet_".len()..]).collect();
-    let mut connect = CONNECT.to_vec();
-    connect[0] = "InitEthernetAPI";
-    assert_eq!(bare[..connect.len()], connect, "{bare:?}");
-    assert_eq!(bare[bare.len() - 3..], STOP);
-    let init = &run.calls[0];
-    for (key, value) in [
-        ("local_ip", "10.1.2.3"),
-        ("subnet_mask", "255.255.0.0"),
-        ("robot_ip", "10.1.9.8"),
-        ("robot_port", "55001"),
-        ("local_cmd_port", "25001"),
-        ("local_broadcast_port", "25026"),
-        ("rx_timeout_ms", "1000"),
-    ] {
-        assert_eq!(init.fields[key], value, "{key}");
-    }
-    assert!(run.sends().last().unwrap().is_zero_point());
+            &[],
+            &["--seconds", "1"],
+        );
+        assert!(run.status.success(), "{}", run.all());
+        assert_eq!(run.report()["stream_ended_with_zero"], true);
+        let names = run.names();
+        assert!(
+            names.iter().all(|n| n.starts_with("Ethernet_")),
+            "{names:?}"
+        );
+        let bare: Vec<&str> = names.iter().map(|n| &n["Ethernet_".len()..]).collect();
+        let mut connect = CONNECT.to_vec();
+        connect[0] = "InitEthernetAPI";
+        assert_eq!(bare[..connect.len()], connect, "{bare:?}");
+        assert_eq!(bare[bare.len() - 3..], STOP);
+        let init = &run.calls[0];
+        for (key, value) in [
+            ("local_ip", "10.1.2.3"),
+            ("subnet_mask", "255.255.0.0"),
+            ("robot_ip", "10.1.9.8"),
+            ("robot_port", "55001"),
+            ("local_cmd_port", "25001"),
+            ("local_broadcast_port", "25026"),
+            ("rx_timeout_ms", "1000"),
+        ] {
+            assert_eq!(init.fields[key], value, "{key}");
+        }
+        assert!(run.sends().last().unwrap().is_zero_point());
+    });
 }
 
 #[test]
 fn a_failing_send_is_a_lost_link_and_the_arm_is_still_stopped() {
-    let _cpu = crate::common::real_time();
-    let Some(lib) = standin("fail", &[]) else {
-        return;
-    };
-    let dir = temp_dir("fail-run");
-    let run = run(
-        &dir,
-        &lib,
-        "kinova-sdk:usb",
-        "",
-        &[
-            // Mid-motion: the scripted user moves from about 7.3 s.
-            ("KINOVA_STANDIN_FAIL_SEND_AFTER", "780"),
-            ("KINOVA_STANDIN_FAIL_CODE", "1022"),
-        ],
-        // The failure ends the run (about 8 s in); the limit only has to
-        // outlast a loaded machine's skipped ticks (once 3627 of 9000).
-        &["--seconds", "30"],
-    );
-    assert!(!run.status.success(), "{}", run.all());
-    let report = run.report();
-    let errors = report["errors"].to_string();
-    assert!(
-        errors.contains("arm disconnected")
-            && errors.contains("SendAdvanceTrajectory returned 1022 (ERROR_COMM_TIMEOUT"),
-        "{errors}"
-    );
-    // The failure at point 781, moving; nothing moving after it; the zero
-    // point tried; the stop made.
-    let sends = run.sends();
-    let failed = sends.iter().position(|s| s.int("returns") != 1).unwrap();
-    assert_eq!(sends[failed].int("n"), 781);
-    assert!(!sends[failed].is_zero_point(), "it failed mid-motion");
-    assert!(sends[failed + 1..].iter().all(|s| s.is_zero_point()));
-    assert_eq!(sends.len(), failed + 2, "one zero point after the failure");
-    let names = run.names();
-    assert_eq!(names[names.len() - 3..], STOP, "{names:?}");
-    assert_eq!(
-        report["stream_ended_with_zero"], false,
-        "the zero point failed too: not reported as sent"
-    );
+    crate::common::real_time(|| {
+        let Some(lib) = standin("fail", &[]) else {
+            return;
+        };
+        let dir = temp_dir("fail-run");
+        let run = run(
+            &dir,
+            &lib,
+            "kinova-sdk:usb",
+            "",
+            &[
+                // Mid-motion, whenever that is on a loaded machine: the
+                // 51st point that moves fails, and every call after it.
+                ("KINOVA_STANDIN_FAIL_MOVING_AFTER", "50"),
+                ("KINOVA_STANDIN_FAIL_CODE", "1022"),
+            ],
+            // The failure ends the run (about 8 s in); the limit only has
+            // to outlast a loaded machine's skipped ticks.
+            &["--seconds", "30"],
+        );
+        assert!(!run.status.success(), "{}", run.all());
+        let report = run.report();
+        let errors = report["errors"].to_string();
+        assert!(
+            errors.contains("arm disconnected")
+                && errors.contains("SendAdvanceTrajectory returned 1022 (ERROR_COMM_TIMEOUT"),
+            "{errors}"
+        );
+        // The failure at the 51st moving point; nothing moving after it;
+        // the zero point tried; the stop made.
+        let sends = run.sends();
+        let failed = sends.iter().position(|s| s.int("returns") != 1).unwrap();
+        let moving = sends[..=failed].iter().filter(|s| !s.is_zero_point());
+        assert_eq!(moving.count(), 51);
+        assert!(!sends[failed].is_zero_point(), "it failed mid-motion");
+        assert!(sends[failed + 1..].iter().all(|s| s.is_zero_point()));
+        assert_eq!(sends.len(), failed + 2, "one zero point after the failure");
+        let names = run.names();
+        assert_eq!(names[names.len() - 3..], STOP, "{names:?}");
+        assert_eq!(
+            report["stream_ended_with_zero"], false,
+            "the zero point failed too: not reported as sent"
+        );
+    });
 }
 
 #[test]
 fn a_hanging_call_is_a_lost_link_within_the_call_timeout() {
-    let _cpu = crate::common::real_time();
-    let Some(lib) = standin("hang", &[]) else {
-        return;
-    };
-    let dir = temp_dir("hang-run");
-    let run = run(
-        &dir,
-        &lib,
-        "kinova-sdk:usb",
-        "call_timeout_ms = 50",
-        &[("KINOVA_STANDIN_HANG_SEND_AFTER", "100")],
-        &["--seconds", "4"],
-    );
-    assert!(!run.status.success(), "{}", run.all());
-    let errors = run.report()["errors"].to_string();
-    assert!(
-        errors.contains("SendAdvanceTrajectory has not returned for")
-            && errors.contains("call_timeout_ms"),
-        "{errors}"
-    );
-    assert_eq!(run.sends().len(), 101, "nothing after the hanging call");
+    crate::common::real_time(|| {
+        let Some(lib) = standin("hang", &[]) else {
+            return;
+        };
+        let dir = temp_dir("hang-run");
+        let run = run(
+            &dir,
+            &lib,
+            "kinova-sdk:usb",
+            "call_timeout_ms = 50",
+            &[("KINOVA_STANDIN_HANG_SEND_AFTER", "100")],
+            &["--seconds", "4"],
+        );
+        assert!(!run.status.success(), "{}", run.all());
+        let errors = run.report()["errors"].to_string();
+        assert!(
+            errors.contains("SendAdvanceTrajectory has not returned for")
+                && errors.contains("call_timeout_ms"),
+            "{errors}"
+        );
+        assert_eq!(run.sends().len(), 101, "nothing after the hanging call");
+    });
 }
 
 #[test]
 fn init_failure_says_what_to_check_and_touches_nothing_else() {
-    let _cpu = crate::common::real_time();
-    let Some(lib) = standin("init", &[]) else {
-        return;
-    };
-    let dir = temp_dir("init-run");
-    let run = run(
-        &dir,
-        &lib,
-        "kinova-sdk:usb",
-        "",
-        &[("KINOVA_STANDIN_INIT_CODE", "1015")],
-        &["--seconds", "1"],
-    );
-    assert!(!run.status.success());
-    let all = run.all();
-    assert!(
-        all.contains("InitAPI returned 1015 (ERROR_NO_DEVICE_FOUND")
-            && all.contains("no JACO2 found on USB")
-            && all.contains("10-kinova-arm.rules"),
-        "{all}"
-    );
-    assert_eq!(run.names(), ["InitAPI"]);
+    crate::common::real_time(|| {
+        let Some(lib) = standin("init", &[]) else {
+            return;
+        };
+        let dir = temp_dir("init-run");
+        let run = run(
+            &dir,
+            &lib,
+            "kinova-sdk:usb",
+            "",
+            &[("KINOVA_STANDIN_INIT_CODE", "1015")],
+            &["--seconds", "1"],
+        );
+        assert!(!run.status.success());
+        let all = run.all();
+        assert!(
+            all.contains("InitAPI returned 1015 (ERROR_NO_DEVICE_FOUND")
+                && all.contains("no JACO2 found on USB")
+                && all.contains("10-kinova-arm.rules"),
+            "{all}"
+        );
+        assert_eq!(run.names(), ["InitAPI"]);
+    });
 }
 
 #[test]
 fn no_arm_found_is_a_clear_error_and_the_api_is_closed() {
-    let _cpu = crate::common::real_time();
-    let Some(lib) = standin("nodevice", &[]) else {
-        return;
-    };
-    let dir = temp_dir("nodevice-run");
-    let run = run(
-        &dir,
-        &lib,
-        "kinova-sdk:usb",
-        "",
-        &[("KINOVA_STANDIN_DEVICES", "0")],
-        &["--seconds", "1"],
-    );
-    assert!(!run.status.success());
-    let all = run.all();
-    assert!(
-        all.contains("GetDevices found no device") && all.contains("is it powered"),
-        "{all}"
-    );
-    assert_eq!(run.names(), ["InitAPI", "GetDevices", "CloseAPI"]);
+    crate::common::real_time(|| {
+        let Some(lib) = standin("nodevice", &[]) else {
+            return;
+        };
+        let dir = temp_dir("nodevice-run");
+        let run = run(
+            &dir,
+            &lib,
+            "kinova-sdk:usb",
+            "",
+            &[("KINOVA_STANDIN_DEVICES", "0")],
+            &["--seconds", "1"],
+        );
+        assert!(!run.status.success());
+        let all = run.all();
+        assert!(
+            all.contains("GetDevices found no device") && all.contains("is it powered"),
+            "{all}"
+        );
+        assert_eq!(run.names(), ["InitAPI", "GetDevices", "CloseAPI"]);
+    });
 }
 
 #[test]
 fn an_init_that_never_returns_gives_up_after_the_connect_timeout() {
-    let _cpu = crate::common::real_time();
-    let Some(lib) = standin("slow", &[]) else {
-        return;
-    };
-    let dir = temp_dir("slow-run");
-    let config = config(&dir, &lib, "connect_timeout_ms = 300", "");
-    let log = dir.join("calls.log");
-    let output = command(
-        "kinova-sdk:usb",
-        &config,
-        &log,
-        &[("KINOVA_STANDIN_INIT_DELAY_MS", "20000")],
-        &["--seconds", "1"],
-    )
-    .output()
-    .unwrap();
-    let all = format!(
-        "{}{}",
-        String::from_utf8_lossy(&output.stdout),
-        String::from_utf8_lossy(&output.stderr)
-    );
-    assert!(!output.status.success());
-    assert!(
-        all.contains("InitAPI did not return within 300 ms")
-            && all.contains("connect_timeout_ms")
-            && all.contains("is it powered and plugged in"),
-        "{all}"
-    );
+    crate::common::real_time(|| {
+        let Some(lib) = standin("slow", &[]) else {
+            return;
+        };
+        let dir = temp_dir("slow-run");
+        let config = config(&dir, &lib, "connect_timeout_ms = 300", "");
+        let log = dir.join("calls.log");
+        let output = command(
+            "kinova-sdk:usb",
+            &config,
+            &log,
+            &[("KINOVA_STANDIN_INIT_DELAY_MS", "20000")],
+            &["--seconds", "1"],
+        )
+        .output()
+        .unwrap();
+        let all = format!(
+            "{}{}",
+            String::from_utf8_lossy(&output.stdout),
+            String::from_utf8_lossy(&output.stderr)
+        );
+        assert!(!output.status.success());
+        assert!(
+            all.contains("InitAPI did not return within 300 ms")
+                && all.contains("connect_timeout_ms")
+                && all.contains("is it powered and plugged in"),
+            "{all}"
+        );
+    });
 }
 
 #[test]
 fn a_missing_library_or_symbol_is_named() {
-    let _cpu = crate::common::real_time();
-    let Some(lib) = standin("nosend", &["STANDIN_OMIT_SEND"]) else {
-        return;
-    };
-    let dir = temp_dir("missing-run");
-    let empty = temp_dir("empty-lib");
-    let run1 = run(&dir, &empty, "kinova-sdk:usb", "", &[], &["--seconds", "1"]);
-    assert!(!run1.status.success());
-    let all = run1.all();
-    assert!(
-        all.contains("Kinova.API.USBCommandLayerUbuntu.so")
-            && all.contains(&empty.display().to_string())
-            && all.contains("JACO SDK installer")
-            && all.contains("kinova_driver/lib/")
-            && all.contains("[arm.kinova_sdk] library_dir"),
-        "{all}"
-    );
-    let run2 = run(&dir, &lib, "kinova-sdk:eth", "", &[], &["--seconds", "1"]);
-    assert!(!run2.status.success());
-    let all = run2.all();
-    assert!(
-        all.contains("has no symbol `Ethernet_SendAdvanceTrajectory`"),
-        "{all}"
-    );
-    assert!(run2.calls.is_empty(), "nothing was called");
+    crate::common::real_time(|| {
+        let Some(lib) = standin("nosend", &["STANDIN_OMIT_SEND"]) else {
+            return;
+        };
+        let dir = temp_dir("missing-run");
+        let empty = temp_dir("empty-lib");
+        let run1 = run(&dir, &empty, "kinova-sdk:usb", "", &[], &["--seconds", "1"]);
+        assert!(!run1.status.success());
+        let all = run1.all();
+        assert!(
+            all.contains("Kinova.API.USBCommandLayerUbuntu.so")
+                && all.contains(&empty.display().to_string())
+                && all.contains("JACO SDK installer")
+                && all.contains("kinova_driver/lib/")
+                && all.contains("[arm.kinova_sdk] library_dir"),
+            "{all}"
+        );
+        let run2 = run(&dir, &lib, "kinova-sdk:eth", "", &[], &["--seconds", "1"]);
+        assert!(!run2.status.success());
+        let all = run2.all();
+        assert!(
+            all.contains("has no symbol `Ethernet_SendAdvanceTrajectory`"),
+            "{all}"
+        );
+        assert!(run2.calls.is_empty(), "nothing was called");
+    });
 }
 
 #[test]
 fn sigint_mid_motion_sends_a_zero_point_then_closes() {
-    let _cpu = crate::common::real_time();
-    let Some(lib) = standin("sigint", &[]) else {
-        return;
-    };
-    let dir = temp_dir("sigint-run");
-    let config = config(&dir, &lib, "", "");
-    let log = dir.join("calls.log");
-    let mut child = command("kinova-sdk:usb", &config, &log, &[], &["--seconds", "30"])
-        .spawn()
-        .unwrap();
-    let stdout = std::io::BufReader::new(child.stdout.take().unwrap());
-    let mut lines = stdout.lines();
-    loop {
-        let line = lines
-            .next()
-            .expect("stdout ended before the arm moved")
+    crate::common::real_time(|| {
+        let Some(lib) = standin("sigint", &[]) else {
+            return;
+        };
+        let dir = temp_dir("sigint-run");
+        let config = config(&dir, &lib, "", "");
+        let log = dir.join("calls.log");
+        let mut child = command("kinova-sdk:usb", &config, &log, &[], &["--seconds", "30"])
+            .spawn()
             .unwrap();
-        if line.contains("\"mode\":\"translate_x\"") {
-            break;
+        let stdout = std::io::BufReader::new(child.stdout.take().unwrap());
+        let mut lines = stdout.lines();
+        loop {
+            let line = lines
+                .next()
+                .expect("stdout ended before the arm moved")
+                .unwrap();
+            if line.contains("\"mode\":\"translate_x\"") {
+                break;
+            }
         }
-    }
-    // 0.9 s into the scripted user's 1.5 s puff: moving.
-    std::thread::sleep(Duration::from_millis(900));
-    let mut now = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: a valid pointer to a timespec.
-    assert_eq!(
-        unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut now) },
-        0
-    );
-    let sigint_ns = now.tv_sec as u64 * 1_000_000_000 + now.tv_nsec as u64;
-    // SAFETY: kill with the child's pid and a valid signal.
-    assert_eq!(
-        unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
-        0
-    );
-    let rest: Vec<String> = lines.map_while(Result::ok).collect();
-    let status = child.wait().unwrap();
-    assert_eq!(status.code(), Some(130), "{rest:?}");
-    let calls = read_log(&log);
-    let sends: Vec<&Call> = calls
-        .iter()
-        .filter(|c| c.name == "SendAdvanceTrajectory")
-        .collect();
-    let moving_at_signal = sends
-        .iter()
-        .rev()
-        .find(|s| s.ns <= sigint_ns)
-        .is_some_and(|s| !s.is_zero_point());
-    assert!(moving_at_signal, "the arm was moving at the signal");
-    let last = sends.last().unwrap();
-    assert!(last.is_zero_point() && last.ns > sigint_ns);
-    let names: Vec<&str> = calls.iter().map(|c| c.name.as_str()).collect();
-    assert_eq!(names[names.len() - 3..], STOP);
-    let close = calls.last().unwrap();
-    // Points after the signal: the core's brake (non-zero, decelerating),
-    // then zeros; the stream's own zero point is the last.
-    let first_zero = sends
-        .iter()
-        .find(|s| s.ns > sigint_ns && s.is_zero_point())
-        .unwrap();
-    // The brake's start: the first point after the signal slower than
-    // the one before it.
-    let speed = |s: &Call| {
-        ["x", "y", "z"]
-            .map(|k| f64::from(s.f32(k)).powi(2))
+        // 0.9 s into the scripted user's 1.5 s puff: moving.
+        std::thread::sleep(Duration::from_millis(900));
+        let mut now = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: a valid pointer to a timespec.
+        assert_eq!(
+            unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut now) },
+            0
+        );
+        let sigint_ns = now.tv_sec as u64 * 1_000_000_000 + now.tv_nsec as u64;
+        // SAFETY: kill with the child's pid and a valid signal.
+        assert_eq!(
+            unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
+            0
+        );
+        let rest: Vec<String> = lines.map_while(Result::ok).collect();
+        let status = child.wait().unwrap();
+        assert_eq!(status.code(), Some(130), "{rest:?}");
+        let calls = read_log(&log);
+        let sends: Vec<&Call> = calls
             .iter()
-            .sum::<f64>()
-            .sqrt()
-    };
-    let braking = sends
-        .windows(2)
-        .find(|w| w[1].ns > sigint_ns && speed(w[1]) < speed(w[0]))
-        .map(|w| w[1])
-        .unwrap();
-    eprintln!(
-        "kinova-sdk stop latency at the stand-in: SIGINT → first slower point {:.1} ms, → first \
+            .filter(|c| c.name == "SendAdvanceTrajectory")
+            .collect();
+        let moving_at_signal = sends
+            .iter()
+            .rev()
+            .find(|s| s.ns <= sigint_ns)
+            .is_some_and(|s| !s.is_zero_point());
+        assert!(moving_at_signal, "the arm was moving at the signal");
+        let last = sends.last().unwrap();
+        assert!(last.is_zero_point() && last.ns > sigint_ns);
+        let names: Vec<&str> = calls.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names[names.len() - 3..], STOP);
+        let close = calls.last().unwrap();
+        // Points after the signal: the core's brake (non-zero, decelerating),
+        // then zeros; the stream's own zero point is the last.
+        let first_zero = sends
+            .iter()
+            .find(|s| s.ns > sigint_ns && s.is_zero_point())
+            .unwrap();
+        // The brake's start: the first point after the signal slower than
+        // the one before it.
+        let speed = |s: &Call| {
+            ["x", "y", "z"]
+                .map(|k| f64::from(s.f32(k)).powi(2))
+                .iter()
+                .sum::<f64>()
+                .sqrt()
+        };
+        let braking = sends
+            .windows(2)
+            .find(|w| w[1].ns > sigint_ns && speed(w[1]) < speed(w[0]))
+            .map(|w| w[1])
+            .unwrap();
+        eprintln!(
+            "kinova-sdk stop latency at the stand-in: SIGINT → first slower point {:.1} ms, → first \
          zero point {:.1} ms, → the stream's final zero point {:.1} ms, → CloseAPI {:.1} ms \
          ({} points after the signal)",
-        (braking.ns - sigint_ns) as f64 / 1e6,
-        (first_zero.ns - sigint_ns) as f64 / 1e6,
-        (last.ns - sigint_ns) as f64 / 1e6,
-        (close.ns - sigint_ns) as f64 / 1e6,
-        sends.iter().filter(|s| s.ns > sigint_ns).count()
-    );
+            (braking.ns - sigint_ns) as f64 / 1e6,
+            (first_zero.ns - sigint_ns) as f64 / 1e6,
+            (last.ns - sigint_ns) as f64 / 1e6,
+            (close.ns - sigint_ns) as f64 / 1e6,
+            sends.iter().filter(|s| s.ns > sigint_ns).count()
+        );
+    });
 }

@@ -221,26 +221,7 @@ impl Graph {
         ]);
         command.args(args);
         self.env(&mut command);
-        let mut child = command
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("the sipnpuff binary runs");
-        let stdout = child.stdout.take().unwrap();
-        let (tx, lines) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in std::io::BufReader::new(stdout).lines() {
-                let Ok(line) = line else { break };
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        Running {
-            child,
-            lines,
-            seen: Vec::new(),
-        }
+        Running::start(command)
     }
 }
 
@@ -420,203 +401,210 @@ fn stream_run(name: &str, fingers: bool) {
 
 #[test]
 fn pose_velocity_stream_is_the_core_s_commands_at_100_hz_and_ends_with_zero() {
-    let _cpu = crate::common::real_time();
-    stream_run("pose-velocity", false);
+    crate::common::real_time(|| {
+        stream_run("pose-velocity", false);
+    });
 }
 
 #[test]
 fn finger_velocity_stream_carries_the_fingers_on_its_own_topic() {
-    let _cpu = crate::common::real_time();
-    stream_run("finger-velocity", true);
+    crate::common::real_time(|| {
+        stream_run("finger-velocity", true);
+    });
 }
 
 #[test]
 fn the_driver_killed_mid_run_is_a_fault_with_a_brake() {
-    let _cpu = crate::common::real_time();
-    let name = "driver-killed";
-    if !peers_installed(name) {
-        return;
-    }
-    let graph = Graph::start(name);
-    let mut peer = graph.subscriber(true);
-    let config = graph.config(true, false, 10_000);
-    let mut run = graph.sipnpuff(&config, &["--seconds", "60"]);
-    run.wait_until_moving();
-    let killed = Instant::now();
-    peer.kill();
-    run.wait_for("\"detection\"");
-    let detected = killed.elapsed();
-    let (status, lines, stderr) = run.finish();
-    let exited = killed.elapsed();
-    let report = report(&lines);
-    eprintln!(
-        "{name}: SIGKILL of the subscriber → the stop event on stdout {:.1} ms, → exit {:.1} ms; {}",
-        detected.as_secs_f64() * 1e3,
-        exited.as_secs_f64() * 1e3,
-        report["errors"]
-    );
-    assert_eq!(status.code(), Some(1), "{stderr}");
-    assert_eq!(report["stop_reason"], "arm fault", "{report}");
-    let error = report["errors"][0].as_str().unwrap_or("");
-    assert!(
-        error.contains("arm disconnected")
-            && error.contains(NS)
-            && error.contains("closed its connection"),
-        "{error}"
-    );
-    // Nobody to receive the zero: the report says so.
-    assert_eq!(report["stream_ended_with_zero"], false, "{report}");
-    assert_eq!(
-        report["final_velocity"],
-        serde_json::json!([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
-        "{report}"
-    );
+    crate::common::real_time(|| {
+        let name = "driver-killed";
+        if !peers_installed(name) {
+            return;
+        }
+        let graph = Graph::start(name);
+        let mut peer = graph.subscriber(true);
+        let config = graph.config(true, false, 10_000);
+        let mut run = graph.sipnpuff(&config, &["--seconds", "60"]);
+        run.wait_until_moving();
+        let killed = Instant::now();
+        peer.kill();
+        run.wait_for("\"detection\"");
+        let detected = killed.elapsed();
+        let (status, lines, stderr) = run.finish();
+        let exited = killed.elapsed();
+        let report = report(&lines);
+        eprintln!(
+            "{name}: SIGKILL of the subscriber → the stop event on stdout {:.1} ms, → exit {:.1} ms; {}",
+            detected.as_secs_f64() * 1e3,
+            exited.as_secs_f64() * 1e3,
+            report["errors"]
+        );
+        assert_eq!(status.code(), Some(1), "{stderr}");
+        assert_eq!(report["stop_reason"], "arm fault", "{report}");
+        let error = report["errors"][0].as_str().unwrap_or("");
+        assert!(
+            error.contains("arm disconnected")
+                && error.contains(NS)
+                && error.contains("closed its connection"),
+            "{error}"
+        );
+        // Nobody to receive the zero: the report says so.
+        assert_eq!(report["stream_ended_with_zero"], false, "{report}");
+        assert_eq!(
+            report["final_velocity"],
+            serde_json::json!([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            "{report}"
+        );
+    });
 }
 
 #[test]
 fn the_master_killed_mid_run_is_a_fault_and_the_driver_still_gets_the_zero() {
-    let _cpu = crate::common::real_time();
-    let name = "master-killed";
-    if !peers_installed(name) {
-        return;
-    }
-    let mut graph = Graph::start(name);
-    let peer = graph.subscriber(false);
-    let config = graph.config(false, false, 10_000);
-    let mut run = graph.sipnpuff(&config, &["--seconds", "60"]);
-    run.wait_until_moving();
-    let killed_ns = monotonic_ns();
-    graph.master.take().unwrap().kill();
-    let (status, lines, stderr) = run.finish();
-    let report = report(&lines);
-    let got = received(&peer, Duration::from_millis(500));
-    assert_eq!(status.code(), Some(1), "{stderr}");
-    assert_eq!(report["stop_reason"], "arm fault", "{report}");
-    let error = report["errors"][0].as_str().unwrap_or("");
-    assert!(
-        error.contains("ROS master") && error.contains(&graph.uri()),
-        "{error}"
-    );
-    // The driver's connection outlives the master: the zero reached it.
-    assert_eq!(report["stream_ended_with_zero"], true, "{report}");
-    let (t, last) = got.messages.last().unwrap();
-    assert!(last.iter().all(|&x| x == 0.0), "{last:?}");
-    let moving_after = got
-        .messages
-        .iter()
-        .filter(|(t, m)| *t > killed_ns && m.iter().any(|&x| x != 0.0))
-        .count();
-    eprintln!(
-        "{name}: SIGKILL of rosmaster → the final zero at the subscriber {:.1} ms ({moving_after} moving commands in between); {error}",
-        (t - killed_ns) as f64 / 1e6
-    );
+    crate::common::real_time(|| {
+        let name = "master-killed";
+        if !peers_installed(name) {
+            return;
+        }
+        let mut graph = Graph::start(name);
+        let peer = graph.subscriber(false);
+        let config = graph.config(false, false, 10_000);
+        let mut run = graph.sipnpuff(&config, &["--seconds", "60"]);
+        run.wait_until_moving();
+        let killed_ns = monotonic_ns();
+        graph.master.take().unwrap().kill();
+        let (status, lines, stderr) = run.finish();
+        let report = report(&lines);
+        let got = received(&peer, Duration::from_millis(500));
+        assert_eq!(status.code(), Some(1), "{stderr}");
+        assert_eq!(report["stop_reason"], "arm fault", "{report}");
+        let error = report["errors"][0].as_str().unwrap_or("");
+        assert!(
+            error.contains("ROS master") && error.contains(&graph.uri()),
+            "{error}"
+        );
+        // The driver's connection outlives the master: the zero reached it.
+        assert_eq!(report["stream_ended_with_zero"], true, "{report}");
+        let (t, last) = got.messages.last().unwrap();
+        assert!(last.iter().all(|&x| x == 0.0), "{last:?}");
+        let moving_after = got
+            .messages
+            .iter()
+            .filter(|(t, m)| *t > killed_ns && m.iter().any(|&x| x != 0.0))
+            .count();
+        eprintln!(
+            "{name}: SIGKILL of rosmaster → the final zero at the subscriber {:.1} ms ({moving_after} moving commands in between); {error}",
+            (t - killed_ns) as f64 / 1e6
+        );
+    });
 }
 
 #[test]
 fn the_tool_pose_is_the_measured_arm_pose() {
-    let _cpu = crate::common::real_time();
-    let name = "tool-pose";
-    if !peers_installed(name) {
-        return;
-    }
-    let graph = Graph::start(name);
-    let _peer = graph.subscriber(true);
-    // 45° about z.
-    let (s, c) = (
-        std::f64::consts::FRAC_PI_8.sin(),
-        std::f64::consts::FRAC_PI_8.cos(),
-    );
-    let _pose = graph.pose_publisher([0.21, -0.27, 0.43, 0.0, 0.0, s, c]);
-    let config = graph.config(true, true, 10_000);
-    let run = graph.sipnpuff(&config, &["--seconds", "2"]);
-    let (status, lines, stderr) = run.finish();
-    assert_eq!(status.code(), Some(0), "{stderr}");
-    let report = report(&lines);
-    let arm = &report["arm"];
-    let position: Vec<f64> = serde_json::from_value(arm["position_m"].clone()).unwrap();
-    let rotation: Vec<f64> = serde_json::from_value(arm["rotation_vector_rad"].clone()).unwrap();
-    assert_eq!(position, [0.21, -0.27, 0.43], "{arm}");
-    assert!(
-        rotation[0].abs() < 1e-12
-            && rotation[1].abs() < 1e-12
-            && (rotation[2] - std::f64::consts::FRAC_PI_4).abs() < 1e-12,
-        "{arm}"
-    );
-    assert_eq!(arm["fingers"], Value::Null);
+    crate::common::real_time(|| {
+        let name = "tool-pose";
+        if !peers_installed(name) {
+            return;
+        }
+        let graph = Graph::start(name);
+        let _peer = graph.subscriber(true);
+        // 45° about z.
+        let (s, c) = (
+            std::f64::consts::FRAC_PI_8.sin(),
+            std::f64::consts::FRAC_PI_8.cos(),
+        );
+        let _pose = graph.pose_publisher([0.21, -0.27, 0.43, 0.0, 0.0, s, c]);
+        let config = graph.config(true, true, 10_000);
+        let run = graph.sipnpuff(&config, &["--seconds", "2"]);
+        let (status, lines, stderr) = run.finish();
+        assert_eq!(status.code(), Some(0), "{stderr}");
+        let report = report(&lines);
+        let arm = &report["arm"];
+        let position: Vec<f64> = serde_json::from_value(arm["position_m"].clone()).unwrap();
+        let rotation: Vec<f64> =
+            serde_json::from_value(arm["rotation_vector_rad"].clone()).unwrap();
+        assert_eq!(position, [0.21, -0.27, 0.43], "{arm}");
+        assert!(
+            rotation[0].abs() < 1e-12
+                && rotation[1].abs() < 1e-12
+                && (rotation[2] - std::f64::consts::FRAC_PI_4).abs() < 1e-12,
+            "{arm}"
+        );
+        assert_eq!(arm["fingers"], Value::Null);
+    });
 }
 
 #[test]
 fn no_master_is_a_clear_error() {
-    let _cpu = crate::common::real_time();
-    // Needs no peer: nothing listens on the port.
-    let dir = scratch("no-master");
-    let config = dir.join("config.toml");
-    // A long timeout: these errors must not wait for it.
-    std::fs::write(&config, "[arm]\nconnect_timeout_ms = 60000\n").unwrap();
-    let port = free_port();
-    let run = |uri: Option<&str>| {
-        let mut command = Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
-        command.args([
-            "run",
-            "--config",
-            config.to_str().unwrap(),
-            "--arm",
-            "ros1:/j2n6s300_driver",
-        ]);
-        command.args(["--seconds", "5"]);
-        match uri {
-            Some(uri) => command.env("ROS_MASTER_URI", uri),
-            None => command.env_remove("ROS_MASTER_URI"),
+    crate::common::real_time(|| {
+        // Needs no peer: nothing listens on the port.
+        let dir = scratch("no-master");
+        let config = dir.join("config.toml");
+        // A long timeout: these errors must not wait for it.
+        std::fs::write(&config, "[arm]\nconnect_timeout_ms = 60000\n").unwrap();
+        let port = free_port();
+        let run = |uri: Option<&str>| {
+            let mut command = Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
+            command.args([
+                "run",
+                "--config",
+                config.to_str().unwrap(),
+                "--arm",
+                "ros1:/j2n6s300_driver",
+            ]);
+            command.args(["--seconds", "5"]);
+            match uri {
+                Some(uri) => command.env("ROS_MASTER_URI", uri),
+                None => command.env_remove("ROS_MASTER_URI"),
+            };
+            let started = Instant::now();
+            let out = command.output().unwrap();
+            (
+                out.status.code(),
+                String::from_utf8_lossy(&out.stderr).into_owned(),
+                started.elapsed(),
+            )
         };
-        let started = Instant::now();
-        let out = command.output().unwrap();
-        (
-            out.status.code(),
-            String::from_utf8_lossy(&out.stderr).into_owned(),
-            started.elapsed(),
-        )
-    };
-    let (code, stderr, took) = run(None);
-    assert_eq!(code, Some(1));
-    assert!(
-        stderr.contains("ROS_MASTER_URI is not set")
-            && stderr.contains("export ROS_MASTER_URI=http://"),
-        "{stderr}"
-    );
-    assert!(took < Duration::from_secs(30), "{took:?}");
-    let (code, stderr, took) = run(Some(&format!("http://127.0.0.1:{port}")));
-    assert_eq!(code, Some(1));
-    assert!(
-        stderr.contains(&format!("no ROS master answers at http://127.0.0.1:{port}"))
-            && stderr.contains("roscore"),
-        "{stderr}"
-    );
-    assert!(took < Duration::from_secs(30), "{took:?}");
-    eprintln!(
-        "no-master: nothing on the port: the error after {:.0} ms",
-        took.as_secs_f64() * 1e3
-    );
-    let (code, stderr, _) = run(Some("localhost:11311"));
-    assert_eq!(code, Some(1));
-    assert!(stderr.contains("is not http://HOST:PORT"), "{stderr}");
-    let _ = std::fs::remove_dir_all(&dir);
+        let (code, stderr, took) = run(None);
+        assert_eq!(code, Some(1));
+        assert!(
+            stderr.contains("ROS_MASTER_URI is not set")
+                && stderr.contains("export ROS_MASTER_URI=http://"),
+            "{stderr}"
+        );
+        assert!(took < Duration::from_secs(30), "{took:?}");
+        let (code, stderr, took) = run(Some(&format!("http://127.0.0.1:{port}")));
+        assert_eq!(code, Some(1));
+        assert!(
+            stderr.contains(&format!("no ROS master answers at http://127.0.0.1:{port}"))
+                && stderr.contains("roscore"),
+            "{stderr}"
+        );
+        assert!(took < Duration::from_secs(30), "{took:?}");
+        eprintln!(
+            "no-master: nothing on the port: the error after {:.0} ms",
+            took.as_secs_f64() * 1e3
+        );
+        let (code, stderr, _) = run(Some("localhost:11311"));
+        assert_eq!(code, Some(1));
+        assert!(stderr.contains("is not http://HOST:PORT"), "{stderr}");
+        let _ = std::fs::remove_dir_all(&dir);
+    });
 }
 
 #[test]
 fn no_driver_and_no_pose_are_clear_errors_within_the_timeout() {
-    let _cpu = crate::common::real_time();
-    let name = "no-driver";
-    if !peers_installed(name) {
-        return;
-    }
-    let graph = Graph::start(name);
-    let timeout_ms = 1500;
-    let config = graph.config(false, true, timeout_ms);
-    let started = Instant::now();
-    let (status, _, stderr) = graph.sipnpuff(&config, &["--seconds", "5"]).finish();
-    let took = started.elapsed();
-    assert_eq!(status.code(), Some(1), "{stderr}");
-    assert!(
+    crate::common::real_time(|| {
+        let name = "no-driver";
+        if !peers_installed(name) {
+            return;
+        }
+        let graph = Graph::start(name);
+        let timeout_ms = 1500;
+        let config = graph.config(false, true, timeout_ms);
+        let started = Instant::now();
+        let (status, _, stderr) = graph.sipnpuff(&config, &["--seconds", "5"]).finish();
+        let took = started.elapsed();
+        assert_eq!(status.code(), Some(1), "{stderr}");
+        assert!(
         stderr.contains(&format!(
             "nothing subscribed to {NS}/in/cartesian_velocity (kinova_msgs/PoseVelocity) within {timeout_ms} ms"
         )) && stderr.contains(
@@ -624,90 +612,93 @@ fn no_driver_and_no_pose_are_clear_errors_within_the_timeout() {
         ),
         "{stderr}"
     );
-    eprintln!(
-        "{name}: no subscriber: the error after {:.0} ms (timeout {timeout_ms} ms)",
-        took.as_secs_f64() * 1e3
-    );
-    assert!(took >= Duration::from_millis(u64::from(timeout_ms)));
+        eprintln!(
+            "{name}: no subscriber: the error after {:.0} ms (timeout {timeout_ms} ms)",
+            took.as_secs_f64() * 1e3
+        );
+        assert!(took >= Duration::from_millis(u64::from(timeout_ms)));
 
-    // A driver but no tool pose.
-    let _peer = graph.subscriber(false);
-    let started = Instant::now();
-    let (status, _, stderr) = graph.sipnpuff(&config, &["--seconds", "5"]).finish();
-    let took = started.elapsed();
-    assert_eq!(status.code(), Some(1), "{stderr}");
-    assert!(
-        stderr.contains(&format!(
-            "no geometry_msgs/PoseStamped on {NS}/out/tool_pose within {timeout_ms} ms"
-        )) && stderr.contains("tool_pose = false"),
-        "{stderr}"
-    );
-    eprintln!(
-        "{name}: no tool pose: the error after {:.0} ms",
-        took.as_secs_f64() * 1e3
-    );
+        // A driver but no tool pose.
+        let _peer = graph.subscriber(false);
+        let started = Instant::now();
+        let (status, _, stderr) = graph.sipnpuff(&config, &["--seconds", "5"]).finish();
+        let took = started.elapsed();
+        assert_eq!(status.code(), Some(1), "{stderr}");
+        assert!(
+            stderr.contains(&format!(
+                "no geometry_msgs/PoseStamped on {NS}/out/tool_pose within {timeout_ms} ms"
+            )) && stderr.contains("tool_pose = false"),
+            "{stderr}"
+        );
+        eprintln!(
+            "{name}: no tool pose: the error after {:.0} ms",
+            took.as_secs_f64() * 1e3
+        );
+    });
 }
 
 #[test]
 fn sipnpuff_killed_mid_motion_the_stream_just_stops() {
-    let _cpu = crate::common::real_time();
-    let name = "sipnpuff-killed";
-    if !peers_installed(name) {
-        return;
-    }
-    let graph = Graph::start(name);
-    let peer = graph.subscriber(false);
-    let config = graph.config(false, false, 10_000);
-    let mut run = graph.sipnpuff(&config, &["--seconds", "60"]);
-    run.wait_until_moving();
-    let killed_ns = monotonic_ns();
-    run.signal(libc::SIGKILL);
-    let (status, _, _) = run.finish();
-    assert_eq!(status.code(), None, "killed by a signal");
-    let got = received(&peer, Duration::from_millis(1000));
-    let after = got.messages.iter().filter(|(t, _)| *t > killed_ns).count();
-    let (t, last) = got.messages.last().unwrap();
-    eprintln!(
-        "{name}: SIGKILL of sipnpuff: {after} message(s) after it, the last {:.1} ms after, moving: {last:?} (the JACO2 stops when its stream stops)",
-        (t - killed_ns) as f64 / 1e6
-    );
-    // No zero is possible; what counts is that nothing more comes (at most
-    // what was already in the socket).
-    assert!(after <= 2, "{after} messages after SIGKILL");
-    assert!(
-        last.iter().any(|&x| x != 0.0),
-        "killed mid-motion: {last:?}"
-    );
+    crate::common::real_time(|| {
+        let name = "sipnpuff-killed";
+        if !peers_installed(name) {
+            return;
+        }
+        let graph = Graph::start(name);
+        let peer = graph.subscriber(false);
+        let config = graph.config(false, false, 10_000);
+        let mut run = graph.sipnpuff(&config, &["--seconds", "60"]);
+        run.wait_until_moving();
+        let killed_ns = monotonic_ns();
+        run.signal(libc::SIGKILL);
+        let (status, _, _) = run.finish();
+        assert_eq!(status.code(), None, "killed by a signal");
+        let got = received(&peer, Duration::from_millis(1000));
+        let after = got.messages.iter().filter(|(t, _)| *t > killed_ns).count();
+        let (t, last) = got.messages.last().unwrap();
+        eprintln!(
+            "{name}: SIGKILL of sipnpuff: {after} message(s) after it, the last {:.1} ms after, moving: {last:?} (the JACO2 stops when its stream stops)",
+            (t - killed_ns) as f64 / 1e6
+        );
+        // No zero is possible; what counts is that nothing more comes (at most
+        // what was already in the socket).
+        assert!(after <= 2, "{after} messages after SIGKILL");
+        assert!(
+            last.iter().any(|&x| x != 0.0),
+            "killed mid-motion: {last:?}"
+        );
 
-    // Its registration is stale (it does not answer): a new run takes over.
-    let (status, lines, stderr) = graph.sipnpuff(&config, &["--seconds", "1"]).finish();
-    assert_eq!(status.code(), Some(0), "{stderr}");
-    assert_eq!(report(&lines)["stream_ended_with_zero"], true);
+        // Its registration is stale (it does not answer): a new run takes over.
+        let (status, lines, stderr) = graph.sipnpuff(&config, &["--seconds", "1"]).finish();
+        assert_eq!(status.code(), Some(0), "{stderr}");
+        assert_eq!(report(&lines)["stream_ended_with_zero"], true);
+    });
 }
 
 #[test]
 fn a_second_sipnpuff_is_refused_and_the_first_drives_on() {
-    let _cpu = crate::common::real_time();
-    let name = "second-sipnpuff";
-    if !peers_installed(name) {
-        return;
-    }
-    let graph = Graph::start(name);
-    let _peer = graph.subscriber(false);
-    let config = graph.config(false, false, 10_000);
-    let mut first = graph.sipnpuff(&config, &["--seconds", "60"]);
-    first.wait_for("\"mode\":\"translate_x\"");
-    let (status, _, stderr) = graph.sipnpuff(&config, &["--seconds", "5"]).finish();
-    assert_eq!(status.code(), Some(1), "{stderr}");
-    assert!(
-        stderr.contains(&format!("another /sipnpuff (pid {}", first.child.id()))
-            && stderr.contains("one controller per arm"),
-        "{stderr}"
-    );
-    first.signal(libc::SIGINT);
-    let (status, lines, stderr) = first.finish();
-    assert_eq!(status.code(), Some(130), "{stderr}");
-    let report = report(&lines);
-    assert_eq!(report["errors"], serde_json::json!([]), "{report}");
-    assert_eq!(report["stream_ended_with_zero"], true, "{report}");
+    crate::common::real_time(|| {
+        let name = "second-sipnpuff";
+        if !peers_installed(name) {
+            return;
+        }
+        let graph = Graph::start(name);
+        let _peer = graph.subscriber(false);
+        let config = graph.config(false, false, 10_000);
+        let mut first = graph.sipnpuff(&config, &["--seconds", "60"]);
+        first.wait_for("\"mode\":\"translate_x\"");
+        let (status, _, stderr) = graph.sipnpuff(&config, &["--seconds", "5"]).finish();
+        assert_eq!(status.code(), Some(1), "{stderr}");
+        assert!(
+            stderr.contains(&format!("another /sipnpuff (pid {}", first.child.id()))
+                && stderr.contains("one controller per arm"),
+            "{stderr}"
+        );
+        first.signal(libc::SIGINT);
+        let (status, lines, stderr) = first.finish();
+        assert_eq!(status.code(), Some(130), "{stderr}");
+        let report = report(&lines);
+        assert_eq!(report["errors"], serde_json::json!([]), "{report}");
+        assert_eq!(report["stream_ended_with_zero"], true, "{report}");
+    });
 }

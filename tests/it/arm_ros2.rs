@@ -259,6 +259,7 @@ fn finish_run(child: Child) -> Outcome {
     let output = child.wait_with_output().unwrap();
     let exited_ns = monotonic_ns();
     let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    crate::common::witness(&stdout);
     let report = stdout
         .lines()
         .rev()
@@ -327,87 +328,19 @@ fn assert_stream(received: &[Received], commands: &[ArmCommand], message: &str) 
 /// stamped now in the configured frame, a zero at the end, nothing after.
 #[test]
 fn a_twist_stream_reaches_cyclone_dds_whole_at_100_hz() {
-    let _cpu = crate::common::real_time();
-    if !ready("a_twist_stream_reaches_cyclone_dds_whole_at_100_hz") {
-        return;
-    }
-    let dir = scratch("rate");
-    let topic = topic("rate");
-    let (messages, outcome, dir) = in_private_network(move || {
-        let peer = Peer::start(&dir, &topic, "twist_stamped", None);
-        let config = config(
-            &dir,
-            "connect_timeout_ms = 10000",
-            "frame_id = \"tool_base\"",
-        );
-        let rec = dir.join("rec");
-        let run = spawn_run(&[
-            "--config",
-            config.to_str().unwrap(),
-            "--arm",
-            &format!("ros2:{topic}"),
-            "--seconds",
-            "10",
-            "--json",
-            "--record",
-            rec.to_str().unwrap(),
-        ]);
-        let outcome = finish_run(run);
-        // Anything after the end would arrive now.
-        std::thread::sleep(Duration::from_millis(500));
-        (peer.finish(), outcome, dir)
-    });
-    assert!(
-        outcome.status.success(),
-        "{}\n{}",
-        outcome.stdout,
-        outcome.stderr
-    );
-    let report = outcome.report.expect("a JSON report");
-    assert_eq!(report["stream_ended_with_zero"], true, "{report}");
-    let commands = recorded_commands(&dir.join("rec"));
-    assert_eq!(report["arm_commands"].as_u64(), Some(commands.len() as u64));
-    assert!(
-        commands.iter().any(|c| !c.is_zero()),
-        "the built-in user moved the arm"
-    );
-    let stream = assert_stream(&messages, &commands, "twist_stamped");
-    // Stamped now (the peer's wall clock is ours), in the configured frame.
-    for m in &stream {
-        assert_eq!(m.frame_id.as_deref(), Some("tool_base"));
-    }
-    let now_ns = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap()
-        .as_nanos() as i64;
-    let first = stream[0].stamp_ns.unwrap();
-    assert!(now_ns - first > 9_000_000_000 && now_ns - first < 60_000_000_000);
-    assert!(stream.windows(2).all(|w| w[1].stamp_ns >= w[0].stamp_ns));
-    // Rate at the peer over the commands (the final zero follows at once).
-    let (rate, sd, max) = timing(&stream[..stream.len() - 1]);
-    eprintln!(
-        "ros2 → Cyclone DDS (TwistStamped): {} commands + final zero, 0 lost; rate {rate:.2} Hz, inter-arrival sd {sd:.3} ms, max {max:.2} ms",
-        commands.len()
-    );
-    assert_rate(rate, &report);
-}
-
-/// (2) The JACO2 ports' messages: float32, the three fingers equal.
-#[test]
-fn the_kinova_messages_arrive_as_float32() {
-    let _cpu = crate::common::real_time();
-    if !ready("the_kinova_messages_arrive_as_float32") {
-        return;
-    }
-    for (message, seconds) in [
-        ("pose_velocity_with_finger_velocity", "9"),
-        ("pose_velocity", "2"),
-    ] {
-        let dir = scratch(message);
-        let topic = topic(message);
+    crate::common::real_time(|| {
+        if !ready("a_twist_stream_reaches_cyclone_dds_whole_at_100_hz") {
+            return;
+        }
+        let dir = scratch("rate");
+        let topic = topic("rate");
         let (messages, outcome, dir) = in_private_network(move || {
-            let peer = Peer::start(&dir, &topic, message, None);
-            let config = config(&dir, "", &format!("message = \"{message}\""));
+            let peer = Peer::start(&dir, &topic, "twist_stamped", None);
+            let config = config(
+                &dir,
+                "connect_timeout_ms = 10000",
+                "frame_id = \"tool_base\"",
+            );
             let rec = dir.join("rec");
             let run = spawn_run(&[
                 "--config",
@@ -415,24 +348,94 @@ fn the_kinova_messages_arrive_as_float32() {
                 "--arm",
                 &format!("ros2:{topic}"),
                 "--seconds",
-                seconds,
+                "10",
                 "--json",
                 "--record",
                 rec.to_str().unwrap(),
             ]);
             let outcome = finish_run(run);
-            std::thread::sleep(Duration::from_millis(300));
+            // Anything after the end would arrive now.
+            std::thread::sleep(Duration::from_millis(500));
             (peer.finish(), outcome, dir)
         });
-        assert!(outcome.status.success(), "{message}: {}", outcome.stderr);
+        assert!(
+            outcome.status.success(),
+            "{}\n{}",
+            outcome.stdout,
+            outcome.stderr
+        );
+        let report = outcome.report.expect("a JSON report");
+        assert_eq!(report["stream_ended_with_zero"], true, "{report}");
         let commands = recorded_commands(&dir.join("rec"));
-        let stream = assert_stream(&messages, &commands, message);
+        assert_eq!(report["arm_commands"].as_u64(), Some(commands.len() as u64));
+        assert!(
+            commands.iter().any(|c| !c.is_zero()),
+            "the built-in user moved the arm"
+        );
+        let stream = assert_stream(&messages, &commands, "twist_stamped");
+        // Stamped now (the peer's wall clock is ours), in the configured frame.
+        for m in &stream {
+            assert_eq!(m.frame_id.as_deref(), Some("tool_base"));
+        }
+        let now_ns = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_nanos() as i64;
+        let first = stream[0].stamp_ns.unwrap();
+        assert!(now_ns - first > 9_000_000_000 && now_ns - first < 60_000_000_000);
+        assert!(stream.windows(2).all(|w| w[1].stamp_ns >= w[0].stamp_ns));
+        // Rate at the peer over the commands (the final zero follows at once).
         let (rate, sd, max) = timing(&stream[..stream.len() - 1]);
         eprintln!(
-            "ros2 → Cyclone DDS ({message}): {} commands, 0 lost; rate {rate:.2} Hz, sd {sd:.3} ms, max {max:.2} ms",
+            "ros2 → Cyclone DDS (TwistStamped): {} commands + final zero, 0 lost; rate {rate:.2} Hz, inter-arrival sd {sd:.3} ms, max {max:.2} ms",
             commands.len()
         );
-    }
+        assert_rate(rate, &report);
+    });
+}
+
+/// (2) The JACO2 ports' messages: float32, the three fingers equal.
+#[test]
+fn the_kinova_messages_arrive_as_float32() {
+    crate::common::real_time(|| {
+        if !ready("the_kinova_messages_arrive_as_float32") {
+            return;
+        }
+        for (message, seconds) in [
+            ("pose_velocity_with_finger_velocity", "9"),
+            ("pose_velocity", "2"),
+        ] {
+            let dir = scratch(message);
+            let topic = topic(message);
+            let (messages, outcome, dir) = in_private_network(move || {
+                let peer = Peer::start(&dir, &topic, message, None);
+                let config = config(&dir, "", &format!("message = \"{message}\""));
+                let rec = dir.join("rec");
+                let run = spawn_run(&[
+                    "--config",
+                    config.to_str().unwrap(),
+                    "--arm",
+                    &format!("ros2:{topic}"),
+                    "--seconds",
+                    seconds,
+                    "--json",
+                    "--record",
+                    rec.to_str().unwrap(),
+                ]);
+                let outcome = finish_run(run);
+                std::thread::sleep(Duration::from_millis(300));
+                (peer.finish(), outcome, dir)
+            });
+            assert!(outcome.status.success(), "{message}: {}", outcome.stderr);
+            let commands = recorded_commands(&dir.join("rec"));
+            let stream = assert_stream(&messages, &commands, message);
+            let (rate, sd, max) = timing(&stream[..stream.len() - 1]);
+            eprintln!(
+                "ros2 → Cyclone DDS ({message}): {} commands, 0 lost; rate {rate:.2} Hz, sd {sd:.3} ms, max {max:.2} ms",
+                commands.len()
+            );
+        }
+    });
 }
 
 /// (3) The receiver killed mid-run: SIGKILL (no goodbye: the unacknowledged
@@ -440,15 +443,149 @@ fn the_kinova_messages_arrive_as_float32() {
 /// unmatch tells). The run ends with a fault naming the receiver.
 #[test]
 fn a_receiver_killed_mid_run_is_a_fault() {
-    let _cpu = crate::common::real_time();
-    if !ready("a_receiver_killed_mid_run_is_a_fault") {
-        return;
-    }
-    for (signal, name) in [(libc::SIGKILL, "SIGKILL"), (libc::SIGTERM, "SIGTERM")] {
-        let dir = scratch(name);
-        let topic = topic(name);
-        let wanted = topic.clone();
-        let (killed_ns, got, outcome) = in_private_network(move || {
+    crate::common::real_time(|| {
+        if !ready("a_receiver_killed_mid_run_is_a_fault") {
+            return;
+        }
+        for (signal, name) in [(libc::SIGKILL, "SIGKILL"), (libc::SIGTERM, "SIGTERM")] {
+            let dir = scratch(name);
+            let topic = topic(name);
+            let wanted = topic.clone();
+            let (killed_ns, got, outcome) = in_private_network(move || {
+                let peer = Peer::start(&dir, &topic, "twist_stamped", None);
+                let run = spawn_run(&[
+                    "--arm",
+                    &format!("ros2:{topic}"),
+                    "--seconds",
+                    "30",
+                    "--json",
+                ]);
+                // Killed once the stream has run a while.
+                let deadline = Instant::now() + Duration::from_secs(20);
+                while received(&peer.out).len() < 200 && Instant::now() < deadline {
+                    std::thread::sleep(Duration::from_millis(20));
+                }
+                let killed_ns = monotonic_ns();
+                peer.signal(signal);
+                let outcome = finish_run(run);
+                let got = received(&peer.out);
+                (killed_ns, got, outcome)
+            });
+            assert!(got.len() >= 200, "{name}: the stream ran");
+            let detected_s = (outcome.exited_ns - killed_ns) as f64 / 1e9;
+            let report = outcome.report.expect("a JSON report");
+            let errors = report["errors"].to_string();
+            eprintln!(
+                "ros2: receiver killed with {name}: the run ended {detected_s:.2} s later (of 30 s); errors: {errors}"
+            );
+            assert!(!outcome.status.success(), "{name}: the run fails");
+            assert!(
+                errors.contains("the receiver of ROS 2 topic") && errors.contains(&wanted),
+                "{name}: {report}"
+            );
+            assert!(
+                detected_s < 25.0,
+                "{name}: the run ended on the fault, not at its end"
+            );
+        }
+    });
+}
+
+/// (4) A pose published by the peer is the report's measured arm pose.
+#[test]
+fn a_pose_from_the_peer_is_the_measured_pose() {
+    crate::common::real_time(|| {
+        if !ready("a_pose_from_the_peer_is_the_measured_pose") {
+            return;
+        }
+        let dir = scratch("pose");
+        let topic = topic("pose");
+        let pose_topic = format!("/sipnpuff_test_pose_{}/tool_pose", std::process::id());
+        let outcome = in_private_network(move || {
+            let peer = Peer::start(&dir, &topic, "twist_stamped", Some(&pose_topic));
+            let config = config(&dir, "", &format!("pose_topic = \"{pose_topic}\""));
+            let run = spawn_run(&[
+                "--config",
+                config.to_str().unwrap(),
+                "--arm",
+                &format!("ros2:{topic}"),
+                "--seconds",
+                "2",
+                "--json",
+            ]);
+            let outcome = finish_run(run);
+            drop(peer);
+            outcome
+        });
+        let report = outcome.report.expect("a JSON report");
+        let arm = &report["arm"];
+        let position: Vec<f64> = arm["position_m"]
+            .as_array()
+            .unwrap_or_else(|| panic!("no measured pose: {report}\n{}", outcome.stderr))
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        assert_eq!(position, [0.3, -0.2, 0.45], "{arm}");
+        assert_eq!(
+            arm["rotation_vector_rad"],
+            serde_json::json!([0.0, 0.0, 0.0])
+        );
+        assert_eq!(arm["fingers"], serde_json::Value::Null);
+    });
+}
+
+/// (5) Nobody subscribed: a clear error within the timeout, status non-zero.
+#[test]
+fn no_subscriber_is_a_clear_error_within_the_timeout() {
+    crate::common::real_time(|| {
+        if !ready("no_subscriber_is_a_clear_error_within_the_timeout") {
+            return;
+        }
+        let dir = scratch("none");
+        let topic = topic("none");
+        let (outcome, started_ns) = in_private_network(move || {
+            let config = config(&dir, "connect_timeout_ms = 1500", "domain_id = 7");
+            let started_ns = monotonic_ns();
+            let run = spawn_run(&[
+                "--config",
+                config.to_str().unwrap(),
+                "--arm",
+                &format!("ros2:{topic}"),
+                "--seconds",
+                "5",
+            ]);
+            (finish_run(run), started_ns)
+        });
+        assert!(!outcome.status.success());
+        let took = (outcome.exited_ns - started_ns) as f64 / 1e9;
+        eprintln!(
+            "ros2: no subscriber: gave up after {took:.2} s (timeout 1.5 s): {}",
+            outcome.stderr.trim()
+        );
+        for part in [
+            "no subscriber matched ROS 2 topic",
+            "geometry_msgs::msg::dds_::TwistStamped_",
+            "rt/sipnpuff_test_none_",
+            "domain 7",
+            "ROS_DOMAIN_ID",
+            "within 1500 ms",
+        ] {
+            assert!(outcome.stderr.contains(part), "{part}: {}", outcome.stderr);
+        }
+    });
+}
+
+/// The stop: SIGINT to sipnpuff mid-motion; the zero twist and the last
+/// message at the peer, and how long after the signal they came.
+#[test]
+fn a_stop_request_ends_the_stream_with_a_zero_at_the_peer() {
+    crate::common::real_time(|| {
+        if !ready("a_stop_request_ends_the_stream_with_a_zero_at_the_peer") {
+            return;
+        }
+        let dir = scratch("sigint");
+        let topic = topic("sigint");
+        let (messages, signalled_ns, outcome) = in_private_network(move || {
             let peer = Peer::start(&dir, &topic, "twist_stamped", None);
             let run = spawn_run(&[
                 "--arm",
@@ -457,166 +594,36 @@ fn a_receiver_killed_mid_run_is_a_fault() {
                 "30",
                 "--json",
             ]);
-            // Killed once the stream has run a while.
-            let deadline = Instant::now() + Duration::from_secs(20);
-            while received(&peer.out).len() < 200 && Instant::now() < deadline {
-                std::thread::sleep(Duration::from_millis(20));
+            // Mid-motion: once the arm moves.
+            let deadline = Instant::now() + Duration::from_secs(25);
+            while !received(&peer.out).iter().any(|m| !m.is_zero()) && Instant::now() < deadline {
+                std::thread::sleep(Duration::from_millis(10));
             }
-            let killed_ns = monotonic_ns();
-            peer.signal(signal);
+            std::thread::sleep(Duration::from_millis(200));
+            let signalled_ns = monotonic_ns();
+            // SAFETY: kill(2) on our own child's pid.
+            unsafe { libc::kill(run.id() as libc::pid_t, libc::SIGINT) };
             let outcome = finish_run(run);
-            let got = received(&peer.out);
-            (killed_ns, got, outcome)
+            std::thread::sleep(Duration::from_millis(300));
+            (peer.finish(), signalled_ns, outcome)
         });
-        assert!(got.len() >= 200, "{name}: the stream ran");
-        let detected_s = (outcome.exited_ns - killed_ns) as f64 / 1e9;
         let report = outcome.report.expect("a JSON report");
-        let errors = report["errors"].to_string();
+        assert_eq!(report["stream_ended_with_zero"], true, "{report}");
+        let first_zero_after = messages
+            .iter()
+            .position(|m| m.t_ns > signalled_ns && m.is_zero())
+            .expect("a zero after the signal");
+        let last = messages.last().unwrap();
+        assert!(last.is_zero(), "the last message is a zero");
+        let zero_ms = (messages[first_zero_after].t_ns - signalled_ns) as f64 / 1e6;
+        let last_ms = (last.t_ns - signalled_ns) as f64 / 1e6;
         eprintln!(
-            "ros2: receiver killed with {name}: the run ended {detected_s:.2} s later (of 30 s); errors: {errors}"
+            "ros2: SIGINT → first zero twist at the peer {zero_ms:.1} ms, last message {last_ms:.1} ms (the core brakes to zero first: {} messages after the signal)",
+            messages.iter().filter(|m| m.t_ns > signalled_ns).count()
         );
-        assert!(!outcome.status.success(), "{name}: the run fails");
-        assert!(
-            errors.contains("the receiver of ROS 2 topic") && errors.contains(&wanted),
-            "{name}: {report}"
-        );
-        assert!(
-            detected_s < 25.0,
-            "{name}: the run ended on the fault, not at its end"
-        );
-    }
-}
-
-/// (4) A pose published by the peer is the report's measured arm pose.
-#[test]
-fn a_pose_from_the_peer_is_the_measured_pose() {
-    let _cpu = crate::common::real_time();
-    if !ready("a_pose_from_the_peer_is_the_measured_pose") {
-        return;
-    }
-    let dir = scratch("pose");
-    let topic = topic("pose");
-    let pose_topic = format!("/sipnpuff_test_pose_{}/tool_pose", std::process::id());
-    let outcome = in_private_network(move || {
-        let peer = Peer::start(&dir, &topic, "twist_stamped", Some(&pose_topic));
-        let config = config(&dir, "", &format!("pose_topic = \"{pose_topic}\""));
-        let run = spawn_run(&[
-            "--config",
-            config.to_str().unwrap(),
-            "--arm",
-            &format!("ros2:{topic}"),
-            "--seconds",
-            "2",
-            "--json",
-        ]);
-        let outcome = finish_run(run);
-        drop(peer);
-        outcome
+        // Nothing moving after the last zero.
+        assert!(messages[first_zero_after..].iter().all(|m| m.is_zero()));
     });
-    let report = outcome.report.expect("a JSON report");
-    let arm = &report["arm"];
-    let position: Vec<f64> = arm["position_m"]
-        .as_array()
-        .unwrap_or_else(|| panic!("no measured pose: {report}\n{}", outcome.stderr))
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
-    assert_eq!(position, [0.3, -0.2, 0.45], "{arm}");
-    assert_eq!(
-        arm["rotation_vector_rad"],
-        serde_json::json!([0.0, 0.0, 0.0])
-    );
-    assert_eq!(arm["fingers"], serde_json::Value::Null);
-}
-
-/// (5) Nobody subscribed: a clear error within the timeout, status non-zero.
-#[test]
-fn no_subscriber_is_a_clear_error_within_the_timeout() {
-    let _cpu = crate::common::real_time();
-    if !ready("no_subscriber_is_a_clear_error_within_the_timeout") {
-        return;
-    }
-    let dir = scratch("none");
-    let topic = topic("none");
-    let (outcome, started_ns) = in_private_network(move || {
-        let config = config(&dir, "connect_timeout_ms = 1500", "domain_id = 7");
-        let started_ns = monotonic_ns();
-        let run = spawn_run(&[
-            "--config",
-            config.to_str().unwrap(),
-            "--arm",
-            &format!("ros2:{topic}"),
-            "--seconds",
-            "5",
-        ]);
-        (finish_run(run), started_ns)
-    });
-    assert!(!outcome.status.success());
-    let took = (outcome.exited_ns - started_ns) as f64 / 1e9;
-    eprintln!(
-        "ros2: no subscriber: gave up after {took:.2} s (timeout 1.5 s): {}",
-        outcome.stderr.trim()
-    );
-    for part in [
-        "no subscriber matched ROS 2 topic",
-        "geometry_msgs::msg::dds_::TwistStamped_",
-        "rt/sipnpuff_test_none_",
-        "domain 7",
-        "ROS_DOMAIN_ID",
-        "within 1500 ms",
-    ] {
-        assert!(outcome.stderr.contains(part), "{part}: {}", outcome.stderr);
-    }
-}
-
-/// The stop: SIGINT to sipnpuff mid-motion; the zero twist and the last
-/// message at the peer, and how long after the signal they came.
-#[test]
-fn a_stop_request_ends_the_stream_with_a_zero_at_the_peer() {
-    let _cpu = crate::common::real_time();
-    if !ready("a_stop_request_ends_the_stream_with_a_zero_at_the_peer") {
-        return;
-    }
-    let dir = scratch("sigint");
-    let topic = topic("sigint");
-    let (messages, signalled_ns, outcome) = in_private_network(move || {
-        let peer = Peer::start(&dir, &topic, "twist_stamped", None);
-        let run = spawn_run(&[
-            "--arm",
-            &format!("ros2:{topic}"),
-            "--seconds",
-            "30",
-            "--json",
-        ]);
-        // Mid-motion: once the arm moves.
-        let deadline = Instant::now() + Duration::from_secs(25);
-        while !received(&peer.out).iter().any(|m| !m.is_zero()) && Instant::now() < deadline {
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        std::thread::sleep(Duration::from_millis(200));
-        let signalled_ns = monotonic_ns();
-        // SAFETY: kill(2) on our own child's pid.
-        unsafe { libc::kill(run.id() as libc::pid_t, libc::SIGINT) };
-        let outcome = finish_run(run);
-        std::thread::sleep(Duration::from_millis(300));
-        (peer.finish(), signalled_ns, outcome)
-    });
-    let report = outcome.report.expect("a JSON report");
-    assert_eq!(report["stream_ended_with_zero"], true, "{report}");
-    let first_zero_after = messages
-        .iter()
-        .position(|m| m.t_ns > signalled_ns && m.is_zero())
-        .expect("a zero after the signal");
-    let last = messages.last().unwrap();
-    assert!(last.is_zero(), "the last message is a zero");
-    let zero_ms = (messages[first_zero_after].t_ns - signalled_ns) as f64 / 1e6;
-    let last_ms = (last.t_ns - signalled_ns) as f64 / 1e6;
-    eprintln!(
-        "ros2: SIGINT → first zero twist at the peer {zero_ms:.1} ms, last message {last_ms:.1} ms (the core brakes to zero first: {} messages after the signal)",
-        messages.iter().filter(|m| m.t_ns > signalled_ns).count()
-    );
-    // Nothing moving after the last zero.
-    assert!(messages[first_zero_after..].iter().all(|m| m.is_zero()));
 }
 
 /// Runs the built-in user for `seconds` against a peer that publishes the
@@ -684,61 +691,64 @@ fn assert_one_braked_arm_fault(
 /// whole session without a fault.
 #[test]
 fn the_loop_closes_on_the_peers_pose() {
-    let _cpu = crate::common::real_time();
-    if !ready("the_loop_closes_on_the_peers_pose") {
-        return;
-    }
-    let (outcome, faults) = closed_loop("follow", "12", &[]);
-    assert!(
-        outcome.status.success(),
-        "{}\n{}",
-        outcome.stdout,
-        outcome.stderr
-    );
-    assert_eq!(faults, Vec::<String>::new());
-    let report = outcome.report.expect("a JSON report");
-    assert_eq!(report["arm_measured"], true);
-    let poses = report["measured_poses"].as_u64().unwrap();
-    assert!(poses > 900, "{poses} measured poses in 12 s");
-    // The peer executes the commands exactly: what is corrected is the
-    // transport's lag at most, never centimetres.
-    let largest = report["largest_correction_m"].as_f64().unwrap();
-    assert!(largest < 0.002, "largest correction {largest} m");
-    assert!(report["stream_ended_with_zero"] == true);
-    eprintln!(
-        "closed loop through Cyclone DDS: {poses} poses in 12 s, largest correction {:.2} mm",
-        largest * 1000.0
-    );
+    crate::common::real_time(|| {
+        if !ready("the_loop_closes_on_the_peers_pose") {
+            return;
+        }
+        let (outcome, faults) = closed_loop("follow", "12", &[]);
+        assert!(
+            outcome.status.success(),
+            "{}\n{}",
+            outcome.stdout,
+            outcome.stderr
+        );
+        assert_eq!(faults, Vec::<String>::new());
+        let report = outcome.report.expect("a JSON report");
+        assert_eq!(report["arm_measured"], true);
+        let poses = report["measured_poses"].as_u64().unwrap();
+        assert!(poses > 900, "{poses} measured poses in 12 s");
+        // The peer executes the commands exactly: what is corrected is the
+        // transport's lag at most, never centimetres.
+        let largest = report["largest_correction_m"].as_f64().unwrap();
+        assert!(largest < 0.002, "largest correction {largest} m");
+        assert!(report["stream_ended_with_zero"] == true);
+        eprintln!(
+            "closed loop through Cyclone DDS: {poses} poses in 12 s, largest correction {:.2} mm",
+            largest * 1000.0
+        );
+    });
 }
 
 /// The peer's pose falls silent mid-session: an arm fault, a brake, a
 /// clear report, exit status 1.
 #[test]
 fn a_silent_pose_topic_is_a_fault_with_a_brake() {
-    let _cpu = crate::common::real_time();
-    if !ready("a_silent_pose_topic_is_a_fault_with_a_brake") {
-        return;
-    }
-    let (outcome, faults) = closed_loop("silent", "20", &["--pose-silent-after", "8"]);
-    let report = assert_one_braked_arm_fault(&outcome, &faults, "no measured arm pose for ");
-    let errors = report["errors"].to_string();
-    assert!(errors.contains("arm: no measured arm pose"), "{errors}");
+    crate::common::real_time(|| {
+        if !ready("a_silent_pose_topic_is_a_fault_with_a_brake") {
+            return;
+        }
+        let (outcome, faults) = closed_loop("silent", "20", &["--pose-silent-after", "8"]);
+        let report = assert_one_braked_arm_fault(&outcome, &faults, "no measured arm pose for ");
+        let errors = report["errors"].to_string();
+        assert!(errors.contains("arm: no measured arm pose"), "{errors}");
+    });
 }
 
 /// The peer's arm is pushed 10 cm mid-session: an arm fault naming what
 /// was measured and what was expected, a brake, exit status 1.
 #[test]
 fn a_pose_far_from_the_commanded_one_is_a_fault_with_a_brake() {
-    let _cpu = crate::common::real_time();
-    if !ready("a_pose_far_from_the_commanded_one_is_a_fault_with_a_brake") {
-        return;
-    }
-    let (outcome, faults) = closed_loop("pushed", "20", &["--pose-jump-after", "8", "0.1"]);
-    let report = assert_one_braked_arm_fault(
-        &outcome,
-        &faults,
-        "from the commanded one (arm blocked or moved by hand?)",
-    );
-    let errors = report["errors"].to_string();
-    assert!(errors.contains("arm: the measured arm pose is"), "{errors}");
+    crate::common::real_time(|| {
+        if !ready("a_pose_far_from_the_commanded_one_is_a_fault_with_a_brake") {
+            return;
+        }
+        let (outcome, faults) = closed_loop("pushed", "20", &["--pose-jump-after", "8", "0.1"]);
+        let report = assert_one_braked_arm_fault(
+            &outcome,
+            &faults,
+            "from the commanded one (arm blocked or moved by hand?)",
+        );
+        let errors = report["errors"].to_string();
+        assert!(errors.contains("arm: the measured arm pose is"), "{errors}");
+    });
 }

@@ -321,80 +321,85 @@ fn signal_mid_motion(signal: libc::c_int, name: &str) {
 
 #[test]
 fn sighup_mid_motion_brakes_reports_and_exits_129() {
-    signal_mid_motion(libc::SIGHUP, "SIGHUP");
+    crate::common::real_time(|| {
+        signal_mid_motion(libc::SIGHUP, "SIGHUP");
+    });
 }
 
 #[test]
 fn sigint_mid_motion_brakes_reports_and_exits_130() {
-    signal_mid_motion(libc::SIGINT, "SIGINT");
+    crate::common::real_time(|| {
+        signal_mid_motion(libc::SIGINT, "SIGINT");
+    });
 }
 
 #[test]
 fn sigquit_mid_motion_brakes_reports_and_exits_131() {
-    signal_mid_motion(libc::SIGQUIT, "SIGQUIT");
+    crate::common::real_time(|| {
+        signal_mid_motion(libc::SIGQUIT, "SIGQUIT");
+    });
 }
 
 #[test]
 fn sigterm_mid_motion_brakes_reports_and_exits_143() {
-    signal_mid_motion(libc::SIGTERM, "SIGTERM");
+    crate::common::real_time(|| {
+        signal_mid_motion(libc::SIGTERM, "SIGTERM");
+    });
 }
 
 /// A second signal (a closed SSH session can send SIGHUP twice: from the
 /// kernel and from the shell) does not cut the safe stop short.
 #[test]
 fn a_second_signal_does_not_cut_the_safe_stop_short() {
-    let mut run = start(&["--json"]);
-    run.wait_until_moving();
-    run.signal(libc::SIGHUP);
-    // The stop has begun (signals sent back to back may be taken by
-    // different threads in either order): the brake is under way.
-    run.wait_for("\"event\":\"detection\",\"reason\":\"stop\"");
-    run.signal(libc::SIGHUP);
-    run.signal(libc::SIGTERM);
-    run.signal(libc::SIGINT);
-    let (status, lines, stderr) = run.finish();
-    let text = lines.join("\n");
-    assert_eq!(status.code(), Some(129), "{status}\n{text}\n{stderr}");
-    let report = json_report(&text);
-    assert_eq!(report["stop_reason"], "signal SIGHUP", "{report}");
-    assert_braked_to_zero(&report);
+    crate::common::real_time(|| {
+        let mut run = start(&["--json"]);
+        run.wait_until_moving();
+        run.signal(libc::SIGHUP);
+        // The stop has begun (signals sent back to back may be taken by
+        // different threads in either order): the brake is under way.
+        run.wait_for("\"event\":\"detection\",\"reason\":\"stop\"");
+        run.signal(libc::SIGHUP);
+        run.signal(libc::SIGTERM);
+        run.signal(libc::SIGINT);
+        let (status, lines, stderr) = run.finish();
+        let text = lines.join("\n");
+        assert_eq!(status.code(), Some(129), "{status}\n{text}\n{stderr}");
+        let report = json_report(&text);
+        assert_eq!(report["stop_reason"], "signal SIGHUP", "{report}");
+        assert_braked_to_zero(&report);
+    });
 }
 
 /// `sipnpuff run | head -3`: stdout's reader goes away. No panic; the safe
 /// stop; the report on stderr, saying why; exit 141 (as SIGPIPE).
 #[test]
 fn run_piped_into_head_stops_safely_and_reports_on_stderr() {
-    let mut run = start(&[]);
-    for _ in 0..3 {
-        let line = run.lines.recv().expect("three event lines");
-        run.seen.push(line);
-    }
-    // Close our end of the pipe, as `head -3` exits.
-    let Running {
-        child,
-        lines,
-        mut seen,
-    } = run;
-    drop(lines);
-    let out = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    seen.truncate(3);
-    assert_eq!(out.status.code(), Some(141), "{}\n{stderr}", out.status);
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    assert!(
-        stderr.contains("stdout failed") && stderr.contains("the report follows on stderr"),
-        "{stderr}"
-    );
-    assert!(stderr.contains("== sipnpuff run report"), "{stderr}");
-    assert!(stderr.contains("stopped by: output failed"), "{stderr}");
-    assert!(
+    crate::common::real_time(|| {
+        let mut run = start(&[]);
+        for _ in 0..3 {
+            let line = run.lines.recv().expect("three event lines");
+            run.seen.push(line);
+        }
+        // Close our end of the pipe, as `head -3` exits.
+        let (status, mut seen, stderr) = run.close_stdout();
+        seen.truncate(3);
+        assert_eq!(status.code(), Some(141), "{status}\n{stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        assert!(
+            stderr.contains("stdout failed") && stderr.contains("the report follows on stderr"),
+            "{stderr}"
+        );
+        assert!(stderr.contains("== sipnpuff run report"), "{stderr}");
+        assert!(stderr.contains("stopped by: output failed"), "{stderr}");
+        assert!(
         stderr.contains("final commanded velocity: linear (0, 0, 0) m/s, angular (0, 0, 0) rad/s, fingers 0 units/s; last arm command zero: true"),
         "{stderr}"
     );
-    assert!(
-        stderr.contains("stream ended with a zero command and the arm stopped: true"),
-        "{stderr}"
-    );
+        assert!(
+            stderr.contains("stream ended with a zero command and the arm stopped: true"),
+            "{stderr}"
+        );
+    });
 }
 
 /// Stdout's reader goes away while the arm moves: noticed without waiting
@@ -402,23 +407,22 @@ fn run_piped_into_head_stops_safely_and_reports_on_stderr() {
 /// stderr.
 #[test]
 fn stdout_closed_mid_motion_brakes_and_reports_on_stderr() {
-    let mut run = start(&["--json"]);
-    run.wait_until_moving();
-    let Running { child, lines, .. } = run;
-    drop(lines);
-    let out = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(141), "{}\n{stderr}", out.status);
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    let report = json_report(&stderr);
-    assert_eq!(report["stop_reason"], "output failed", "{report}");
-    assert!(
-        report["output_error"]
-            .as_str()
-            .is_some_and(|e| e.starts_with("stdout")),
-        "{report}"
-    );
-    assert_braked_to_zero(&report);
+    crate::common::real_time(|| {
+        let mut run = start(&["--json"]);
+        run.wait_until_moving();
+        let (status, _, stderr) = run.close_stdout();
+        assert_eq!(status.code(), Some(141), "{status}\n{stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        let report = json_report(&stderr);
+        assert_eq!(report["stop_reason"], "output failed", "{report}");
+        assert!(
+            report["output_error"]
+                .as_str()
+                .is_some_and(|e| e.starts_with("stdout")),
+            "{report}"
+        );
+        assert_braked_to_zero(&report);
+    });
 }
 
 /// `sipnpuff run > /dev/full` (a full disk): the first event cannot be

@@ -28,10 +28,12 @@ use sipnpuff::tools::recording::writer::RecordOptions;
 use crate::common::{Running, fixture};
 
 fn sipnpuff(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+    let output = Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
         .args(args)
         .output()
-        .expect("the sipnpuff binary runs")
+        .expect("the sipnpuff binary runs");
+    crate::common::witness(&text(&output.stdout));
+    output
 }
 
 /// A fresh scratch directory (the recording goes in `rec` inside it).
@@ -136,50 +138,52 @@ fn next_tick_after(dir: &Path, tick: u64) -> u64 {
 /// changed: the replay names the first arm command that differs.
 #[test]
 fn a_recorded_run_of_the_built_in_user_replays_bit_for_bit() {
-    let scratch = scratch("user");
-    let dir = scratch.join("rec");
-    let run = Running::spawn(&[
-        "run",
-        "--json",
-        "--seconds",
-        "8",
-        "--config",
-        &shared_machine(),
-        "--record",
-        dir.to_str().unwrap(),
-    ]);
-    // However this loaded machine paced it (a stall halts the motion,
-    // which restarts from rest), the recording must replay to it exactly.
-    let (status, stdout, stderr) = run.finish();
-    assert!(status.success(), "{status}\n{stderr}");
-    // The stop came in command mode, mid-move: the core braked the arm
-    // after `begin_stop`, and the replay must too.
-    assert!(
-        stdout.iter().any(|l| l.contains("\"reason\":\"stop\"")),
-        "not stopped in command mode: {stdout:?}"
-    );
-    let meta = assert_replays_bit_for_bit(&dir, &stdout);
-    assert!(meta["ticks"].as_u64().unwrap() > 6_000, "{meta}");
+    crate::common::real_time(|| {
+        let scratch = scratch("user");
+        let dir = scratch.join("rec");
+        let run = Running::spawn(&[
+            "run",
+            "--json",
+            "--seconds",
+            "8",
+            "--config",
+            &shared_machine(),
+            "--record",
+            dir.to_str().unwrap(),
+        ]);
+        // However this loaded machine paced it (a stall halts the motion,
+        // which restarts from rest), the recording must replay to it exactly.
+        let (status, stdout, stderr) = run.finish();
+        assert!(status.success(), "{status}\n{stderr}");
+        // The stop came in command mode, mid-move: the core braked the arm
+        // after `begin_stop`, and the replay must too.
+        assert!(
+            stdout.iter().any(|l| l.contains("\"reason\":\"stop\"")),
+            "not stopped in command mode: {stdout:?}"
+        );
+        let meta = assert_replays_bit_for_bit(&dir, &stdout);
+        assert!(meta["ticks"].as_u64().unwrap() > 6_000, "{meta}");
 
-    // 0.2 → 0.19 m/s: the first move's commands differ from the 767th on.
-    let changed = scratch.join("changed");
-    std::fs::create_dir_all(&changed).unwrap();
-    for entry in std::fs::read_dir(&dir).unwrap() {
-        let path = entry.unwrap().path();
-        std::fs::copy(&path, changed.join(path.file_name().unwrap())).unwrap();
-    }
-    let config = std::fs::read_to_string(changed.join("config.toml")).unwrap();
-    assert!(config.contains("\nlinear_speed_mps = 0.2\n"));
-    let config = config.replace("\nlinear_speed_mps = 0.2\n", "\nlinear_speed_mps = 0.19\n");
-    std::fs::write(changed.join("config.toml"), config).unwrap();
-    let (code, _, stderr) = replay(&changed);
-    assert_eq!(code, 1, "{stderr}");
-    assert!(
-        stderr.contains("DIFFERENT from the recording: first difference: arm command ")
-            && stderr.contains("linear x: recorded "),
-        "{stderr}"
-    );
-    std::fs::remove_dir_all(&scratch).unwrap();
+        // 0.2 → 0.19 m/s: the first move's commands differ from the 767th on.
+        let changed = scratch.join("changed");
+        std::fs::create_dir_all(&changed).unwrap();
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            std::fs::copy(&path, changed.join(path.file_name().unwrap())).unwrap();
+        }
+        let config = std::fs::read_to_string(changed.join("config.toml")).unwrap();
+        assert!(config.contains("\nlinear_speed_mps = 0.2\n"));
+        let config = config.replace("\nlinear_speed_mps = 0.2\n", "\nlinear_speed_mps = 0.19\n");
+        std::fs::write(changed.join("config.toml"), config).unwrap();
+        let (code, _, stderr) = replay(&changed);
+        assert_eq!(code, 1, "{stderr}");
+        assert!(
+            stderr.contains("DIFFERENT from the recording: first difference: arm command ")
+                && stderr.contains("linear x: recorded "),
+            "{stderr}"
+        );
+        std::fs::remove_dir_all(&scratch).unwrap();
+    });
 }
 
 /// A CSV recording played in real time and stopped for 1.2 s (SIGSTOP, as
@@ -187,38 +191,40 @@ fn a_recorded_run_of_the_built_in_user_replays_bit_for_bit() {
 /// are what the core saw, and the replay reproduces them, bit for bit.
 #[test]
 fn a_recorded_csv_run_with_a_stall_replays_bit_for_bit() {
-    let scratch = scratch("csv");
-    let dir = scratch.join("rec");
-    let sensor = format!("csv:{}", fixture("demo.csv").display());
-    let mut run = Running::spawn(&[
-        "run",
-        "--json",
-        "--seconds",
-        "4",
-        "--sensor",
-        &sensor,
-        "--config",
-        &shared_machine(),
-        "--record",
-        dir.to_str().unwrap(),
-    ]);
-    run.wait_for("\"event\":\"match\"");
-    run.signal(libc::SIGSTOP);
-    std::thread::sleep(Duration::from_millis(1200));
-    run.signal(libc::SIGCONT);
-    let (status, stdout, stderr) = run.finish();
-    assert!(status.success(), "{status}\n{stderr}");
-    assert!(
-        stdout.iter().any(|l| l.contains("stalled for")),
-        "no stall fault:\n{}",
-        stdout.join("\n")
-    );
-    let meta = assert_replays_bit_for_bit(&dir, &stdout);
-    assert!(meta["sensor"].as_str().unwrap().starts_with("csv:"));
-    // The gap is in the recording: more ticks spanned than stepped.
-    let span = meta["last_tick"].as_u64().unwrap() - meta["first_tick"].as_u64().unwrap() + 1;
-    assert!(span >= meta["ticks"].as_u64().unwrap() + 1100, "{meta}");
-    std::fs::remove_dir_all(&scratch).unwrap();
+    crate::common::real_time(|| {
+        let scratch = scratch("csv");
+        let dir = scratch.join("rec");
+        let sensor = format!("csv:{}", fixture("demo.csv").display());
+        let mut run = Running::spawn(&[
+            "run",
+            "--json",
+            "--seconds",
+            "4",
+            "--sensor",
+            &sensor,
+            "--config",
+            &shared_machine(),
+            "--record",
+            dir.to_str().unwrap(),
+        ]);
+        run.wait_for("\"event\":\"match\"");
+        run.signal(libc::SIGSTOP);
+        std::thread::sleep(Duration::from_millis(1200));
+        run.signal(libc::SIGCONT);
+        let (status, stdout, stderr) = run.finish();
+        assert!(status.success(), "{status}\n{stderr}");
+        assert!(
+            stdout.iter().any(|l| l.contains("stalled for")),
+            "no stall fault:\n{}",
+            stdout.join("\n")
+        );
+        let meta = assert_replays_bit_for_bit(&dir, &stdout);
+        assert!(meta["sensor"].as_str().unwrap().starts_with("csv:"));
+        // The gap is in the recording: more ticks spanned than stepped.
+        let span = meta["last_tick"].as_u64().unwrap() - meta["first_tick"].as_u64().unwrap() + 1;
+        assert!(span >= meta["ticks"].as_u64().unwrap() + 1100, "{meta}");
+        std::fs::remove_dir_all(&scratch).unwrap();
+    });
 }
 
 /// A serial device (a real kernel tty) resting at 2.6 V, re-zeroed at
@@ -228,53 +234,56 @@ fn a_recorded_csv_run_with_a_stall_replays_bit_for_bit() {
 /// bit.
 #[test]
 fn a_recorded_serial_device_that_is_unplugged_replays_bit_for_bit() {
-    use crate::sensors::{Pty, stream};
-    const BREATHS: [(f64, u64); 5] = [(2.6, 3000), (4.0, 800), (2.6, 400), (1.5, 150), (2.6, 500)];
-    let scratch = scratch("serial");
-    let dir = scratch.join("rec");
-    let pty = Pty::open();
-    let sensor = format!("serial:{}", pty.path);
-    let feeder = stream(pty, &BREATHS, 1, |v| format!("{v:.3}\n"));
-    let run = Running::spawn(&[
-        "run",
-        "--json",
-        "--sensor",
-        &sensor,
-        "--config",
-        &shared_machine(),
-        "--record",
-        dir.to_str().unwrap(),
-    ]);
-    let (status, stdout, stderr) = run.finish();
-    feeder.join().unwrap();
-    // Unplugged: a fault, the run stopped safely, exit 1.
-    assert_eq!(status.code(), Some(1), "{stderr}");
-    assert!(
-        stderr.contains("neutral 2.6000 V measured at rest"),
-        "{stderr}"
-    );
-    let meta = assert_replays_bit_for_bit(&dir, &stdout);
-    let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
-    let neutral = Config::from_toml_str(&config)
-        .unwrap()
-        .core()
-        .detector()
-        .neutral_volts;
-    assert!((neutral - 2.6).abs() < 1e-9, "{neutral}\n{meta}");
-    let file = std::io::BufReader::new(std::fs::File::open(dir.join("samples.bin")).unwrap());
-    let mut samples = SampleDecoder::new(file).unwrap();
-    let mut gone = 0;
-    while let Some(item) = samples.next_item().unwrap() {
-        if let SampleItem::Input {
-            sample: CoreSample::Disconnected,
-            ..
-        } = item
-        {
-            gone += 1;
+    crate::common::real_time(|| {
+        use crate::sensors::{Pty, stream};
+        const BREATHS: [(f64, u64); 5] =
+            [(2.6, 3000), (4.0, 800), (2.6, 400), (1.5, 150), (2.6, 500)];
+        let scratch = scratch("serial");
+        let dir = scratch.join("rec");
+        let pty = Pty::open();
+        let sensor = format!("serial:{}", pty.path);
+        let feeder = stream(pty, &BREATHS, 1, |v| format!("{v:.3}\n"));
+        let run = Running::spawn(&[
+            "run",
+            "--json",
+            "--sensor",
+            &sensor,
+            "--config",
+            &shared_machine(),
+            "--record",
+            dir.to_str().unwrap(),
+        ]);
+        let (status, stdout, stderr) = run.finish();
+        feeder.join().unwrap();
+        // Unplugged: a fault, the run stopped safely, exit 1.
+        assert_eq!(status.code(), Some(1), "{stderr}");
+        assert!(
+            stderr.contains("neutral 2.6000 V measured at rest"),
+            "{stderr}"
+        );
+        let meta = assert_replays_bit_for_bit(&dir, &stdout);
+        let config = std::fs::read_to_string(dir.join("config.toml")).unwrap();
+        let neutral = Config::from_toml_str(&config)
+            .unwrap()
+            .core()
+            .detector()
+            .neutral_volts;
+        assert!((neutral - 2.6).abs() < 1e-9, "{neutral}\n{meta}");
+        let file = std::io::BufReader::new(std::fs::File::open(dir.join("samples.bin")).unwrap());
+        let mut samples = SampleDecoder::new(file).unwrap();
+        let mut gone = 0;
+        while let Some(item) = samples.next_item().unwrap() {
+            if let SampleItem::Input {
+                sample: CoreSample::Disconnected,
+                ..
+            } = item
+            {
+                gone += 1;
+            }
         }
-    }
-    assert!(gone > 0, "no tick with the device gone: {meta}");
-    std::fs::remove_dir_all(&scratch).unwrap();
+        assert!(gone > 0, "no tick with the device gone: {meta}");
+        std::fs::remove_dir_all(&scratch).unwrap();
+    });
 }
 
 /// Past `--record-max-mb` recording stops, the run goes on to its end,
@@ -282,42 +291,44 @@ fn a_recorded_serial_device_that_is_unplugged_replays_bit_for_bit() {
 /// what there is but does not claim equality.
 #[test]
 fn a_recording_past_its_size_cap_is_incomplete_and_replay_says_so() {
-    let scratch = scratch("cap");
-    let dir = scratch.join("rec");
-    let out = sipnpuff(&[
-        "run",
-        "--seconds",
-        "1.5",
-        "--config",
-        &shared_machine(),
-        "--record",
-        dir.to_str().unwrap(),
-        "--record-max-mb",
-        "0.005",
-    ]);
-    let stdout = text(&out.stdout);
-    assert!(out.status.success(), "{stdout}{}", text(&out.stderr));
-    assert!(stdout.contains("stopped by: time"), "{stdout}");
-    assert!(
-        stdout.contains("INCOMPLETE (the size cap of 0.005 MB was reached at tick "),
-        "{stdout}"
-    );
-    let meta = json(&dir.join("meta.json"));
-    assert_eq!(
-        (&meta["status"], &meta["complete"]),
-        (&"finished".into(), &false.into())
-    );
-    assert!(meta["bytes"].as_u64().unwrap() <= 5000, "{meta}");
-    assert!(meta["lost"]["ticks"].as_u64().unwrap() > 0, "{meta}");
-    assert!(meta["problems"][0].as_str().unwrap().contains("size cap"));
-    let (code, _, stderr) = replay(&dir);
-    assert_eq!(code, 1, "{stderr}");
-    assert!(
-        stderr.contains("NOT VERIFIED: the recording is incomplete (the size cap")
-            && stderr.contains("identical so far"),
-        "{stderr}"
-    );
-    std::fs::remove_dir_all(&scratch).unwrap();
+    crate::common::real_time(|| {
+        let scratch = scratch("cap");
+        let dir = scratch.join("rec");
+        let out = sipnpuff(&[
+            "run",
+            "--seconds",
+            "1.5",
+            "--config",
+            &shared_machine(),
+            "--record",
+            dir.to_str().unwrap(),
+            "--record-max-mb",
+            "0.005",
+        ]);
+        let stdout = text(&out.stdout);
+        assert!(out.status.success(), "{stdout}{}", text(&out.stderr));
+        assert!(stdout.contains("stopped by: time"), "{stdout}");
+        assert!(
+            stdout.contains("INCOMPLETE (the size cap of 0.005 MB was reached at tick "),
+            "{stdout}"
+        );
+        let meta = json(&dir.join("meta.json"));
+        assert_eq!(
+            (&meta["status"], &meta["complete"]),
+            (&"finished".into(), &false.into())
+        );
+        assert!(meta["bytes"].as_u64().unwrap() <= 5000, "{meta}");
+        assert!(meta["lost"]["ticks"].as_u64().unwrap() > 0, "{meta}");
+        assert!(meta["problems"][0].as_str().unwrap().contains("size cap"));
+        let (code, _, stderr) = replay(&dir);
+        assert_eq!(code, 1, "{stderr}");
+        assert!(
+            stderr.contains("NOT VERIFIED: the recording is incomplete (the size cap")
+                && stderr.contains("identical so far"),
+            "{stderr}"
+        );
+        std::fs::remove_dir_all(&scratch).unwrap();
+    });
 }
 
 /// A disk that refuses every write (`/dev/full`): the run goes on to its
@@ -325,33 +336,35 @@ fn a_recording_past_its_size_cap_is_incomplete_and_replay_says_so() {
 /// the exit status is 1.
 #[test]
 fn a_full_disk_fails_the_recording_not_the_run() {
-    let scratch = scratch("full");
-    let dir = scratch.join("rec");
-    std::fs::create_dir_all(&dir).unwrap();
-    std::os::unix::fs::symlink("/dev/full", dir.join("commands.bin")).unwrap();
-    let out = sipnpuff(&[
-        "run",
-        "--seconds",
-        "1",
-        "--config",
-        &shared_machine(),
-        "--record",
-        dir.to_str().unwrap(),
-    ]);
-    let stdout = text(&out.stdout);
-    assert_eq!(out.status.code(), Some(1), "{stdout}");
-    assert!(stdout.contains("stopped by: time"), "{stdout}");
-    assert!(
-        stdout.contains("last arm command zero: true")
-            && stdout.contains("control thread heap allocations after start: 0"),
-        "{stdout}"
-    );
-    assert!(
-        stdout.contains("INCOMPLETE (cannot write ")
-            && stdout.contains("commands.bin: No space left on device"),
-        "{stdout}"
-    );
-    std::fs::remove_dir_all(&scratch).unwrap();
+    crate::common::real_time(|| {
+        let scratch = scratch("full");
+        let dir = scratch.join("rec");
+        std::fs::create_dir_all(&dir).unwrap();
+        std::os::unix::fs::symlink("/dev/full", dir.join("commands.bin")).unwrap();
+        let out = sipnpuff(&[
+            "run",
+            "--seconds",
+            "1",
+            "--config",
+            &shared_machine(),
+            "--record",
+            dir.to_str().unwrap(),
+        ]);
+        let stdout = text(&out.stdout);
+        assert_eq!(out.status.code(), Some(1), "{stdout}");
+        assert!(stdout.contains("stopped by: time"), "{stdout}");
+        assert!(
+            stdout.contains("last arm command zero: true")
+                && stdout.contains("control thread heap allocations after start: 0"),
+            "{stdout}"
+        );
+        assert!(
+            stdout.contains("INCOMPLETE (cannot write ")
+                && stdout.contains("commands.bin: No space left on device"),
+            "{stdout}"
+        );
+        std::fs::remove_dir_all(&scratch).unwrap();
+    });
 }
 
 /// A writer that cannot drain its queue (its first file is a FIFO nobody
@@ -434,87 +447,92 @@ fn a_stalled_writer_drops_and_counts_and_never_holds_up_the_loop() {
 /// first loss and never claims equality.
 #[test]
 fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() {
-    use sipnpuff::control::event::TimedEvent;
-    use sipnpuff::control::pipeline::Pipeline;
-    use sipnpuff::rt::recorder::SessionRecorder;
-    use sipnpuff::sim::script::run_script;
-    use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams};
-    use sipnpuff::tools::recording::read::Recording;
+    crate::common::real_time(|| {
+        use sipnpuff::control::event::TimedEvent;
+        use sipnpuff::control::pipeline::Pipeline;
+        use sipnpuff::rt::recorder::SessionRecorder;
+        use sipnpuff::sim::script::run_script;
+        use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams};
+        use sipnpuff::tools::recording::read::Recording;
 
-    let scratch = scratch("dropped");
-    let dir = scratch.join("rec");
-    let config = Config::default();
-    let options = RecordOptions {
-        queue: 16,
-        ..RecordOptions::default()
-    };
-    let mut recorder = Recorder::create(&dir, &config, options).unwrap();
-    recorder.start("test", "test");
-    let (script, _) = run_script(&config);
-    let samples = SignalGenerator::new(SignalParams::clean(config.core().detector(), 3), &script);
-    let mut core: Pipeline = Pipeline::new(config.core());
-    let mut ticks = 0;
-    for (tick, volts) in samples.enumerate() {
-        let tick = tick as u64;
-        let out = core.step(tick, volts);
-        recorder.input(&CoreInput {
-            tick,
-            sample: CoreSample::Volts(volts),
-            began_stop: false,
-            ..CoreInput::default()
-        });
-        for &event in out.events.iter() {
-            recorder.event(&TimedEvent { tick, event });
+        let scratch = scratch("dropped");
+        let dir = scratch.join("rec");
+        let config = Config::default();
+        let options = RecordOptions {
+            queue: 16,
+            ..RecordOptions::default()
+        };
+        let mut recorder = Recorder::create(&dir, &config, options).unwrap();
+        recorder.start("test", "test");
+        let (script, _) = run_script(&config);
+        let samples =
+            SignalGenerator::new(SignalParams::clean(config.core().detector(), 3), &script);
+        let mut core: Pipeline = Pipeline::new(config.core());
+        let mut ticks = 0;
+        for (tick, volts) in samples.enumerate() {
+            let tick = tick as u64;
+            let out = core.step(tick, volts);
+            recorder.input(&CoreInput {
+                tick,
+                sample: CoreSample::Volts(volts),
+                began_stop: false,
+                ..CoreInput::default()
+            });
+            for &event in out.events.iter() {
+                recorder.event(&TimedEvent { tick, event });
+            }
+            if let Some(command) = &out.motion.arm_command {
+                recorder.command(command);
+            }
+            ticks += 1;
         }
-        if let Some(command) = &out.motion.arm_command {
-            recorder.command(command);
-        }
-        ticks += 1;
-    }
-    let mut report = sipnpuff::rt::threads::run(
-        config.core(),
-        SyntheticSensor::built_in_user(&config),
-        Box::new(SimArm::new(config.core())),
-        &RunOptions {
-            seconds: Some(0.01),
-            rt: RtOptions::NONE,
-            spin_margin_ns: None,
-            stop: StopRequest::new(),
-        },
-        &mut |_: &_| {},
-    )
-    .unwrap();
-    let summary = recorder.finish(&mut report);
-    assert!(summary.error.is_none(), "{summary:?}");
-    assert!(!summary.complete);
-    assert!(summary.lost.ticks > 0, "{summary:?}");
-    assert_eq!(summary.ticks + summary.lost.ticks, ticks, "{summary:?}");
-    assert!(summary.problems[0].contains("the recorder's queue was full"));
+        let mut report = sipnpuff::rt::threads::run(
+            config.core(),
+            SyntheticSensor::built_in_user(&config),
+            Box::new(SimArm::new(config.core())),
+            &RunOptions {
+                seconds: Some(0.01),
+                rt: RtOptions::NONE,
+                spin_margin_ns: None,
+                stop: StopRequest::new(),
+            },
+            &mut |_: &_| {},
+        )
+        .unwrap();
+        let summary = recorder.finish(&mut report);
+        assert!(summary.error.is_none(), "{summary:?}");
+        assert!(!summary.complete);
+        assert!(summary.lost.ticks > 0, "{summary:?}");
+        assert_eq!(summary.ticks + summary.lost.ticks, ticks, "{summary:?}");
+        assert!(summary.problems[0].contains("the recorder's queue was full"));
 
-    let recording = Recording::open(&dir).unwrap();
-    let contents = recording.check().unwrap();
-    assert_eq!(contents.ticks, summary.ticks);
-    assert!(contents.losses > 0, "{contents:?}");
-    let verdict = sipnpuff::tools::recording::replay::replay(
-        &recording,
-        &recording.config,
-        true,
-        &mut Vec::new(),
-        None,
-    )
-    .unwrap();
-    assert!(!verdict.complete && !verdict.identical(), "{verdict:?}");
-    assert!(
-        verdict.compared_through < verdict.last_tick,
-        "compared only up to the first loss: {verdict:?}"
-    );
-    let (code, _, stderr) = replay(&dir);
-    assert_eq!(code, 1);
-    assert!(
-        stderr.contains("NOT VERIFIED: the recording is incomplete (the recorder's queue was full"),
-        "{stderr}"
-    );
-    std::fs::remove_dir_all(&scratch).unwrap();
+        let recording = Recording::open(&dir).unwrap();
+        let contents = recording.check().unwrap();
+        assert_eq!(contents.ticks, summary.ticks);
+        assert!(contents.losses > 0, "{contents:?}");
+        let verdict = sipnpuff::tools::recording::replay::replay(
+            &recording,
+            &recording.config,
+            true,
+            &mut Vec::new(),
+            None,
+        )
+        .unwrap();
+        assert!(!verdict.complete && !verdict.identical(), "{verdict:?}");
+        assert!(
+            verdict.compared_through < verdict.last_tick,
+            "compared only up to the first loss: {verdict:?}"
+        );
+        let (code, _, stderr) = replay(&dir);
+        assert_eq!(code, 1);
+        assert!(
+            stderr.contains(
+                "NOT VERIFIED: the recording is incomplete (the recorder's queue was full"
+            ),
+            "{stderr}"
+        );
+        std::fs::remove_dir_all(&scratch).unwrap();
+    });
 }
 
 /// A short recording of the built-in user to damage (made once): 3 s,
@@ -858,54 +876,57 @@ impl sipnpuff::arm::Arm for FastMeasuringArm {
 /// bit.
 #[test]
 fn a_run_with_a_measuring_arm_replays_bit_for_bit() {
-    let _cpu = crate::common::real_time();
-    let dir = scratch("measuring-arm");
-    let config = Config::default();
-    let mut recorder = Recorder::create(&dir, &config, RecordOptions::default()).unwrap();
-    let run_options = RunOptions {
-        seconds: Some(20.0),
-        rt: RtOptions::NONE,
-        spin_margin_ns: None,
-        stop: StopRequest::new(),
-    };
-    let mut printed = Vec::new();
-    let arm = FastMeasuringArm {
-        jaco: sipnpuff::arm::sim::SimulatedJaco::new(config.core()),
-        sends: 0,
-        silent_after: 1200,
-        fresh: true,
-    };
-    let mut report = run_recorded(
-        config.core(),
-        SyntheticSensor::built_in_user(&config),
-        Box::new(arm),
-        &run_options,
-        &mut |e: &sipnpuff::control::event::TimedEvent| {
-            printed.push(serde_json::to_string(e).unwrap());
-        },
-        &mut recorder,
-    )
-    .unwrap();
-    let recording = recorder.finish(&mut report);
-    assert!(recording.complete, "{recording:?}");
-    assert!(report.arm_measured && report.measured_poses > 1000);
-    // The arm's 3 % is corrected a little at every measurement (each far
-    // below the 2 mm that is logged as an event).
-    assert!(
-        report.largest_correction_m > 1e-5,
-        "the arm's 3 % showed as corrections: {}",
-        report.largest_correction_m
-    );
-    let fault = printed
-        .iter()
-        .find(|e| e.contains("\"event\":\"arm_fault\""))
-        .expect("the silence was a fault");
-    assert!(fault.contains("no measured arm pose"), "{fault}");
-    let (code, replayed, stderr) = replay(&dir);
-    assert_eq!(code, 0, "{stderr}");
-    assert!(
-        stderr.contains("identical to the recording, bit for bit"),
-        "{stderr}"
-    );
-    assert_eq!(replayed.lines().collect::<Vec<_>>(), printed);
+    crate::common::real_time(|| {
+        let dir = scratch("measuring-arm");
+        let config = Config::default();
+        let mut recorder = Recorder::create(&dir, &config, RecordOptions::default()).unwrap();
+        let run_options = RunOptions {
+            // The silence (after 12 s of commands) ends the run; the limit
+            // outlasts a loaded machine's skipped ticks.
+            seconds: Some(60.0),
+            rt: RtOptions::NONE,
+            spin_margin_ns: None,
+            stop: StopRequest::new(),
+        };
+        let mut printed = Vec::new();
+        let arm = FastMeasuringArm {
+            jaco: sipnpuff::arm::sim::SimulatedJaco::new(config.core()),
+            sends: 0,
+            silent_after: 1200,
+            fresh: true,
+        };
+        let mut report = run_recorded(
+            config.core(),
+            SyntheticSensor::built_in_user(&config),
+            Box::new(arm),
+            &run_options,
+            &mut |e: &sipnpuff::control::event::TimedEvent| {
+                printed.push(serde_json::to_string(e).unwrap());
+            },
+            &mut recorder,
+        )
+        .unwrap();
+        let recording = recorder.finish(&mut report);
+        assert!(recording.complete, "{recording:?}");
+        assert!(report.arm_measured && report.measured_poses > 1000);
+        // The arm's 3 % is corrected a little at every measurement (each far
+        // below the 2 mm that is logged as an event).
+        assert!(
+            report.largest_correction_m > 1e-5,
+            "the arm's 3 % showed as corrections: {}",
+            report.largest_correction_m
+        );
+        let fault = printed
+            .iter()
+            .find(|e| e.contains("\"event\":\"arm_fault\""))
+            .expect("the silence was a fault");
+        assert!(fault.contains("no measured arm pose"), "{fault}");
+        let (code, replayed, stderr) = replay(&dir);
+        assert_eq!(code, 0, "{stderr}");
+        assert!(
+            stderr.contains("identical to the recording, bit for bit"),
+            "{stderr}"
+        );
+        assert_eq!(replayed.lines().collect::<Vec<_>>(), printed);
+    });
 }

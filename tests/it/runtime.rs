@@ -203,13 +203,15 @@ fn a_short_real_run_reports_its_structure() {
 
 #[test]
 fn ten_seconds_of_running_allocate_nothing_on_the_control_thread() {
-    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
-    let report = real_run(10.0);
-    check_structure(&report, 10.0);
-    // It did real work: selections, a save, motion.
-    assert!(report.events >= 8, "{} events", report.events);
-    let arm = report.arm.expect("the simulated arm reports its state");
-    assert!(arm.pose.translation.x > 0.3, "moved forward");
+    crate::common::real_time(|| {
+        let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+        let report = real_run(10.0);
+        check_structure(&report, 10.0);
+        // It did real work: selections, a save, motion.
+        assert!(report.events >= 8, "{} events", report.events);
+        let arm = report.arm.expect("the simulated arm reports its state");
+        assert!(arm.pose.translation.x > 0.3, "moved forward");
+    });
 }
 
 fn binary() -> Command {
@@ -218,35 +220,37 @@ fn binary() -> Command {
 
 #[test]
 fn sigint_stops_safely_with_a_report() {
-    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
-    let config = crate::common::fixture("shared-machine.toml");
-    let mut run = Running::spawn(&[
-        "run",
-        "--seconds",
-        "60",
-        "--config",
-        config.to_str().unwrap(),
-    ]);
-    // Wait for translate_x, then interrupt 0.9 s later, mid-puff.
-    run.wait_for("\"mode\":\"translate_x\"");
-    std::thread::sleep(Duration::from_millis(900));
-    run.signal(libc::SIGINT);
-    let (status, seen, _) = run.finish();
-    let text = seen.join("\n");
-    assert_eq!(status.code(), Some(130), "{status}\n{text}");
-    assert!(text.contains("stopped by: signal SIGINT"), "{text}");
-    assert!(
-        text.contains("\"event\":\"detection\",\"reason\":\"stop\""),
-        "{text}"
-    );
-    assert!(
+    crate::common::real_time(|| {
+        let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+        let config = crate::common::fixture("shared-machine.toml");
+        let mut run = Running::spawn(&[
+            "run",
+            "--seconds",
+            "60",
+            "--config",
+            config.to_str().unwrap(),
+        ]);
+        // Wait for translate_x, then interrupt 0.9 s later, mid-puff.
+        run.wait_for("\"mode\":\"translate_x\"");
+        std::thread::sleep(Duration::from_millis(900));
+        run.signal(libc::SIGINT);
+        let (status, seen, _) = run.finish();
+        let text = seen.join("\n");
+        assert_eq!(status.code(), Some(130), "{status}\n{text}");
+        assert!(text.contains("stopped by: signal SIGINT"), "{text}");
+        assert!(
+            text.contains("\"event\":\"detection\",\"reason\":\"stop\""),
+            "{text}"
+        );
+        assert!(
         text.contains("final commanded velocity: linear (0, 0, 0) m/s, angular (0, 0, 0) rad/s, fingers 0 units/s; last arm command zero: true"),
         "{text}"
     );
-    assert!(
-        text.contains("control thread heap allocations after start: 0"),
-        "{text}"
-    );
+        assert!(
+            text.contains("control thread heap allocations after start: 0"),
+            "{text}"
+        );
+    });
 }
 
 #[test]
@@ -439,39 +443,41 @@ fn a_late_wake_up_faults_and_discards_the_sensors_backlog() {
 /// giving the gap, and the run still ends with its safe stop and report.
 #[test]
 fn a_stopped_and_continued_process_reports_the_stall_and_stops_safely() {
-    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
-    let config = crate::common::fixture("shared-machine.toml");
-    let mut run = Running::spawn(&[
-        "run",
-        "--seconds",
-        "8",
-        "--config",
-        config.to_str().unwrap(),
-    ]);
-    // The loop is running once the first selection is logged.
-    run.wait_for("\"event\":\"match\"");
-    run.signal(libc::SIGSTOP);
-    std::thread::sleep(Duration::from_millis(2000));
-    run.signal(libc::SIGCONT);
-    let (status, seen, _) = run.finish();
-    let text = seen.join("\n");
-    assert!(status.success(), "{status}\n{text}");
-    let gaps: Vec<u64> = seen
-        .iter()
-        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
-        .filter(|v| v["event"] == "fault")
-        .filter_map(|v| {
-            let reason = v["reason"].as_str()?.to_string();
-            let rest = reason.split("stalled for ").nth(1)?;
-            rest.split(' ').next()?.parse().ok()
-        })
-        .collect();
-    assert!(gaps.iter().any(|&ms| ms >= 1900), "{gaps:?}\n{text}");
-    assert!(text.contains("stopped by: time"), "{text}");
-    assert!(
+    crate::common::real_time(|| {
+        let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+        let config = crate::common::fixture("shared-machine.toml");
+        let mut run = Running::spawn(&[
+            "run",
+            "--seconds",
+            "8",
+            "--config",
+            config.to_str().unwrap(),
+        ]);
+        // The loop is running once the first selection is logged.
+        run.wait_for("\"event\":\"match\"");
+        run.signal(libc::SIGSTOP);
+        std::thread::sleep(Duration::from_millis(2000));
+        run.signal(libc::SIGCONT);
+        let (status, seen, _) = run.finish();
+        let text = seen.join("\n");
+        assert!(status.success(), "{status}\n{text}");
+        let gaps: Vec<u64> = seen
+            .iter()
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .filter(|v| v["event"] == "fault")
+            .filter_map(|v| {
+                let reason = v["reason"].as_str()?.to_string();
+                let rest = reason.split("stalled for ").nth(1)?;
+                rest.split(' ').next()?.parse().ok()
+            })
+            .collect();
+        assert!(gaps.iter().any(|&ms| ms >= 1900), "{gaps:?}\n{text}");
+        assert!(text.contains("stopped by: time"), "{text}");
+        assert!(
         text.contains("final commanded velocity: linear (0, 0, 0) m/s, angular (0, 0, 0) rad/s, fingers 0 units/s; last arm command zero: true"),
         "{text}"
     );
+    });
 }
 
 /// An arm that measures its pose (the commands executed exactly, reported
@@ -533,7 +539,6 @@ impl Arm for MeasuringArm {
 /// and the arm-fault events.
 fn measured_run(arm: Box<MeasuringArm>) -> (RunReport, Vec<String>) {
     let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
-    let _cpu = crate::common::real_time();
     let config = Config::default();
     let sensor = SyntheticSensor::built_in_user(&config);
     let mut faults = Vec::new();
@@ -554,39 +559,43 @@ fn measured_run(arm: Box<MeasuringArm>) -> (RunReport, Vec<String>) {
 
 #[test]
 fn a_measuring_arm_closes_the_loop_and_its_silence_stops_the_run() {
-    let config = Config::default();
-    let (report, faults) = measured_run(MeasuringArm::new(&config, 400, usize::MAX));
-    assert!(report.arm_measured);
-    assert!(report.measured_poses >= 300, "{}", report.measured_poses);
-    assert_eq!(report.stop_reason, StopReason::ArmFault);
-    assert_eq!(faults.len(), 1, "{faults:?}");
-    // 251 ms after the last pose, or a little more if the loop skipped a
-    // tick just then (a loaded machine).
-    let ms: u64 = faults[0]
-        .strip_prefix("no measured arm pose for ")
-        .and_then(|rest| rest.split(' ').next())
-        .and_then(|n| n.parse().ok())
-        .unwrap_or_else(|| panic!("{faults:?}"));
-    assert!((251..1000).contains(&ms), "{faults:?}");
-    let text = report.to_text();
-    assert!(
-        text.contains(&format!("ERROR: arm: {}", faults[0])),
-        "{text}"
-    );
-    assert!(text.contains("final measured position"), "{text}");
-    assert!(text.contains("arm feedback: "), "{text}");
-    assert!(report.stream_ended_with_zero && report.last_arm_command.is_zero());
-    assert_eq!(report.final_velocity, [0.0; 7]);
-    assert_eq!(report.control_thread_allocations, 0);
+    crate::common::real_time(|| {
+        let config = Config::default();
+        let (report, faults) = measured_run(MeasuringArm::new(&config, 400, usize::MAX));
+        assert!(report.arm_measured);
+        assert!(report.measured_poses >= 300, "{}", report.measured_poses);
+        assert_eq!(report.stop_reason, StopReason::ArmFault);
+        assert_eq!(faults.len(), 1, "{faults:?}");
+        // 251 ms after the last pose, or a little more if the loop skipped a
+        // tick just then (a loaded machine).
+        let ms: u64 = faults[0]
+            .strip_prefix("no measured arm pose for ")
+            .and_then(|rest| rest.split(' ').next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{faults:?}"));
+        assert!((251..1000).contains(&ms), "{faults:?}");
+        let text = report.to_text();
+        assert!(
+            text.contains(&format!("ERROR: arm: {}", faults[0])),
+            "{text}"
+        );
+        assert!(text.contains("final measured position"), "{text}");
+        assert!(text.contains("arm feedback: "), "{text}");
+        assert!(report.stream_ended_with_zero && report.last_arm_command.is_zero());
+        assert_eq!(report.final_velocity, [0.0; 7]);
+        assert_eq!(report.control_thread_allocations, 0);
+    });
 }
 
 #[test]
 fn a_lost_link_reaches_the_core_and_stops_the_run() {
-    let config = Config::default();
-    let (report, faults) = measured_run(MeasuringArm::new(&config, usize::MAX, 500));
-    assert_eq!(report.stop_reason, StopReason::ArmFault);
-    assert_eq!(faults, ["arm link lost or a command refused — arm stopped"]);
-    assert_eq!(report.errors, ["arm disconnected: the receiver went away"]);
-    assert!(report.stream_ended_with_zero);
-    assert_eq!(report.final_velocity, [0.0; 7]);
+    crate::common::real_time(|| {
+        let config = Config::default();
+        let (report, faults) = measured_run(MeasuringArm::new(&config, usize::MAX, 500));
+        assert_eq!(report.stop_reason, StopReason::ArmFault);
+        assert_eq!(faults, ["arm link lost or a command refused — arm stopped"]);
+        assert_eq!(report.errors, ["arm disconnected: the receiver went away"]);
+        assert!(report.stream_ended_with_zero);
+        assert_eq!(report.final_velocity, [0.0; 7]);
+    });
 }

@@ -153,109 +153,117 @@ fn bursts_and_modes(lines: &[String]) -> (Vec<i64>, Vec<String>) {
 
 #[test]
 fn a_1khz_serial_stream_gives_the_scripted_bursts_then_a_disconnect_is_a_fault() {
-    let pty = Pty::open();
-    let path = format!("serial:{}", pty.path);
-    let feeder = stream(pty, &PATTERN, 1, |v| format!("{v:.3}\n"));
-    let run = Running::spawn(&["run", "--sensor", &path, "--config", &config(), "--json"]);
-    let (status, lines, stderr) = run.finish();
-    feeder.join().unwrap();
-    assert_eq!(
-        bursts_and_modes(&lines),
-        (vec![-2, 1], vec!["rotate_y".to_string()]),
-        "{lines:?}\n{stderr}"
-    );
-    // The neutral was measured before anything could move, and said.
-    assert!(
-        stderr.contains("neutral 2.5000 V measured at rest (noise 0.0000 V rms"),
-        "{stderr}"
-    );
-    // The port hung up: a fault at once, the run ended safely, exit 1.
-    assert!(
-        lines
-            .iter()
-            .any(|l| l.contains(r#""event":"fault","reason":"sensor disconnected — arm stopped""#)),
-        "{lines:?}"
-    );
-    assert_eq!(status.code(), Some(1), "{stderr}");
-    let report: serde_json::Value = serde_json::from_str(lines.last().unwrap()).unwrap();
-    assert_eq!(report["stop_reason"], "sensor ended", "{report}");
-    assert_eq!(report["stream_ended_with_zero"], true);
-    assert_eq!(report["control_thread_allocations"], 0);
-    let errors = report["errors"].to_string();
-    assert!(errors.contains("disconnected"), "{errors}");
-    assert!(
-        report["sensor"]
-            .as_str()
-            .unwrap()
-            .contains("neutral 2.5000 V")
-    );
+    crate::common::real_time(|| {
+        let pty = Pty::open();
+        let path = format!("serial:{}", pty.path);
+        let feeder = stream(pty, &PATTERN, 1, |v| format!("{v:.3}\n"));
+        let run = Running::spawn(&["run", "--sensor", &path, "--config", &config(), "--json"]);
+        let (status, lines, stderr) = run.finish();
+        feeder.join().unwrap();
+        assert_eq!(
+            bursts_and_modes(&lines),
+            (vec![-2, 1], vec!["rotate_y".to_string()]),
+            "{lines:?}\n{stderr}"
+        );
+        // The neutral was measured before anything could move, and said.
+        assert!(
+            stderr.contains("neutral 2.5000 V measured at rest (noise 0.0000 V rms"),
+            "{stderr}"
+        );
+        // The port hung up: a fault at once, the run ended safely, exit 1.
+        assert!(
+            lines
+                .iter()
+                .any(|l| l
+                    .contains(r#""event":"fault","reason":"sensor disconnected — arm stopped""#)),
+            "{lines:?}"
+        );
+        assert_eq!(status.code(), Some(1), "{stderr}");
+        let report: serde_json::Value = serde_json::from_str(lines.last().unwrap()).unwrap();
+        assert_eq!(report["stop_reason"], "sensor ended", "{report}");
+        assert_eq!(report["stream_ended_with_zero"], true);
+        assert_eq!(report["control_thread_allocations"], 0);
+        let errors = report["errors"].to_string();
+        assert!(errors.contains("disconnected"), "{errors}");
+        assert!(
+            report["sensor"]
+                .as_str()
+                .unwrap()
+                .contains("neutral 2.5000 V")
+        );
+    });
 }
 
 #[test]
 fn the_neutral_waits_while_the_user_breathes_and_says_so() {
-    // A puff during the first measurement, then rest: the neutral is
-    // measured after it, and the puff is never a burst. The puff lasts
-    // 2 s: longer than the pty's backlog (read at once when the port
-    // opens) plus the port's period check plus a loaded machine's delays
-    // before the measurement starts.
-    const BREATHING: [(f64, u64); 4] = [(2.5, 300), (3.6, 2000), (2.5, 2500), (2.5, 500)];
-    let pty = Pty::open();
-    let path = format!("serial:{}", pty.path);
-    let feeder = stream(pty, &BREATHING, 1, |v| format!("{v:.3}\r\n"));
-    let run = Running::spawn(&["run", "--sensor", &path, "--config", &config()]);
-    let (_, lines, stderr) = run.finish();
-    feeder.join().unwrap();
-    // Seen as a level that moved or as a rest level far from the
-    // neutral, depending on where the window fell.
-    assert!(
-        stderr.contains("— please rest (no sip or puff); measuring again"),
-        "{stderr}"
-    );
-    assert!(
-        stderr.contains("neutral 2.5000 V measured at rest"),
-        "{stderr}"
-    );
-    assert_eq!(bursts_and_modes(&lines), (vec![], vec![]), "{lines:?}");
+    crate::common::real_time(|| {
+        // A puff during the first measurement, then rest: the neutral is
+        // measured after it, and the puff is never a burst. The puff lasts
+        // 2 s: longer than the pty's backlog (read at once when the port
+        // opens) plus the port's period check plus a loaded machine's delays
+        // before the measurement starts.
+        const BREATHING: [(f64, u64); 4] = [(2.5, 300), (3.6, 2000), (2.5, 2500), (2.5, 500)];
+        let pty = Pty::open();
+        let path = format!("serial:{}", pty.path);
+        let feeder = stream(pty, &BREATHING, 1, |v| format!("{v:.3}\r\n"));
+        let run = Running::spawn(&["run", "--sensor", &path, "--config", &config()]);
+        let (_, lines, stderr) = run.finish();
+        feeder.join().unwrap();
+        // Seen as a level that moved or as a rest level far from the
+        // neutral, depending on where the window fell.
+        assert!(
+            stderr.contains("— please rest (no sip or puff); measuring again"),
+            "{stderr}"
+        );
+        assert!(
+            stderr.contains("neutral 2.5000 V measured at rest"),
+            "{stderr}"
+        );
+        assert_eq!(bursts_and_modes(&lines), (vec![], vec![]), "{lines:?}");
+    });
 }
 
 #[test]
 fn the_flipmouse_dialect_is_started_and_its_rate_is_said() {
-    // FLipMouse: nothing until `AT SR`, then a VALUES line every 50 ms.
-    // A 50 ms source can still time a long puff and a 300 ms sip.
-    const FLIP: [(f64, u64); 5] = [(2.5, 4000), (4.0, 900), (2.5, 600), (1.5, 300), (2.5, 2000)];
-    let pty = Pty::open();
-    let path = format!("serial:{}", pty.path);
-    let dir = std::env::temp_dir().join(format!("sipnpuff-flip-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let cfg = dir.join("flip.toml");
-    std::fs::write(
-        &cfg,
-        "[detector]\nstale_ms = 1000\n[sensor.serial]\nformat = \"flipmouse\"\n",
-    )
-    .unwrap();
-    let run = Running::spawn(&["run", "--sensor", &path, "--config", cfg.to_str().unwrap()]);
-    let mut asked = Vec::new();
-    let deadline = Instant::now() + Duration::from_secs(20);
-    while !String::from_utf8_lossy(&asked).contains("AT SR\r") && Instant::now() < deadline {
-        asked.extend(read_some(&pty.master, Duration::from_millis(100)));
-    }
-    assert!(
-        String::from_utf8_lossy(&asked).contains("AT SR\r"),
-        "{asked:?}"
-    );
-    let feeder = stream(pty, &FLIP, 50, |v| {
-        format!("VALUES:{},0,0,0,0,0,0,0,1\r\n", (v / 5.0 * 1023.0).round())
+    crate::common::real_time(|| {
+        // FLipMouse: nothing until `AT SR`, then a VALUES line every 50 ms.
+        // A 50 ms source can still time a long puff and a 300 ms sip.
+        const FLIP: [(f64, u64); 5] =
+            [(2.5, 4000), (4.0, 900), (2.5, 600), (1.5, 300), (2.5, 2000)];
+        let pty = Pty::open();
+        let path = format!("serial:{}", pty.path);
+        let dir = std::env::temp_dir().join(format!("sipnpuff-flip-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let cfg = dir.join("flip.toml");
+        std::fs::write(
+            &cfg,
+            "[detector]\nstale_ms = 1000\n[sensor.serial]\nformat = \"flipmouse\"\n",
+        )
+        .unwrap();
+        let run = Running::spawn(&["run", "--sensor", &path, "--config", cfg.to_str().unwrap()]);
+        let mut asked = Vec::new();
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while !String::from_utf8_lossy(&asked).contains("AT SR\r") && Instant::now() < deadline {
+            asked.extend(read_some(&pty.master, Duration::from_millis(100)));
+        }
+        assert!(
+            String::from_utf8_lossy(&asked).contains("AT SR\r"),
+            "{asked:?}"
+        );
+        let feeder = stream(pty, &FLIP, 50, |v| {
+            format!("VALUES:{},0,0,0,0,0,0,0,1\r\n", (v / 5.0 * 1023.0).round())
+        });
+        let (_, lines, stderr) = run.finish();
+        feeder.join().unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+        assert!(stderr.contains("every 50 ms (20 per second)"), "{stderr}");
+        assert!(stderr.contains("a 40 ms burst cannot be timed"), "{stderr}");
+        assert_eq!(
+            bursts_and_modes(&lines),
+            (vec![-2, 1], vec!["rotate_y".to_string()]),
+            "{lines:?}\n{stderr}"
+        );
     });
-    let (_, lines, stderr) = run.finish();
-    feeder.join().unwrap();
-    std::fs::remove_dir_all(&dir).ok();
-    assert!(stderr.contains("every 50 ms (20 per second)"), "{stderr}");
-    assert!(stderr.contains("a 40 ms burst cannot be timed"), "{stderr}");
-    assert_eq!(
-        bursts_and_modes(&lines),
-        (vec![-2, 1], vec!["rotate_y".to_string()]),
-        "{lines:?}\n{stderr}"
-    );
 }
 
 #[test]

@@ -19,6 +19,7 @@
  *   KINOVA_STANDIN_INIT_DELAY_MS=N      InitAPI/InitEthernetAPI sleeps N ms first
  *   KINOVA_STANDIN_DEVICES=N            GetDevices finds N arms (default 1)
  *   KINOVA_STANDIN_FAIL_SEND_AFTER=N    SendAdvanceTrajectory fails from call N+1 on
+ *   KINOVA_STANDIN_FAIL_MOVING_AFTER=N  ... fails from the (N+1)th point that moves (not zero) on
  *   KINOVA_STANDIN_FAIL_CODE=N          ... with code N (default 1015)
  *   KINOVA_STANDIN_HANG_SEND_AFTER=N    call N+1 of SendAdvanceTrajectory never returns
  *   KINOVA_STANDIN_POSE=x,y,z,tx,ty,tz  the starting pose (default 0.21,-0.26,0.48,0,0,0)
@@ -101,6 +102,8 @@ static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
 static FILE *log_file;
 static int initialized, controlling, cartesian;
 static long sends __attribute__((unused));
+static long moving_sends __attribute__((unused));
+static int failing __attribute__((unused));
 static double position[3] = {0.21, -0.26, 0.48};
 static double rotation[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
 static double fingers;
@@ -318,14 +321,21 @@ EXPORT int API(SendAdvanceTrajectory)(TrajectoryPoint point) {
     pthread_mutex_lock(&lock);
     sends++;
     long fail_after = env_long("KINOVA_STANDIN_FAIL_SEND_AFTER", -1);
+    long fail_moving_after = env_long("KINOVA_STANDIN_FAIL_MOVING_AFTER", -1);
     long hang_after = env_long("KINOVA_STANDIN_HANG_SEND_AFTER", -1);
+    UserPosition *p = &point.Position;
+    CartesianInfo *c = &p->CartesianPosition;
+    int moving = c->X != 0 || c->Y != 0 || c->Z != 0 || c->ThetaX != 0 || c->ThetaY != 0 ||
+                 c->ThetaZ != 0 || p->Fingers.Finger1 != 0 || p->Fingers.Finger2 != 0 ||
+                 p->Fingers.Finger3 != 0;
+    if (moving) moving_sends++;
+    if (fail_after >= 0 && sends > fail_after) failing = 1;
+    if (fail_moving_after >= 0 && moving_sends > fail_moving_after) failing = 1;
     int code = NO_ERROR_KINOVA;
     if (!initialized)
         code = ERROR_API_NOT_INITIALIZED;
-    else if (fail_after >= 0 && sends > fail_after)
+    else if (failing)
         code = (int)env_long("KINOVA_STANDIN_FAIL_CODE", ERROR_NO_DEVICE_FOUND);
-    UserPosition *p = &point.Position;
-    CartesianInfo *c = &p->CartesianPosition;
     AngularInfo *a = &p->Actuators;
     Limitation *l = &point.Limitations;
     record(__func__,
