@@ -86,6 +86,8 @@ pub fn stdout_gone() -> Option<io::Error> {
 pub struct StdoutEvents {
     /// The first failure (the run stopped on it).
     pub failed: Option<io::ErrorKind>,
+    /// Print nothing: the terminal view (`run --tui`) owns stdout.
+    pub quiet: bool,
 }
 
 impl StdoutEvents {
@@ -97,11 +99,17 @@ impl StdoutEvents {
 
 impl EventSink for StdoutEvents {
     fn event(&mut self, event: &TimedEvent) -> io::Result<()> {
+        if self.quiet {
+            return Ok(());
+        }
         let line = serde_json::to_string(event).map_err(io::Error::from)?;
         stdout_line(&line).map_err(|e| self.fail(e))
     }
 
     fn check(&mut self) -> io::Result<()> {
+        if self.quiet {
+            return Ok(());
+        }
         match stdout_gone() {
             Some(e) => Err(self.fail(e)),
             None => Ok(()),

@@ -1,6 +1,7 @@
 //! `sipnpuff run`: the main job.
 
 use std::io;
+use std::net::{SocketAddr, TcpListener, ToSocketAddrs};
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -16,11 +17,14 @@ use crate::cli::args::{
 };
 use crate::cli::output::{self, StdoutEvents, invalid};
 use crate::config::Config;
+use crate::display::hub::DisplayHub;
+use crate::display::server::{DEFAULT_ADDRESS, DisplayServer};
+use crate::display::tui::TerminalView;
 use crate::rt::control_loop::StopReason;
 use crate::rt::report::RunReport;
 use crate::rt::signals;
 use crate::rt::stop::StopRequest;
-use crate::rt::threads::{RunOptions, run as run_loop, run_recorded};
+use crate::rt::threads::{RunOptions, Watchers, run_watched};
 use crate::sensor::csv::CsvSensor;
 use crate::sensor::evdev::EvdevSensor;
 use crate::sensor::iio::IioSensor;
@@ -76,8 +80,39 @@ pub struct RunArgs {
     /// bytes); past it recording stops and the run goes on.
     #[arg(long, value_name = "MB", default_value = "200", requires = "record", value_parser = parse_megabytes)]
     record_max_mb: u64,
+    /// Serve the display (the modes, the sequence breathed so far, the
+    /// pressure, the arm's state, sounds) at this address, for a kiosk
+    /// browser on the wheelchair's screen, a tablet or a laptop:
+    /// `HOST:PORT` or `PORT` (on 127.0.0.1, this machine only).
+    #[arg(long, value_name = "ADDR", default_value = DEFAULT_ADDRESS, env = "SIPNPUFF_DISPLAY", value_parser = parse_display)]
+    display: SocketAddr,
+    /// Don't serve the display.
+    #[arg(long, env = "SIPNPUFF_NO_DISPLAY")]
+    no_display: bool,
+    /// Show the display in this terminal instead of printing events (the
+    /// report follows when the run ends; Ctrl-C stops the run as always).
+    #[arg(long)]
+    tui: bool,
     #[command(flatten)]
     rt: RtArgs,
+}
+
+/// `--display`: `HOST:PORT` or a port on 127.0.0.1.
+fn parse_display(text: &str) -> Result<SocketAddr, String> {
+    if let Ok(port) = text.parse::<u16>() {
+        return Ok(SocketAddr::from(([127, 0, 0, 1], port)));
+    }
+    text.to_socket_addrs()
+        .ok()
+        .and_then(|mut addresses| addresses.next())
+        .ok_or_else(|| format!("{text:?}: not HOST:PORT or PORT (e.g. 127.0.0.1:8080, 0.0.0.0:8080 for a tablet on the network, 8081)"))
+}
+
+/// The display chosen: the page's listener, bound before anything starts,
+/// and the terminal view.
+struct Display {
+    listener: Option<TcpListener>,
+    tui: bool,
 }
 
 /// Opens the `--arm` backend (not yet connected: the arm thread connects
@@ -136,9 +171,23 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         spin_margin_ns: args.rt.spin_margin_ns(),
         stop: stop_request()?,
     };
+    // The page's address is taken before anything starts: a clash is an
+    // error now, not a display missing later.
+    let display = Display {
+        listener: if args.no_display {
+            None
+        } else {
+            Some(DisplayServer::bind(args.display)?)
+        },
+        tui: args.tui,
+    };
+    let display = &display;
     // The backends, one line each.
     let arm = open_arm(&args.arm, &config)?;
-    let mut events = StdoutEvents::default();
+    let mut events = StdoutEvents {
+        quiet: args.tui,
+        ..StdoutEvents::default()
+    };
     let settings = config.sensor();
     let neutral = config.core().detector().neutral_volts;
     let report = match &args.sensor {
@@ -149,6 +198,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             &options,
             &mut events,
             record,
+            display,
         )?,
         SensorSpec::Csv(path) => start(
             &config,
@@ -157,12 +207,13 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             &options,
             &mut events,
             record,
+            display,
         )?,
         SensorSpec::Evdev(target) => {
             let sensor = EvdevSensor::open(target, &settings.evdev, neutral, settings.reconnect)?;
             let analog = sensor.is_analog();
             let (config, sensor) = prepare_device(&config, sensor, analog)?;
-            start(&config, sensor, arm, &options, &mut events, record)?
+            start(&config, sensor, arm, &options, &mut events, record, display)?
         }
         SensorSpec::Serial { path, baud } => {
             let sensor =
@@ -172,12 +223,12 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
                 note!("sipnpuff: {note}");
             }
             let (config, sensor) = prepare_device(&config, sensor, true)?;
-            start(&config, sensor, arm, &options, &mut events, record)?
+            start(&config, sensor, arm, &options, &mut events, record, display)?
         }
         SensorSpec::Iio(path) => {
             let sensor = IioSensor::open(path, &settings.iio, settings.reconnect)?;
             let (config, sensor) = prepare_device(&config, sensor, true)?;
-            start(&config, sensor, arm, &options, &mut events, record)?
+            start(&config, sensor, arm, &options, &mut events, record, display)?
         }
     };
     let text = if args.json {
@@ -237,9 +288,10 @@ struct Record<'a> {
 }
 
 /// Runs the loop on `sensor`, the core built from `config` (the
-/// configuration in effect), and records the session if asked: the
-/// recording ends before the report is printed, its summary in the report
-/// (and its `report.json`).
+/// configuration in effect), with the display and the recording asked
+/// for: the recording ends before the report is printed, its summary in
+/// the report (and its `report.json`); the terminal view gives the
+/// terminal back before it.
 fn start<S: Sensor>(
     config: &Config,
     sensor: S,
@@ -247,14 +299,54 @@ fn start<S: Sensor>(
     options: &RunOptions,
     events: &mut StdoutEvents,
     record: Option<&Record<'_>>,
+    display: &Display,
 ) -> anyhow::Result<RunReport> {
-    let Some(record) = record else {
-        return Ok(run_loop(config.core(), sensor, arm, options, events)?);
+    let mut recorder = match record {
+        Some(record) => Some(
+            Recorder::create(record.dir, config, record.options)
+                .map_err(|e| anyhow::Error::new(e).context("--record"))?,
+        ),
+        None => None,
     };
-    let mut recorder = Recorder::create(record.dir, config, record.options)
-        .map_err(|e| anyhow::Error::new(e).context("--record"))?;
-    let mut report = run_recorded(config.core(), sensor, arm, options, events, &mut recorder)?;
-    recorder.finish(&mut report);
+    let mut hub = (display.listener.is_some() || display.tui)
+        .then(|| DisplayHub::new(config.core(), &arm.describe()));
+    let server = match (&display.listener, &hub) {
+        (Some(listener), Some(hub)) => {
+            Some(DisplayServer::serve(listener.try_clone()?, hub.feed())?)
+        }
+        _ => None,
+    };
+    if let Some(server) = &server {
+        note!("sipnpuff: the display is at http://{}/", server.address());
+    }
+    let view = match (&hub, display.tui) {
+        (Some(hub), true) => Some(TerminalView::start(hub.feed())?),
+        _ => None,
+    };
+    let watchers = Watchers {
+        recorder: recorder
+            .as_mut()
+            .map(|r| r as &mut dyn crate::rt::recorder::SessionRecorder),
+        observer: hub
+            .as_mut()
+            .map(|h| h as &mut dyn crate::rt::telemetry::TelemetryObserver),
+    };
+    let result = run_watched(config.core(), sensor, arm, options, events, watchers);
+    if let Some(hub) = hub.as_mut() {
+        hub.publish();
+    }
+    drop(view);
+    let mut report = result?;
+    if let Some(hub) = &hub {
+        report.display = Some(
+            hub.feed()
+                .summary(server.as_ref().map(|s| s.address().to_string())),
+        );
+    }
+    drop(server);
+    if let Some(recorder) = recorder {
+        recorder.finish(&mut report);
+    }
     Ok(report)
 }
 
@@ -381,7 +473,7 @@ mod tests {
         };
         let sensor = SyntheticSensor::built_in_user(&config);
         let arm = Box::new(SimArm::new(config.core()));
-        run_loop(config.core(), sensor, arm, &options, &mut |_: &_| {}).unwrap()
+        crate::rt::threads::run(config.core(), sensor, arm, &options, &mut |_: &_| {}).unwrap()
     }
 
     #[test]

@@ -438,6 +438,19 @@ impl BurstDetector {
         self.neutral
     }
 
+    /// The breath held (confirmed) and the tick it began. RT-safe.
+    pub fn held(&self) -> Option<(Breath, Tick)> {
+        match self.state {
+            State::Held { breath, start } => Some((breath, start)),
+            _ => None,
+        }
+    }
+
+    /// The sensor is in fault. RT-safe.
+    pub fn is_faulted(&self) -> bool {
+        matches!(self.state, State::Faulted { .. })
+    }
+
     /// A tick on which no sample arrived: nothing changes until `stale_ms`
     /// have passed since the last one (or since start), then the sensor is
     /// in fault. RT-safe.

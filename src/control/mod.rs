@@ -13,7 +13,8 @@
 //!   scanning baseline (BSP);
 //! * [`modes`] is the detection/command mode machine of the paper's Fig. 1;
 //! * [`motion`] makes the smooth, limited velocity and the arm's stream;
-//! * [`pipeline`] wires them into one [`Pipeline::step`] per tick.
+//! * [`pipeline`] wires them into one [`Pipeline::step`] per tick;
+//! * [`view`] is where the user is, for the display.
 //!
 //! Everything here is pure: time enters as a [`Tick`] argument; nothing
 //! reads a clock, sleeps, locks, does I/O or allocates after construction.
@@ -38,6 +39,7 @@ pub mod modes;
 pub mod motion;
 pub mod pipeline;
 pub mod selection;
+pub mod view;
 
 /// Time in the core: one tick is one millisecond, one sensor sample at 1 kHz.
 pub type Tick = u64;

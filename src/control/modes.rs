@@ -116,6 +116,13 @@ impl ModeMachine {
         self.state
     }
 
+    /// In command mode: the tick it returns to selection if nothing more
+    /// is breathed. RT-safe.
+    pub fn returns_at(&self) -> Option<Tick> {
+        matches!(self.state, ModeState::Command(_))
+            .then(|| self.last_activity.saturating_add(self.inactivity))
+    }
+
     /// One tick: `matched` is the mode the matcher selected on this tick.
     /// Returns the command and, if it happened, why the machine went back
     /// to detection mode. RT-safe.

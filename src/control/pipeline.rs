@@ -10,7 +10,7 @@ use crate::control::action::ActionSeq;
 use crate::control::core_config::CoreConfig;
 use crate::control::detector::{BurstDetector, DetectorEvent, DetectorOutput};
 use crate::control::event::{Event, Events};
-use crate::control::mode::{Held, ModeState};
+use crate::control::mode::{Direction, Held, ModeState};
 use crate::control::modes::{ModeMachine, ModeOutput};
 use crate::control::motion::feedback::ArmFault;
 use crate::control::motion::stream::ARM_STOPS_AFTER_TICKS;
@@ -19,6 +19,7 @@ use crate::control::selection::Interface;
 use crate::control::selection::index::{SequenceIndex, TrieIndex};
 use crate::control::selection::matcher::{MatchEvent, ResetReason, SequenceMatcher};
 use crate::control::selection::scanning::Scanner;
+use crate::control::view::CoreView;
 
 /// Everything the core says about one tick. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -57,6 +58,8 @@ pub struct Pipeline<I: SequenceIndex = TrieIndex> {
     link_lost: bool,
     /// The arm fault, once there is one (it never clears).
     arm_fault: Option<ArmFault>,
+    /// The direction commanded on the last tick (for [`Pipeline::view`]).
+    direction: Direction,
 }
 
 /// How a mode is selected in detection mode.
@@ -111,6 +114,7 @@ impl<I: SequenceIndex> Pipeline<I> {
             measured: None,
             link_lost: false,
             arm_fault: None,
+            direction: Direction::Still,
         }
     }
 
@@ -154,6 +158,33 @@ impl<I: SequenceIndex> Pipeline<I> {
     /// The motion layer (pose estimate, saved point).
     pub fn motion(&self) -> &Motion {
         &self.motion
+    }
+
+    /// Where the user is, as the display shows it. RT-safe.
+    pub fn view(&self) -> CoreView {
+        let (sequence, decides_at, pending, highlighted) = match &self.selector {
+            Selector::Sequences(matcher) => (
+                *matcher.current(),
+                matcher.decides_at(),
+                matcher.pending(),
+                None,
+            ),
+            Selector::Scanning(scanner) => (ActionSeq::EMPTY, None, None, scanner.highlighted()),
+        };
+        CoreView {
+            neutral_volts: self.detector.neutral_volts(),
+            held: self.detector.held(),
+            sensor_faulted: self.detector.is_faulted(),
+            sequence,
+            decides_at,
+            pending,
+            highlighted,
+            state: self.modes.state(),
+            direction: self.direction,
+            returns_at: self.modes.returns_at(),
+            saved_point: self.motion.saved().is_some(),
+            arm_faulted: self.arm_fault.is_some(),
+        }
     }
 
     /// The detector (e.g. to read the tracked neutral).
@@ -300,6 +331,7 @@ impl<I: SequenceIndex> Pipeline<I> {
             .modes
             .step(now, detected.held, matched, detected.faulted);
         out.command = command;
+        self.direction = command.direction;
         if let Some(reason) = left {
             emit(&mut out, Event::Detection { reason });
         }

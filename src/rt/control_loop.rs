@@ -22,6 +22,7 @@ use crate::control::event::TimedEvent;
 use crate::control::motion::feedback::ArmFault;
 use crate::control::motion::stream::ArmCommand;
 use crate::control::pipeline::Pipeline;
+use crate::control::view::CoreView;
 use crate::rt::alloc_counter;
 use crate::rt::clock::Clock;
 use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
@@ -52,6 +53,8 @@ pub struct TickOutcome {
     pub finished: bool,
     /// What the core was given (not on a `reference` tick).
     pub input: CoreInput,
+    /// Where the user is after the tick (for the display).
+    pub view: CoreView,
 }
 
 /// What the work reports when the loop ends.
@@ -289,6 +292,7 @@ impl<S: Samples> TickWork for ControlTick<S> {
             drops: self.drops,
             finished,
             input,
+            view: self.core.view(),
         }
     }
 
@@ -386,6 +390,7 @@ pub fn control_loop<C: Clock, W: TickWork>(
         drops.records = record_drops;
         let record = TickRecord {
             tick: wake.tick,
+            woke_ns: wake.woke_ns,
             wake_latency_ns: wake.latency_ns,
             compute_ns: end.saturating_sub(wake.woke_ns),
             period_ns: if previous_wake == 0 {
@@ -398,6 +403,7 @@ pub fn control_loop<C: Clock, W: TickWork>(
             reference: outcome.reference,
             drops,
             input: outcome.input,
+            view: outcome.view,
         };
         previous_wake = wake.woke_ns;
         if records.push(record).is_err() {

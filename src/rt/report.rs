@@ -70,6 +70,8 @@ pub struct RunReport {
     pub errors: Vec<String>,
     /// `run --record`: what the recording holds (`null` otherwise).
     pub recording: Option<RecordingReport>,
+    /// The display's figures (`null` with `--no-display`).
+    pub display: Option<DisplaySummary>,
     /// The arm reports a measured pose, which the limits used.
     pub arm_measured: bool,
     /// Measured poses the core took in.
@@ -202,6 +204,9 @@ impl RunReport {
         if let Some(recording) = &self.recording {
             s += &recording.to_line();
         }
+        if let Some(display) = &self.display {
+            s += &display.to_line();
+        }
         if let Some(error) = &self.output_error {
             s += &format!("OUTPUT FAILED: {error}; later events were not written\n");
         }
@@ -231,5 +236,41 @@ impl RunReport {
             written.push(path);
         }
         Ok(written)
+    }
+}
+
+/// What the display did during a run (the telemetry side's figures: a
+/// slow page skips frames and loses sounds there, never in the loop).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct DisplaySummary {
+    /// Where the page was served (`None`: the terminal view only).
+    pub address: Option<String>,
+    /// Pages that connected.
+    pub pages_opened: u64,
+    /// Frames published.
+    pub frames_published: u64,
+    /// Frames sent, all pages together.
+    pub frames_sent: u64,
+    /// Frames a slow page skipped (newer ones replaced them).
+    pub frames_skipped: u64,
+    /// Sounds a page fell too far behind to get.
+    pub cues_dropped: u64,
+}
+
+impl DisplaySummary {
+    /// The report's line.
+    pub fn to_line(&self) -> String {
+        let place = match &self.address {
+            Some(address) => format!("http://{address}/"),
+            None => "the terminal".into(),
+        };
+        format!(
+            "display: {place}, {} pages opened; {} frames published, {} sent, {} skipped by slow pages, {} sounds dropped\n",
+            self.pages_opened,
+            self.frames_published,
+            self.frames_sent,
+            self.frames_skipped,
+            self.cues_dropped
+        )
     }
 }

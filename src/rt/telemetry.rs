@@ -11,8 +11,10 @@ use nalgebra::Isometry3;
 use serde::{Serialize, Serializer};
 
 use crate::control::Tick;
+use crate::control::event::TimedEvent;
 use crate::control::pipeline::{Pipeline, TickOutput};
 use crate::control::selection::index::SequenceIndex;
+use crate::control::view::CoreView;
 use crate::sensor::Reading;
 
 /// Items dropped because a ring was full, cumulative. A full ring never
@@ -134,6 +136,9 @@ pub struct CoreInput {
 pub struct TickRecord {
     /// The tick.
     pub tick: Tick,
+    /// When the control thread woke for it, `CLOCK_MONOTONIC` ns (the
+    /// display's event-to-screen latency starts here).
+    pub woke_ns: u64,
     /// Wake-up minus deadline, ns.
     pub wake_latency_ns: u64,
     /// Wake-up to end of the tick's work, ns.
@@ -151,6 +156,23 @@ pub struct TickRecord {
     /// What the core was given (meaningless on a `reference` tick, where
     /// the core did not run).
     pub input: CoreInput,
+    /// Where the user is after the tick: what the display shows.
+    pub view: CoreView,
+}
+
+/// Watches a run from the telemetry thread (the display): each record and
+/// event as it is drained from the control thread's rings, then
+/// [`TelemetryObserver::drained`] once per drain (about every 5 ms). Not
+/// RT-safe, and must not block: the telemetry thread also empties the
+/// rings, and a consumer slower than the loop drops and counts on its own
+/// side.
+pub trait TelemetryObserver {
+    /// One tick's record (reference ticks of `bench latency` included).
+    fn record(&mut self, record: &TickRecord);
+    /// One event.
+    fn event(&mut self, event: &TimedEvent);
+    /// The rings are empty for now.
+    fn drained(&mut self);
 }
 
 /// Upper bound of every histogram: 10 s in ns (`saturating_record` clamps

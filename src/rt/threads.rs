@@ -48,7 +48,7 @@ use crate::rt::recorder::{Lost, SessionRecorder};
 use crate::rt::report::RunReport;
 use crate::rt::setup::RtOptions;
 use crate::rt::stop::StopRequest;
-use crate::rt::telemetry::{Drops, Latencies, TickRecord};
+use crate::rt::telemetry::{Drops, Latencies, TelemetryObserver, TickRecord};
 use crate::sensor::{Samples, Sensor, SensorError};
 
 const ARM_RING: usize = 256;
@@ -173,7 +173,15 @@ pub fn run<S: Sensor>(
     options: &RunOptions,
     sink: &mut impl EventSink,
 ) -> Result<RunReport, RunError> {
-    run_with(config, sensor, arm, options, sink, None, |tick| tick)
+    run_with(
+        config,
+        sensor,
+        arm,
+        options,
+        sink,
+        Watchers::default(),
+        |tick| tick,
+    )
 }
 
 /// [`run`], handing every tick's core input, every arm command and every
@@ -186,22 +194,51 @@ pub fn run_recorded<S: Sensor>(
     sink: &mut impl EventSink,
     recorder: &mut dyn SessionRecorder,
 ) -> Result<RunReport, RunError> {
-    run_with(config, sensor, arm, options, sink, Some(recorder), |tick| {
-        tick
-    })
+    let watchers = Watchers {
+        recorder: Some(recorder),
+        observer: None,
+    };
+    run_with(config, sensor, arm, options, sink, watchers, |tick| tick)
+}
+
+/// Who else watches a run from the telemetry thread, besides its event
+/// sink: the session recorder (`run --record`) and an observer (the
+/// display).
+#[derive(Default)]
+pub struct Watchers<'a> {
+    /// Gets every tick's core input, arm command and event.
+    pub recorder: Option<&'a mut dyn SessionRecorder>,
+    /// Gets every record and event (after the sink and the recorder).
+    pub observer: Option<&'a mut dyn TelemetryObserver>,
+}
+
+/// [`run`], with `watchers` on the telemetry thread.
+pub fn run_watched<S: Sensor>(
+    config: &CoreConfig,
+    sensor: S,
+    arm: Box<dyn Arm>,
+    options: &RunOptions,
+    sink: &mut impl EventSink,
+    watchers: Watchers<'_>,
+) -> Result<RunReport, RunError> {
+    run_with(config, sensor, arm, options, sink, watchers, |tick| tick)
 }
 
 /// [`run`], with the production tick wrapped by `wrap` (as `bench
-/// latency` interleaves reference ticks), and a recorder if given.
+/// latency` interleaves reference ticks), and `watchers`.
 pub fn run_with<S: Sensor, W: TickWork + 'static>(
     config: &CoreConfig,
     sensor: S,
     arm: Box<dyn Arm>,
     options: &RunOptions,
     sink: &mut impl EventSink,
-    mut recorder: Option<&mut dyn SessionRecorder>,
+    watchers: Watchers<'_>,
     wrap: impl FnOnce(ControlTick<S::Samples>) -> W + Send + 'static,
 ) -> Result<RunReport, RunError> {
+    let Watchers {
+        mut recorder,
+        mut observer,
+    } = watchers;
     let Rings {
         outputs,
         mut arm_rx,
@@ -303,6 +340,9 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
             if let Some(recorder) = recorder.as_deref_mut() {
                 recorder.event(&event);
             }
+            if let Some(observer) = observer.as_deref_mut() {
+                observer.event(&event);
+            }
         }
         if let (Some(recorder), Some(rx)) = (recorder.as_deref_mut(), recorded_rx.as_mut()) {
             while let Ok(command) = rx.pop() {
@@ -325,6 +365,12 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
                     recorder.input(&record.input);
                 }
             }
+            if let Some(observer) = observer.as_deref_mut() {
+                observer.record(&record);
+            }
+        }
+        if let Some(observer) = observer.as_deref_mut() {
+            observer.drained();
         }
     };
     while !control.is_finished() {
@@ -386,6 +432,7 @@ pub fn run_with<S: Sensor, W: TickWork + 'static>(
         cpu_percent,
         errors,
         recording: None,
+        display: None,
         arm_measured,
         measured_poses: result.work.measured_poses,
         measured_pose_drops: arm.feedback_drops,

@@ -14,7 +14,7 @@ use crate::rt::control_loop::{StopReason, TickOutcome, TickWork, WorkSummary};
 use crate::rt::report::RunReport;
 use crate::rt::scheduler::Wake;
 use crate::rt::telemetry::{Drops, Percentiles, percentiles_line};
-use crate::rt::threads::{RunError, RunOptions, run_with};
+use crate::rt::threads::{RunError, RunOptions, Watchers, run_with};
 use crate::sensor::Sensor;
 
 /// Alternates blocks of `block` reference ticks (nothing but the wait) and
@@ -83,7 +83,7 @@ pub fn bench_latency<S: Sensor>(
         arm,
         &options,
         &mut |_: &TimedEvent| {},
-        None,
+        Watchers::default(),
         move |tick| Interleaved::new(tick.with_own_tick_count(), block),
     )
 }

@@ -230,7 +230,7 @@ fn start_env() -> String {
 
 /// `sipnpuff run --arm ARM --json ARGS` with the stand-in's env.
 fn command(arm: &str, config: &Path, log: &Path, env: &[(&str, &str)], args: &[&str]) -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
+    let mut command = crate::common::sipnpuff();
     command
         .args(["run", "--arm", arm, "--json", "--config"])
         .arg(config)

@@ -210,7 +210,7 @@ impl Graph {
 
     /// `sipnpuff run --arm ros1:NS ARGS` in this graph.
     fn sipnpuff(&self, config: &str, args: &[&str]) -> Running {
-        let mut command = Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
+        let mut command = crate::common::sipnpuff();
         command.args([
             "run",
             "--config",
@@ -542,7 +542,7 @@ fn no_master_is_a_clear_error() {
         std::fs::write(&config, "[arm]\nconnect_timeout_ms = 60000\n").unwrap();
         let port = free_port();
         let run = |uri: Option<&str>| {
-            let mut command = Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
+            let mut command = crate::common::sipnpuff();
             command.args([
                 "run",
                 "--config",

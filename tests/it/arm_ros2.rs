@@ -246,7 +246,7 @@ struct Outcome {
 /// Starts `sipnpuff run` with `args` (as a user would: real-time
 /// priority where the machine grants it).
 fn spawn_run(args: &[&str]) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+    crate::common::sipnpuff()
         .arg("run")
         .args(args)
         .stdout(Stdio::piped())

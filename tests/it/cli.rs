@@ -3,14 +3,14 @@
 //! that fails mid-run stops the arm and says where, and the `--json`
 //! outputs carry every field of their structs.
 
-use std::process::{Command, Output};
+use std::process::Output;
 
 use sipnpuff::config::Config;
 
 use crate::common::{Running, fixture};
 
 fn sipnpuff(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+    crate::common::sipnpuff()
         .args(args)
         .output()
         .expect("the sipnpuff binary runs")
@@ -433,7 +433,7 @@ fn run_onto_a_full_disk_stops_safely_and_fails() {
         .write(true)
         .open("/dev/full")
         .unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+    let out = crate::common::sipnpuff()
         .args(LONG_RUN)
         .stdout(full)
         .output()
@@ -454,7 +454,7 @@ fn run_onto_a_full_disk_stops_safely_and_fails() {
 fn with_closed(args: &[&str], close_stderr: bool) -> Output {
     let (reader, writer) = std::io::pipe().unwrap();
     drop(reader);
-    let mut command = Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
+    let mut command = crate::common::sipnpuff();
     command.args(args);
     if close_stderr {
         command.stderr(writer);

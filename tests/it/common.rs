@@ -78,6 +78,14 @@ pub fn paper_config() -> Config {
     Config::from_file(&fixture("paper-example.toml")).expect("the paper's example config")
 }
 
+/// The real binary, without the display (tests run in parallel: they
+/// would all want its port); a test of the display removes the variable.
+pub fn sipnpuff() -> std::process::Command {
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
+    command.env("SIPNPUFF_NO_DISPLAY", "1");
+    command
+}
+
 /// The real binary, its stdout lines arriving on a channel (stderr piped).
 pub struct Running {
     /// The process.
@@ -91,7 +99,7 @@ pub struct Running {
 impl Running {
     /// Starts `sipnpuff` with `args`.
     pub fn spawn(args: &[&str]) -> Running {
-        let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
+        let mut command = sipnpuff();
         command.args(args);
         Running::start(command)
     }

@@ -19,6 +19,8 @@ mod arm_ros1;
 mod arm_ros2;
 mod cli;
 mod common;
+mod display;
+mod display_browser;
 mod faults;
 mod golden;
 mod motion;

@@ -6,7 +6,7 @@
 //! format round-tripped for any input.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::time::Duration;
 
 use proptest::prelude::*;
@@ -28,7 +28,7 @@ use sipnpuff::tools::recording::writer::RecordOptions;
 use crate::common::{Running, fixture};
 
 fn sipnpuff(args: &[&str]) -> Output {
-    let output = Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+    let output = crate::common::sipnpuff()
         .args(args)
         .output()
         .expect("the sipnpuff binary runs");

@@ -215,7 +215,7 @@ fn ten_seconds_of_running_allocate_nothing_on_the_control_thread() {
 }
 
 fn binary() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+    crate::common::sipnpuff()
 }
 
 #[test]
@@ -262,6 +262,7 @@ fn a_user_without_privileges_runs_and_is_told_what_it_lacks() {
         let mut c = Command::new("setpriv");
         c.args(["--reuid=65534", "--regid=65534", "--clear-groups", "--"]);
         c.arg(env!("CARGO_BIN_EXE_sipnpuff"));
+        c.env("SIPNPUFF_NO_DISPLAY", "1");
         c
     } else {
         binary()

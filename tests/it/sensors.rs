@@ -304,7 +304,7 @@ fn missing_devices_and_wrong_forms_are_clear_errors() {
             "no such file or device",
         ),
     ] {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+        let out = crate::common::sipnpuff()
             .args(["run", "--sensor", sensor])
             .output()
             .unwrap();
@@ -312,7 +312,7 @@ fn missing_devices_and_wrong_forms_are_clear_errors() {
         assert_eq!(out.status.code(), Some(1), "{sensor}: {stderr}");
         assert!(stderr.contains(says), "{sensor}: {stderr}");
     }
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_sipnpuff"))
+    let out = crate::common::sipnpuff()
         .args(["run", "--sensor", "usb:0"])
         .output()
         .unwrap();

@@ -108,6 +108,20 @@ impl<I: SequenceIndex> SequenceMatcher<I> {
         &self.cs
     }
 
+    /// When the current sequence is decided if nothing more is breathed
+    /// (a breath in progress delays it); `None` with nothing entered.
+    /// RT-safe.
+    pub fn decides_at(&self) -> Option<Tick> {
+        (!self.cs.is_empty()).then(|| self.last_end.saturating_add(self.timeout))
+    }
+
+    /// The mode that decision selects (the sequence is complete and a
+    /// longer one starts with it); `None`: it resets. RT-safe.
+    pub fn pending(&self) -> Option<Mode> {
+        self.pending
+            .and_then(|entry| self.modes.get(entry).copied())
+    }
+
     /// Appends a finished burst to the current sequence. RT-safe.
     pub fn on_burst(&mut self, burst: &Burst) -> Option<MatchEvent> {
         self.last_end = burst.end;

@@ -1,0 +1,632 @@
+//! What the display shows, built on the telemetry side from each tick's
+//! record (the core's [`CoreView`] and the sample) and the events. Pure:
+//! the same records and events give the same frames, so it is tested with
+//! simulated ticks. The page, the terminal view and the tests all draw
+//! the same [`Frame`]; [`Setup`] is what does not change during a run.
+
+use serde::Serialize;
+
+use crate::control::Tick;
+use crate::control::action::{Action, ActionSeq, Breath};
+use crate::control::core_config::CoreConfig;
+use crate::control::event::{Event, TimedEvent};
+use crate::control::mode::{Direction, Mode, ModeState};
+use crate::control::modes::DetectionReason;
+use crate::control::motion::MotionEvent;
+use crate::control::motion::workspace::Boundary;
+use crate::control::selection::Interface;
+use crate::control::view::CoreView;
+use crate::rt::telemetry::{CoreSample, TickRecord};
+
+/// One breath of a sequence, as the page draws it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Symbol {
+    /// `sip` or `puff`.
+    pub breath: &'static str,
+    /// A long one.
+    pub long: bool,
+}
+
+impl Symbol {
+    fn of(action: Action) -> Symbol {
+        Symbol {
+            breath: breath_name(action.breath()),
+            long: action.is_long(),
+        }
+    }
+}
+
+fn breath_name(breath: Breath) -> &'static str {
+    match breath {
+        Breath::Sip => "sip",
+        Breath::Puff => "puff",
+    }
+}
+
+fn symbols(sequence: &ActionSeq) -> Vec<Symbol> {
+    sequence.as_slice().iter().map(|&a| Symbol::of(a)).collect()
+}
+
+/// A mode as listed on the screen.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModeEntry {
+    /// Its config name (`translate_x`).
+    pub mode: &'static str,
+    /// What a person reads (`Forward / back`).
+    pub label: &'static str,
+    /// What puff and sip do.
+    pub description: &'static str,
+    /// Its sequences (ASP), in library order; indices into
+    /// [`Frame::candidates`] are `(mode index, sequence index)` flattened
+    /// as [`Setup::sequences`].
+    pub sequences: Vec<Vec<Symbol>>,
+}
+
+/// What does not change during a run: sent once to each page.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Setup {
+    /// `asp` (sequences) or `bsp` (scanning).
+    pub interface: &'static str,
+    /// The modes in the order the screen lists them: the library's order
+    /// of first appearance (ASP) or the scan order (BSP).
+    pub modes: Vec<ModeEntry>,
+    /// Every library sequence with its mode, in library order (the
+    /// indices of [`Frame::candidates`]).
+    pub sequences: Vec<LibrarySequence>,
+    /// The neutral, puff and sip thresholds and the hysteresis, volts, as
+    /// configured (the frame carries the tracked neutral).
+    pub puff_offset_volts: f64,
+    /// Sip threshold minus neutral (negative).
+    pub sip_offset_volts: f64,
+    /// The hysteresis band, volts.
+    pub hysteresis_volts: f64,
+    /// A breath this long or longer is long, ms.
+    pub long_ms: u32,
+    /// How long the matcher waits for the next breath, ms.
+    pub sequence_timeout_ms: u32,
+    /// How long command mode waits before returning to selection, ms.
+    pub inactivity_ms: u32,
+    /// Scan dwell, ms (BSP).
+    pub dwell_ms: u32,
+    /// First dwell of a scan, ms (BSP).
+    pub first_dwell_ms: u32,
+    /// The arm, in words (`simulated JACO`, `ROS 1 at /j2n6s300_driver`).
+    pub arm: String,
+}
+
+/// A sequence of the library.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LibrarySequence {
+    /// The mode it selects.
+    pub mode: &'static str,
+    /// Its breaths.
+    pub symbols: Vec<Symbol>,
+}
+
+/// The matcher waiting for the next breath.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Waiting {
+    /// Time left before it decides, ms (frozen while a breath is held).
+    pub ms_left: u64,
+    /// The whole wait, ms.
+    pub total_ms: u32,
+    /// The mode it selects then (the sequence is complete but a longer
+    /// one starts with it); `None`: the sequence is dropped.
+    pub selects: Option<&'static str>,
+}
+
+/// The scan's highlight (BSP).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Highlight {
+    /// The mode highlighted.
+    pub mode: &'static str,
+    /// Time it stays highlighted, ms.
+    pub ms_left: u64,
+    /// Its whole dwell, ms.
+    pub dwell_ms: u32,
+}
+
+/// Command mode.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Command {
+    /// The mode.
+    pub mode: &'static str,
+    /// The motion, in words (`forward`, `close fingers`, `stopped`).
+    pub moving: &'static str,
+    /// Which arrow to draw: `forward`, `back`, `left`, `right`, `up`,
+    /// `down`, `turn_positive`, `turn_negative`, `open`, `close`, `save`,
+    /// `goto` or `none`.
+    pub arrow: &'static str,
+    /// Time before the return to selection, ms.
+    pub returns_in_ms: u64,
+    /// A breath is held: the countdown waits.
+    pub countdown_paused: bool,
+}
+
+/// The pressure bar.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Pressure {
+    /// The sample, volts (`None`: no sample this tick).
+    pub volts: Option<f64>,
+    /// The tracked neutral, volts.
+    pub neutral_volts: f64,
+    /// The breath held: `sip` or `puff`.
+    pub held: Option<&'static str>,
+    /// For how long, ms (against [`Setup::long_ms`]).
+    pub held_ms: u64,
+}
+
+/// A line of plain words for the user.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Notice {
+    /// `fault`, `limit` or `info`: how it is drawn.
+    pub level: &'static str,
+    /// The words.
+    pub text: String,
+}
+
+/// Everything the screen shows at one moment.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Frame {
+    /// The tick it shows.
+    pub tick: Tick,
+    /// `selecting`, `command` or `stopped` (faulted arm or the run
+    /// stopping: nothing will be selected again).
+    pub state: &'static str,
+    /// ASP: the sequence entered so far.
+    pub sequence: Vec<Symbol>,
+    /// ASP: the library sequences (indices into [`Setup::sequences`]) the
+    /// current sequence can still become (all of them when it is empty).
+    pub candidates: Vec<usize>,
+    /// ASP: the matcher's wait for the next breath.
+    pub waiting: Option<Waiting>,
+    /// BSP: the scan's highlight.
+    pub highlight: Option<Highlight>,
+    /// The mode selected last (lit until the next selection starts).
+    pub selected: Option<&'static str>,
+    /// Command mode.
+    pub command: Option<Command>,
+    /// The pressure bar.
+    pub pressure: Pressure,
+    /// Faults, limits and other news, most important first.
+    pub notices: Vec<Notice>,
+    /// The saved point: `none`, `set` or `reached`.
+    pub saved_point: &'static str,
+    /// The arm: `connected` or `fault`.
+    pub arm: &'static str,
+}
+
+/// A sound the page plays.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Cue {
+    /// A mode was selected.
+    Match,
+    /// Back to selection (inactivity).
+    Selection,
+    /// A sensor or arm fault.
+    Fault,
+    /// Motion stopped at a limit.
+    Limit,
+}
+
+/// The screen's state: fed records and events, gives frames and cues.
+#[derive(Debug, Clone)]
+pub struct Screen {
+    setup: Setup,
+    library: Vec<ActionSeq>,
+    view: CoreView,
+    tick: Tick,
+    volts: Option<f64>,
+    highlight_since: Tick,
+    highlight_dwell: u32,
+    selected: Option<Mode>,
+    sensor_fault: Option<String>,
+    arm_fault: Option<String>,
+    limit: Option<(String, Direction, ModeState)>,
+    saved: &'static str,
+    news: Option<(String, Tick)>,
+    stopping: bool,
+}
+
+/// How long a piece of news (`point saved`, `nothing saved yet`) stays up, ms.
+const NEWS_MS: u64 = 4000;
+
+impl Screen {
+    /// The screen for a run of `config` with `arm` (in words).
+    pub fn new(config: &CoreConfig, arm: &str) -> Screen {
+        let detector = config.detector();
+        let scanning = config.scanning();
+        let interface = config.interface();
+        let order: Vec<Mode> = match interface {
+            Interface::Asp => {
+                let mut order = Vec::new();
+                for entry in config.sequences() {
+                    if !order.contains(&entry.mode) {
+                        order.push(entry.mode);
+                    }
+                }
+                order
+            }
+            Interface::Bsp => scanning.modes().to_vec(),
+        };
+        let sequences_of = |mode: Mode| -> Vec<Vec<Symbol>> {
+            if interface == Interface::Bsp {
+                return Vec::new();
+            }
+            config
+                .sequences()
+                .iter()
+                .filter(|e| e.mode == mode)
+                .map(|e| symbols(&e.actions))
+                .collect()
+        };
+        let setup = Setup {
+            interface: match interface {
+                Interface::Asp => "asp",
+                Interface::Bsp => "bsp",
+            },
+            modes: order
+                .iter()
+                .map(|&mode| ModeEntry {
+                    mode: mode.name(),
+                    label: label(mode),
+                    description: mode.description(),
+                    sequences: sequences_of(mode),
+                })
+                .collect(),
+            sequences: if interface == Interface::Asp {
+                config
+                    .sequences()
+                    .iter()
+                    .map(|e| LibrarySequence {
+                        mode: e.mode.name(),
+                        symbols: symbols(&e.actions),
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            },
+            puff_offset_volts: detector.puff_threshold_volts - detector.neutral_volts,
+            sip_offset_volts: detector.sip_threshold_volts - detector.neutral_volts,
+            hysteresis_volts: detector.hysteresis_volts,
+            long_ms: detector.long_burst_ms,
+            sequence_timeout_ms: config.matcher().sequence_timeout_ms,
+            inactivity_ms: config.command().inactivity_timeout_ms,
+            dwell_ms: scanning.dwell_ms,
+            first_dwell_ms: scanning.first_dwell_ms,
+            arm: arm.to_string(),
+        };
+        Screen {
+            library: if interface == Interface::Asp {
+                config.sequences().iter().map(|e| e.actions).collect()
+            } else {
+                Vec::new()
+            },
+            setup,
+            view: CoreView {
+                neutral_volts: detector.neutral_volts,
+                ..CoreView::default()
+            },
+            tick: 0,
+            volts: None,
+            highlight_since: 0,
+            highlight_dwell: 0,
+            selected: None,
+            sensor_fault: None,
+            arm_fault: None,
+            limit: None,
+            saved: "none",
+            news: None,
+            stopping: false,
+        }
+    }
+
+    /// What does not change.
+    pub fn setup(&self) -> &Setup {
+        &self.setup
+    }
+
+    /// Takes in one tick's record (a reference tick of `bench latency`
+    /// is not the core's and is ignored).
+    pub fn observe(&mut self, record: &TickRecord) {
+        if record.reference {
+            return;
+        }
+        let view = record.view;
+        if view.highlighted != self.view.highlighted {
+            self.highlight_since = record.tick;
+            // A scan (re)starts on its first mode with the longer dwell.
+            self.highlight_dwell = if self.view.highlighted.is_none() {
+                self.setup.first_dwell_ms
+            } else {
+                self.setup.dwell_ms
+            };
+        }
+        if view.state != self.view.state
+            || view.direction != self.view.direction && view.direction != Direction::Still
+        {
+            self.limit = None;
+        }
+        if !view.sequence.is_empty() || view.held.is_some() && view.state == ModeState::Detection {
+            // A new selection has begun: the last one is no longer lit.
+            if !matches!(view.state, ModeState::Command(_)) {
+                self.selected = None;
+            }
+        }
+        if !view.sensor_faulted {
+            self.sensor_fault = None;
+        }
+        self.view = view;
+        self.tick = record.tick;
+        self.volts = match record.input.sample {
+            CoreSample::Volts(v) if v.is_finite() => Some(v),
+            _ => None,
+        };
+        if self
+            .news
+            .as_ref()
+            .is_some_and(|(_, at)| record.tick.saturating_sub(*at) >= NEWS_MS)
+        {
+            self.news = None;
+        }
+    }
+
+    /// Takes in one event; returns the sound it calls for.
+    pub fn event(&mut self, event: &TimedEvent) -> Option<Cue> {
+        let tick = event.tick;
+        match &event.event {
+            Event::Match { mode, .. } => {
+                self.selected = Some(*mode);
+                Some(Cue::Match)
+            }
+            Event::Detection { reason } => match reason {
+                DetectionReason::Inactivity => Some(Cue::Selection),
+                DetectionReason::Stop => {
+                    self.stopping = true;
+                    None
+                }
+                DetectionReason::Fault => None,
+            },
+            Event::Fault { reason } => {
+                // Said with what it means for the arm (nothing moves).
+                let reason = reason.to_string();
+                self.sensor_fault = Some(if reason.ends_with("arm stopped") {
+                    reason
+                } else {
+                    format!("{reason} — arm stopped")
+                });
+                Some(Cue::Fault)
+            }
+            Event::Recovered | Event::Rezeroed { .. } => {
+                self.sensor_fault = None;
+                None
+            }
+            Event::ArmFault { reason } => {
+                self.arm_fault = Some(format!("arm: {reason} — arm stopped"));
+                Some(Cue::Fault)
+            }
+            Event::Motion(motion) => self.motion_event(motion, tick),
+            Event::Burst(_) | Event::Reset { .. } | Event::Highlight { .. } => None,
+        }
+    }
+
+    fn motion_event(&mut self, event: &MotionEvent, tick: Tick) -> Option<Cue> {
+        match event {
+            MotionEvent::WorkspaceLimit { boundary } => {
+                self.limit = Some((
+                    limit_words(*boundary).to_string(),
+                    self.view.direction,
+                    self.view.state,
+                ));
+                Some(Cue::Limit)
+            }
+            MotionEvent::Saved { .. } => {
+                self.saved = "set";
+                self.news = Some(("point saved".into(), tick));
+                None
+            }
+            MotionEvent::GotoReached | MotionEvent::AlreadyAtSavedPoint => {
+                self.saved = "reached";
+                self.news = Some(("saved point reached".into(), tick));
+                None
+            }
+            MotionEvent::GotoStarted { .. } => {
+                self.saved = "set";
+                None
+            }
+            MotionEvent::NoSavedPoint => {
+                self.news = Some(("no point saved yet: save one first".into(), tick));
+                None
+            }
+            MotionEvent::TrajectoryError => {
+                self.news = Some(("motion error: braking".into(), tick));
+                Some(Cue::Fault)
+            }
+            MotionEvent::PoseCorrected { .. } => None,
+        }
+    }
+
+    /// The screen now.
+    pub fn frame(&self) -> Frame {
+        let view = &self.view;
+        let now = self.tick;
+        let held_ms = view
+            .held
+            .map_or(0, |(_, start)| now.saturating_sub(start) + 1);
+        let stopped = view.arm_faulted || self.stopping;
+        let sequence = view.sequence;
+        let candidates = (0..self.library.len())
+            .filter(|&i| {
+                self.library
+                    .get(i)
+                    .is_some_and(|s| starts_with(s, &sequence))
+            })
+            .collect();
+        let waiting = view.decides_at.map(|at| Waiting {
+            ms_left: if view.held.is_some() {
+                u64::from(self.setup.sequence_timeout_ms)
+            } else {
+                at.saturating_sub(now)
+            },
+            total_ms: self.setup.sequence_timeout_ms,
+            selects: view.pending.map(Mode::name),
+        });
+        // The scan runs in detection mode only.
+        let scanning = view.state == ModeState::Detection && !stopped;
+        let highlight = view.highlighted.filter(|_| scanning).map(|mode| Highlight {
+            mode: mode.name(),
+            ms_left: (self.highlight_since + u64::from(self.highlight_dwell)).saturating_sub(now),
+            dwell_ms: self.highlight_dwell,
+        });
+        let command = match view.state {
+            ModeState::Command(mode) => Some(Command {
+                mode: mode.name(),
+                moving: moving_words(mode, view.direction),
+                arrow: arrow(mode, view.direction),
+                returns_in_ms: view.returns_at.map_or(0, |at| at.saturating_sub(now)),
+                countdown_paused: view.held.is_some(),
+            }),
+            ModeState::Detection => None,
+        };
+        let mut notices = Vec::new();
+        if let Some(text) = &self.arm_fault {
+            notices.push(Notice {
+                level: "fault",
+                text: text.clone(),
+            });
+        }
+        if let Some(text) = &self.sensor_fault {
+            notices.push(Notice {
+                level: "fault",
+                text: text.clone(),
+            });
+        }
+        if let Some((text, _, _)) = &self.limit {
+            notices.push(Notice {
+                level: "limit",
+                text: text.clone(),
+            });
+        }
+        if self.stopping && !view.arm_faulted {
+            notices.push(Notice {
+                level: "info",
+                text: "stopping — the arm brakes to rest".into(),
+            });
+        }
+        if let Some((text, _)) = &self.news {
+            notices.push(Notice {
+                level: "info",
+                text: text.clone(),
+            });
+        }
+        Frame {
+            tick: now,
+            state: if stopped {
+                "stopped"
+            } else if command.is_some() {
+                "command"
+            } else {
+                "selecting"
+            },
+            sequence: symbols(&sequence),
+            candidates,
+            waiting,
+            highlight,
+            selected: self.selected.map(Mode::name),
+            command,
+            pressure: Pressure {
+                volts: self.volts,
+                neutral_volts: view.neutral_volts,
+                held: view.held.map(|(b, _)| breath_name(b)),
+                held_ms,
+            },
+            notices,
+            saved_point: self.saved,
+            arm: if view.arm_faulted {
+                "fault"
+            } else {
+                "connected"
+            },
+        }
+    }
+}
+
+/// `sequence` starts with `prefix`.
+fn starts_with(sequence: &ActionSeq, prefix: &ActionSeq) -> bool {
+    sequence.as_slice().starts_with(prefix.as_slice())
+}
+
+/// A mode's name for people.
+pub fn label(mode: Mode) -> &'static str {
+    match mode {
+        Mode::TranslateX => "Forward / back",
+        Mode::TranslateY => "Left / right",
+        Mode::TranslateZ => "Up / down",
+        Mode::RotateX => "Turn about x",
+        Mode::RotateY => "Turn about y",
+        Mode::RotateZ => "Turn about z",
+        Mode::Fingers => "Fingers",
+        Mode::SavePoint => "Save point",
+        Mode::GotoPoint => "Go to point",
+    }
+}
+
+/// The motion in words.
+fn moving_words(mode: Mode, direction: Direction) -> &'static str {
+    use Direction::{Negative, Positive, Still};
+    match (mode, direction) {
+        (_, Still) => "stopped",
+        (Mode::TranslateX, Positive) => "forward",
+        (Mode::TranslateX, Negative) => "back",
+        (Mode::TranslateY, Positive) => "left",
+        (Mode::TranslateY, Negative) => "right",
+        (Mode::TranslateZ, Positive) => "up",
+        (Mode::TranslateZ, Negative) => "down",
+        (Mode::RotateX, Positive) => "turning about x (+)",
+        (Mode::RotateX, Negative) => "turning about x (−)",
+        (Mode::RotateY, Positive) => "turning about y (+)",
+        (Mode::RotateY, Negative) => "turning about y (−)",
+        (Mode::RotateZ, Positive) => "turning about z (+)",
+        (Mode::RotateZ, Negative) => "turning about z (−)",
+        (Mode::Fingers, Positive) => "open fingers",
+        (Mode::Fingers, Negative) => "close fingers",
+        (Mode::SavePoint, _) => "saving the point",
+        (Mode::GotoPoint, Positive) => "going to the saved point",
+        (Mode::GotoPoint, Negative) => "stopped",
+    }
+}
+
+/// The arrow drawn for the motion.
+fn arrow(mode: Mode, direction: Direction) -> &'static str {
+    use Direction::{Negative, Positive, Still};
+    match (mode, direction) {
+        (_, Still) => "none",
+        (Mode::TranslateX, Positive) => "forward",
+        (Mode::TranslateX, Negative) => "back",
+        (Mode::TranslateY, Positive) => "left",
+        (Mode::TranslateY, Negative) => "right",
+        (Mode::TranslateZ, Positive) => "up",
+        (Mode::TranslateZ, Negative) => "down",
+        (Mode::RotateX | Mode::RotateY | Mode::RotateZ, Positive) => "turn_positive",
+        (Mode::RotateX | Mode::RotateY | Mode::RotateZ, Negative) => "turn_negative",
+        (Mode::Fingers, Positive) => "open",
+        (Mode::Fingers, Negative) => "close",
+        (Mode::SavePoint, _) => "save",
+        (Mode::GotoPoint, Positive) => "goto",
+        (Mode::GotoPoint, Negative) => "none",
+    }
+}
+
+/// A workspace limit in plain words.
+fn limit_words(boundary: Boundary) -> &'static str {
+    match boundary {
+        Boundary::Reach => "reach limit: the arm is as far out as it goes",
+        Boundary::Base => "too close to the arm's base",
+        Boundary::Table => "table reached",
+        Boundary::FingersOpen => "fingers fully open",
+        Boundary::FingersClosed => "fingers fully closed",
+        Boundary::Tilt => "tilt limit reached",
+        Boundary::Twist => "twist limit reached",
+    }
+}

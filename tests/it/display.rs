@@ -1,0 +1,258 @@
+//! The display's frames, built from the core's records and events with
+//! simulated ticks: what the user sees at each moment of a scripted
+//! session (ASP with the paper's prefixes, BSP's scan, command mode,
+//! faults), with the values the configuration fixes.
+
+use sipnpuff::config::Config;
+use sipnpuff::control::Tick;
+use sipnpuff::control::action::Breath;
+use sipnpuff::control::event::{Event, TimedEvent};
+use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::display::screen::{Cue, Frame, Screen};
+use sipnpuff::rt::telemetry::{CoreInput, CoreSample, TickRecord};
+use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
+
+use crate::common;
+
+/// The core and the screen, stepped together one simulated tick at a time
+/// as the telemetry side sees them.
+struct Session {
+    core: Pipeline,
+    screen: Screen,
+    samples: Vec<f64>,
+    tick: Tick,
+    cues: Vec<(Tick, Cue)>,
+    events: Vec<TimedEvent>,
+}
+
+impl Session {
+    fn new(config: &Config, script: &[Step]) -> Session {
+        let params = SignalParams::clean(config.core().detector(), 1);
+        Session {
+            core: Pipeline::new(config.core()),
+            screen: Screen::new(config.core(), "simulated JACO"),
+            samples: SignalGenerator::new(params, script).collect(),
+            tick: 0,
+            cues: Vec::new(),
+            events: Vec::new(),
+        }
+    }
+
+    /// Steps until `tick` (inclusive), feeding `sample` where the script
+    /// has ended; returns the frame then.
+    fn frame_at(&mut self, tick: Tick) -> Frame {
+        while self.tick <= tick {
+            let volts = self.samples.get(self.tick as usize).copied().unwrap_or(2.5);
+            let sample = CoreSample::Volts(volts);
+            let out = sample.step(&mut self.core, self.tick);
+            let record = TickRecord {
+                tick: self.tick,
+                input: CoreInput {
+                    tick: self.tick,
+                    sample,
+                    ..CoreInput::default()
+                },
+                view: self.core.view(),
+                ..TickRecord::default()
+            };
+            self.screen.observe(&record);
+            for event in out.events.iter() {
+                let timed = TimedEvent {
+                    tick: self.tick,
+                    event: *event,
+                };
+                if let Some(cue) = self.screen.event(&timed) {
+                    self.cues.push((self.tick, cue));
+                }
+                self.events.push(timed);
+            }
+            self.tick += 1;
+        }
+        self.screen.frame()
+    }
+
+    /// The end tick of the `n`th burst (0-based).
+    fn burst_end(&self, n: usize) -> Tick {
+        self.events
+            .iter()
+            .filter_map(|e| match e.event {
+                Event::Burst(b) => Some(b.end),
+                _ => None,
+            })
+            .nth(n)
+            .expect("the burst was detected")
+    }
+}
+
+fn sip(ms: u32) -> Step {
+    Step::Breath {
+        breath: Breath::Sip,
+        ms,
+    }
+}
+
+fn puff(ms: u32) -> Step {
+    Step::Breath {
+        breath: Breath::Puff,
+        ms,
+    }
+}
+
+fn rest(ms: u32) -> Step {
+    Step::Rest { ms }
+}
+
+fn names(frame: &Frame) -> Vec<String> {
+    frame
+        .sequence
+        .iter()
+        .map(|s| format!("{}{}", if s.long { "long " } else { "short " }, s.breath))
+        .collect()
+}
+
+/// The paper's example: S1 = <1, 2, −1> (translate_x), S2 = <1, 2>
+/// (translate_y), S3 = <2, 1> (translate_z). After <1, 2> the matcher
+/// waits 1000 ms for a −1 before selecting S2: the page shows the wait.
+#[test]
+fn asp_shows_the_sequence_the_sequences_still_possible_and_the_wait_on_a_prefix() {
+    let config = common::paper_config();
+    let script = [
+        rest(500),
+        sip(150),
+        rest(300),
+        sip(700),
+        rest(1500),
+        puff(800),
+        rest(2500),
+    ];
+    let mut s = Session::new(&config, &script);
+
+    // Nothing breathed: every sequence is possible, nothing waits.
+    let start = s.frame_at(100);
+    assert_eq!(start.state, "selecting");
+    assert_eq!(start.candidates, [0, 1, 2]);
+    assert!(start.sequence.is_empty() && start.waiting.is_none());
+    let setup = s.screen.setup();
+    assert_eq!(setup.interface, "asp");
+    let listed: Vec<&str> = setup.modes.iter().map(|m| m.mode).collect();
+    assert_eq!(listed, ["translate_x", "translate_y", "translate_z"]);
+    assert_eq!(setup.long_ms, 500);
+
+    // The short sip: S1 and S2 start with it and stay lit; S3 dims. The
+    // matcher would drop <1> (no sequence is <1>) 1000 ms after it ended.
+    let first_end_guess = 500 + 150 + 60;
+    let f = s.frame_at(first_end_guess);
+    let end = s.burst_end(0);
+    assert_eq!(names(&f), ["short sip"]);
+    assert_eq!(f.candidates, [0, 1]);
+    let waiting = f.waiting.expect("waits for the next breath");
+    assert_eq!(waiting.ms_left, end + 1000 - first_end_guess);
+    assert_eq!((waiting.total_ms, waiting.selects), (1000, None));
+
+    // Holding the long sip: the bar shows a sip held for as long as it has
+    // been, and the wait is frozen at its whole length.
+    let holding = s.frame_at(end + 300 + 400);
+    assert_eq!(holding.pressure.held, Some("sip"));
+    let start_of_hold = s.core.view().held.map(|(_, t)| t).expect("the sip is held");
+    assert_eq!(holding.pressure.held_ms, end + 700 - start_of_hold + 1);
+    assert_eq!(holding.waiting.unwrap().ms_left, 1000);
+
+    // <1, 2>: S2 is complete, S1 could still follow: the page says which
+    // mode the wait selects and how long is left.
+    let after = s.frame_at(end + 300 + 700 + 100);
+    let second_end = s.burst_end(1);
+    assert_eq!(names(&after), ["short sip", "long sip"]);
+    assert_eq!(after.candidates, [0, 1]);
+    let waiting = after.waiting.unwrap();
+    assert_eq!(waiting.selects, Some("translate_y"));
+    assert_eq!(waiting.ms_left, second_end + 1000 - (end + 1100));
+
+    // The wait runs out: translate_y is selected and lit, command mode.
+    let selected = s.frame_at(second_end + 1000);
+    assert_eq!(selected.state, "command");
+    assert_eq!(selected.selected, Some("translate_y"));
+    let command = selected.command.unwrap();
+    assert_eq!((command.mode, command.moving), ("translate_y", "stopped"));
+    assert_eq!(command.returns_in_ms, 2000);
+    assert!(selected.sequence.is_empty() && selected.waiting.is_none());
+    assert_eq!(s.cues, [(second_end + 1000, Cue::Match)]);
+
+    // A puff held in translate_y moves left; the countdown waits.
+    let puff_start = second_end + 1500;
+    let moving = s.frame_at(puff_start + 400);
+    let command = moving.command.unwrap();
+    assert_eq!((command.moving, command.arrow), ("left", "left"));
+    assert!(command.countdown_paused);
+    assert_eq!(moving.pressure.held, Some("puff"));
+
+    // Released, the countdown runs from 2000 ms; at 0 the user is back in
+    // selection, with the selection sound.
+    s.frame_at(puff_start + 800 + 100);
+    let puff_end = s.burst_end(2);
+    let released = s.frame_at(puff_end + 500);
+    let command = released.command.unwrap();
+    assert_eq!(command.moving, "stopped");
+    assert!(!command.countdown_paused);
+    let back = s.frame_at(puff_end + 2100);
+    assert_eq!(back.state, "selecting");
+    assert!(back.command.is_none());
+    let (at, cue) = *s.cues.last().unwrap();
+    assert_eq!(cue, Cue::Selection);
+    assert!(at > puff_end && at <= puff_end + 2100, "{at}");
+    // The last selection stays lit until a new one begins.
+    assert_eq!(back.selected, Some("translate_y"));
+}
+
+/// BSP: the highlight moves with the core's scan (3000 ms on the first
+/// mode, then 1500 ms each), its time left shown; a puff enters it.
+#[test]
+fn bsp_highlight_moves_with_the_scan_and_a_puff_enters_it() {
+    let config = Config::from_toml_str("[interface]\nkind = \"bsp\"\n").unwrap();
+    let script = [rest(4000), puff(150), rest(3000)];
+    let mut s = Session::new(&config, &script);
+    let setup = s.screen.setup().clone();
+    assert_eq!(setup.interface, "bsp");
+    assert_eq!(setup.modes.len(), 9);
+    assert!(setup.modes.iter().all(|m| m.sequences.is_empty()));
+
+    let first = s.frame_at(1000);
+    let h = first.highlight.unwrap();
+    assert_eq!((h.mode, h.dwell_ms, h.ms_left), ("translate_x", 3000, 2000));
+    let second = s.frame_at(3500);
+    let h = second.highlight.unwrap();
+    assert_eq!((h.mode, h.dwell_ms, h.ms_left), ("translate_y", 1500, 1000));
+
+    // The puff began under translate_y (4000 ms < 4500): it enters it.
+    let after = s.frame_at(4400);
+    assert_eq!(after.state, "command");
+    assert_eq!(after.selected, Some("translate_y"));
+    assert!(after.highlight.is_none(), "no scan in command mode");
+    let matched: Vec<_> = s
+        .events
+        .iter()
+        .filter(|e| matches!(e.event, Event::Match { .. }))
+        .map(|e| (e.tick, Cue::Match))
+        .collect();
+    assert_eq!(matched.len(), 1);
+    assert_eq!(s.cues, matched, "one sound, at the match");
+}
+
+/// A sensor fault is said in plain words while it lasts, with the fault
+/// sound; the arm's connection is shown.
+#[test]
+fn a_sensor_fault_is_said_in_plain_words_until_it_clears() {
+    let config = common::paper_config();
+    let script = [rest(500), Step::Dropout { ms: 500 }, rest(3000)];
+    let mut s = Session::new(&config, &script);
+    let faulted = s.frame_at(700);
+    assert_eq!(faulted.notices.len(), 1, "{:?}", faulted.notices);
+    assert_eq!(faulted.notices[0].level, "fault");
+    assert_eq!(
+        faulted.notices[0].text,
+        "sensor sample is NaN — arm stopped"
+    );
+    assert_eq!(faulted.arm, "connected");
+    assert!(s.cues.iter().any(|&(_, c)| c == Cue::Fault));
+    let recovered = s.frame_at(3900);
+    assert!(recovered.notices.is_empty(), "{:?}", recovered.notices);
+}

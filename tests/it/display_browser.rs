@@ -1,0 +1,532 @@
+//! The display in a real browser: Debian's headless Chromium, driven
+//! through ChromeDriver (WebDriver), opens the page `sipnpuff run` serves
+//! while a scripted user breathes into the CSV sensor. At scripted moments
+//! (each marked by the run's own event on stdout) the page must show the
+//! expected mode, sequence, lit and dimmed sequences, scan highlight,
+//! direction and fault; a screenshot of each moment is kept in
+//! `target/screenshots/`. The run's report with the page open is compared
+//! with the same run without the display, and a client that never reads
+//! its stream is shown not to disturb the loop.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use serde_json::{Value, json};
+use sipnpuff::config::Config;
+use sipnpuff::control::action::Breath;
+use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step, write_csv};
+
+use crate::common::{self, Running};
+
+const CHROMIUM: &str = "/usr/bin/chromium";
+const CHROMEDRIVER: &str = "/usr/bin/chromedriver";
+
+fn sip(ms: u32) -> Step {
+    Step::Breath {
+        breath: Breath::Sip,
+        ms,
+    }
+}
+
+fn puff(ms: u32) -> Step {
+    Step::Breath {
+        breath: Breath::Puff,
+        ms,
+    }
+}
+
+fn rest(ms: u32) -> Step {
+    Step::Rest { ms }
+}
+
+/// Chromium and ChromeDriver are installed (tests/peers/browser/install.sh).
+fn have_browser(test: &str) -> bool {
+    let missing = [CHROMIUM, CHROMEDRIVER]
+        .iter()
+        .find(|p| !Path::new(p).exists())
+        .map(|p| format!("{p} is missing (bash tests/peers/browser/install.sh)"));
+    common::have_peer(test, missing)
+}
+
+/// A port free now on 127.0.0.1.
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+/// A scratch directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Where the screenshots go (CI keeps the directory).
+fn screenshots() -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/screenshots");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Writes `config` and the recording of `script` under `dir`.
+fn session_files(dir: &Path, config_toml: &str, script: &[Step]) -> (PathBuf, PathBuf) {
+    let config = Config::from_toml_str(config_toml).expect("the test's config");
+    let params = SignalParams::clean(config.core().detector(), 7);
+    let csv = dir.join("session.csv");
+    let mut out = std::io::BufWriter::new(std::fs::File::create(&csv).unwrap());
+    write_csv(&mut out, SignalGenerator::new(params, script)).unwrap();
+    out.flush().unwrap();
+    let toml = dir.join("config.toml");
+    std::fs::write(&toml, config_toml).unwrap();
+    (toml, csv)
+}
+
+/// A WebDriver session in headless Chromium.
+struct Browser {
+    driver: Child,
+    base: String,
+    session: String,
+}
+
+impl Browser {
+    fn start() -> Browser {
+        let port = free_port();
+        let driver = Command::new(CHROMEDRIVER)
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("chromedriver starts");
+        let base = format!("http://127.0.0.1:{port}");
+        let started = Instant::now();
+        while ureq::get(format!("{base}/status")).call().is_err() {
+            assert!(
+                started.elapsed() < Duration::from_secs(30),
+                "chromedriver did not answer on {base}"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let capabilities = json!({"capabilities": {"alwaysMatch": {
+            "browserName": "chrome",
+            "goog:chromeOptions": {
+                "binary": CHROMIUM,
+                "args": ["--headless=new", "--no-sandbox", "--disable-gpu",
+                         "--disable-dev-shm-usage", "--hide-scrollbars",
+                         "--window-size=1024,600",
+                         "--autoplay-policy=no-user-gesture-required"]
+            }
+        }}});
+        let reply: Value = ureq::post(format!("{base}/session"))
+            .send_json(&capabilities)
+            .expect("a browser session")
+            .body_mut()
+            .read_json()
+            .unwrap();
+        let session = reply["value"]["sessionId"].as_str().unwrap().to_string();
+        Browser {
+            driver,
+            base,
+            session,
+        }
+    }
+
+    fn url(&self, path: &str) -> String {
+        format!("{}/session/{}/{path}", self.base, self.session)
+    }
+
+    fn open(&self, page: &str) {
+        ureq::post(self.url("url"))
+            .send_json(json!({ "url": page }))
+            .expect("the page opens");
+    }
+
+    /// Runs `script` in the page; its return value.
+    fn eval(&self, script: &str) -> Value {
+        let mut reply = ureq::post(self.url("execute/sync"))
+            .send_json(json!({ "script": script, "args": [] }))
+            .expect("the script runs");
+        let reply: Value = reply.body_mut().read_json().unwrap();
+        reply["value"].clone()
+    }
+
+    /// What the page shows, read from its elements.
+    fn shown(&self) -> Value {
+        self.eval(SHOWN)
+    }
+
+    /// Waits until `check` holds for what the page shows (or 5 s pass:
+    /// then fails with what it showed). Returns what it showed.
+    fn until(&self, what: &str, check: impl Fn(&Value) -> bool) -> Value {
+        let started = Instant::now();
+        loop {
+            let shown = self.shown();
+            if check(&shown) {
+                return shown;
+            }
+            assert!(
+                started.elapsed() < Duration::from_secs(5),
+                "the page never showed {what}; it showed {shown:#}"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn screenshot(&self, name: &str) -> PathBuf {
+        let reply: Value = ureq::get(self.url("screenshot"))
+            .call()
+            .expect("a screenshot")
+            .body_mut()
+            .read_json()
+            .unwrap();
+        use base64::Engine;
+        let png = base64::engine::general_purpose::STANDARD
+            .decode(reply["value"].as_str().unwrap())
+            .unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+        let path = screenshots().join(format!("{name}.png"));
+        std::fs::write(&path, png).unwrap();
+        eprintln!("screenshot: {}", path.display());
+        path
+    }
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        let _ = ureq::delete(format!("{}/session/{}", self.base, self.session)).call();
+        let _ = self.driver.kill();
+        let _ = self.driver.wait();
+    }
+}
+
+/// The page's elements, as the user would read them.
+const SHOWN: &str = r##"
+const q = (s) => Array.from(document.querySelectorAll(s));
+const text = (id) => document.getElementById(id).textContent;
+return {
+  state: document.body.dataset.state,
+  interface: document.body.dataset.interface,
+  frames: window.sipnpuff.frames,
+  banner: text("banner-text"),
+  entered: q("#entered .sym").map((e) => e.getAttribute("aria-label")),
+  lit: q(".seq.lit").map((e) => Number(e.dataset.index)),
+  dim: q(".seq.dim").map((e) => Number(e.dataset.index)),
+  dim_modes: q(".mode.dim").map((e) => e.dataset.mode),
+  selected: q(".mode.selected").map((e) => e.dataset.mode),
+  highlight: q(".mode.highlight").map((e) => e.dataset.mode),
+  wait: text("wait-text"),
+  direction: text("direction-text"),
+  arrow: text("arrow"),
+  countdown: text("countdown-text"),
+  held: text("held-text"),
+  notices: q("#notices .notice").map((e) => e.className.replace("notice ", "") + ": " + e.textContent),
+  latencies: window.sipnpuff.latencies.map((l) => l.ms),
+  cues: window.sipnpuff.cues.map((c) => c.cue),
+};
+"##;
+
+fn strings(value: &Value) -> Vec<String> {
+    value
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .map(|v| v.as_str().unwrap_or_default().to_string())
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn numbers(value: &Value) -> Vec<u64> {
+    value
+        .as_array()
+        .map(|a| a.iter().filter_map(Value::as_u64).collect())
+        .unwrap_or_default()
+}
+
+/// `sipnpuff run` on `csv` with `config`, the display on `port` (or off).
+fn run(config: &Path, csv: &Path, port: Option<u16>) -> Running {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
+    command.args([
+        "run",
+        "--json",
+        "--config",
+        config.to_str().unwrap(),
+        "--sensor",
+        &format!("csv:{}", csv.display()),
+    ]);
+    match port {
+        Some(port) => command
+            .args(["--display", &format!("127.0.0.1:{port}")])
+            .env_remove("SIPNPUFF_NO_DISPLAY"),
+        None => command.arg("--no-display"),
+    };
+    Running::start(command)
+}
+
+/// Waits until the page is served.
+fn wait_served(port: u16) {
+    let started = Instant::now();
+    while ureq::get(format!("http://127.0.0.1:{port}/state"))
+        .call()
+        .is_err()
+    {
+        assert!(
+            started.elapsed() < Duration::from_secs(30),
+            "no page served"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The report (the last stdout line, `--json`) and the event lines.
+fn report_and_events(lines: &[String]) -> (Value, Vec<Value>) {
+    let report: Value = serde_json::from_str(lines.last().expect("a report")).unwrap();
+    let events = lines[..lines.len() - 1]
+        .iter()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    (report, events)
+}
+
+/// The events without their ticks (a run that skipped ticks shifts them).
+fn kinds(events: &[Value]) -> Vec<String> {
+    events
+        .iter()
+        .map(|e| {
+            let mut e = e.clone();
+            let object = e.as_object_mut().unwrap();
+            for key in ["tick", "start_tick", "duration_ms", "position"] {
+                object.remove(key);
+            }
+            e.to_string()
+        })
+        .collect()
+}
+
+fn median(values: &mut [u64]) -> u64 {
+    values.sort_unstable();
+    values.get(values.len() / 2).copied().unwrap_or(0)
+}
+
+/// The paper's library with time to read the screen: after the short sip
+/// and after the long sip the matcher waits 3 s.
+const ASP_CONFIG: &str = r#"
+[detector]
+neutral_volts = 2.5
+puff_threshold_volts = 3.0
+sip_threshold_volts = 2.0
+hysteresis_volts = 0.1
+min_burst_ms = 40
+long_burst_ms = 500
+
+[matcher]
+sequence_timeout_ms = 3000
+
+[command]
+inactivity_timeout_ms = 3000
+
+[[sequence]]
+actions = [1, 2, -1]
+mode = "translate_x"
+
+[[sequence]]
+actions = [1, 2]
+mode = "translate_y"
+
+[[sequence]]
+actions = [2, 1]
+mode = "translate_z"
+"#;
+
+/// ASP: S1 = <1, 2, −1> translate_x, S2 = <1, 2> translate_y, S3 = <2, 1>
+/// translate_z. The user breathes a short sip, a long sip (S2 complete, S1
+/// still possible: the matcher waits on the prefix), lets it select
+/// translate_y, puffs to move left, lets it return to selection, then the
+/// sensor drops out.
+#[test]
+fn asp_in_a_real_browser_shows_sequences_waits_modes_directions_and_faults() {
+    if !have_browser("asp_in_a_real_browser") {
+        return;
+    }
+    common::real_time(|| {
+        let dir = scratch("display-browser-asp");
+        let script = [
+            rest(2500),
+            sip(150),
+            rest(1500),
+            sip(700),
+            rest(4000), // the wait on the prefix ends: translate_y
+            puff(2500), // left
+            rest(4000), // back to selection
+            Step::Dropout { ms: 1500 },
+            rest(1500),
+        ];
+        let (config, csv) = session_files(&dir, ASP_CONFIG, &script);
+        let port = free_port();
+        let mut run = run(&config, &csv, Some(port));
+        wait_served(port);
+        // A client that connects to the stream and never reads it.
+        let mut stalled = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+        stalled
+            .write_all(b"GET /events HTTP/1.1\r\nHost: x\r\n\r\n")
+            .unwrap();
+        let browser = Browser::start();
+        browser.open(&format!("http://127.0.0.1:{port}/"));
+        let start = browser.until("the modes", |s| s["state"] == "selecting");
+        assert_eq!(start["interface"], "asp");
+        assert!(strings(&start["entered"]).is_empty());
+        browser.screenshot("asp-0-choose-a-mode");
+
+        // The short sip: S1 and S2 lit, S3 dimmed, the sequence is no
+        // mode yet (it is dropped unless the user goes on).
+        run.wait_for("\"event\":\"burst\"");
+        let first = browser.until("the short sip", |s| strings(&s["entered"]) == ["short sip"]);
+        assert_eq!(numbers(&first["lit"]), [0, 1], "{first:#}");
+        assert_eq!(numbers(&first["dim"]), [2], "{first:#}");
+        assert_eq!(strings(&first["dim_modes"]), ["translate_z"]);
+        assert!(
+            first["wait"]
+                .as_str()
+                .unwrap()
+                .starts_with("start again in"),
+            "{first:#}"
+        );
+        browser.screenshot("asp-1-first-breath");
+
+        // The long sip: <1, 2> is S2, and S1 could follow: the page says
+        // which mode the wait selects.
+        run.wait_for("\"event\":\"burst\"");
+        let waiting = browser.until("the wait on the prefix", |s| {
+            strings(&s["entered"]) == ["short sip", "long sip"]
+        });
+        assert_eq!(numbers(&waiting["lit"]), [0, 1], "{waiting:#}");
+        assert_eq!(numbers(&waiting["dim"]), [2]);
+        assert!(
+            waiting["wait"]
+                .as_str()
+                .unwrap()
+                .starts_with("Left / right in "),
+            "{waiting:#}"
+        );
+        browser.screenshot("asp-2-waiting-on-a-prefix");
+
+        // The wait ends: translate_y is selected, lit, command mode.
+        run.wait_for("\"mode\":\"translate_y\"");
+        let selected = browser.until("command mode", |s| s["state"] == "command");
+        assert_eq!(strings(&selected["selected"]), ["translate_y"]);
+        assert_eq!(selected["banner"], "Left / right");
+        assert_eq!(selected["direction"], "stopped");
+        assert!(strings(&selected["entered"]).is_empty());
+        browser.screenshot("asp-3-translate-y-selected");
+
+        // The puff moves left, the countdown waits while it is held.
+        let moving = browser.until("moving left", |s| s["direction"] == "left");
+        assert_eq!(moving["arrow"], "⇦");
+        assert_eq!(moving["countdown"], "breath held — staying in this mode");
+        assert!(moving["held"].as_str().unwrap().starts_with("puff held"));
+        browser.screenshot("asp-4-moving-left");
+
+        // Inactivity: back to choosing a mode, with its sound.
+        run.wait_for("\"reason\":\"inactivity\"");
+        let back = browser.until("selection again", |s| s["state"] == "selecting");
+        assert_eq!(back["banner"], "Choose a mode");
+
+        // The sensor drops out: said in plain words, with the fault sound.
+        run.wait_for("\"event\":\"fault\"");
+        let fault = browser.until("the fault", |s| !strings(&s["notices"]).is_empty());
+        let notices = strings(&fault["notices"]);
+        assert!(
+            notices[0].starts_with("fault: sensor") && notices[0].ends_with("arm stopped"),
+            "{notices:?}"
+        );
+        browser.screenshot("asp-5-sensor-fault");
+
+        let (status, lines, stderr) = run.finish();
+        assert!(status.success(), "{status}: {stderr}");
+        let page = browser.shown();
+        let cues = strings(&page["cues"]);
+        for cue in ["match", "selection", "fault"] {
+            assert!(cues.iter().any(|c| c == cue), "no {cue} sound: {cues:?}");
+        }
+        let mut latencies = numbers(&page["latencies"]);
+        assert!(!latencies.is_empty());
+        let worst = latencies.iter().max().copied().unwrap();
+        let median_ms = median(&mut latencies);
+        eprintln!(
+            "event-to-screen latency in Chromium: median {median_ms} ms, worst {worst} ms over {} events",
+            latencies.len()
+        );
+        drop(stalled);
+
+        // The same session without the display: the same events, and in
+        // both the control thread allocated nothing.
+        let (with_page, events_with) = report_and_events(&lines);
+        let quiet = self::run(&config, &csv, None);
+        let (status, lines, stderr) = quiet.finish();
+        assert!(status.success(), "{status}: {stderr}");
+        let (without, events_without) = report_and_events(&lines);
+        for (name, report) in [("with the page", &with_page), ("without", &without)] {
+            assert_eq!(report["control_thread_allocations"], 0, "{name}");
+            eprintln!(
+                "{name}: compute p50 {} ns p99 {} ns, wake p99 {} ns, missed deadlines {}, skipped ticks {}",
+                report["full"]["compute"]["p50"],
+                report["full"]["compute"]["p99"],
+                report["full"]["wake"]["p99"],
+                report["stats"]["missed_deadlines"],
+                report["stats"]["skipped_ticks"]
+            );
+        }
+        if with_page["stats"]["skipped_ticks"] == 0 && without["stats"]["skipped_ticks"] == 0 {
+            assert_eq!(kinds(&events_with), kinds(&events_without));
+        }
+        let display = &with_page["display"];
+        assert!(display["pages_opened"].as_u64().unwrap() >= 2, "{display}");
+        assert!(without["display"].is_null());
+        eprintln!("display with a stalled client: {display}");
+    });
+}
+
+/// BSP: the highlight moves with the core's scan; a puff enters the
+/// highlighted mode.
+#[test]
+fn bsp_in_a_real_browser_moves_the_highlight_with_the_scan() {
+    if !have_browser("bsp_in_a_real_browser") {
+        return;
+    }
+    common::real_time(|| {
+        let dir = scratch("display-browser-bsp");
+        let config = "[interface]\nkind = \"bsp\"\n";
+        // Scan: translate_x for 3 s, then translate_y for 1.5 s; the puff
+        // begins under translate_y.
+        let script = [rest(3600), puff(200), rest(1500), puff(1500), rest(1000)];
+        let (config, csv) = session_files(&dir, config, &script);
+        let port = free_port();
+        let mut run = run(&config, &csv, Some(port));
+        wait_served(port);
+        let browser = Browser::start();
+        browser.open(&format!("http://127.0.0.1:{port}/"));
+        let first = browser.until("the scan", |s| {
+            s["interface"] == "bsp" && !strings(&s["highlight"]).is_empty()
+        });
+        assert_eq!(first["state"], "selecting");
+        run.wait_for("\"mode\":\"translate_y\"");
+        let second = browser.until("the highlight on translate_y", |s| {
+            strings(&s["highlight"]) == ["translate_y"]
+        });
+        assert_eq!(strings(&second["highlight"]).len(), 1);
+        browser.screenshot("bsp-1-scan-on-left-right");
+        run.wait_for("\"event\":\"match\"");
+        let entered = browser.until("command mode", |s| s["state"] == "command");
+        assert_eq!(strings(&entered["selected"]), ["translate_y"]);
+        assert!(strings(&entered["highlight"]).is_empty());
+        let moving = browser.until("moving left", |s| s["direction"] == "left");
+        assert_eq!(moving["banner"], "Left / right");
+        browser.screenshot("bsp-2-moving-left");
+        let (status, _, stderr) = run.finish();
+        assert!(status.success(), "{status}: {stderr}");
+    });
+}
