@@ -256,3 +256,74 @@ fn a_sensor_fault_is_said_in_plain_words_until_it_clears() {
     let recovered = s.frame_at(3900);
     assert!(recovered.notices.is_empty(), "{:?}", recovered.notices);
 }
+
+/// The terminal view draws the same frames: rendered with ratatui's test
+/// backend at the paper's moments (a 100 × 30 terminal).
+#[test]
+fn the_terminal_view_shows_the_sequence_the_wait_and_the_motion() {
+    use ratatui::Terminal;
+    use ratatui::backend::TestBackend;
+    use sipnpuff::display::tui::render;
+
+    fn screen_text(terminal: &Terminal<TestBackend>) -> String {
+        let buffer = terminal.backend().buffer();
+        let width = buffer.area.width as usize;
+        let cells: Vec<&str> = buffer.content().iter().map(|c| c.symbol()).collect();
+        cells
+            .chunks(width)
+            .map(|row| row.concat())
+            .collect::<Vec<_>>()
+            .join("\n")
+    }
+
+    let config = common::paper_config();
+    let script = [
+        rest(500),
+        sip(150),
+        rest(300),
+        sip(700),
+        rest(1500),
+        puff(800),
+        rest(2500),
+    ];
+    let mut s = Session::new(&config, &script);
+    let mut terminal = Terminal::new(TestBackend::new(100, 30)).unwrap();
+    let setup = s.screen.setup().clone();
+
+    let start = s.frame_at(100);
+    render(&mut terminal, &setup, &start).unwrap();
+    let text = screen_text(&terminal);
+    assert!(
+        text.contains("Choose a mode: breathe its sequence"),
+        "{text}"
+    );
+    assert!(
+        text.contains("Forward / back") && text.contains("Up / down"),
+        "{text}"
+    );
+    assert!(text.contains("You breathed: nothing yet"), "{text}");
+
+    // After <1, 2>: the sequence, and the wait that selects translate_y.
+    s.frame_at(500 + 150 + 300 + 700 + 100);
+    let end = s.burst_end(1);
+    let waiting = s.frame_at(end + 100);
+    render(&mut terminal, &setup, &waiting).unwrap();
+    let text = screen_text(&terminal);
+    assert!(text.contains("You breathed:  sip   LONG SIP "), "{text}");
+    assert!(text.contains("Left / right in 0.9 s"), "{text}");
+
+    // Moving left in translate_y.
+    let moving = s.frame_at(end + 1000 + 500 + 400);
+    render(&mut terminal, &setup, &moving).unwrap();
+    let text = screen_text(&terminal);
+    assert!(
+        text.contains("Left / right — puff and sip move the arm"),
+        "{text}"
+    );
+    assert!(text.contains("Left / right: left"), "{text}");
+    assert!(
+        text.contains("breath held — staying in this mode"),
+        "{text}"
+    );
+    assert!(text.contains("puff held"), "{text}");
+}

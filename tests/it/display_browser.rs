@@ -117,7 +117,7 @@ impl Browser {
                 "binary": CHROMIUM,
                 "args": ["--headless=new", "--no-sandbox", "--disable-gpu",
                          "--disable-dev-shm-usage", "--hide-scrollbars",
-                         "--window-size=1024,600",
+                         "--window-size=1024,743", // a 1024 × 600 page, as on a 7-inch screen
                          "--autoplay-policy=no-user-gesture-required"]
             }
         }}});
