@@ -65,6 +65,7 @@ pub mod arm;
 pub mod cli;
 pub mod config;
 pub mod control;
+#[cfg(feature = "display")]
 pub mod display;
 pub mod rt;
 pub mod sensor;

@@ -24,6 +24,7 @@ macro_rules! progress {
 pub mod args;
 pub mod bench;
 pub mod config;
+pub mod display;
 pub mod generate;
 pub mod output;
 pub mod replay;

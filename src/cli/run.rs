@@ -1,7 +1,6 @@
 //! `sipnpuff run`: the main job.
 
 use std::io;
-use std::net::{SocketAddr, TcpListener, ToSocketAddrs};
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -15,11 +14,9 @@ use crate::arm::{Arm, ArmSpec};
 use crate::cli::args::{
     ConfigArg, InterfaceArg, RtArgs, parse_seconds, with_interface, writable_dir,
 };
+use crate::cli::display::{Display, DisplayArgs};
 use crate::cli::output::{self, StdoutEvents, invalid};
 use crate::config::Config;
-use crate::display::hub::DisplayHub;
-use crate::display::server::{DEFAULT_ADDRESS, DisplayServer};
-use crate::display::tui::TerminalView;
 use crate::rt::control_loop::StopReason;
 use crate::rt::report::RunReport;
 use crate::rt::signals;
@@ -80,39 +77,10 @@ pub struct RunArgs {
     /// bytes); past it recording stops and the run goes on.
     #[arg(long, value_name = "MB", default_value = "200", requires = "record", value_parser = parse_megabytes)]
     record_max_mb: u64,
-    /// Serve the display (the modes, the sequence breathed so far, the
-    /// pressure, the arm's state, sounds) at this address, for a kiosk
-    /// browser on the wheelchair's screen, a tablet or a laptop:
-    /// `HOST:PORT` or `PORT` (on 127.0.0.1, this machine only).
-    #[arg(long, value_name = "ADDR", default_value = DEFAULT_ADDRESS, env = "SIPNPUFF_DISPLAY", value_parser = parse_display)]
-    display: SocketAddr,
-    /// Don't serve the display.
-    #[arg(long, env = "SIPNPUFF_NO_DISPLAY")]
-    no_display: bool,
-    /// Show the display in this terminal instead of printing events (the
-    /// report follows when the run ends; Ctrl-C stops the run as always).
-    #[arg(long)]
-    tui: bool,
+    #[command(flatten)]
+    display: DisplayArgs,
     #[command(flatten)]
     rt: RtArgs,
-}
-
-/// `--display`: `HOST:PORT` or a port on 127.0.0.1.
-fn parse_display(text: &str) -> Result<SocketAddr, String> {
-    if let Ok(port) = text.parse::<u16>() {
-        return Ok(SocketAddr::from(([127, 0, 0, 1], port)));
-    }
-    text.to_socket_addrs()
-        .ok()
-        .and_then(|mut addresses| addresses.next())
-        .ok_or_else(|| format!("{text:?}: not HOST:PORT or PORT (e.g. 127.0.0.1:8080, 0.0.0.0:8080 for a tablet on the network, 8081)"))
-}
-
-/// The display chosen: the page's listener, bound before anything starts,
-/// and the terminal view.
-struct Display {
-    listener: Option<TcpListener>,
-    tui: bool,
 }
 
 /// Opens the `--arm` backend (not yet connected: the arm thread connects
@@ -173,19 +141,12 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     };
     // The page's address is taken before anything starts: a clash is an
     // error now, not a display missing later.
-    let display = Display {
-        listener: if args.no_display {
-            None
-        } else {
-            Some(DisplayServer::bind(args.display)?)
-        },
-        tui: args.tui,
-    };
+    let display = Display::open(&args.display)?;
     let display = &display;
     // The backends, one line each.
     let arm = open_arm(&args.arm, &config)?;
     let mut events = StdoutEvents {
-        quiet: args.tui,
+        quiet: args.display.tui,
         ..StdoutEvents::default()
     };
     let settings = config.sensor();
@@ -308,42 +269,16 @@ fn start<S: Sensor>(
         ),
         None => None,
     };
-    let mut hub = (display.listener.is_some() || display.tui)
-        .then(|| DisplayHub::new(config.core(), &arm.describe()));
-    let server = match (&display.listener, &hub) {
-        (Some(listener), Some(hub)) => {
-            Some(DisplayServer::serve(listener.try_clone()?, hub.feed())?)
-        }
-        _ => None,
-    };
-    if let Some(server) = &server {
-        note!("sipnpuff: the display is at http://{}/", server.address());
-    }
-    let view = match (&hub, display.tui) {
-        (Some(hub), true) => Some(TerminalView::start(hub.feed())?),
-        _ => None,
-    };
+    let mut showing = display.start(config.core(), &arm.describe())?;
     let watchers = Watchers {
         recorder: recorder
             .as_mut()
             .map(|r| r as &mut dyn crate::rt::recorder::SessionRecorder),
-        observer: hub
-            .as_mut()
-            .map(|h| h as &mut dyn crate::rt::telemetry::TelemetryObserver),
+        observer: showing.observer(),
     };
-    let result = run_watched(config.core(), sensor, arm, options, events, watchers);
-    if let Some(hub) = hub.as_mut() {
-        hub.publish();
-    }
-    drop(view);
+    let mut result = run_watched(config.core(), sensor, arm, options, events, watchers);
+    showing.finish(result.as_mut().ok());
     let mut report = result?;
-    if let Some(hub) = &hub {
-        report.display = Some(
-            hub.feed()
-                .summary(server.as_ref().map(|s| s.address().to_string())),
-        );
-    }
-    drop(server);
     if let Some(recorder) = recorder {
         recorder.finish(&mut report);
     }

@@ -108,8 +108,9 @@ fn draw_modes(out: &mut ratatui::Frame<'_>, area: Rect, setup: &Setup, frame: &F
             .collect();
         let lit = indices.iter().any(|i| frame.candidates.contains(i));
         let highlighted = frame.highlight.is_some_and(|h| h.mode == entry.mode);
-        let selected = frame.selected == Some(entry.mode)
-            && (frame.state == "command" || frame.sequence.is_empty());
+        // Lit only in command mode; the last used is merely marked.
+        let selected = frame.selected == Some(entry.mode) && frame.state == "command";
+        let last = frame.selected == Some(entry.mode) && selecting && !entered;
         let (marker, style) = if highlighted {
             ("▶ ", Style::default().fg(Color::Black).bg(Color::Yellow))
         } else if selected {
@@ -124,7 +125,14 @@ fn draw_modes(out: &mut ratatui::Frame<'_>, area: Rect, setup: &Setup, frame: &F
         } else {
             ("  ", Style::default())
         };
-        let mut lines = vec![Line::styled(format!("{marker}{}", entry.label), style)];
+        let mut lines = vec![Line::styled(
+            format!(
+                "{marker}{}{}",
+                entry.label,
+                if last { "  (last used)" } else { "" }
+            ),
+            style,
+        )];
         for (k, sequence) in entry.sequences.iter().enumerate() {
             let dim = selecting
                 && entered

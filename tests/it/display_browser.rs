@@ -217,6 +217,7 @@ return {
   dim: q(".seq.dim").map((e) => Number(e.dataset.index)),
   dim_modes: q(".mode.dim").map((e) => e.dataset.mode),
   selected: q(".mode.selected").map((e) => e.dataset.mode),
+  last: q(".mode.last").map((e) => e.dataset.mode),
   highlight: q(".mode.highlight").map((e) => e.dataset.mode),
   wait: text("wait-text"),
   direction: text("direction-text"),
@@ -265,6 +266,40 @@ fn run(config: &Path, csv: &Path, port: Option<u16>) -> Running {
         None => command.arg("--no-display"),
     };
     Running::start(command)
+}
+
+/// A TCP connection to the page's server with a 1 KiB receive buffer.
+fn stalled_client(port: u16) -> std::net::TcpStream {
+    use std::os::fd::FromRawFd;
+    // SAFETY: plain socket calls on a descriptor this function owns; the
+    // address is a valid sockaddr_in of the size given.
+    unsafe {
+        let fd = libc::socket(libc::AF_INET, libc::SOCK_STREAM, 0);
+        assert!(fd >= 0);
+        let size: libc::c_int = 1024;
+        libc::setsockopt(
+            fd,
+            libc::SOL_SOCKET,
+            libc::SO_RCVBUF,
+            (&size as *const libc::c_int).cast(),
+            std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+        );
+        let address = libc::sockaddr_in {
+            sin_family: libc::AF_INET as libc::sa_family_t,
+            sin_port: port.to_be(),
+            sin_addr: libc::in_addr {
+                s_addr: u32::from_be_bytes([127, 0, 0, 1]).to_be(),
+            },
+            sin_zero: [0; 8],
+        };
+        let rc = libc::connect(
+            fd,
+            (&address as *const libc::sockaddr_in).cast(),
+            std::mem::size_of::<libc::sockaddr_in>() as libc::socklen_t,
+        );
+        assert_eq!(rc, 0, "connect to the page's server");
+        std::net::TcpStream::from_raw_fd(fd)
+    }
 }
 
 /// Waits until the page is served.
@@ -369,8 +404,10 @@ fn asp_in_a_real_browser_shows_sequences_waits_modes_directions_and_faults() {
         let port = free_port();
         let mut run = run(&config, &csv, Some(port));
         wait_served(port);
-        // A client that connects to the stream and never reads it.
-        let mut stalled = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+        // A client that connects to the stream and never reads it (a
+        // receive buffer of 1 KiB): the run must not notice it, and must
+        // end with it still connected.
+        let mut stalled = stalled_client(port);
         stalled
             .write_all(b"GET /events HTTP/1.1\r\nHost: x\r\n\r\n")
             .unwrap();
@@ -434,10 +471,14 @@ fn asp_in_a_real_browser_shows_sequences_waits_modes_directions_and_faults() {
         run.wait_for("\"reason\":\"inactivity\"");
         let back = browser.until("selection again", |s| s["state"] == "selecting");
         assert_eq!(back["banner"], "Choose a mode");
+        // The mode left is marked as the last used, not lit as if in it.
+        assert!(strings(&back["selected"]).is_empty(), "{back:#}");
+        assert_eq!(strings(&back["last"]), ["translate_y"]);
 
         // The sensor drops out: said in plain words, with the fault sound.
         run.wait_for("\"event\":\"fault\"");
         let fault = browser.until("the fault", |s| !strings(&s["notices"]).is_empty());
+        assert_eq!(fault["banner"], "Fault — the arm is stopped");
         let notices = strings(&fault["notices"]);
         assert!(
             notices[0].starts_with("fault: sensor") && notices[0].ends_with("arm stopped"),
@@ -473,9 +514,9 @@ fn asp_in_a_real_browser_shows_sequences_waits_modes_directions_and_faults() {
             assert_eq!(report["control_thread_allocations"], 0, "{name}");
             eprintln!(
                 "{name}: compute p50 {} ns p99 {} ns, wake p99 {} ns, missed deadlines {}, skipped ticks {}",
-                report["full"]["compute"]["p50"],
-                report["full"]["compute"]["p99"],
-                report["full"]["wake"]["p99"],
+                report["full"]["compute_ns"]["p50"],
+                report["full"]["compute_ns"]["p99"],
+                report["full"]["wake_latency_ns"]["p99"],
                 report["stats"]["missed_deadlines"],
                 report["stats"]["skipped_ticks"]
             );
@@ -485,6 +526,7 @@ fn asp_in_a_real_browser_shows_sequences_waits_modes_directions_and_faults() {
         }
         let display = &with_page["display"];
         assert!(display["pages_opened"].as_u64().unwrap() >= 2, "{display}");
+
         assert!(without["display"].is_null());
         eprintln!("display with a stalled client: {display}");
     });
@@ -529,4 +571,84 @@ fn bsp_in_a_real_browser_moves_the_highlight_with_the_scan() {
         let (status, _, stderr) = run.finish();
         assert!(status.success(), "{status}: {stderr}");
     });
+}
+
+/// A page that stops reading skips frames — the latest replaces them —
+/// and nothing queues for it, however fast frames are published: the real
+/// server over loopback, a client with a 1 KiB receive buffer that never
+/// reads, and 20 000 frames published as fast as the hub can; a page that
+/// reads gets the last one.
+#[test]
+fn a_page_that_stops_reading_skips_frames_and_holds_up_nothing() {
+    use sipnpuff::control::event::{Event, TimedEvent};
+    use sipnpuff::display::hub::DisplayHub;
+    use sipnpuff::display::server::DisplayServer;
+    use sipnpuff::rt::telemetry::{TelemetryObserver, TickRecord};
+    use std::io::{BufRead, BufReader};
+
+    let config = common::paper_config();
+    let mut hub = DisplayHub::new(config.core(), "simulated JACO");
+    let listener = DisplayServer::bind("127.0.0.1:0".parse().unwrap()).unwrap();
+    let server = DisplayServer::serve(listener, hub.feed()).unwrap();
+    let port = server.address().port();
+    let mut stalled = stalled_client(port);
+    stalled
+        .write_all(b"GET /events HTTP/1.1\r\nHost: x\r\n\r\n")
+        .unwrap();
+    let feed = hub.feed();
+    let started = Instant::now();
+    while feed
+        .stats
+        .pages_open
+        .load(std::sync::atomic::Ordering::Relaxed)
+        == 0
+    {
+        assert!(started.elapsed() < Duration::from_secs(10), "no page");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    const FRAMES: u64 = 20_000;
+    for tick in 0..FRAMES {
+        hub.record(&TickRecord {
+            tick,
+            ..TickRecord::default()
+        });
+        // An event every tick publishes a frame every tick.
+        hub.event(&TimedEvent {
+            tick,
+            event: Event::Recovered,
+        });
+        hub.drained();
+        if tick % 1000 == 0 {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    let summary = feed.summary(None);
+    eprintln!("{summary:?}");
+    assert_eq!(summary.frames_published, FRAMES + 1);
+    assert!(summary.frames_skipped > 0, "{summary:?}");
+    assert!(summary.frames_sent < FRAMES, "{summary:?}");
+
+    // A page that reads now gets the setup and the latest frame at once.
+    let mut reader = BufReader::new(std::net::TcpStream::connect(("127.0.0.1", port)).unwrap());
+    reader
+        .get_mut()
+        .write_all(b"GET /events HTTP/1.1\r\nHost: x\r\n\r\n")
+        .unwrap();
+    let mut frame = None;
+    let mut line = String::new();
+    while frame.is_none() {
+        line.clear();
+        assert!(reader.read_line(&mut line).unwrap() > 0, "the stream ended");
+        if let Some(data) = line.strip_prefix("data: ")
+            && data.contains("\"seq\"")
+        {
+            frame = Some(serde_json::from_str::<Value>(data).unwrap());
+        }
+    }
+    let frame = frame.unwrap();
+    assert_eq!(frame["seq"], FRAMES + 1);
+    assert_eq!(frame["tick"], FRAMES - 1);
+    drop(stalled);
+    drop(server);
 }
