@@ -13,12 +13,13 @@
 //!   it: velocity interface steady (same target) and on a new target every
 //!   update; position interface (go to point) on a new target.
 //! * `tick/*`: one full tick (detector → matcher → modes → Ruckig →
-//!   100 Hz decimation → simulated arm): steady, holding a puff in
-//!   `translate_x`; and on a new target every tick (sip and puff
+//!   100 Hz decimation → simulated arm): at rest (no breath, the arm
+//!   still; against one sample's bare threshold test); steady, holding a
+//!   puff in `translate_x`; and on a new target every tick (sip and puff
 //!   alternating each sample, glitch filter off).
 //! * `replay/*`: `sipnpuff replay` end to end on 60 s of noisy recording
 //!   (CSV parsing, core, simulated arm, JSON events to a sink) against the
-//!   core alone on the same samples.
+//!   core alone and the CSV reading alone on the same samples.
 
 use std::hint::black_box;
 
@@ -267,6 +268,34 @@ fn in_translate_x(config: &Config) -> (Pipeline, SimulatedJaco, u64) {
 fn full_tick(c: &mut Criterion) {
     let mut group = c.benchmark_group("tick");
     let config = Config::default();
+    // The in-run reference: one sample's bare threshold test.
+    let (low, high) = (
+        config.core().detector().sip_threshold_volts,
+        config.core().detector().puff_threshold_volts,
+    );
+    let mut volts = 2.5;
+    group.bench_function("reference_threshold_compare", |b| {
+        b.iter(|| {
+            volts = black_box(volts);
+            black_box(volts > high || volts < low)
+        })
+    });
+
+    // At rest: no breath, the arm still, nothing asked (most of a day).
+    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut tick = 0u64;
+    for _ in 0..5000 {
+        core.step(tick, 2.5);
+        tick += 1;
+    }
+    group.bench_function("at_rest", |b| {
+        b.iter(|| {
+            let out = core.step(tick, black_box(2.5));
+            tick += 1;
+            black_box(out)
+        })
+    });
+
     let (mut core, mut arm, mut tick) = in_translate_x(&config);
     // Into steady forward motion (0.2 m/s after 0.51 s).
     for _ in 0..1000 {
@@ -315,6 +344,16 @@ fn replay_throughput(c: &mut Criterion) {
             for (t, &v) in samples.iter().enumerate() {
                 black_box(core.step(t as u64, v));
             }
+        })
+    });
+    group.bench_function("csv_only", |b| {
+        b.iter(|| {
+            let mut signal = CsvSignal::new(csv.as_slice()).expect("header");
+            let mut sum = 0.0;
+            while let Some(v) = signal.next_sample().expect("a sample") {
+                sum += v;
+            }
+            black_box(sum)
         })
     });
     group.bench_function("csv_core_arm_json", |b| {

@@ -10,6 +10,7 @@ use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 
 use crate::arm::{Arm, ArmError, ArmState};
 use crate::control::core_config::CoreConfig;
+use crate::control::motion::still::{StillPose, all_positive_zero, pose_bits};
 use crate::control::motion::stream::{ARM_STREAM_PERIOD_TICKS, ArmCommand};
 use crate::control::motion::workspace::{self, WorkspaceConfig};
 
@@ -22,6 +23,8 @@ pub struct SimulatedJaco {
     /// Milliseconds the current command has left.
     remaining_ms: u32,
     workspace: WorkspaceConfig,
+    /// The pose a zero-velocity millisecond is known to leave as it is.
+    still_pose: StillPose,
 }
 
 impl SimulatedJaco {
@@ -33,6 +36,7 @@ impl SimulatedJaco {
             current: ArmCommand::default(),
             remaining_ms: 0,
             workspace: *config.workspace(),
+            still_pose: StillPose::default(),
         }
     }
 
@@ -62,6 +66,25 @@ impl SimulatedJaco {
             return;
         }
         self.remaining_ms -= 1;
+        let c = &self.current;
+        let zero = all_positive_zero(&c.linear)
+            && all_positive_zero(&c.angular)
+            && all_positive_zero(&[c.fingers]);
+        if !zero {
+            self.step_ms();
+            return;
+        }
+        // Standing still: skipped where it is known to change nothing.
+        let before = pose_bits(&self.pose, self.fingers);
+        if self.still_pose.known(&before) {
+            return;
+        }
+        self.step_ms();
+        let after = pose_bits(&self.pose, self.fingers);
+        self.still_pose.observe(&before, &after);
+    }
+
+    fn step_ms(&mut self) {
         let dt = 0.001;
         let c = &self.current;
         let v = Vector3::from(c.linear);

@@ -122,6 +122,14 @@ impl Events {
         Ok(())
     }
 
+    /// Empties the list (only the slots in use are written). RT-safe.
+    pub fn clear(&mut self) {
+        for slot in self.items.iter_mut().take(usize::from(self.len)) {
+            *slot = None;
+        }
+        self.len = 0;
+    }
+
     /// The events, in the order they happened.
     pub fn iter(&self) -> impl Iterator<Item = &Event> {
         self.items.iter().flatten()

@@ -160,6 +160,14 @@ impl<I: SequenceIndex> Pipeline<I> {
         &self.motion
     }
 
+    /// Runs every Ruckig update, at rest too: the reference path the
+    /// skipped updates are proven against (`tests/it/fast_paths.rs`).
+    /// Not for production.
+    #[doc(hidden)]
+    pub fn always_update(&mut self) {
+        self.motion.always_update();
+    }
+
     /// Where the user is, as the display shows it. RT-safe.
     pub fn view(&self) -> CoreView {
         let (sequence, decides_at, pending, highlighted) = match &self.selector {
@@ -195,24 +203,61 @@ impl<I: SequenceIndex> Pipeline<I> {
     /// Feeds the sample taken at tick `now`. RT-safe.
     pub fn step(&mut self, now: Tick, volts: f64) -> TickOutput {
         let detected = self.detector.step(now, volts);
-        self.process(now, detected)
+        let mut out = self.blank_output(now);
+        self.process(now, detected, &mut out);
+        out
+    }
+
+    /// [`Pipeline::step`] into `out`, a previous tick's output (replay
+    /// and the study reuse one: the large output is neither built anew
+    /// nor copied). `out` ends as `step` would have returned. RT-safe.
+    pub fn step_into(&mut self, now: Tick, volts: f64, out: &mut TickOutput) {
+        let detected = self.detector.step(now, volts);
+        out.tick = now;
+        out.command = ModeOutput::default();
+        out.held = Held::default();
+        out.faulted = false;
+        out.events.clear();
+        out.dropped_events = 0;
+        // `out.motion` is written whole by the motion step.
+        self.process(now, detected, out);
     }
 
     /// A tick on which no sample arrived (the runtime's sensor had none):
     /// after `stale_ms` the sensor is in fault and the arm brakes. RT-safe.
     pub fn step_missing(&mut self, now: Tick) -> TickOutput {
         let detected = self.detector.step_missing(now);
-        self.process(now, detected)
+        let mut out = self.blank_output(now);
+        self.process(now, detected, &mut out);
+        out
     }
 
     /// A tick on which the sensor's device is known to be gone: the
     /// sensor is in fault at once and the arm brakes. RT-safe.
     pub fn step_lost(&mut self, now: Tick) -> TickOutput {
         let detected = self.detector.step_lost(now);
-        self.process(now, detected)
+        let mut out = self.blank_output(now);
+        self.process(now, detected, &mut out);
+        out
     }
 
-    fn process(&mut self, now: Tick, detected: DetectorOutput) -> TickOutput {
+    /// A tick's output before the tick: nothing happened, the arm where
+    /// it is (the output [`Pipeline::step_into`] starts from).
+    pub fn blank_output(&self, now: Tick) -> TickOutput {
+        TickOutput {
+            tick: now,
+            command: ModeOutput::default(),
+            held: Held::default(),
+            faulted: false,
+            motion: self.motion.idle_output(),
+            events: Events::default(),
+            dropped_events: 0,
+        }
+    }
+
+    /// One tick into `out` (built in the caller's frame: the large output
+    /// is never copied on its way out).
+    fn process(&mut self, now: Tick, detected: DetectorOutput, out: &mut TickOutput) {
         let gap = self.last_tick.map(|last| now.saturating_sub(last));
         self.last_tick = Some(now);
         if gap.is_some_and(|g| g > ARM_STOPS_AFTER_TICKS) {
@@ -222,16 +267,8 @@ impl<I: SequenceIndex> Pipeline<I> {
             // the speed before the gap. (A gap over `stale_ms` is also a
             // fault: the detector reports it.)
             self.motion.halt();
+            out.motion = self.motion.idle_output();
         }
-        let mut out = TickOutput {
-            tick: now,
-            command: ModeOutput::default(),
-            held: Held::default(),
-            faulted: false,
-            motion: self.motion.idle_output(),
-            events: Events::default(),
-            dropped_events: 0,
-        };
         let emit = |out: &mut TickOutput, event: Event| {
             if out.events.push(event).is_err() {
                 out.dropped_events = out.dropped_events.saturating_add(1);
@@ -240,10 +277,10 @@ impl<I: SequenceIndex> Pipeline<I> {
 
         out.held = detected.held;
         out.faulted = detected.faulted;
-        if let Some(fault) = self.take_arm_news(now, &mut out) {
+        if let Some(fault) = self.take_arm_news(now, out) {
             if self.arm_fault.is_none() {
                 self.arm_fault = Some(fault);
-                emit(&mut out, Event::ArmFault { reason: fault });
+                emit(out, Event::ArmFault { reason: fault });
             }
             // From this tick the interface is in detection mode for good:
             // every target is zero and the arm brakes.
@@ -258,7 +295,7 @@ impl<I: SequenceIndex> Pipeline<I> {
         let mut scan_burst = None;
         match detected.event {
             Some(DetectorEvent::Burst(burst)) => {
-                emit(&mut out, Event::Burst(burst));
+                emit(out, Event::Burst(burst));
                 if in_detection {
                     match &mut self.selector {
                         Selector::Sequences(matcher) => decision = matcher.on_burst(&burst),
@@ -275,18 +312,18 @@ impl<I: SequenceIndex> Pipeline<I> {
                 }
             }
             Some(DetectorEvent::Fault(reason)) => {
-                emit(&mut out, Event::Fault { reason });
+                emit(out, Event::Fault { reason });
 
                 if let Selector::Sequences(matcher) = &mut self.selector {
                     decision = matcher.interrupt();
                 }
             }
-            Some(DetectorEvent::Recovered) => emit(&mut out, Event::Recovered),
+            Some(DetectorEvent::Recovered) => emit(out, Event::Recovered),
             Some(DetectorEvent::Rezeroed {
                 neutral_volts,
                 previous_volts,
             }) => emit(
-                &mut out,
+                out,
                 Event::Rezeroed {
                     neutral_volts,
                     previous_volts,
@@ -304,7 +341,7 @@ impl<I: SequenceIndex> Pipeline<I> {
                 let scan =
                     scanner.step(now, in_detection && !detected.faulted, scan_burst.as_ref());
                 if let Some(mode) = scan.highlight {
-                    emit(&mut out, Event::Highlight { mode });
+                    emit(out, Event::Highlight { mode });
                 }
                 if let (Some(mode), Some(burst)) = (scan.selected, scan_burst) {
                     let mut sequence = ActionSeq::default();
@@ -317,11 +354,11 @@ impl<I: SequenceIndex> Pipeline<I> {
 
         let matched = match decision {
             Some(MatchEvent::Match { sequence, mode }) => {
-                emit(&mut out, Event::Match { sequence, mode });
+                emit(out, Event::Match { sequence, mode });
                 Some(mode)
             }
             Some(MatchEvent::Reset { sequence, reason }) => {
-                emit(&mut out, Event::Reset { sequence, reason });
+                emit(out, Event::Reset { sequence, reason });
                 None
             }
             None => None,
@@ -333,13 +370,12 @@ impl<I: SequenceIndex> Pipeline<I> {
         out.command = command;
         self.direction = command.direction;
         if let Some(reason) = left {
-            emit(&mut out, Event::Detection { reason });
+            emit(out, Event::Detection { reason });
         }
-        out.motion = self.motion.step(now, &command);
+        self.motion.step_into(now, &command, &mut out.motion);
         // (An arm fault's stop takes effect through the mode machine.)
         for event in out.motion.events.into_iter().flatten() {
-            emit(&mut out, Event::Motion(event));
+            emit(out, Event::Motion(event));
         }
-        out
     }
 }

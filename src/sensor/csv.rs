@@ -42,10 +42,17 @@ impl fmt::Display for CsvError {
 impl std::error::Error for CsvError {}
 
 /// Streams the `volts` column of a CSV recording.
+///
+/// Rows are read as bytes into one reused record (no allocation a row);
+/// the row is checked as UTF-8 and the field trimmed as `csv`'s
+/// `Trim::All` on a `StringRecord` would, so values and errors — with
+/// their lines — are what they were (the tests hold the old reading as
+/// their oracle); a plain decimal is parsed by [`parse_volts`]'s exact
+/// fast path.
 pub struct CsvSignal<R: Read> {
     reader: csv::Reader<R>,
     column: usize,
-    record: csv::StringRecord,
+    record: csv::ByteRecord,
 }
 
 impl CsvSignal<BufReader<File>> {
@@ -64,23 +71,23 @@ impl<R: Read> CsvSignal<R> {
     pub fn new(input: R) -> Result<Self, CsvError> {
         let mut reader = csv::ReaderBuilder::new()
             .has_headers(true)
-            .trim(csv::Trim::All)
             .from_reader(input);
         let headers = reader.headers().map_err(|e| error(&e))?;
-        let column = headers
+        let names: Vec<&str> = headers.iter().map(str::trim).collect();
+        let column = names
             .iter()
-            .position(|h| h == "volts")
+            .position(|h| *h == "volts")
             .ok_or_else(|| CsvError {
                 line: 1,
                 message: format!(
                     "the header has no `volts` column (found: {})",
-                    headers.iter().collect::<Vec<_>>().join(", ")
+                    names.join(", ")
                 ),
             })?;
         Ok(CsvSignal {
             reader,
             column,
-            record: csv::StringRecord::new(),
+            record: csv::ByteRecord::new(),
         })
     }
 
@@ -90,24 +97,87 @@ impl<R: Read> CsvSignal<R> {
     pub fn next_sample(&mut self) -> Result<Option<f64>, CsvError> {
         if !self
             .reader
-            .read_record(&mut self.record)
+            .read_byte_record(&mut self.record)
             .map_err(|e| error(&e))?
         {
             return Ok(None);
         }
         let line = self.record.position().map_or(0, |p| p.line());
-        let field = self.record.get(self.column).unwrap_or("");
+        // A row that is not UTF-8 is refused, as a StringRecord refuses
+        // it, whichever column holds the bad bytes.
+        let row = self.record.as_slice();
+        if !row.is_ascii() && std::str::from_utf8(row).is_err() {
+            return Err(CsvError {
+                line,
+                message: "not valid UTF-8".into(),
+            });
+        }
+        let field = self.record.get(self.column).unwrap_or(b"");
+        // Valid: the whole row is.
+        let field = std::str::from_utf8(field).unwrap_or("").trim();
         if field.is_empty() {
             return Err(CsvError {
                 line,
                 message: "the volts value is empty".into(),
             });
         }
-        field.parse::<f64>().map(Some).map_err(|_| CsvError {
+        parse_volts(field).map(Some).ok_or_else(|| CsvError {
             line,
             message: format!("the volts value {field:?} is not a number"),
         })
     }
+}
+
+/// `text` as `f64`, exactly as `str::parse::<f64>` reads it (`None`
+/// where it fails). A plain decimal — an optional sign, at most 15
+/// significant digits, at most 22 after the point, no exponent, which is
+/// how recordings write volts — takes the exact fast path: its digits `m`
+/// and `10^k` are both exact in `f64`, so the one division `m / 10^k` is
+/// correctly rounded, as std's parser is (Clinger's fast path).
+/// Anything else goes to std.
+pub fn parse_volts(text: &str) -> Option<f64> {
+    fast_decimal(text.as_bytes()).or_else(|| text.parse().ok())
+}
+
+/// 10^0 … 10^22: exact in `f64`.
+const POWERS_OF_TEN: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+fn fast_decimal(bytes: &[u8]) -> Option<f64> {
+    let (negative, digits) = match bytes.first()? {
+        b'-' => (true, &bytes[1..]),
+        b'+' => (false, &bytes[1..]),
+        _ => (false, bytes),
+    };
+    let mut mantissa: u64 = 0;
+    let mut significant = 0u32;
+    let mut after_point: Option<usize> = None;
+    let mut seen_digit = false;
+    for (i, &b) in digits.iter().enumerate() {
+        match b {
+            b'0'..=b'9' => {
+                seen_digit = true;
+                if mantissa != 0 || b != b'0' {
+                    significant += 1;
+                    if significant > 15 {
+                        return None;
+                    }
+                }
+                mantissa = mantissa * 10 + u64::from(b - b'0');
+            }
+            b'.' if after_point.is_none() => after_point = Some(i),
+            _ => return None,
+        }
+    }
+    if !seen_digit {
+        return None;
+    }
+    let scale = after_point.map_or(0, |point| digits.len() - point - 1);
+    let power = *POWERS_OF_TEN.get(scale)?;
+    let value = mantissa as f64 / power;
+    Some(if negative { -value } else { value })
 }
 
 /// A recording played in real time as a sensor.
@@ -190,6 +260,149 @@ fn error(e: &csv::Error) -> CsvError {
 mod tests {
     use super::*;
 
+    /// The reading of recordings before the fast path (the `csv` crate's
+    /// trimmed `StringRecord`s and std's parser): the oracle.
+    struct Oracle<R: Read> {
+        reader: csv::Reader<R>,
+        column: usize,
+        record: csv::StringRecord,
+    }
+
+    impl<R: Read> Oracle<R> {
+        fn new(input: R) -> Result<Self, CsvError> {
+            let mut reader = csv::ReaderBuilder::new()
+                .has_headers(true)
+                .trim(csv::Trim::All)
+                .from_reader(input);
+            let headers = reader.headers().map_err(|e| error(&e))?;
+            let column = headers
+                .iter()
+                .position(|h| h == "volts")
+                .ok_or_else(|| CsvError {
+                    line: 1,
+                    message: format!(
+                        "the header has no `volts` column (found: {})",
+                        headers.iter().collect::<Vec<_>>().join(", ")
+                    ),
+                })?;
+            Ok(Oracle {
+                reader,
+                column,
+                record: csv::StringRecord::new(),
+            })
+        }
+
+        fn next_sample(&mut self) -> Result<Option<f64>, CsvError> {
+            if !self
+                .reader
+                .read_record(&mut self.record)
+                .map_err(|e| error(&e))?
+            {
+                return Ok(None);
+            }
+            let line = self.record.position().map_or(0, |p| p.line());
+            let field = self.record.get(self.column).unwrap_or("");
+            if field.is_empty() {
+                return Err(CsvError {
+                    line,
+                    message: "the volts value is empty".into(),
+                });
+            }
+            field.parse::<f64>().map(Some).map_err(|_| CsvError {
+                line,
+                message: format!("the volts value {field:?} is not a number"),
+            })
+        }
+    }
+
+    /// Everything a reader makes of `bytes`: the samples' bits, then the
+    /// error or the end.
+    fn outcome(bytes: &[u8], fast: bool) -> (Vec<u64>, Option<CsvError>) {
+        let mut values = Vec::new();
+        let mut next: Box<dyn FnMut() -> Result<Option<f64>, CsvError>> = if fast {
+            match CsvSignal::new(bytes) {
+                Ok(mut s) => Box::new(move || s.next_sample()),
+                Err(e) => return (values, Some(e)),
+            }
+        } else {
+            match Oracle::new(bytes) {
+                Ok(mut s) => Box::new(move || s.next_sample()),
+                Err(e) => return (values, Some(e)),
+            }
+        };
+        loop {
+            match next() {
+                Ok(Some(v)) => values.push(v.to_bits()),
+                Ok(None) => return (values, None),
+                Err(e) => return (values, Some(e)),
+            }
+        }
+    }
+
+    fn same_as_before(bytes: &[u8]) {
+        assert_eq!(
+            outcome(bytes, true),
+            outcome(bytes, false),
+            "{:?}",
+            String::from_utf8_lossy(bytes)
+        );
+    }
+
+    #[test]
+    fn recordings_read_as_they_always_did() {
+        for text in [
+            &b"tick,volts\n0,2.5\n1,2.25\n"[..],
+            b"tick,volts\r\n0,2.5\r\n1,2.25\r\n",
+            b"tick,volts\n0,2.5\n\n\n1,abc\n",
+            b"\n\ntick,volts\n0,2.5\n",
+            b"\xEF\xBB\xBFtick,volts\n0,2.5\n",
+            b"tick,volts\n0,2.5\n\xEF\xBB\xBF1,2.5\n",
+            b"tick,volts\n0,\"2.5\"\n1,3\n2,x\n",
+            b"tick,volts\n0,2.5\r1,3\n2\n",
+            b"\"tick\",\" volts \"\n0,2.5\n1,\n",
+            b"tick,volts\n0,2.5",
+            b"tick,volts\n0,2.5\r",
+            b"tick,volts\n0, 2.5 \n1,\t3\xc2\xa0\n",
+            b"tick,volts\n0,\"1\n2\",3\n4,5\n6\n",
+            b"",
+            b"volts",
+            b"tick\n0\n",
+            b"tick,volts\n0,2.5,9\n",
+            b"tick,volts\n0,\xff\n",
+        ] {
+            same_as_before(text);
+        }
+    }
+
+    proptest::proptest! {
+        /// Any text made of what CSV recordings are made of — digits,
+        /// points, signs, commas, newlines, carriage returns, quotes,
+        /// spaces, letters, a byte order mark, bytes that are not UTF-8 —
+        /// reads to the same samples and the same error, on the same line.
+        #[test]
+        fn any_text_reads_as_it_always_did(
+            header in proptest::sample::select(vec![
+                "tick,volts\n", "volts\n", "tick,volts,note\n", " tick , volts \r\n",
+                "\"tick\",volts\n", "tick,voltage\n", "\n",
+            ]),
+            pieces in proptest::collection::vec(proptest::sample::select(vec![
+                "0", "1", "2", "5", ".", "-", "+", "e", ",", "\n", "\r\n", "\r", "\"", " ",
+                "\t", "a", "NaN", "inf", "\u{feff}", "\u{a0}", "\u{fffd}", "2.5,", "\n1,",
+            ]), 0..60),
+            bad_byte in proptest::option::of(0usize..200),
+        ) {
+            let mut bytes = header.as_bytes().to_vec();
+            for piece in &pieces {
+                bytes.extend_from_slice(piece.as_bytes());
+            }
+            if let Some(at) = bad_byte {
+                let at = at.min(bytes.len());
+                bytes.insert(at, 0xff);
+            }
+            proptest::prop_assert_eq!(outcome(&bytes, true), outcome(&bytes, false));
+        }
+    }
+
     fn read_all(text: &str) -> Result<Vec<f64>, CsvError> {
         let mut s = CsvSignal::new(text.as_bytes())?;
         let mut out = Vec::new();
@@ -205,6 +418,89 @@ mod tests {
         assert_eq!(v[..2], [2.5, 3.25]);
         assert!(v[2].is_nan());
         assert_eq!(read_all("volts\n1\n").unwrap(), [1.0]);
+    }
+
+    #[test]
+    fn a_row_that_is_not_utf8_is_refused_with_its_line_whatever_column() {
+        for text in [
+            &b"tick,volts,note\n0,2.5,a\n1,2.5,\xff\n"[..],
+            &b"tick,volts\n0,2.5\n1,2.\xff5\n"[..],
+        ] {
+            let mut s = CsvSignal::new(text).unwrap();
+            assert_eq!(s.next_sample().unwrap(), Some(2.5));
+            assert_eq!(
+                s.next_sample().unwrap_err().to_string(),
+                "line 3: not valid UTF-8"
+            );
+        }
+    }
+
+    #[test]
+    fn the_fast_path_reads_what_std_reads() {
+        for text in [
+            "2.5",
+            "0",
+            "-0",
+            "-0.0",
+            "+1.25",
+            "4.999999999999999",
+            "0.000000000000000000001",
+            "123456789012345",
+            "1.",
+            ".5",
+            "007.50",
+            "0.1",
+            "2.4999",
+            "3.3000000000000003",
+        ] {
+            let std: f64 = text.parse().unwrap();
+            assert_eq!(
+                parse_volts(text).map(f64::to_bits),
+                Some(std.to_bits()),
+                "{text}"
+            );
+        }
+        for text in ["", ".", "+", "-", "1..2", "1e3x", "abc", "--1", "1,5"] {
+            assert_eq!(
+                parse_volts(text).map(f64::to_bits),
+                text.parse::<f64>().ok().map(f64::to_bits),
+                "{text}"
+            );
+        }
+        // Exponents, NaN and the rest go to std.
+        assert_eq!(parse_volts("2.5e-1"), Some(0.25));
+        assert!(parse_volts("NaN").unwrap().is_nan());
+        assert_eq!(parse_volts("inf"), Some(f64::INFINITY));
+    }
+
+    proptest::proptest! {
+        /// Any decimal a recording may hold, and any float printed
+        /// shortest or to fixed places: the same bits as std.
+        #[test]
+        fn any_decimal_parses_to_std_s_bits(
+            sign in proptest::sample::select(vec!["", "-", "+"]),
+            int in "[0-9]{0,12}",
+            frac in proptest::option::of("[0-9]{0,16}"),
+            value in proptest::num::f64::ANY,
+            places in 0usize..20,
+        ) {
+            let text = match &frac {
+                Some(frac) => format!("{sign}{int}.{frac}"),
+                None => format!("{sign}{int}"),
+            };
+            proptest::prop_assert_eq!(
+                parse_volts(&text).map(f64::to_bits),
+                text.parse::<f64>().ok().map(f64::to_bits),
+                "{}", text
+            );
+            for text in [format!("{value}"), format!("{value:.places$}")] {
+                proptest::prop_assert_eq!(
+                    parse_volts(&text).map(f64::to_bits),
+                    text.parse::<f64>().ok().map(f64::to_bits),
+                    "{}", text
+                );
+            }
+        }
     }
 
     #[test]

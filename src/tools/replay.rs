@@ -102,8 +102,10 @@ pub fn replay<R: Read>(
     if let Some(trace) = trace.as_deref_mut() {
         writeln!(trace, "{TRACE_HEADER}")?;
     }
+    let mut output = core.blank_output(0);
     while let Some(volts) = signal.next_sample()? {
-        let output = core.step(summary.samples, volts);
+        core.step_into(summary.samples, volts, &mut output);
+        let output = &output;
         for &event in output.events.iter() {
             let line = TimedEvent {
                 tick: output.tick,
@@ -119,7 +121,7 @@ pub fn replay<R: Read>(
             summary.ticks_outside_workspace += 1;
         }
         if let Some(trace) = trace.as_deref_mut() {
-            trace_row(trace, &output, &arm)?;
+            trace_row(trace, output, &arm)?;
         }
         summary.samples += 1;
     }

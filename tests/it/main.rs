@@ -21,6 +21,7 @@ mod cli;
 mod common;
 mod display;
 mod display_browser;
+mod fast_paths;
 mod faults;
 mod golden;
 mod motion;

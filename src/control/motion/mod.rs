@@ -40,6 +40,7 @@ mod goto;
 pub mod home;
 pub mod limits;
 pub mod orientation;
+pub mod still;
 pub mod stream;
 mod targets;
 pub mod workspace;
@@ -234,6 +235,27 @@ pub struct Motion {
     decimator: Decimator,
     /// The measured pose, when the arm reports one.
     tracker: PoseTracker,
+    /// Both trajectories are at rest and the last update changed nothing:
+    /// while Ruckig's inputs stay equal to [`Motion::rest_inputs`], an
+    /// update would compute nothing again and give back the same still
+    /// state, so it is skipped (`tests/it/fast_paths.rs` runs both paths
+    /// side by side). Off with [`Motion::always_update`].
+    at_rest: bool,
+    /// Where the update that found both trajectories at rest left them:
+    /// every velocity and acceleration, now and asked, was zero; these
+    /// are the rest of Ruckig's state (a few bytes kept apart from the
+    /// large planner state: compared every tick at rest).
+    rest_state: RestState,
+    /// The whole inputs of that update (debug builds: [`same_state`] is
+    /// checked against Ruckig's whole comparison).
+    #[cfg(debug_assertions)]
+    rest_inputs: (InputParameter<2>, InputParameter<1>),
+    /// Never skip an update (the reference path of the equivalence tests).
+    always_update: bool,
+    /// Ticks whose updates were skipped at rest.
+    skipped_updates: u64,
+    /// The pose a zero-velocity step is known to leave as it is.
+    still_pose: still::StillPose,
 }
 
 impl std::fmt::Debug for Motion {
@@ -277,6 +299,8 @@ impl Motion {
             .fill(limits.finger_acceleration);
         finger_input.max_jerk.fill(limits.finger_jerk);
         let pose = home.pose();
+        #[cfg(debug_assertions)]
+        let rest_inputs = (input.clone(), finger_input.clone());
         Motion {
             limits,
             workspace: *workspace,
@@ -307,7 +331,26 @@ impl Motion {
             previous_direction: Direction::Still,
             decimator: Decimator::default(),
             tracker: PoseTracker::new(FeedbackConfig::default()),
+            at_rest: false,
+            rest_state: RestState::default(),
+            #[cfg(debug_assertions)]
+            rest_inputs,
+            always_update: false,
+            skipped_updates: 0,
+            still_pose: still::StillPose::default(),
         }
+    }
+
+    /// Ticks on which the Ruckig updates were skipped at rest.
+    pub fn skipped_updates(&self) -> u64 {
+        self.skipped_updates
+    }
+
+    /// Runs both Ruckig updates on every tick, at rest too: the reference
+    /// the skipped updates are proven against. Not for production.
+    #[doc(hidden)]
+    pub fn always_update(&mut self) {
+        self.always_update = true;
     }
 
     /// The same motion layer checking measured poses with `config`. Not
@@ -419,6 +462,14 @@ impl Motion {
 
     /// One tick. RT-safe.
     pub fn step(&mut self, now: Tick, command: &ModeOutput) -> MotionOutput {
+        let mut out = self.idle_output();
+        self.step_into(now, command, &mut out);
+        out
+    }
+
+    /// [`Motion::step`], writing the output in place (the pipeline's
+    /// tick output holds it: no copy of it a tick). RT-safe.
+    pub fn step_into(&mut self, now: Tick, command: &ModeOutput, out: &mut MotionOutput) {
         let mut events = [None; 2];
         let mut emit = |e: MotionEvent| {
             if let Some(slot) = events.iter_mut().find(|s| s.is_none()) {
@@ -536,25 +587,34 @@ impl Motion {
         if reached {
             self.switch_to_velocity_plan();
         }
-        MotionOutput {
-            linear: [twist[0], twist[1], twist[2]],
-            angular: [twist[3], twist[4], twist[5]],
-            fingers_velocity: twist[6],
-            pose: self.pose,
-            fingers: self.fingers,
-            arm_command: self.decimator.push(now, mean),
-            recalculated: self.output.new_calculation || self.finger_output.new_calculation,
-            events,
-        }
+        out.linear = [twist[0], twist[1], twist[2]];
+        out.angular = [twist[3], twist[4], twist[5]];
+        out.fingers_velocity = twist[6];
+        out.pose = self.pose;
+        out.fingers = self.fingers;
+        out.arm_command = self.decimator.push(now, mean);
+        out.recalculated = self.output.new_calculation || self.finger_output.new_calculation;
+        out.events = events;
     }
 
     /// Runs both Ruckig instances one cycle and feeds their output back;
     /// if either fails, brakes on the fallback profile until still.
     fn update_trajectories(&mut self) -> Option<MotionEvent> {
+        if self.at_rest && !self.fallback && self.still_at_rest() {
+            // Still at rest, nothing asked: both updates would return
+            // `Finished` with this very state and no new calculation.
+            self.skipped_updates += 1;
+            return None;
+        }
+        self.at_rest = false;
         let was_falling_back = self.fallback;
+        let mut finished = true;
         if !self.fallback {
             match self.otg.update(&self.input, &mut self.output) {
-                Ok(RuckigResult::Working) => self.output.pass_to_input(&mut self.input),
+                Ok(RuckigResult::Working) => {
+                    finished = false;
+                    self.output.pass_to_input(&mut self.input);
+                }
                 Ok(RuckigResult::Finished) => {
                     self.output.pass_to_input(&mut self.input);
                     settle(&mut self.input);
@@ -571,6 +631,7 @@ impl Motion {
                 .update(&self.finger_input, &mut self.finger_output)
             {
                 Ok(RuckigResult::Working) => {
+                    finished = false;
                     self.finger_output.pass_to_input(&mut self.finger_input);
                 }
                 Ok(RuckigResult::Finished) => {
@@ -582,6 +643,23 @@ impl Motion {
         }
         if self.fallback {
             self.fallback_brake();
+        } else if finished
+            && !self.always_update
+            && self.plan == Plan::Velocity
+            && !self.output.new_calculation
+            && !self.finger_output.new_calculation
+            && is_still(&self.input)
+            && is_still(&self.finger_input)
+            && comes_out_still(&self.output)
+            && comes_out_still(&self.finger_output)
+        {
+            self.rest_state = RestState::of(&self.input, &self.finger_input);
+            #[cfg(debug_assertions)]
+            {
+                self.rest_inputs.0.copy_from(&self.input);
+                self.rest_inputs.1.copy_from(&self.finger_input);
+            }
+            self.at_rest = true;
         }
         (self.fallback && !was_falling_back).then_some(MotionEvent::TrajectoryError)
     }
@@ -646,6 +724,22 @@ impl Motion {
 
     /// Integrates the tick's mean velocity into the pose estimate.
     fn integrate(&mut self, mean: &[f64; 7]) {
+        let zero = still::all_positive_zero(mean);
+        if !zero {
+            self.integrate_step(mean);
+            return;
+        }
+        // At rest: the step is skipped where it is known to change nothing.
+        let before = still::pose_bits(&self.pose, self.fingers);
+        if self.still_pose.known(&before) {
+            return;
+        }
+        self.integrate_step(mean);
+        let after = still::pose_bits(&self.pose, self.fingers);
+        self.still_pose.observe(&before, &after);
+    }
+
+    fn integrate_step(&mut self, mean: &[f64; 7]) {
         let v = Vector3::new(mean[0], mean[1], mean[2]);
         let w = Vector3::new(mean[3], mean[4], mean[5]);
         self.pose.translation.vector += v * CYCLE_S;
@@ -656,6 +750,74 @@ impl Motion {
 
 /// A finished trajectory is at its target: drop the last ulps of rounding
 /// so that "stopped" means exactly zero velocity.
+/// No velocity or acceleration, now or asked.
+fn is_still<const N: usize>(input: &InputParameter<N>) -> bool {
+    [
+        &input.current_velocity,
+        &input.current_acceleration,
+        &input.target_velocity,
+        &input.target_acceleration,
+    ]
+    .iter()
+    .all(|values| values.iter().all(|v| *v == 0.0))
+}
+
+/// The part of Ruckig's inputs at rest that is not zero: positions and
+/// interfaces (velocities and accelerations, now and asked, are zero).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct RestState {
+    positions: [f64; 6],
+    interfaces: [(ControlInterface, Synchronization); 2],
+}
+
+impl RestState {
+    fn of(input: &InputParameter<2>, fingers: &InputParameter<1>) -> RestState {
+        RestState {
+            positions: [
+                get(&input.current_position, LINEAR),
+                get(&input.current_position, ANGULAR),
+                get(&fingers.current_position, 0),
+                get(&input.target_position, LINEAR),
+                get(&input.target_position, ANGULAR),
+                get(&fingers.target_position, 0),
+            ],
+            interfaces: [
+                (input.control_interface, input.synchronization),
+                (fingers.control_interface, fingers.synchronization),
+            ],
+        }
+    }
+}
+
+impl Motion {
+    /// Ruckig's inputs are still those of the update that found both
+    /// trajectories at rest, by Ruckig's own comparison (`==`): zero
+    /// velocities and accelerations, now and asked (`==` takes −0 for
+    /// 0, as Ruckig does), and the same positions and interfaces — the
+    /// limits and options are set in [`Motion::new`] and never again.
+    /// Debug builds (the tests) check that against the whole comparison.
+    fn still_at_rest(&self) -> bool {
+        let same = is_still(&self.input)
+            && is_still(&self.finger_input)
+            && RestState::of(&self.input, &self.finger_input) == self.rest_state;
+        #[cfg(debug_assertions)]
+        debug_assert!(
+            same == (self.input == self.rest_inputs.0 && self.finger_input == self.rest_inputs.1),
+            "the rest check disagrees with Ruckig's comparison"
+        );
+        same
+    }
+}
+
+/// Ruckig's own state after the update is still, as ours is: had
+/// [`settle`] zeroed a leftover velocity or acceleration, Ruckig would
+/// recalculate on the next update.
+fn comes_out_still<const N: usize>(output: &OutputParameter<N>) -> bool {
+    [&output.new_velocity, &output.new_acceleration]
+        .iter()
+        .all(|values| values.iter().all(|v| v.to_bits() == 0))
+}
+
 fn settle<const N: usize>(input: &mut InputParameter<N>) {
     let copy = |to: &mut [f64], from: &[f64]| {
         for (t, f) in to.iter_mut().zip(from) {

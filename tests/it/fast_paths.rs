@@ -1,0 +1,130 @@
+//! Skipped work, proven equivalent: the core as it runs (Ruckig's updates
+//! skipped while both trajectories rest and nothing is asked) and the core
+//! with every update run, side by side on the same streams — the demo
+//! user, noisy random sessions through both libraries, harsh signals with
+//! rail spikes, saturation and NaN dropouts, the scanning interface —
+//! with every field of every tick's output and view equal, the floats bit
+//! for bit.
+
+use sipnpuff::config::Config;
+use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::sim::script::{demo_script, random_session};
+use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
+
+use crate::common::paper_config;
+
+/// The floats of a tick's output, as bits (`==` would take −0 for 0).
+fn float_bits(out: &TickOutput) -> [u64; 24] {
+    let m = &out.motion;
+    let q = m.pose.rotation.coords;
+    let p = m.pose.translation.vector;
+    let v = m.velocity();
+    let command = m.arm_command.map_or([0.0; 7], |c| {
+        [
+            c.linear[0],
+            c.linear[1],
+            c.linear[2],
+            c.angular[0],
+            c.angular[1],
+            c.angular[2],
+            c.fingers,
+        ]
+    });
+    let mut bits = [0; 24];
+    for (b, x) in bits.iter_mut().zip(
+        v.iter()
+            .chain(p.iter())
+            .chain(q.iter())
+            .chain(&[m.fingers])
+            .chain(&command),
+    ) {
+        *b = x.to_bits();
+    }
+    bits
+}
+
+/// Runs `samples` through both cores; returns (ticks, ticks skipped).
+fn side_by_side(config: &Config, samples: impl Iterator<Item = f64>) -> (u64, u64) {
+    let mut fast: Pipeline = Pipeline::new(config.core());
+    let mut full: Pipeline = Pipeline::new(config.core());
+    full.always_update();
+    let mut ticks = 0;
+    for (t, volts) in samples.enumerate() {
+        let t = t as u64;
+        let a = fast.step(t, volts);
+        let b = full.step(t, volts);
+        assert_eq!(a, b, "tick {t}");
+        assert_eq!(float_bits(&a), float_bits(&b), "tick {t}");
+        assert_eq!(fast.view(), full.view(), "tick {t}");
+        ticks += 1;
+    }
+    assert_eq!(full.motion().skipped_updates(), 0);
+    (ticks, fast.motion().skipped_updates())
+}
+
+fn stream(params: SignalParams, script: &[Step]) -> Vec<f64> {
+    SignalGenerator::new(params, script).collect()
+}
+
+#[test]
+fn the_demo_user_moves_the_same_with_updates_skipped_at_rest() {
+    let config = Config::default();
+    let (script, _) = demo_script(&config);
+    let clean = SignalParams::clean(config.core().detector(), 1);
+    let (ticks, skipped) = side_by_side(&config, stream(clean, &script).into_iter());
+    eprintln!("demo: {skipped} of {ticks} ticks skipped Ruckig");
+    // The test tests something: most of the demo is at rest.
+    assert!(skipped * 3 > ticks, "{skipped} of {ticks}");
+}
+
+#[test]
+fn noisy_random_sessions_through_both_libraries_are_the_same() {
+    let _cpu = crate::common::cpu_heavy();
+    let mut total = (0, 0);
+    for (config, seed) in [
+        (Config::default(), 1),
+        (Config::default(), 2),
+        (paper_config(), 3),
+    ] {
+        let (script, _) = random_session(&config, 240, seed);
+        let params = SignalParams::clean(config.core().detector(), seed)
+            .with_noise(0.03)
+            .with_hum(0.05)
+            .with_drift(0.2)
+            .with_spikes_every(250);
+        let (ticks, skipped) = side_by_side(&config, stream(params, &script).into_iter());
+        total = (total.0 + ticks, total.1 + skipped);
+    }
+    eprintln!(
+        "random sessions: {} of {} ticks skipped Ruckig",
+        total.1, total.0
+    );
+    assert!(total.0 >= 720_000 && total.1 > 0);
+}
+
+#[test]
+fn harsh_saturating_and_dropping_out_signals_are_the_same() {
+    let _cpu = crate::common::cpu_heavy();
+    let config = Config::default();
+    let (mut script, _) = random_session(&config, 120, 9);
+    // NaN dropouts between the breaths.
+    script.insert(script.len() / 3, Step::Dropout { ms: 300 });
+    script.insert(2 * script.len() / 3, Step::Dropout { ms: 40 });
+    let mut params = SignalParams::clean(config.core().detector(), 9)
+        .with_noise(0.1)
+        .with_hum(0.2)
+        .with_spikes_every(100)
+        .with_drift(0.5);
+    params.breath_volts = 3.2; // saturating at the rails
+    let (ticks, _) = side_by_side(&config, stream(params, &script).into_iter());
+    assert!(ticks >= 120_000);
+}
+
+#[test]
+fn the_scanning_interface_is_the_same() {
+    let config = Config::from_toml_str("[interface]\nkind = \"bsp\"\n").unwrap();
+    let (script, _) = random_session(&config, 120, 4);
+    let params = SignalParams::clean(config.core().detector(), 4).with_noise(0.02);
+    let (ticks, skipped) = side_by_side(&config, stream(params, &script).into_iter());
+    assert!(ticks >= 120_000 && skipped > 0);
+}
