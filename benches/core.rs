@@ -14,7 +14,8 @@
 //!   update; position interface (go to point) on a new target.
 //! * `tick/*`: one full tick (detector → matcher → modes → Ruckig →
 //!   100 Hz decimation → simulated arm): at rest (no breath, the arm
-//!   still; against one sample's bare threshold test); steady, holding a
+//!   still; returned and written in place; against one sample's bare
+//!   threshold test); steady, holding a
 //!   puff in `translate_x`; and on a new target every tick (sip and puff
 //!   alternating each sample, glitch filter off).
 //! * `replay/*`: `sipnpuff replay` end to end on 60 s of noisy recording
@@ -293,6 +294,16 @@ fn full_tick(c: &mut Criterion) {
             let out = core.step(tick, black_box(2.5));
             tick += 1;
             black_box(out)
+        })
+    });
+    // The same, the output written in place (`Pipeline::step_into`, as
+    // replay runs the core).
+    let mut out = core.blank_output(tick);
+    group.bench_function("at_rest_into", |b| {
+        b.iter(|| {
+            core.step_into(tick, black_box(2.5), &mut out);
+            tick += 1;
+            black_box(&out);
         })
     });
 

@@ -25,6 +25,9 @@ pub struct SimulatedJaco {
     workspace: WorkspaceConfig,
     /// The pose a zero-velocity millisecond is known to leave as it is.
     still_pose: StillPose,
+    /// Step every millisecond, standing still too (the reference the
+    /// skipped steps are proven against).
+    full_path: bool,
 }
 
 impl SimulatedJaco {
@@ -37,7 +40,15 @@ impl SimulatedJaco {
             remaining_ms: 0,
             workspace: *config.workspace(),
             still_pose: StillPose::default(),
+            full_path: false,
         }
+    }
+
+    /// Steps every millisecond, standing still too: the reference path
+    /// of the equivalence tests. Not for production.
+    #[doc(hidden)]
+    pub fn full_path(&mut self) {
+        self.full_path = true;
     }
 
     /// Takes a command for the next 10 ms cycle.
@@ -70,7 +81,7 @@ impl SimulatedJaco {
         let zero = all_positive_zero(&c.linear)
             && all_positive_zero(&c.angular)
             && all_positive_zero(&[c.fingers]);
-        if !zero {
+        if !zero || self.full_path {
             self.step_ms();
             return;
         }

@@ -153,7 +153,8 @@ fn writable(dir: &Path) -> anyhow::Result<()> {
 pub fn create(path: &Path) -> anyhow::Result<std::io::BufWriter<std::fs::File>> {
     let file =
         std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-    Ok(std::io::BufWriter::new(file))
+    // 1 MiB at a time: a trace of an hour is 635 MB.
+    Ok(std::io::BufWriter::with_capacity(1 << 20, file))
 }
 
 #[cfg(test)]

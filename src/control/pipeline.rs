@@ -160,8 +160,8 @@ impl<I: SequenceIndex> Pipeline<I> {
         &self.motion
     }
 
-    /// Runs every Ruckig update, at rest too: the reference path the
-    /// skipped updates are proven against (`tests/it/fast_paths.rs`).
+    /// Runs every Ruckig update and pose step, at rest too: the reference
+    /// path the skipped work is proven against (`tests/it/fast_paths.rs`).
     /// Not for production.
     #[doc(hidden)]
     pub fn always_update(&mut self) {

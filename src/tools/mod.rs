@@ -6,6 +6,7 @@
 
 pub mod accuracy;
 pub mod bench_tick;
+pub mod float_text;
 pub mod latency;
 pub mod recording;
 pub mod replay;

@@ -9,6 +9,7 @@ use crate::control::core_config::CoreConfig;
 use crate::control::event::TimedEvent;
 use crate::control::pipeline::{Pipeline, TickOutput};
 use crate::sensor::csv::{CsvError, CsvSignal};
+use crate::tools::float_text::push_f64;
 
 /// Why a replay stopped early.
 #[derive(Debug)]
@@ -66,25 +67,34 @@ pub const TRACE_HEADER: &str = "tick,mode,vx,vy,vz,wx,wy,wz,fingers_vel,x,y,z,rx
 
 /// Writes one trace row: the core's 1 kHz commanded twist (base frame) and
 /// the simulated arm's pose (also for recordings, `tools::recording`).
+/// `line` is a buffer the caller keeps from row to row. The numbers are
+/// written as `format!("{}")` writes them ([`push_f64`]).
 pub fn trace_row(
     out: &mut dyn Write,
+    line: &mut Vec<u8>,
     output: &TickOutput,
     arm: &SimulatedJaco,
 ) -> std::io::Result<()> {
     let state = arm.state();
     let p = state.pose.translation.vector;
     let r = state.pose.rotation.scaled_axis();
-    write!(out, "{},{}", output.tick, output.command.state.name())?;
-    for value in output
+    line.clear();
+    line.extend_from_slice(itoa::Buffer::new().format(output.tick).as_bytes());
+    line.push(b',');
+    line.extend_from_slice(output.command.state.name().as_bytes());
+    for &value in output
         .motion
         .velocity()
         .iter()
         .chain(p.iter())
         .chain(r.iter())
+        .chain(std::iter::once(&arm.fingers()))
     {
-        write!(out, ",{value}")?;
+        line.push(b',');
+        push_f64(line, value);
     }
-    writeln!(out, ",{}", arm.fingers())
+    line.push(b'\n');
+    out.write_all(line)
 }
 
 /// Replays every sample of `signal` through a fresh core and the simulated
@@ -103,6 +113,7 @@ pub fn replay<R: Read>(
         writeln!(trace, "{TRACE_HEADER}")?;
     }
     let mut output = core.blank_output(0);
+    let mut line = Vec::with_capacity(256);
     while let Some(volts) = signal.next_sample()? {
         core.step_into(summary.samples, volts, &mut output);
         let output = &output;
@@ -121,7 +132,7 @@ pub fn replay<R: Read>(
             summary.ticks_outside_workspace += 1;
         }
         if let Some(trace) = trace.as_deref_mut() {
-            trace_row(trace, output, &arm)?;
+            trace_row(trace, &mut line, output, &arm)?;
         }
         summary.samples += 1;
     }

@@ -1,11 +1,15 @@
 //! Skipped work, proven equivalent: the core as it runs (Ruckig's updates
-//! skipped while both trajectories rest and nothing is asked) and the core
-//! with every update run, side by side on the same streams — the demo
+//! skipped while both trajectories rest and nothing is asked, a pose step
+//! at zero velocity skipped where it is known to change nothing, the
+//! output written in place) and the core with every update and step run,
+//! each driving a simulated arm (with and without its skipped steps),
+//! side by side on the same streams — the demo
 //! user, noisy random sessions through both libraries, harsh signals with
 //! rail spikes, saturation and NaN dropouts, the scanning interface —
 //! with every field of every tick's output and view equal, the floats bit
 //! for bit.
 
+use sipnpuff::arm::sim::SimulatedJaco;
 use sipnpuff::config::Config;
 use sipnpuff::control::pipeline::{Pipeline, TickOutput};
 use sipnpuff::sim::script::{demo_script, random_session};
@@ -43,19 +47,46 @@ fn float_bits(out: &TickOutput) -> [u64; 24] {
     bits
 }
 
-/// Runs `samples` through both cores; returns (ticks, ticks skipped).
+/// The simulated arm's pose and fingers, as bits.
+fn arm_bits(arm: &SimulatedJaco) -> [u64; 8] {
+    let state = arm.state();
+    let p = state.pose.translation.vector;
+    let q = state.pose.rotation.coords;
+    [
+        p.x.to_bits(),
+        p.y.to_bits(),
+        p.z.to_bits(),
+        q.x.to_bits(),
+        q.y.to_bits(),
+        q.z.to_bits(),
+        q.w.to_bits(),
+        arm.fingers().to_bits(),
+    ]
+}
+
+/// Runs `samples` through both cores, each driving its simulated arm
+/// (the fast one with its own skipped steps); returns (ticks, ticks
+/// skipped). The fast core also runs through `step_into`, one output
+/// reused, as replay runs it.
 fn side_by_side(config: &Config, samples: impl Iterator<Item = f64>) -> (u64, u64) {
     let mut fast: Pipeline = Pipeline::new(config.core());
     let mut full: Pipeline = Pipeline::new(config.core());
     full.always_update();
+    let mut fast_arm = SimulatedJaco::new(config.core());
+    let mut full_arm = SimulatedJaco::new(config.core());
+    full_arm.full_path();
+    let mut a = fast.blank_output(0);
     let mut ticks = 0;
     for (t, volts) in samples.enumerate() {
         let t = t as u64;
-        let a = fast.step(t, volts);
+        fast.step_into(t, volts, &mut a);
         let b = full.step(t, volts);
         assert_eq!(a, b, "tick {t}");
         assert_eq!(float_bits(&a), float_bits(&b), "tick {t}");
         assert_eq!(fast.view(), full.view(), "tick {t}");
+        fast_arm.tick(a.motion.arm_command.as_ref());
+        full_arm.tick(b.motion.arm_command.as_ref());
+        assert_eq!(arm_bits(&fast_arm), arm_bits(&full_arm), "arm at tick {t}");
         ticks += 1;
     }
     assert_eq!(full.motion().skipped_updates(), 0);

@@ -88,6 +88,7 @@ impl Motion {
     /// Switches Ruckig to the velocity interface; the speeds along the
     /// line and about the axis carry over as they are.
     pub(super) fn switch_to_velocity_plan(&mut self) {
+        self.at_rest = false;
         self.plan = Plan::Velocity;
         self.input.control_interface = ControlInterface::Velocity;
         self.input.synchronization = Synchronization::None;

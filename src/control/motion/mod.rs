@@ -235,22 +235,23 @@ pub struct Motion {
     decimator: Decimator,
     /// The measured pose, when the arm reports one.
     tracker: PoseTracker,
-    /// Both trajectories are at rest and the last update changed nothing:
-    /// while Ruckig's inputs stay equal to [`Motion::rest_inputs`], an
-    /// update would compute nothing again and give back the same still
-    /// state, so it is skipped (`tests/it/fast_paths.rs` runs both paths
-    /// side by side). Off with [`Motion::always_update`].
+    /// Both trajectories are at rest and the last update changed nothing
+    /// (every velocity and acceleration, now and asked, zero; Ruckig's
+    /// own state the same). Until the next update, nothing changes
+    /// Ruckig's state but the targets — what would ([`Motion::halt`],
+    /// the switch of plans, a start from rest towards a new direction)
+    /// clears this — so while the targets stay zero an update would
+    /// compute nothing again and give back the same still state: it is
+    /// skipped (`tests/it/fast_paths.rs` runs both paths side by side;
+    /// debug builds check every skip against Ruckig's own comparison).
+    /// Off with [`Motion::always_update`].
     at_rest: bool,
-    /// Where the update that found both trajectories at rest left them:
-    /// every velocity and acceleration, now and asked, was zero; these
-    /// are the rest of Ruckig's state (a few bytes kept apart from the
-    /// large planner state: compared every tick at rest).
-    rest_state: RestState,
-    /// The whole inputs of that update (debug builds: [`same_state`] is
-    /// checked against Ruckig's whole comparison).
+    /// The inputs of the update that found both trajectories at rest
+    /// (debug builds: every skip is checked against them).
     #[cfg(debug_assertions)]
     rest_inputs: (InputParameter<2>, InputParameter<1>),
-    /// Never skip an update (the reference path of the equivalence tests).
+    /// Never skip an update or a pose step (the reference path of the
+    /// equivalence tests).
     always_update: bool,
     /// Ticks whose updates were skipped at rest.
     skipped_updates: u64,
@@ -332,7 +333,6 @@ impl Motion {
             decimator: Decimator::default(),
             tracker: PoseTracker::new(FeedbackConfig::default()),
             at_rest: false,
-            rest_state: RestState::default(),
             #[cfg(debug_assertions)]
             rest_inputs,
             always_update: false,
@@ -346,8 +346,8 @@ impl Motion {
         self.skipped_updates
     }
 
-    /// Runs both Ruckig updates on every tick, at rest too: the reference
-    /// the skipped updates are proven against. Not for production.
+    /// Runs every Ruckig update and every pose step, at rest too: the
+    /// reference the skipped work is proven against. Not for production.
     #[doc(hidden)]
     pub fn always_update(&mut self) {
         self.always_update = true;
@@ -444,6 +444,7 @@ impl Motion {
     /// from zero. A go-to under way starts again from rest if its puff is
     /// still held. RT-safe.
     pub fn halt(&mut self) {
+        self.at_rest = false;
         self.goto_pending = !self.goto_done && (self.plan == Plan::Goto || self.goto_pending);
         self.switch_to_velocity_plan();
         self.fallback = false;
@@ -548,6 +549,8 @@ impl Motion {
             emit(MotionEvent::WorkspaceLimit { boundary });
         }
 
+        // Zero targets in the velocity plan: Ruckig is asked for nothing.
+        let mut asked_nothing = false;
         if self.plan == Plan::Velocity {
             let (speed, boundary) = self.linear_target(linear);
             if let Some(boundary) = boundary {
@@ -559,15 +562,16 @@ impl Motion {
             }
             set_all(&mut self.input.target_velocity, [speed, rate]);
             self.input.target_acceleration.fill(0.0);
+            asked_nothing = speed == 0.0 && rate == 0.0;
         }
         if let Some(boundary) = self.hold_fingers_at_end(&mut fingers) {
             emit(MotionEvent::WorkspaceLimit { boundary });
         }
-        self.finger_input
-            .target_velocity
-            .fill(finite_or_zero(fingers).clamp(-l.finger_speed, l.finger_speed));
+        let finger_target = finite_or_zero(fingers).clamp(-l.finger_speed, l.finger_speed);
+        self.finger_input.target_velocity.fill(finger_target);
+        asked_nothing &= finger_target == 0.0;
 
-        if let Some(event) = self.update_trajectories() {
+        if let Some(event) = self.update_trajectories(asked_nothing) {
             emit(event);
         }
         let reached = self.plan == Plan::Goto && self.goto_done;
@@ -599,10 +603,17 @@ impl Motion {
 
     /// Runs both Ruckig instances one cycle and feeds their output back;
     /// if either fails, brakes on the fallback profile until still.
-    fn update_trajectories(&mut self) -> Option<MotionEvent> {
-        if self.at_rest && !self.fallback && self.still_at_rest() {
-            // Still at rest, nothing asked: both updates would return
-            // `Finished` with this very state and no new calculation.
+    fn update_trajectories(&mut self, asked_nothing: bool) -> Option<MotionEvent> {
+        if self.at_rest && !self.fallback && asked_nothing {
+            // Still at rest (no update ran since the one that found it, and
+            // nothing else changed Ruckig's state: see `at_rest`), nothing
+            // asked: both updates would return `Finished` with this very
+            // state and no new calculation.
+            #[cfg(debug_assertions)]
+            debug_assert!(
+                self.input == self.rest_inputs.0 && self.finger_input == self.rest_inputs.1,
+                "an update skipped at rest would have seen new inputs"
+            );
             self.skipped_updates += 1;
             return None;
         }
@@ -653,7 +664,6 @@ impl Motion {
             && comes_out_still(&self.output)
             && comes_out_still(&self.finger_output)
         {
-            self.rest_state = RestState::of(&self.input, &self.finger_input);
             #[cfg(debug_assertions)]
             {
                 self.rest_inputs.0.copy_from(&self.input);
@@ -725,7 +735,7 @@ impl Motion {
     /// Integrates the tick's mean velocity into the pose estimate.
     fn integrate(&mut self, mean: &[f64; 7]) {
         let zero = still::all_positive_zero(mean);
-        if !zero {
+        if !zero || self.always_update {
             self.integrate_step(mean);
             return;
         }
@@ -760,53 +770,6 @@ fn is_still<const N: usize>(input: &InputParameter<N>) -> bool {
     ]
     .iter()
     .all(|values| values.iter().all(|v| *v == 0.0))
-}
-
-/// The part of Ruckig's inputs at rest that is not zero: positions and
-/// interfaces (velocities and accelerations, now and asked, are zero).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-struct RestState {
-    positions: [f64; 6],
-    interfaces: [(ControlInterface, Synchronization); 2],
-}
-
-impl RestState {
-    fn of(input: &InputParameter<2>, fingers: &InputParameter<1>) -> RestState {
-        RestState {
-            positions: [
-                get(&input.current_position, LINEAR),
-                get(&input.current_position, ANGULAR),
-                get(&fingers.current_position, 0),
-                get(&input.target_position, LINEAR),
-                get(&input.target_position, ANGULAR),
-                get(&fingers.target_position, 0),
-            ],
-            interfaces: [
-                (input.control_interface, input.synchronization),
-                (fingers.control_interface, fingers.synchronization),
-            ],
-        }
-    }
-}
-
-impl Motion {
-    /// Ruckig's inputs are still those of the update that found both
-    /// trajectories at rest, by Ruckig's own comparison (`==`): zero
-    /// velocities and accelerations, now and asked (`==` takes −0 for
-    /// 0, as Ruckig does), and the same positions and interfaces — the
-    /// limits and options are set in [`Motion::new`] and never again.
-    /// Debug builds (the tests) check that against the whole comparison.
-    fn still_at_rest(&self) -> bool {
-        let same = is_still(&self.input)
-            && is_still(&self.finger_input)
-            && RestState::of(&self.input, &self.finger_input) == self.rest_state;
-        #[cfg(debug_assertions)]
-        debug_assert!(
-            same == (self.input == self.rest_inputs.0 && self.finger_input == self.rest_inputs.1),
-            "the rest check disagrees with Ruckig's comparison"
-        );
-        same
-    }
 }
 
 /// Ruckig's own state after the update is still, as ours is: had

@@ -32,6 +32,11 @@ pub fn all_positive_zero(values: &[f64]) -> bool {
     values.iter().all(|v| v.to_bits() == 0)
 }
 
+/// `a == b`, without a call to `memcmp` for 64 bytes.
+fn same(a: &PoseBits, b: &PoseBits) -> bool {
+    a.iter().zip(b).fold(0, |differ, (x, y)| differ | (x ^ y)) == 0
+}
+
 /// The pose a zero-velocity step was seen to leave unchanged. `Copy`,
 /// RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -42,12 +47,12 @@ pub struct StillPose {
 impl StillPose {
     /// A zero-velocity step from `pose` is known to change nothing.
     pub fn known(&self, pose: &PoseBits) -> bool {
-        self.at.as_ref() == Some(pose)
+        self.at.is_some_and(|at| same(&at, pose))
     }
 
     /// A zero-velocity step went from `before` to `after`.
     pub fn observe(&mut self, before: &PoseBits, after: &PoseBits) {
-        if before == after {
+        if same(before, after) {
             self.at = Some(*after);
         }
     }

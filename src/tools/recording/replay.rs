@@ -414,7 +414,7 @@ pub fn replay(
             v.summary.ticks_outside_workspace += 1;
         }
         if let Some(trace) = trace.as_deref_mut() {
-            trace_row(trace, &output, &arm)?;
+            trace_row(trace, &mut line, &output, &arm)?;
         }
     }
     cmp.finish(v.summary.events, v.summary.arm_commands)?;
