@@ -66,6 +66,27 @@ pub fn assert_session(
     n
 }
 
+/// A sip of `ms` for a script.
+pub fn sip(ms: u32) -> Step {
+    Step::Breath {
+        breath: Breath::Sip,
+        ms,
+    }
+}
+
+/// A puff of `ms` for a script.
+pub fn puff(ms: u32) -> Step {
+    Step::Breath {
+        breath: Breath::Puff,
+        ms,
+    }
+}
+
+/// `ms` at rest for a script.
+pub fn rest(ms: u32) -> Step {
+    Step::Rest { ms }
+}
+
 /// A file in `fixtures/`.
 pub fn fixture(name: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -5,14 +5,13 @@
 
 use sipnpuff::config::Config;
 use sipnpuff::control::Tick;
-use sipnpuff::control::action::Breath;
 use sipnpuff::control::event::{Event, TimedEvent};
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::display::screen::{Cue, Frame, Screen};
 use sipnpuff::rt::telemetry::{CoreInput, CoreSample, TickRecord};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
-use crate::common;
+use crate::common::{self, puff, rest, sip};
 
 /// The core and the screen, stepped together one simulated tick at a time
 /// as the telemetry side sees them.
@@ -82,24 +81,6 @@ impl Session {
             .nth(n)
             .expect("the burst was detected")
     }
-}
-
-fn sip(ms: u32) -> Step {
-    Step::Breath {
-        breath: Breath::Sip,
-        ms,
-    }
-}
-
-fn puff(ms: u32) -> Step {
-    Step::Breath {
-        breath: Breath::Puff,
-        ms,
-    }
-}
-
-fn rest(ms: u32) -> Step {
-    Step::Rest { ms }
 }
 
 fn names(frame: &Frame) -> Vec<String> {

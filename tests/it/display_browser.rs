@@ -15,31 +15,12 @@ use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
 use sipnpuff::config::Config;
-use sipnpuff::control::action::Breath;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step, write_csv};
 
-use crate::common::{self, Running};
+use crate::common::{self, Running, puff, rest, sip};
 
 const CHROMIUM: &str = "/usr/bin/chromium";
 const CHROMEDRIVER: &str = "/usr/bin/chromedriver";
-
-fn sip(ms: u32) -> Step {
-    Step::Breath {
-        breath: Breath::Sip,
-        ms,
-    }
-}
-
-fn puff(ms: u32) -> Step {
-    Step::Breath {
-        breath: Breath::Puff,
-        ms,
-    }
-}
-
-fn rest(ms: u32) -> Step {
-    Step::Rest { ms }
-}
 
 /// Chromium and ChromeDriver are installed (tests/peers/browser/install.sh).
 fn have_browser(test: &str) -> bool {

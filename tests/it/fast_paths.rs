@@ -11,6 +11,7 @@
 
 use sipnpuff::arm::sim::SimulatedJaco;
 use sipnpuff::config::Config;
+use sipnpuff::control::motion::still::pose_bits;
 use sipnpuff::control::pipeline::{Pipeline, TickOutput};
 use sipnpuff::sim::script::{demo_script, random_session};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
@@ -49,19 +50,7 @@ fn float_bits(out: &TickOutput) -> [u64; 24] {
 
 /// The simulated arm's pose and fingers, as bits.
 fn arm_bits(arm: &SimulatedJaco) -> [u64; 8] {
-    let state = arm.state();
-    let p = state.pose.translation.vector;
-    let q = state.pose.rotation.coords;
-    [
-        p.x.to_bits(),
-        p.y.to_bits(),
-        p.z.to_bits(),
-        q.x.to_bits(),
-        q.y.to_bits(),
-        q.z.to_bits(),
-        q.w.to_bits(),
-        arm.fingers().to_bits(),
-    ]
+    pose_bits(&arm.state().pose, arm.fingers())
 }
 
 /// Runs `samples` through both cores, each driving its simulated arm

@@ -7,13 +7,14 @@
 
 use nalgebra::Vector3;
 use sipnpuff::config::Config;
-use sipnpuff::control::action::{Action, Breath};
+use sipnpuff::control::action::Action;
 use sipnpuff::control::event::Event;
 use sipnpuff::control::mode::{Direction, Mode, ModeState};
 use sipnpuff::control::motion::MotionEvent;
 use sipnpuff::sim::script::{Timing, sequence_steps};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
+use crate::common::{puff, rest, sip};
 use crate::motion::{Record, check_invariants, clearance, motion_events, run};
 
 const DT: f64 = 0.001;
@@ -26,24 +27,6 @@ const ROTATE_Y: [Action; 2] = [LongPuff, ShortSip];
 const ROTATE_Z: [Action; 2] = [LongPuff, LongPuff];
 const SAVE_POINT: [Action; 2] = [LongSip, ShortPuff];
 const GOTO_POINT: [Action; 2] = [LongSip, ShortSip];
-
-fn puff(ms: u32) -> Step {
-    Step::Breath {
-        breath: Breath::Puff,
-        ms,
-    }
-}
-
-fn sip(ms: u32) -> Step {
-    Step::Breath {
-        breath: Breath::Sip,
-        ms,
-    }
-}
-
-fn rest(ms: u32) -> Step {
-    Step::Rest { ms }
-}
 
 /// Enters `actions` with comfortable timings, then waits 300 ms.
 fn select(actions: &[Action]) -> Vec<Step> {
