@@ -10,6 +10,10 @@ use crate::control::core_config::CoreConfig;
 use crate::rt::report::RunReport;
 use crate::rt::telemetry::TelemetryObserver;
 
+/// The page's default address: this machine only (the wheelchair's own
+/// screen).
+pub const DEFAULT_ADDRESS: &str = "127.0.0.1:8080";
+
 /// The display's options.
 #[derive(clap::Args, Debug)]
 pub struct DisplayArgs {
@@ -17,7 +21,7 @@ pub struct DisplayArgs {
     /// pressure, the arm's state, sounds) at this address, for a kiosk
     /// browser on the wheelchair's screen, a tablet or a laptop:
     /// `HOST:PORT` or `PORT` (on 127.0.0.1, this machine only).
-    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:8080", env = "SIPNPUFF_DISPLAY", value_parser = parse_display)]
+    #[arg(long, value_name = "ADDR", default_value = DEFAULT_ADDRESS, env = "SIPNPUFF_DISPLAY", value_parser = parse_display)]
     display: SocketAddr,
     /// Don't serve the display (also `SIPNPUFF_NO_DISPLAY=1`).
     #[arg(long, env = "SIPNPUFF_NO_DISPLAY", value_parser = clap::builder::BoolishValueParser::new())]

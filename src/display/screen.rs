@@ -480,13 +480,16 @@ impl Screen {
             dwell_ms: self.highlight_dwell,
         });
         let command = match view.state {
-            ModeState::Command(mode) => Some(Command {
-                mode: mode.name(),
-                moving: moving_words(mode, view.direction),
-                arrow: arrow(mode, view.direction),
-                returns_in_ms: view.returns_at.map_or(0, |at| at.saturating_sub(now)),
-                countdown_paused: view.held.is_some(),
-            }),
+            ModeState::Command(mode) => {
+                let (moving, arrow) = motion_shown(mode, view.direction);
+                Some(Command {
+                    mode: mode.name(),
+                    moving,
+                    arrow,
+                    returns_in_ms: view.returns_at.map_or(0, |at| at.saturating_sub(now)),
+                    countdown_paused: view.held.is_some(),
+                })
+            }
             ModeState::Detection => None,
         };
         let mut notices = Vec::new();
@@ -572,49 +575,28 @@ pub fn label(mode: Mode) -> &'static str {
     }
 }
 
-/// The motion in words.
-fn moving_words(mode: Mode, direction: Direction) -> &'static str {
+/// The motion in words, and the arrow drawn for it.
+fn motion_shown(mode: Mode, direction: Direction) -> (&'static str, &'static str) {
     use Direction::{Negative, Positive, Still};
     match (mode, direction) {
-        (_, Still) => "stopped",
-        (Mode::TranslateX, Positive) => "forward",
-        (Mode::TranslateX, Negative) => "back",
-        (Mode::TranslateY, Positive) => "left",
-        (Mode::TranslateY, Negative) => "right",
-        (Mode::TranslateZ, Positive) => "up",
-        (Mode::TranslateZ, Negative) => "down",
-        (Mode::RotateX, Positive) => "turning about x (+)",
-        (Mode::RotateX, Negative) => "turning about x (−)",
-        (Mode::RotateY, Positive) => "turning about y (+)",
-        (Mode::RotateY, Negative) => "turning about y (−)",
-        (Mode::RotateZ, Positive) => "turning about z (+)",
-        (Mode::RotateZ, Negative) => "turning about z (−)",
-        (Mode::Fingers, Positive) => "open fingers",
-        (Mode::Fingers, Negative) => "close fingers",
-        (Mode::SavePoint, _) => "saving the point",
-        (Mode::GotoPoint, Positive) => "going to the saved point",
-        (Mode::GotoPoint, Negative) => "stopped",
-    }
-}
-
-/// The arrow drawn for the motion.
-fn arrow(mode: Mode, direction: Direction) -> &'static str {
-    use Direction::{Negative, Positive, Still};
-    match (mode, direction) {
-        (_, Still) => "none",
-        (Mode::TranslateX, Positive) => "forward",
-        (Mode::TranslateX, Negative) => "back",
-        (Mode::TranslateY, Positive) => "left",
-        (Mode::TranslateY, Negative) => "right",
-        (Mode::TranslateZ, Positive) => "up",
-        (Mode::TranslateZ, Negative) => "down",
-        (Mode::RotateX | Mode::RotateY | Mode::RotateZ, Positive) => "turn_positive",
-        (Mode::RotateX | Mode::RotateY | Mode::RotateZ, Negative) => "turn_negative",
-        (Mode::Fingers, Positive) => "open",
-        (Mode::Fingers, Negative) => "close",
-        (Mode::SavePoint, _) => "save",
-        (Mode::GotoPoint, Positive) => "goto",
-        (Mode::GotoPoint, Negative) => "none",
+        (_, Still) => ("stopped", "none"),
+        (Mode::TranslateX, Positive) => ("forward", "forward"),
+        (Mode::TranslateX, Negative) => ("back", "back"),
+        (Mode::TranslateY, Positive) => ("left", "left"),
+        (Mode::TranslateY, Negative) => ("right", "right"),
+        (Mode::TranslateZ, Positive) => ("up", "up"),
+        (Mode::TranslateZ, Negative) => ("down", "down"),
+        (Mode::RotateX, Positive) => ("turning about x (+)", "turn_positive"),
+        (Mode::RotateX, Negative) => ("turning about x (−)", "turn_negative"),
+        (Mode::RotateY, Positive) => ("turning about y (+)", "turn_positive"),
+        (Mode::RotateY, Negative) => ("turning about y (−)", "turn_negative"),
+        (Mode::RotateZ, Positive) => ("turning about z (+)", "turn_positive"),
+        (Mode::RotateZ, Negative) => ("turning about z (−)", "turn_negative"),
+        (Mode::Fingers, Positive) => ("open fingers", "open"),
+        (Mode::Fingers, Negative) => ("close fingers", "close"),
+        (Mode::SavePoint, _) => ("saving the point", "save"),
+        (Mode::GotoPoint, Positive) => ("going to the saved point", "goto"),
+        (Mode::GotoPoint, Negative) => ("stopped", "none"),
     }
 }
 

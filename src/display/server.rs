@@ -28,9 +28,6 @@ use crate::display::hub::Feed;
 /// The page: HTML, CSS, JavaScript and the sounds' code in one file.
 pub const PAGE: &str = include_str!("page/index.html");
 
-/// The default address: this machine only (the wheelchair's own screen).
-pub const DEFAULT_ADDRESS: &str = "127.0.0.1:8080";
-
 /// The page being served; stops when dropped.
 pub struct DisplayServer {
     address: SocketAddr,

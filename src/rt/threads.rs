@@ -173,15 +173,7 @@ pub fn run<S: Sensor>(
     options: &RunOptions,
     sink: &mut impl EventSink,
 ) -> Result<RunReport, RunError> {
-    run_with(
-        config,
-        sensor,
-        arm,
-        options,
-        sink,
-        Watchers::default(),
-        |tick| tick,
-    )
+    run_watched(config, sensor, arm, options, sink, Watchers::default())
 }
 
 /// [`run`], handing every tick's core input, every arm command and every
@@ -198,7 +190,7 @@ pub fn run_recorded<S: Sensor>(
         recorder: Some(recorder),
         observer: None,
     };
-    run_with(config, sensor, arm, options, sink, watchers, |tick| tick)
+    run_watched(config, sensor, arm, options, sink, watchers)
 }
 
 /// Who else watches a run from the telemetry thread, besides its event

@@ -21,7 +21,7 @@ use serde_json::Value;
 use sipnpuff::control::motion::stream::ArmCommand;
 use sipnpuff::tools::recording::format::commands::{CommandDecoder, CommandItem};
 
-use crate::common::{Running, have_peer, monotonic_ns};
+use crate::common::{Running, free_port, have_peer, monotonic_ns};
 
 const NS: &str = "/j2n6s300_driver";
 const PYTHON: &str = "/usr/bin/python3";
@@ -43,13 +43,6 @@ fn peers_installed(test: &str) -> bool {
             "Debian's ROS 1 (rosmaster, python3-rospy, python3-geometry-msgs) is not installed: run tests/peers/ros1/install.sh as root".into()
         }),
     )
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
 }
 
 fn scratch(name: &str) -> PathBuf {

@@ -87,6 +87,14 @@ pub fn rest(ms: u32) -> Step {
     Step::Rest { ms }
 }
 
+/// A port free now on 127.0.0.1 (for a peer or a server the test starts).
+pub fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
 /// A file in `fixtures/`.
 pub fn fixture(name: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

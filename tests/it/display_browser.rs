@@ -17,7 +17,7 @@ use serde_json::{Value, json};
 use sipnpuff::config::Config;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step, write_csv};
 
-use crate::common::{self, Running, puff, rest, sip};
+use crate::common::{self, Running, free_port, puff, rest, sip};
 
 const CHROMIUM: &str = "/usr/bin/chromium";
 const CHROMEDRIVER: &str = "/usr/bin/chromedriver";
@@ -29,14 +29,6 @@ fn have_browser(test: &str) -> bool {
         .find(|p| !Path::new(p).exists())
         .map(|p| format!("{p} is missing (bash tests/peers/browser/install.sh)"));
     common::have_peer(test, missing)
-}
-
-/// A port free now on 127.0.0.1.
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
 }
 
 /// A scratch directory for one test.
