@@ -10,6 +10,8 @@
 
 #![no_main]
 
+use std::sync::OnceLock;
+
 use libfuzzer_sys::fuzz_target;
 use sipnpuff::config::Config;
 use sipnpuff::control::event::Event;
@@ -19,6 +21,16 @@ use sipnpuff::tools::safety::SafetyMonitor;
 const PAPER_LIBRARY: &str = include_str!("../../fixtures/paper-example.toml");
 /// Bound on one input's length, so each run stays short.
 const MAX_TICKS: u64 = 30_000;
+
+/// The built-in configuration and the paper's library, read once (not
+/// once an input: the same text every time).
+fn configs() -> &'static [Config; 2] {
+    static CONFIGS: OnceLock<[Config; 2]> = OnceLock::new();
+    CONFIGS.get_or_init(|| {
+        let paper = Config::from_toml_str(PAPER_LIBRARY).expect("the paper's example is valid");
+        [Config::default(), paper]
+    })
+}
 
 fn norm(v: &[f64; 3]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
@@ -80,27 +92,25 @@ fuzz_target!(|data: &[u8]| {
     let Some((&choice, chunks)) = data.split_first() else {
         return;
     };
-    let config = if choice % 2 == 0 {
-        Config::default()
-    } else {
-        Config::from_toml_str(PAPER_LIBRARY).expect("the paper's example is valid")
-    };
+    let config = &configs()[usize::from(choice % 2)];
     let mut core: Pipeline = Pipeline::new(config.core());
     let mut monitor = SafetyMonitor::new(config.core());
+    // One output, written in place each tick (as replay runs the core).
+    let mut out = core.blank_output(0);
     let mut tick = 0u64;
     for chunk in chunks.chunks_exact(3) {
         let (kind, level, len) = (chunk[0], chunk[1], chunk[2]);
         // Hold each level 4 ms to 1 s, so breaths, sequences and holds form.
         for _ in 0..(u64::from(len) + 1) * 4 {
-            let out = match decode(kind, level) {
-                Sample::Volts(v) => core.step(tick, v),
-                Sample::Missing => core.step_missing(tick),
+            match decode(kind, level) {
+                Sample::Volts(v) => core.step_into(tick, v, &mut out),
+                Sample::Missing => core.step_missing_into(tick, &mut out),
                 Sample::Stall(ticks) => {
                     tick += ticks;
-                    core.step_missing(tick)
+                    core.step_missing_into(tick, &mut out);
                 }
-            };
-            check(&config, &out, &mut monitor);
+            }
+            check(config, &out, &mut monitor);
             tick += 1;
             if tick >= MAX_TICKS {
                 return;

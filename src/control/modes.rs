@@ -125,7 +125,9 @@ impl ModeMachine {
 
     /// One tick: `matched` is the mode the matcher selected on this tick.
     /// Returns the command and, if it happened, why the machine went back
-    /// to detection mode. RT-safe.
+    /// to detection mode. RT-safe. (Inlined: called across codegen units,
+    /// its output came back through memory and stalled the tick.)
+    #[inline]
     pub fn step(
         &mut self,
         now: Tick,

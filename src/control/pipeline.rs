@@ -213,14 +213,36 @@ impl<I: SequenceIndex> Pipeline<I> {
     /// nor copied). `out` ends as `step` would have returned. RT-safe.
     pub fn step_into(&mut self, now: Tick, volts: f64, out: &mut TickOutput) {
         let detected = self.detector.step(now, volts);
+        Self::restart(now, out);
+        self.process(now, detected, out);
+    }
+
+    /// [`Pipeline::step_missing`] into `out`, as [`Pipeline::step_into`].
+    /// RT-safe.
+    pub fn step_missing_into(&mut self, now: Tick, out: &mut TickOutput) {
+        let detected = self.detector.step_missing(now);
+        Self::restart(now, out);
+        self.process(now, detected, out);
+    }
+
+    /// [`Pipeline::step_lost`] into `out`, as [`Pipeline::step_into`].
+    /// RT-safe.
+    pub fn step_lost_into(&mut self, now: Tick, out: &mut TickOutput) {
+        let detected = self.detector.step_lost(now);
+        Self::restart(now, out);
+        self.process(now, detected, out);
+    }
+
+    /// A previous tick's output made the start of tick `now`'s, as
+    /// [`Pipeline::blank_output`] would be (`out.motion` is written whole
+    /// by the motion step).
+    fn restart(now: Tick, out: &mut TickOutput) {
         out.tick = now;
         out.command = ModeOutput::default();
         out.held = Held::default();
         out.faulted = false;
         out.events.clear();
         out.dropped_events = 0;
-        // `out.motion` is written whole by the motion step.
-        self.process(now, detected, out);
     }
 
     /// A tick on which no sample arrived (the runtime's sensor had none):

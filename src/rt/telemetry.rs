@@ -71,6 +71,21 @@ impl CoreSample {
             CoreSample::Disconnected => core.step_lost(tick),
         }
     }
+
+    /// [`CoreSample::step`] into `out`, a previous tick's output (the
+    /// replay of a recording reuses one). RT-safe.
+    pub fn step_into<I: SequenceIndex>(
+        self,
+        core: &mut Pipeline<I>,
+        tick: Tick,
+        out: &mut TickOutput,
+    ) {
+        match self {
+            CoreSample::Volts(volts) => core.step_into(tick, volts, out),
+            CoreSample::Missing => core.step_missing_into(tick, out),
+            CoreSample::Disconnected => core.step_lost_into(tick, out),
+        }
+    }
 }
 
 /// What the arm told the core before one tick's step. `Copy`.

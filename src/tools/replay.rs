@@ -7,6 +7,7 @@ use std::io::{Read, Write};
 use crate::arm::sim::SimulatedJaco;
 use crate::control::core_config::CoreConfig;
 use crate::control::event::TimedEvent;
+use crate::control::motion::still::{PoseBits, pose_bits};
 use crate::control::pipeline::{Pipeline, TickOutput};
 use crate::sensor::csv::{CsvError, CsvSignal};
 use crate::tools::float_text::push_f64;
@@ -65,36 +66,55 @@ pub struct ReplaySummary {
 /// Header of the `--trace` CSV.
 pub const TRACE_HEADER: &str = "tick,mode,vx,vy,vz,wx,wy,wz,fingers_vel,x,y,z,rx,ry,rz,fingers";
 
-/// Writes one trace row: the core's 1 kHz commanded twist (base frame) and
-/// the simulated arm's pose (also for recordings, `tools::recording`).
-/// `line` is a buffer the caller keeps from row to row. The numbers are
-/// written as `format!("{}")` writes them ([`push_f64`]).
-pub fn trace_row(
-    out: &mut dyn Write,
-    line: &mut Vec<u8>,
-    output: &TickOutput,
-    arm: &SimulatedJaco,
-) -> std::io::Result<()> {
-    let state = arm.state();
-    let p = state.pose.translation.vector;
-    let r = state.pose.rotation.scaled_axis();
-    line.clear();
-    line.extend_from_slice(itoa::Buffer::new().format(output.tick).as_bytes());
-    line.push(b',');
-    line.extend_from_slice(output.command.state.name().as_bytes());
-    for &value in output
-        .motion
-        .velocity()
-        .iter()
-        .chain(p.iter())
-        .chain(r.iter())
-        .chain(std::iter::once(&arm.fingers()))
-    {
+/// Writes trace rows: the core's 1 kHz commanded twist (base frame) and
+/// the simulated arm's pose, one row a tick (also for recordings,
+/// `tools::recording`). The numbers are written as `format!("{}")`
+/// writes them ([`push_f64`]). One line is reused from row to row, and
+/// the pose's columns are laid out again only when the pose changed: at
+/// rest they are the previous row's, the same bits giving the same text.
+#[derive(Debug, Default)]
+pub struct TraceRows {
+    line: Vec<u8>,
+    /// The last pose laid out (its bits and fingers) and its text.
+    pose: Option<(PoseBits, Vec<u8>)>,
+}
+
+impl TraceRows {
+    /// Writes the row of the tick `output` belongs to, `arm` having taken
+    /// its command.
+    pub fn write(
+        &mut self,
+        out: &mut dyn Write,
+        output: &TickOutput,
+        arm: &SimulatedJaco,
+    ) -> std::io::Result<()> {
+        let line = &mut self.line;
+        line.clear();
+        line.extend_from_slice(itoa::Buffer::new().format(output.tick).as_bytes());
         line.push(b',');
-        push_f64(line, value);
+        line.extend_from_slice(output.command.state.name().as_bytes());
+        for value in output.motion.velocity() {
+            line.push(b',');
+            push_f64(line, value);
+        }
+        let pose = arm.state().pose;
+        let bits = pose_bits(&pose, arm.fingers());
+        match &mut self.pose {
+            Some((known, text)) if *known == bits => line.extend_from_slice(text),
+            cached => {
+                let (_, text) = cached.insert((bits, Vec::with_capacity(160)));
+                let r = pose.rotation.scaled_axis();
+                let values = pose.translation.vector.iter().chain(r.iter());
+                for &value in values.chain(std::iter::once(&arm.fingers())) {
+                    text.push(b',');
+                    push_f64(text, value);
+                }
+                line.extend_from_slice(text);
+            }
+        }
+        line.push(b'\n');
+        out.write_all(line)
     }
-    line.push(b'\n');
-    out.write_all(line)
 }
 
 /// Replays every sample of `signal` through a fresh core and the simulated
@@ -113,7 +133,7 @@ pub fn replay<R: Read>(
         writeln!(trace, "{TRACE_HEADER}")?;
     }
     let mut output = core.blank_output(0);
-    let mut line = Vec::with_capacity(256);
+    let mut rows = TraceRows::default();
     while let Some(volts) = signal.next_sample()? {
         core.step_into(summary.samples, volts, &mut output);
         let output = &output;
@@ -132,7 +152,7 @@ pub fn replay<R: Read>(
             summary.ticks_outside_workspace += 1;
         }
         if let Some(trace) = trace.as_deref_mut() {
-            trace_row(trace, &mut line, output, &arm)?;
+            rows.write(trace, output, &arm)?;
         }
         summary.samples += 1;
     }

@@ -11,6 +11,7 @@
 
 use sipnpuff::arm::sim::SimulatedJaco;
 use sipnpuff::config::Config;
+use sipnpuff::control::event::Event;
 use sipnpuff::control::motion::still::pose_bits;
 use sipnpuff::control::pipeline::{Pipeline, TickOutput};
 use sipnpuff::sim::script::{demo_script, random_session};
@@ -82,6 +83,74 @@ fn side_by_side(config: &Config, samples: impl Iterator<Item = f64>) -> (u64, u6
     (ticks, fast.motion().skipped_updates())
 }
 
+/// One tick's input to both cores.
+#[derive(Clone, Copy)]
+enum Input {
+    Volts(f64),
+    /// No sample (`step_missing`).
+    Missing,
+    /// The sensor's device gone (`step_lost`).
+    Lost,
+}
+
+/// As [`side_by_side`], with missing samples and a lost device among the
+/// samples, both cores measuring their arm's pose (every 10 ticks, 0.1 mm
+/// off so that it corrects the estimate, at rest too), and the arm's link
+/// lost at `link_lost_at`.
+fn side_by_side_measured(config: &Config, inputs: &[Input], link_lost_at: u64) -> u64 {
+    let mut fast: Pipeline = Pipeline::new(config.core());
+    let mut full: Pipeline = Pipeline::new(config.core());
+    full.always_update();
+    let mut fast_arm = SimulatedJaco::new(config.core());
+    let mut full_arm = SimulatedJaco::new(config.core());
+    full_arm.full_path();
+    let start = fast_arm.state().pose;
+    fast.start_measured(start);
+    full.start_measured(start);
+    let mut a = fast.blank_output(0);
+    let mut faulted = false;
+    for (t, &input) in inputs.iter().enumerate() {
+        let t = t as u64;
+        if t == link_lost_at {
+            fast.arm_link_lost();
+            full.arm_link_lost();
+        }
+        let b = match input {
+            Input::Volts(volts) => {
+                fast.step_into(t, volts, &mut a);
+                full.step(t, volts)
+            }
+            Input::Missing => {
+                fast.step_missing_into(t, &mut a);
+                full.step_missing(t)
+            }
+            Input::Lost => {
+                fast.step_lost_into(t, &mut a);
+                full.step_lost(t)
+            }
+        };
+        assert_eq!(a, b, "tick {t}");
+        assert_eq!(float_bits(&a), float_bits(&b), "tick {t}");
+        assert_eq!(fast.view(), full.view(), "tick {t}");
+        fast_arm.tick(a.motion.arm_command.as_ref());
+        full_arm.tick(b.motion.arm_command.as_ref());
+        assert_eq!(arm_bits(&fast_arm), arm_bits(&full_arm), "arm at tick {t}");
+        faulted |= a.events.iter().any(|e| matches!(e, Event::ArmFault { .. }));
+        if t.is_multiple_of(10) {
+            let mut measured = full_arm.state().pose;
+            measured.translation.vector.x += if t.is_multiple_of(20) { 1e-4 } else { -1e-4 };
+            fast.observe_arm(&measured);
+            full.observe_arm(&measured);
+        }
+    }
+    assert_eq!(full.motion().skipped_updates(), 0);
+    assert!(
+        faulted,
+        "the link lost at tick {link_lost_at} is an arm fault"
+    );
+    fast.motion().skipped_updates()
+}
+
 fn stream(params: SignalParams, script: &[Step]) -> Vec<f64> {
     SignalGenerator::new(params, script).collect()
 }
@@ -147,4 +216,31 @@ fn the_scanning_interface_is_the_same() {
     let params = SignalParams::clean(config.core().detector(), 4).with_noise(0.02);
     let (ticks, skipped) = side_by_side(&config, stream(params, &script).into_iter());
     assert!(ticks >= 120_000 && skipped > 0);
+}
+
+#[test]
+fn measured_poses_missing_samples_and_a_lost_device_are_the_same() {
+    let config = Config::default();
+    let (script, _) = random_session(&config, 120, 11);
+    let params = SignalParams::clean(config.core().detector(), 11).with_noise(0.02);
+    let mut inputs: Vec<Input> = stream(params, &script)
+        .into_iter()
+        .enumerate()
+        .map(|(t, volts)| match t % 5_003 {
+            // Short gaps (under `stale_ms`) and long ones (a fault).
+            1_000..1_030 | 3_000..3_400 => Input::Missing,
+            4_000..4_010 => Input::Lost,
+            _ => Input::Volts(volts),
+        })
+        .collect();
+    let ticks = inputs.len() as u64;
+    inputs.extend([Input::Volts(2.5); 3_000]);
+    let skipped = side_by_side_measured(&config, &inputs, ticks);
+    eprintln!(
+        "measured: {skipped} of {} ticks skipped Ruckig",
+        inputs.len()
+    );
+    // The test tests something: the rest paths ran, before and after the
+    // arm's fault.
+    assert!(skipped * 3 > ticks, "{skipped} of {ticks}");
 }

@@ -471,6 +471,10 @@ impl Motion {
     /// [`Motion::step`], writing the output in place (the pipeline's
     /// tick output holds it: no copy of it a tick). RT-safe.
     pub fn step_into(&mut self, now: Tick, command: &ModeOutput, out: &mut MotionOutput) {
+        if command.direction == Direction::Still && self.resting() {
+            self.rest_into(now, out);
+            return;
+        }
         let mut events = [None; 2];
         let mut emit = |e: MotionEvent| {
             if let Some(slot) = events.iter_mut().find(|s| s.is_none()) {
@@ -578,7 +582,49 @@ impl Motion {
         if reached {
             emit(MotionEvent::GotoReached);
         }
+        self.finish_tick(now, reached, events, out);
+    }
 
+    /// Both trajectories rest untouched since the update that found them
+    /// still ([`Motion::at_rest`]), in the velocity plan, not braking on
+    /// the fallback: a tick that asks for no motion then changes nothing
+    /// but what [`Motion::rest_into`] does.
+    fn resting(&self) -> bool {
+        self.at_rest && !self.fallback && self.plan == Plan::Velocity
+    }
+
+    /// [`Motion::step_into`] for a command with no direction while
+    /// [`Motion::resting`], reduced to its effects: whatever the mode,
+    /// nothing is requested (no press, nothing held off, no go-to pending
+    /// or under way, zero targets), so the updates are skipped and the
+    /// tick ends as every tick does. `tests/it/fast_paths.rs` runs it side
+    /// by side with the full step, which never takes it.
+    fn rest_into(&mut self, now: Tick, out: &mut MotionOutput) {
+        self.previous_direction = Direction::Still;
+        self.goto_pending = false;
+        self.linear_blocked = None;
+        self.angular_blocked = None;
+        self.finger_blocked = None;
+        // (As many writes as channels: no `memset` a tick.)
+        set_all(&mut self.input.target_velocity, [0.0, 0.0]);
+        set_all(&mut self.input.target_acceleration, [0.0, 0.0]);
+        set_all(&mut self.finger_input.target_velocity, [0.0]);
+        self.skip_update_at_rest();
+        self.finish_tick(now, false, [None; 2], out);
+    }
+
+    /// The end of every tick: the commanded twist integrated into the
+    /// pose, the tracker and the arm's stream fed, the output written.
+    /// (Inlined into both callers: the rest path's constants then write
+    /// less.)
+    #[inline(always)]
+    fn finish_tick(
+        &mut self,
+        now: Tick,
+        reached: bool,
+        events: [Option<MotionEvent>; 2],
+        out: &mut MotionOutput,
+    ) {
         let twist = self.twist();
         let mut mean = [0.0; 7];
         for ((m, last), now) in mean.iter_mut().zip(self.last).zip(twist) {
@@ -601,20 +647,25 @@ impl Motion {
         out.events = events;
     }
 
+    /// Still at rest (no update ran since the one that found it, and
+    /// nothing else changed Ruckig's state: see `at_rest`), nothing asked:
+    /// both updates would return `Finished` with this very state and no
+    /// new calculation, so they are skipped.
+    #[inline]
+    fn skip_update_at_rest(&mut self) {
+        #[cfg(debug_assertions)]
+        debug_assert!(
+            self.input == self.rest_inputs.0 && self.finger_input == self.rest_inputs.1,
+            "an update skipped at rest would have seen new inputs"
+        );
+        self.skipped_updates += 1;
+    }
+
     /// Runs both Ruckig instances one cycle and feeds their output back;
     /// if either fails, brakes on the fallback profile until still.
     fn update_trajectories(&mut self, asked_nothing: bool) -> Option<MotionEvent> {
         if self.at_rest && !self.fallback && asked_nothing {
-            // Still at rest (no update ran since the one that found it, and
-            // nothing else changed Ruckig's state: see `at_rest`), nothing
-            // asked: both updates would return `Finished` with this very
-            // state and no new calculation.
-            #[cfg(debug_assertions)]
-            debug_assert!(
-                self.input == self.rest_inputs.0 && self.finger_input == self.rest_inputs.1,
-                "an update skipped at rest would have seen new inputs"
-            );
-            self.skipped_updates += 1;
+            self.skip_update_at_rest();
             return None;
         }
         self.at_rest = false;

@@ -19,7 +19,7 @@ use crate::tools::recording::format::commands::{CommandDecoder, CommandItem};
 use crate::tools::recording::format::samples::SampleItem;
 use crate::tools::recording::read::{EventLines, Recording, RecordingError};
 use crate::tools::recording::{COMMANDS, META, SAMPLES};
-use crate::tools::replay::{ReplaySummary, TRACE_HEADER, trace_row};
+use crate::tools::replay::{ReplaySummary, TRACE_HEADER, TraceRows};
 
 /// Why a replay of a recording stopped.
 #[derive(Debug)]
@@ -361,6 +361,9 @@ pub fn replay(
         writeln!(trace, "{TRACE_HEADER}")?;
     }
     let mut line = Vec::new();
+    // One output, written in place each tick.
+    let mut output = core.blank_output(0);
+    let mut rows = TraceRows::default();
     while let Some(item) = samples
         .next_item()
         .map_err(|e| RecordingError::format(recording.path(SAMPLES), e))?
@@ -389,7 +392,7 @@ pub fn replay(
                 continue;
             }
         };
-        let output = sample.step(&mut core, tick);
+        sample.step_into(&mut core, tick, &mut output);
         v.ticks += 1;
         v.first_tick.get_or_insert(tick);
         v.last_tick = Some(tick);
@@ -414,7 +417,7 @@ pub fn replay(
             v.summary.ticks_outside_workspace += 1;
         }
         if let Some(trace) = trace.as_deref_mut() {
-            trace_row(trace, &mut line, &output, &arm)?;
+            rows.write(trace, &output, &arm)?;
         }
     }
     cmp.finish(v.summary.events, v.summary.arm_commands)?;

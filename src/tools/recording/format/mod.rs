@@ -85,47 +85,20 @@ impl Stream {
 
 // ------------------------------------------------------------------ CRC-32
 
-/// CRC-32 (IEEE 802.3, as zlib and PNG), table-driven.
-#[derive(Debug, Clone, Copy)]
-pub struct Crc32(u32);
-
-const CRC_TABLE: [u32; 256] = {
-    let mut table = [0u32; 256];
-    let mut i = 0;
-    while i < 256 {
-        let mut c = i as u32;
-        let mut k = 0;
-        while k < 8 {
-            c = if c & 1 != 0 {
-                0xEDB8_8320 ^ (c >> 1)
-            } else {
-                c >> 1
-            };
-            k += 1;
-        }
-        table[i] = c;
-        i += 1;
-    }
-    table
-};
-
-impl Default for Crc32 {
-    fn default() -> Self {
-        Crc32(0xFFFF_FFFF)
-    }
-}
+/// CRC-32 (IEEE 802.3, as zlib and PNG), by `crc32fast` (many bytes at
+/// a time).
+#[derive(Debug, Clone, Default)]
+pub struct Crc32(crc32fast::Hasher);
 
 impl Crc32 {
     /// Adds bytes.
     pub fn update(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = CRC_TABLE[usize::from((self.0 as u8) ^ b)] ^ (self.0 >> 8);
-        }
+        self.0.update(bytes);
     }
 
     /// The CRC of the bytes so far.
     pub fn value(&self) -> u32 {
-        !self.0
+        self.0.clone().finalize()
     }
 }
 
@@ -218,9 +191,20 @@ impl fmt::Display for FormatError {
 
 impl std::error::Error for FormatError {}
 
-/// Reads bytes, counting the offset and the CRC.
+/// Bytes read at a time.
+const READ_SIZE: usize = 1 << 16;
+
+/// Reads bytes, counting the offset and the CRC. Reads `READ_SIZE` bytes
+/// at a time and adds them to the CRC a buffer at a time (not a call per
+/// byte: the recording is read twice, checked then replayed).
 pub(super) struct Bytes<R: Read> {
     input: R,
+    buf: Box<[u8]>,
+    /// The next byte to hand out, and the end of what was read, in `buf`.
+    pos: usize,
+    len: usize,
+    /// `buf[..crc_to]` is in `crc`.
+    crc_to: usize,
     offset: u64,
     crc: Crc32,
     /// Offset of the op being read (errors name it).
@@ -232,6 +216,10 @@ impl<R: Read> Bytes<R> {
     pub(super) fn new(input: R) -> Self {
         Bytes {
             input,
+            buf: vec![0; READ_SIZE].into_boxed_slice(),
+            pos: 0,
+            len: 0,
+            crc_to: 0,
             offset: 0,
             crc: Crc32::default(),
             op_start: 0,
@@ -245,20 +233,38 @@ impl<R: Read> Bytes<R> {
         }
     }
 
+    /// The CRC of every byte handed out so far.
+    fn crc_value(&mut self) -> u32 {
+        self.crc.update(&self.buf[self.crc_to..self.pos]);
+        self.crc_to = self.pos;
+        self.crc.value()
+    }
+
     /// The next byte, `None` at the end of the file.
+    #[inline]
     pub(super) fn next(&mut self) -> Result<Option<u8>, FormatError> {
-        let mut b = [0u8; 1];
+        if self.pos == self.len && !self.refill()? {
+            return Ok(None);
+        }
+        let b = self.buf[self.pos];
+        self.pos += 1;
+        self.offset += 1;
+        Ok(Some(b))
+    }
+
+    /// Reads the next bytes into `buf` (the bytes handed out added to the
+    /// CRC first); false at the end of the file.
+    fn refill(&mut self) -> Result<bool, FormatError> {
+        self.crc.update(&self.buf[self.crc_to..self.pos]);
         loop {
-            return match self.input.read(&mut b) {
-                Ok(0) => Ok(None),
-                Ok(_) => {
-                    self.offset += 1;
-                    self.crc.update(&b);
-                    Ok(Some(b[0]))
+            match self.input.read(&mut self.buf) {
+                Ok(n) => {
+                    (self.pos, self.len, self.crc_to) = (0, n, 0);
+                    return Ok(n > 0);
                 }
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-                Err(e) => Err(self.error(format!("cannot read: {e}"))),
-            };
+                Err(e) => return Err(self.error(format!("cannot read: {e}"))),
+            }
         }
     }
 
@@ -269,6 +275,12 @@ impl<R: Read> Bytes<R> {
     }
 
     pub(super) fn u64le(&mut self) -> Result<u64, FormatError> {
+        if let Some(b) = self.buf[self.pos..self.len].first_chunk::<8>() {
+            let v = u64::from_le_bytes(*b);
+            self.pos += 8;
+            self.offset += 8;
+            return Ok(v);
+        }
         let mut b = [0u8; 8];
         for byte in &mut b {
             *byte = self.byte()?;
@@ -332,7 +344,7 @@ impl<R: Read> Bytes<R> {
 
     /// Checks the end marker (its tag just read) and that nothing follows.
     pub(super) fn end(&mut self) -> Result<(), FormatError> {
-        let expected = self.crc.value();
+        let expected = self.crc_value();
         let mut b = [0u8; 4];
         for byte in &mut b {
             *byte = self.byte()?;
