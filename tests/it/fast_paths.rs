@@ -54,35 +54,6 @@ fn arm_bits(arm: &SimulatedJaco) -> [u64; 8] {
     pose_bits(&arm.state().pose, arm.fingers())
 }
 
-/// Runs `samples` through both cores, each driving its simulated arm
-/// (the fast one with its own skipped steps); returns (ticks, ticks
-/// skipped). The fast core also runs through `step_into`, one output
-/// reused, as replay runs it.
-fn side_by_side(config: &Config, samples: impl Iterator<Item = f64>) -> (u64, u64) {
-    let mut fast: Pipeline = Pipeline::new(config.core());
-    let mut full: Pipeline = Pipeline::new(config.core());
-    full.always_update();
-    let mut fast_arm = SimulatedJaco::new(config.core());
-    let mut full_arm = SimulatedJaco::new(config.core());
-    full_arm.full_path();
-    let mut a = fast.blank_output(0);
-    let mut ticks = 0;
-    for (t, volts) in samples.enumerate() {
-        let t = t as u64;
-        fast.step_into(t, volts, &mut a);
-        let b = full.step(t, volts);
-        assert_eq!(a, b, "tick {t}");
-        assert_eq!(float_bits(&a), float_bits(&b), "tick {t}");
-        assert_eq!(fast.view(), full.view(), "tick {t}");
-        fast_arm.tick(a.motion.arm_command.as_ref());
-        full_arm.tick(b.motion.arm_command.as_ref());
-        assert_eq!(arm_bits(&fast_arm), arm_bits(&full_arm), "arm at tick {t}");
-        ticks += 1;
-    }
-    assert_eq!(full.motion().skipped_updates(), 0);
-    (ticks, fast.motion().skipped_updates())
-}
-
 /// One tick's input to both cores.
 #[derive(Clone, Copy)]
 enum Input {
@@ -93,62 +64,113 @@ enum Input {
     Lost,
 }
 
+/// The core with its fast paths (stepped in place, one output reused, as
+/// replay runs it) and the core with every update and step run, each
+/// driving its simulated arm (the fast one with its own skipped steps).
+struct Pair {
+    fast: Pipeline,
+    full: Pipeline,
+    fast_arm: SimulatedJaco,
+    full_arm: SimulatedJaco,
+    out: TickOutput,
+}
+
+impl Pair {
+    fn new(config: &Config) -> Pair {
+        let fast: Pipeline = Pipeline::new(config.core());
+        let mut full: Pipeline = Pipeline::new(config.core());
+        full.always_update();
+        let mut full_arm = SimulatedJaco::new(config.core());
+        full_arm.full_path();
+        Pair {
+            out: fast.blank_output(0),
+            fast,
+            full,
+            fast_arm: SimulatedJaco::new(config.core()),
+            full_arm,
+        }
+    }
+
+    /// Steps both at tick `t` and checks that every field of the outputs,
+    /// the views and the arms' poses are the same, floats bit for bit.
+    fn step(&mut self, t: u64, input: Input) -> &TickOutput {
+        let (fast, a) = (&mut self.fast, &mut self.out);
+        let b = match input {
+            Input::Volts(volts) => {
+                fast.step_into(t, volts, a);
+                self.full.step(t, volts)
+            }
+            Input::Missing => {
+                fast.step_missing_into(t, a);
+                self.full.step_missing(t)
+            }
+            Input::Lost => {
+                fast.step_lost_into(t, a);
+                self.full.step_lost(t)
+            }
+        };
+        assert_eq!(*a, b, "tick {t}");
+        assert_eq!(float_bits(a), float_bits(&b), "tick {t}");
+        assert_eq!(fast.view(), self.full.view(), "tick {t}");
+        self.fast_arm.tick(a.motion.arm_command.as_ref());
+        self.full_arm.tick(b.motion.arm_command.as_ref());
+        let (fast_arm, full_arm) = (arm_bits(&self.fast_arm), arm_bits(&self.full_arm));
+        assert_eq!(fast_arm, full_arm, "arm at tick {t}");
+        &self.out
+    }
+
+    /// Ticks whose updates the fast core skipped (the full one never).
+    fn skipped(&self) -> u64 {
+        assert_eq!(self.full.motion().skipped_updates(), 0);
+        self.fast.motion().skipped_updates()
+    }
+}
+
+/// Runs `samples` through both cores side by side ([`Pair`]); returns
+/// (ticks, ticks skipped).
+fn side_by_side(config: &Config, samples: impl Iterator<Item = f64>) -> (u64, u64) {
+    let mut pair = Pair::new(config);
+    let mut ticks = 0;
+    for (t, volts) in samples.enumerate() {
+        pair.step(t as u64, Input::Volts(volts));
+        ticks += 1;
+    }
+    (ticks, pair.skipped())
+}
+
 /// As [`side_by_side`], with missing samples and a lost device among the
 /// samples, both cores measuring their arm's pose (every 10 ticks, 0.1 mm
 /// off so that it corrects the estimate, at rest too), and the arm's link
-/// lost at `link_lost_at`.
+/// lost at `link_lost_at`. Returns the ticks skipped.
 fn side_by_side_measured(config: &Config, inputs: &[Input], link_lost_at: u64) -> u64 {
-    let mut fast: Pipeline = Pipeline::new(config.core());
-    let mut full: Pipeline = Pipeline::new(config.core());
-    full.always_update();
-    let mut fast_arm = SimulatedJaco::new(config.core());
-    let mut full_arm = SimulatedJaco::new(config.core());
-    full_arm.full_path();
-    let start = fast_arm.state().pose;
-    fast.start_measured(start);
-    full.start_measured(start);
-    let mut a = fast.blank_output(0);
+    let mut pair = Pair::new(config);
+    let start = pair.fast_arm.state().pose;
+    pair.fast.start_measured(start);
+    pair.full.start_measured(start);
     let mut faulted = false;
     for (t, &input) in inputs.iter().enumerate() {
         let t = t as u64;
         if t == link_lost_at {
-            fast.arm_link_lost();
-            full.arm_link_lost();
+            pair.fast.arm_link_lost();
+            pair.full.arm_link_lost();
         }
-        let b = match input {
-            Input::Volts(volts) => {
-                fast.step_into(t, volts, &mut a);
-                full.step(t, volts)
-            }
-            Input::Missing => {
-                fast.step_missing_into(t, &mut a);
-                full.step_missing(t)
-            }
-            Input::Lost => {
-                fast.step_lost_into(t, &mut a);
-                full.step_lost(t)
-            }
-        };
-        assert_eq!(a, b, "tick {t}");
-        assert_eq!(float_bits(&a), float_bits(&b), "tick {t}");
-        assert_eq!(fast.view(), full.view(), "tick {t}");
-        fast_arm.tick(a.motion.arm_command.as_ref());
-        full_arm.tick(b.motion.arm_command.as_ref());
-        assert_eq!(arm_bits(&fast_arm), arm_bits(&full_arm), "arm at tick {t}");
-        faulted |= a.events.iter().any(|e| matches!(e, Event::ArmFault { .. }));
+        let out = pair.step(t, input);
+        faulted |= out
+            .events
+            .iter()
+            .any(|e| matches!(e, Event::ArmFault { .. }));
         if t.is_multiple_of(10) {
-            let mut measured = full_arm.state().pose;
+            let mut measured = pair.full_arm.state().pose;
             measured.translation.vector.x += if t.is_multiple_of(20) { 1e-4 } else { -1e-4 };
-            fast.observe_arm(&measured);
-            full.observe_arm(&measured);
+            pair.fast.observe_arm(&measured);
+            pair.full.observe_arm(&measured);
         }
     }
-    assert_eq!(full.motion().skipped_updates(), 0);
     assert!(
         faulted,
         "the link lost at tick {link_lost_at} is an arm fault"
     );
-    fast.motion().skipped_updates()
+    pair.skipped()
 }
 
 fn stream(params: SignalParams, script: &[Step]) -> Vec<f64> {
