@@ -374,6 +374,9 @@ fn asp_in_a_real_browser_shows_sequences_waits_modes_directions_and_faults() {
             rest(1500),
         ];
         let (config, csv) = session_files(&dir, ASP_CONFIG, &script);
+        // The browser first: its start-up (seconds on a loaded machine)
+        // must not eat into the rest before the first breath.
+        let browser = Browser::start();
         let port = free_port();
         let mut run = run(&config, &csv, Some(port));
         wait_served(port);
@@ -384,11 +387,10 @@ fn asp_in_a_real_browser_shows_sequences_waits_modes_directions_and_faults() {
         stalled
             .write_all(b"GET /events HTTP/1.1\r\nHost: x\r\n\r\n")
             .unwrap();
-        let browser = Browser::start();
         browser.open(&format!("http://127.0.0.1:{port}/"));
         let start = browser.until("the modes", |s| s["state"] == "selecting");
         assert_eq!(start["interface"], "asp");
-        assert!(strings(&start["entered"]).is_empty());
+        assert!(strings(&start["entered"]).is_empty(), "{start:#}");
         browser.screenshot("asp-0-choose-a-mode");
 
         // The short sip: S1 and S2 lit, S3 dimmed, the sequence is no
@@ -519,10 +521,10 @@ fn bsp_in_a_real_browser_moves_the_highlight_with_the_scan() {
         // begins under translate_y.
         let script = [rest(3600), puff(200), rest(1500), puff(1500), rest(1000)];
         let (config, csv) = session_files(&dir, config, &script);
+        let browser = Browser::start(); // first, as in the ASP test
         let port = free_port();
         let mut run = run(&config, &csv, Some(port));
         wait_served(port);
-        let browser = Browser::start();
         browser.open(&format!("http://127.0.0.1:{port}/"));
         let first = browser.until("the scan", |s| {
             s["interface"] == "bsp" && !strings(&s["highlight"]).is_empty()
