@@ -125,9 +125,7 @@ impl ModeMachine {
 
     /// One tick: `matched` is the mode the matcher selected on this tick.
     /// Returns the command and, if it happened, why the machine went back
-    /// to detection mode. RT-safe. (Inlined: called across codegen units,
-    /// its output came back through memory and stalled the tick.)
-    #[inline]
+    /// to detection mode. RT-safe.
     pub fn step(
         &mut self,
         now: Tick,

@@ -75,8 +75,9 @@ pub const TRACE_HEADER: &str = "tick,mode,vx,vy,vz,wx,wy,wz,fingers_vel,x,y,z,rx
 #[derive(Debug, Default)]
 pub struct TraceRows {
     line: Vec<u8>,
-    /// The last pose laid out (its bits and fingers) and its text.
-    pose: Option<(PoseBits, Vec<u8>)>,
+    /// The last pose laid out (its bits and fingers), and its text.
+    pose: Option<PoseBits>,
+    pose_text: Vec<u8>,
 }
 
 impl TraceRows {
@@ -99,19 +100,18 @@ impl TraceRows {
         }
         let pose = arm.state().pose;
         let bits = pose_bits(&pose, arm.fingers());
-        match &mut self.pose {
-            Some((known, text)) if *known == bits => line.extend_from_slice(text),
-            cached => {
-                let (_, text) = cached.insert((bits, Vec::with_capacity(160)));
-                let r = pose.rotation.scaled_axis();
-                let values = pose.translation.vector.iter().chain(r.iter());
-                for &value in values.chain(std::iter::once(&arm.fingers())) {
-                    text.push(b',');
-                    push_f64(text, value);
-                }
-                line.extend_from_slice(text);
+        if self.pose != Some(bits) {
+            self.pose = Some(bits);
+            let text = &mut self.pose_text;
+            text.clear();
+            let r = pose.rotation.scaled_axis();
+            let values = pose.translation.vector.iter().chain(r.iter());
+            for &value in values.chain(std::iter::once(&arm.fingers())) {
+                text.push(b',');
+                push_f64(text, value);
             }
         }
+        line.extend_from_slice(&self.pose_text);
         line.push(b'\n');
         out.write_all(line)
     }
