@@ -9,13 +9,16 @@
 
 use std::fmt;
 use std::fs::File;
-use std::io::{BufReader, Read};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
+use self::lines::{Line, PlainLine, PlainLines, Rest};
 use crate::sensor::ring::{RingSamples, SAMPLE_RING, ring};
 use crate::sensor::{Producer, Sensor, SensorError, Started};
+
+mod lines;
 
 /// The period of a recording's samples: 1 ms.
 const SAMPLE_PERIOD: Duration = Duration::from_millis(1);
@@ -43,37 +46,107 @@ impl std::error::Error for CsvError {}
 
 /// Streams the `volts` column of a CSV recording.
 ///
-/// Rows are read as bytes into one reused record (no allocation a row);
-/// the row is checked as UTF-8 and the field trimmed as `csv`'s
-/// `Trim::All` on a `StringRecord` would, so values and errors — with
-/// their lines — are what they were (the tests hold the old reading as
-/// their oracle); a plain decimal is parsed by [`parse_volts`]'s exact
-/// fast path.
+/// Plain lines (nearly all: see [`lines`]) are split at their commas
+/// without the CSV parser; from the first line that is not plain (a
+/// quote, a lone `\r`, a line longer than the buffer) to the end, and for
+/// the whole file if its header is not plain, the `csv` crate reads the
+/// rest as bytes into one reused record. Either way the row is checked as
+/// UTF-8 and the field trimmed as `csv`'s `Trim::All` on a `StringRecord`
+/// would, so values and errors — with their lines — are what they were
+/// (the tests hold the old reading as their oracle); a plain decimal is
+/// parsed by [`parse_volts`]'s exact fast path.
 pub struct CsvSignal<R: Read> {
-    reader: csv::Reader<R>,
+    rows: Rows<R>,
     column: usize,
-    record: csv::ByteRecord,
+    /// Fields in the header: every row must have as many.
+    fields: usize,
 }
 
-impl CsvSignal<BufReader<File>> {
+/// Where the rows come from.
+enum Rows<R: Read> {
+    /// Plain lines; `line` is the number of the next one, `named` the
+    /// line the next row's errors name.
+    Lines {
+        lines: PlainLines<R>,
+        line: u64,
+        named: u64,
+    },
+    /// The `csv` crate, from line `after + 1` on; its first row's errors
+    /// name line `first` if given.
+    Csv {
+        reader: csv::Reader<Rest<R>>,
+        record: csv::ByteRecord,
+        after: u64,
+        first: Option<u64>,
+    },
+    /// Between the two (never seen outside [`CsvSignal::switch_to_csv`]).
+    Switching,
+}
+
+/// UTF-8's byte order mark.
+const BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// The plain lines' buffer: 64 KiB.
+const LINE_BUFFER: usize = 1 << 16;
+
+impl CsvSignal<File> {
     /// Opens a recording file.
     pub fn open(path: &Path) -> Result<Self, CsvError> {
         let file = File::open(path).map_err(|e| CsvError {
             line: 0,
             message: format!("cannot open {}: {e}", path.display()),
         })?;
-        CsvSignal::new(BufReader::with_capacity(1 << 16, file))
+        // (Read a buffer at a time: no `BufReader` needed.)
+        CsvSignal::new(file)
     }
 }
 
 impl<R: Read> CsvSignal<R> {
     /// Reads the header and finds the `volts` column.
     pub fn new(input: R) -> Result<Self, CsvError> {
-        let mut reader = csv::ReaderBuilder::new()
-            .has_headers(true)
-            .from_reader(input);
-        let headers = reader.headers().map_err(|e| error(&e))?;
-        let names: Vec<&str> = headers.iter().map(str::trim).collect();
+        Self::with_buffer(input, LINE_BUFFER)
+    }
+
+    /// [`CsvSignal::new`] with plain lines of at most `capacity` bytes.
+    fn with_buffer(input: R, capacity: usize) -> Result<Self, CsvError> {
+        let mut lines = PlainLines::new(input, capacity);
+        let (plain_header, read_one) = match lines.next_line().map_err(|e| error(&e.into()))? {
+            Line::Plain(header) => {
+                let crlf = header.crlf;
+                let names = plain_names(header.bytes).map(|names| (names, named_after(1, crlf)));
+                (names, true)
+            }
+            Line::Other | Line::End => (None, false),
+        };
+        if plain_header.is_none() && read_one {
+            lines.put_back();
+        }
+        let (rows, names): (Rows<R>, Vec<String>) = match plain_header {
+            Some((names, named)) => (
+                Rows::Lines {
+                    lines,
+                    line: 2,
+                    named,
+                },
+                names,
+            ),
+            None => {
+                // Not plain (quoted, empty lines first, not UTF-8): the
+                // `csv` crate reads the whole file, header included.
+                let mut reader = csv::ReaderBuilder::new()
+                    .has_headers(true)
+                    .from_reader(lines.into_rest());
+                let headers = reader.headers().map_err(|e| error(&e))?;
+                let names = headers.iter().map(|h| h.trim().to_owned()).collect();
+                let rows = Rows::Csv {
+                    reader,
+                    record: csv::ByteRecord::new(),
+                    after: 0,
+                    first: None,
+                };
+                (rows, names)
+            }
+        };
         let column = names
             .iter()
             .position(|h| *h == "volts")
@@ -85,9 +158,9 @@ impl<R: Read> CsvSignal<R> {
                 ),
             })?;
         Ok(CsvSignal {
-            reader,
+            rows,
             column,
-            record: csv::ByteRecord::new(),
+            fields: names.len(),
         })
     }
 
@@ -95,37 +168,179 @@ impl<R: Read> CsvSignal<R> {
     /// such (the detector treats them as sensor faults); anything else that
     /// is not a number is an error.
     pub fn next_sample(&mut self) -> Result<Option<f64>, CsvError> {
-        if !self
-            .reader
-            .read_byte_record(&mut self.record)
-            .map_err(|e| error(&e))?
-        {
-            return Ok(None);
+        loop {
+            let (row, line) = match &mut self.rows {
+                Rows::Lines { lines, line, named } => match lines.next_line() {
+                    Err(e) => return Err(error(&e.into())),
+                    Ok(Line::End) => return Ok(None),
+                    Ok(Line::Other) => {
+                        self.switch_to_csv();
+                        continue;
+                    }
+                    // The parser skips empty lines.
+                    Ok(Line::Plain(row)) if row.bytes.is_empty() => {
+                        *line += 1;
+                        continue;
+                    }
+                    Ok(Line::Plain(row)) => {
+                        let this = *named;
+                        *named = named_after(*line, row.crlf);
+                        *line += 1;
+                        (Row::Plain(row), this)
+                    }
+                },
+                Rows::Csv {
+                    reader,
+                    record,
+                    after,
+                    first,
+                } => {
+                    let read = reader.read_byte_record(record).map_err(|e| {
+                        let mut error = error(&e);
+                        if error.line > 0 {
+                            error.line += *after;
+                        }
+                        error
+                    });
+                    if !read? {
+                        return Ok(None);
+                    }
+                    let line = first
+                        .take()
+                        .unwrap_or_else(|| *after + record.position().map_or(0, |p| p.line()));
+                    (Row::Record(record), line)
+                }
+                Rows::Switching => return Ok(None),
+            };
+            return read_volts(row, line, self.column, self.fields);
         }
-        let line = self.record.position().map_or(0, |p| p.line());
-        // A row that is not UTF-8 is refused, as a StringRecord refuses
-        // it, whichever column holds the bad bytes.
-        let row = self.record.as_slice();
-        if !row.is_ascii() && std::str::from_utf8(row).is_err() {
-            return Err(CsvError {
-                line,
-                message: "not valid UTF-8".into(),
-            });
-        }
-        let field = self.record.get(self.column).unwrap_or(b"");
-        // Valid: the whole row is.
-        let field = std::str::from_utf8(field).unwrap_or("").trim();
-        if field.is_empty() {
-            return Err(CsvError {
-                line,
-                message: "the volts value is empty".into(),
-            });
-        }
-        parse_volts(field).map(Some).ok_or_else(|| CsvError {
-            line,
-            message: format!("the volts value {field:?} is not a number"),
-        })
     }
+
+    /// From the line not plain on, the `csv` crate reads the rest.
+    fn switch_to_csv(&mut self) {
+        if let Rows::Lines { lines, line, named } =
+            std::mem::replace(&mut self.rows, Rows::Switching)
+        {
+            let reader = csv::ReaderBuilder::new()
+                .has_headers(false)
+                // The fields are counted here, as the plain lines' are.
+                .flexible(true)
+                .from_reader(lines.into_rest_mid_file());
+            self.rows = Rows::Csv {
+                reader,
+                record: csv::ByteRecord::new(),
+                // Its line 1 is the `\n` put first, its line 2 `line`.
+                after: line - 2,
+                first: Some(named),
+            };
+        }
+    }
+}
+
+/// The names in a plain header line, trimmed; `None` if the parser is to
+/// read it (empty: it skips empty lines; a byte order mark: it drops it;
+/// not UTF-8: it refuses it).
+fn plain_names(header: &[u8]) -> Option<Vec<String>> {
+    if header.is_empty() || header.starts_with(BOM) {
+        return None;
+    }
+    let header = std::str::from_utf8(header).ok()?;
+    Some(
+        header
+            .split(',')
+            .map(|name| name.trim().to_owned())
+            .collect(),
+    )
+}
+
+/// The line the `csv` crate names for the row after one that ended on
+/// line `line`, as it always has: where it stood after that row's end,
+/// one line on after a `\n`, none after a `\r\n` (it takes the `\r` for
+/// the end and its `\n` for an empty line, which it skips and counts
+/// with the next row) — and so empty lines before a row are not counted
+/// for it either.
+fn named_after(line: u64, crlf: bool) -> u64 {
+    if crlf { line } else { line + 1 }
+}
+
+/// One row's bytes.
+enum Row<'a> {
+    Plain(PlainLine<'a>),
+    Record(&'a csv::ByteRecord),
+}
+
+impl Row<'_> {
+    fn bytes(&self) -> &[u8] {
+        match self {
+            Row::Plain(line) => line.bytes,
+            Row::Record(record) => record.as_slice(),
+        }
+    }
+
+    fn ascii(&self) -> bool {
+        match self {
+            Row::Plain(line) => line.ascii,
+            Row::Record(record) => record.as_slice().is_ascii(),
+        }
+    }
+
+    fn fields(&self) -> usize {
+        match self {
+            Row::Plain(line) => line.fields,
+            Row::Record(record) => record.len(),
+        }
+    }
+
+    fn field(&self, column: usize) -> &[u8] {
+        match self {
+            Row::Plain(line) => line.bytes.split(|b| *b == b',').nth(column).unwrap_or(b""),
+            Row::Record(record) => record.get(column).unwrap_or(b""),
+        }
+    }
+}
+
+/// The volts of `row`, on line `line` (with `fields` fields in the
+/// header, the value in `column`), or what is wrong with it.
+fn read_volts(
+    row: Row<'_>,
+    line: u64,
+    column: usize,
+    fields: usize,
+) -> Result<Option<f64>, CsvError> {
+    if row.fields() != fields {
+        return Err(CsvError {
+            line,
+            message: unequal_lengths(row.fields(), fields),
+        });
+    }
+    // Nearly every row: ASCII, so valid UTF-8, and a plain decimal, so
+    // nothing to trim and what `parse_volts` below would return.
+    let field = row.field(column);
+    if row.ascii()
+        && let Some(volts) = fast_decimal(field)
+    {
+        return Ok(Some(volts));
+    }
+    // A row that is not UTF-8 is refused, as a StringRecord refuses
+    // it, whichever column holds the bad bytes.
+    if !row.ascii() && std::str::from_utf8(row.bytes()).is_err() {
+        return Err(CsvError {
+            line,
+            message: "not valid UTF-8".into(),
+        });
+    }
+    // Valid: the whole row is.
+    let field = std::str::from_utf8(field).unwrap_or("").trim();
+    if field.is_empty() {
+        return Err(CsvError {
+            line,
+            message: "the volts value is empty".into(),
+        });
+    }
+    parse_volts(field).map(Some).ok_or_else(|| CsvError {
+        line,
+        message: format!("the volts value {field:?} is not a number"),
+    })
 }
 
 /// `text` as `f64`, exactly as `str::parse::<f64>` reads it (`None`
@@ -183,15 +398,14 @@ fn fast_decimal(bytes: &[u8]) -> Option<f64> {
 /// A recording played in real time as a sensor.
 pub struct CsvSensor {
     path: PathBuf,
-    signal: CsvSignal<BufReader<File>>,
+    signal: CsvSignal<File>,
 }
 
 impl CsvSensor {
     /// Opens the recording and reads its header.
     pub fn open(path: &Path) -> Result<CsvSensor, SensorError> {
         let file = File::open(path).map_err(|e| SensorError::opening(path, e))?;
-        let signal = CsvSignal::new(BufReader::with_capacity(1 << 16, file))
-            .map_err(|e| bad_data(path, &e))?;
+        let signal = CsvSignal::new(file).map_err(|e| bad_data(path, &e))?;
         Ok(CsvSensor {
             path: path.to_path_buf(),
             signal,
@@ -244,12 +458,17 @@ impl Sensor for CsvSensor {
     }
 }
 
+/// A row's fields are not the header's.
+fn unequal_lengths(fields: usize, header: usize) -> String {
+    format!("{fields} fields, the header has {header}")
+}
+
 fn error(e: &csv::Error) -> CsvError {
     let line = e.position().map_or(0, |p| p.line());
     let message = match e.kind() {
         csv::ErrorKind::UnequalLengths {
             expected_len, len, ..
-        } => format!("{len} fields, the header has {expected_len}"),
+        } => unequal_lengths(*len as usize, *expected_len as usize),
         csv::ErrorKind::Utf8 { .. } => "not valid UTF-8".into(),
         _ => e.to_string(),
     };
@@ -316,20 +535,22 @@ mod tests {
     }
 
     /// Everything a reader makes of `bytes`: the samples' bits, then the
-    /// error or the end.
-    fn outcome(bytes: &[u8], fast: bool) -> (Vec<u64>, Option<CsvError>) {
+    /// error or the end. `Some(capacity)`: today's reading, with plain
+    /// lines of at most `capacity` bytes; `None`: the oracle.
+    fn outcome(bytes: &[u8], fast: Option<usize>) -> (Vec<u64>, Option<CsvError>) {
         let mut values = Vec::new();
-        let mut next: Box<dyn FnMut() -> Result<Option<f64>, CsvError>> = if fast {
-            match CsvSignal::new(bytes) {
-                Ok(mut s) => Box::new(move || s.next_sample()),
-                Err(e) => return (values, Some(e)),
-            }
-        } else {
-            match Oracle::new(bytes) {
-                Ok(mut s) => Box::new(move || s.next_sample()),
-                Err(e) => return (values, Some(e)),
-            }
-        };
+        let mut next: Box<dyn FnMut() -> Result<Option<f64>, CsvError>> =
+            if let Some(capacity) = fast {
+                match CsvSignal::with_buffer(bytes, capacity) {
+                    Ok(mut s) => Box::new(move || s.next_sample()),
+                    Err(e) => return (values, Some(e)),
+                }
+            } else {
+                match Oracle::new(bytes) {
+                    Ok(mut s) => Box::new(move || s.next_sample()),
+                    Err(e) => return (values, Some(e)),
+                }
+            };
         loop {
             match next() {
                 Ok(Some(v)) => values.push(v.to_bits()),
@@ -339,13 +560,20 @@ mod tests {
         }
     }
 
+    /// Buffers from one byte (no line is plain, the `csv` crate reads
+    /// all) through ones that end mid-line to the real one.
+    const CAPACITIES: [usize; 6] = [1, 4, 7, 12, 31, LINE_BUFFER];
+
     fn same_as_before(bytes: &[u8]) {
-        assert_eq!(
-            outcome(bytes, true),
-            outcome(bytes, false),
-            "{:?}",
-            String::from_utf8_lossy(bytes)
-        );
+        let oracle = outcome(bytes, None);
+        for capacity in CAPACITIES {
+            assert_eq!(
+                outcome(bytes, Some(capacity)),
+                oracle,
+                "{:?}, buffer {capacity}",
+                String::from_utf8_lossy(bytes)
+            );
+        }
     }
 
     #[test]
@@ -369,6 +597,13 @@ mod tests {
             b"tick\n0\n",
             b"tick,volts\n0,2.5,9\n",
             b"tick,volts\n0,\xff\n",
+            b"tick,volts\n0,2.5\n1,\"3\"\n2,2.75\n3\n",
+            b"tick,volts\n0,2.5\n1,3\r2,4\n3,x,\n",
+            b"tick,volts\n0,2.5\n\r\n\n1,3\n,\n",
+            b"tick,volts\n0,2.5\n1,3\n2,\xff\n",
+            b"tick,volts\n0,2.5\n12345678901234567890,1\n2,\n",
+            b"tick,volts\n0,2.5\n1,\"a\n\nb\",3\n4,5,6\n",
+            b"tick,volts\r\n\r\n0,2.5\r\n\"1\",3\r\n4\r\n",
         ] {
             same_as_before(text);
         }
@@ -399,7 +634,10 @@ mod tests {
                 let at = at.min(bytes.len());
                 bytes.insert(at, 0xff);
             }
-            proptest::prop_assert_eq!(outcome(&bytes, true), outcome(&bytes, false));
+            let oracle = outcome(&bytes, None);
+            for capacity in CAPACITIES {
+                proptest::prop_assert_eq!(&outcome(&bytes, Some(capacity)), &oracle, "buffer {}", capacity);
+            }
         }
     }
 
