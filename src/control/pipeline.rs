@@ -41,6 +41,15 @@ pub struct TickOutput {
     pub dropped_events: u8,
 }
 
+impl TickOutput {
+    /// Logs `event` on this tick (counted in `dropped_events` if full).
+    fn log(&mut self, event: Event) {
+        if self.events.push(event).is_err() {
+            self.dropped_events = self.dropped_events.saturating_add(1);
+        }
+    }
+}
+
 /// The deterministic core's pipeline. Build with [`Pipeline::new`] at
 /// start-up (allocates the matcher's index); [`Pipeline::step`] is RT-safe:
 /// no allocation, no panic, no clock.
@@ -60,6 +69,11 @@ pub struct Pipeline<I: SequenceIndex = TrieIndex> {
     arm_fault: Option<ArmFault>,
     /// The direction commanded on the last tick (for [`Pipeline::view`]).
     direction: Direction,
+    /// Every stage runs on every tick (the reference path:
+    /// [`Pipeline::always_update`]).
+    full_path: bool,
+    /// Ticks on which the selector and the mode machine were skipped.
+    skipped_stages: u64,
 }
 
 /// How a mode is selected in detection mode.
@@ -85,11 +99,7 @@ impl<I: SequenceIndex> Pipeline<I> {
         if let Some(pose) = self.measured.take() {
             match self.motion.measure(now, &pose) {
                 Err(fault) => return Some(fault),
-                Ok(Some(event)) => {
-                    if out.events.push(Event::Motion(event)).is_err() {
-                        out.dropped_events = out.dropped_events.saturating_add(1);
-                    }
-                }
+                Ok(Some(event)) => out.log(Event::Motion(event)),
                 Ok(None) => {}
             }
         }
@@ -115,6 +125,8 @@ impl<I: SequenceIndex> Pipeline<I> {
             link_lost: false,
             arm_fault: None,
             direction: Direction::Still,
+            full_path: false,
+            skipped_stages: 0,
         }
     }
 
@@ -160,12 +172,31 @@ impl<I: SequenceIndex> Pipeline<I> {
         &self.motion
     }
 
-    /// Runs every Ruckig update and pose step, at rest too: the reference
-    /// path the skipped work is proven against (`tests/it/fast_paths.rs`).
-    /// Not for production.
+    /// Runs every stage, Ruckig update and pose step, at rest too: the
+    /// reference path the skipped work is proven against
+    /// (`tests/it/fast_paths.rs`). Not for production.
     #[doc(hidden)]
     pub fn always_update(&mut self) {
+        self.full_path = true;
         self.motion.always_update();
+    }
+
+    /// Ticks on which the selector and the mode machine were skipped
+    /// ([`Pipeline::quiet`]).
+    #[doc(hidden)]
+    pub fn skipped_stages(&self) -> u64 {
+        self.skipped_stages
+    }
+
+    /// Nothing detected on this tick (`event`), in detection mode, with
+    /// no sequence begun: the matcher's tick returns nothing (its timeout
+    /// runs only for a sequence begun) and the mode machine stays in
+    /// detection mode with no direction, so neither changes anything.
+    fn quiet(&self, event: Option<DetectorEvent>, in_detection: bool) -> bool {
+        event.is_none()
+            && in_detection
+            && !self.full_path
+            && matches!(&self.selector, Selector::Sequences(matcher) if matcher.current().is_empty())
     }
 
     /// Where the user is, as the display shows it. RT-safe.
@@ -291,11 +322,7 @@ impl<I: SequenceIndex> Pipeline<I> {
             self.motion.halt();
             out.motion = self.motion.idle_output();
         }
-        let emit = |out: &mut TickOutput, event: Event| {
-            if out.events.push(event).is_err() {
-                out.dropped_events = out.dropped_events.saturating_add(1);
-            }
-        };
+        let emit = |out: &mut TickOutput, event: Event| out.log(event);
 
         out.held = detected.held;
         out.faulted = detected.faulted;
@@ -312,6 +339,13 @@ impl<I: SequenceIndex> Pipeline<I> {
             }
         }
         let in_detection = self.modes.state() == ModeState::Detection;
+        if self.quiet(detected.event, in_detection) {
+            self.skipped_stages += 1;
+            self.direction = Direction::Still;
+            // (`out.command` is the detection mode's still command.)
+            self.step_motion(now, out);
+            return;
+        }
 
         let mut decision = None;
         let mut scan_burst = None;
@@ -394,10 +428,15 @@ impl<I: SequenceIndex> Pipeline<I> {
         if let Some(reason) = left {
             emit(out, Event::Detection { reason });
         }
-        self.motion.step_into(now, &command, &mut out.motion);
         // (An arm fault's stop takes effect through the mode machine.)
+        self.step_motion(now, out);
+    }
+
+    /// The motion layer's tick, on `out.command`, its events logged.
+    fn step_motion(&mut self, now: Tick, out: &mut TickOutput) {
+        self.motion.step_into(now, &out.command, &mut out.motion);
         for event in out.motion.events.into_iter().flatten() {
-            emit(out, Event::Motion(event));
+            out.log(Event::Motion(event));
         }
     }
 }

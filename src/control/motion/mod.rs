@@ -257,6 +257,11 @@ pub struct Motion {
     skipped_updates: u64,
     /// The pose a zero-velocity step is known to leave as it is.
     still_pose: still::StillPose,
+    /// The last tick rested ([`Motion::rest_into`]) with every velocity
+    /// +0 at a pose a step at +0 is known to leave as it is; nothing has
+    /// changed since (every other change of the pose or the velocities
+    /// clears it). The next rest tick is then the same tick again.
+    still_rest: bool,
 }
 
 impl std::fmt::Debug for Motion {
@@ -338,6 +343,7 @@ impl Motion {
             always_update: false,
             skipped_updates: 0,
             still_pose: still::StillPose::default(),
+            still_rest: false,
         }
     }
 
@@ -365,6 +371,7 @@ impl Motion {
     /// from now on measurements are expected ([`Motion::measure`]); their
     /// silence is a fault. Call before the first tick. RT-safe.
     pub fn start_measured(&mut self, pose: Isometry3<f64>) {
+        self.still_rest = false;
         self.pose = pose;
         self.tracker.start();
     }
@@ -383,6 +390,7 @@ impl Motion {
         now: Tick,
         measured: &Isometry3<f64>,
     ) -> Result<Option<MotionEvent>, ArmFault> {
+        self.still_rest = false;
         match self.tracker.measure(now, measured, &mut self.pose) {
             Some(Measurement::Fault(fault)) => Err(fault),
             Some(Measurement::Corrected { by, .. })
@@ -444,6 +452,7 @@ impl Motion {
     /// from zero. A go-to under way starts again from rest if its puff is
     /// still held. RT-safe.
     pub fn halt(&mut self) {
+        self.still_rest = false;
         self.at_rest = false;
         self.goto_pending = !self.goto_done && (self.plan == Plan::Goto || self.goto_pending);
         self.switch_to_velocity_plan();
@@ -475,6 +484,7 @@ impl Motion {
             self.rest_into(now, out);
             return;
         }
+        self.still_rest = false;
         let mut events = [None; 2];
         let mut emit = |e: MotionEvent| {
             if let Some(slot) = events.iter_mut().find(|s| s.is_none()) {
@@ -610,7 +620,40 @@ impl Motion {
         set_all(&mut self.input.target_acceleration, [0.0, 0.0]);
         set_all(&mut self.finger_input.target_velocity, [0.0]);
         self.skip_update_at_rest();
+        if self.still_rest {
+            self.finish_still_tick(now, out);
+            return;
+        }
         self.finish_tick(now, false, [None; 2], out);
+        self.still_rest = !self.always_update
+            && still::all_positive_zero(&self.last)
+            && self
+                .still_pose
+                .known(&still::pose_bits(&self.pose, self.fingers));
+    }
+
+    /// [`Motion::finish_tick`] on a tick after a [`Motion::still_rest`]
+    /// one, reduced to its effects: the twist is the last one, +0 (the
+    /// same velocities), so is the mean, the pose step at +0 is known to
+    /// change nothing, and nothing is reached or logged.
+    fn finish_still_tick(&mut self, now: Tick, out: &mut MotionOutput) {
+        debug_assert!(
+            still::all_positive_zero(&self.twist())
+                && still::all_positive_zero(&self.last)
+                && self
+                    .still_pose
+                    .known(&still::pose_bits(&self.pose, self.fingers)),
+            "a still rest tick would have moved"
+        );
+        self.tracker.record(now, &self.pose, true);
+        out.linear = [0.0; 3];
+        out.angular = [0.0; 3];
+        out.fingers_velocity = 0.0;
+        out.pose = self.pose;
+        out.fingers = self.fingers;
+        out.arm_command = self.decimator.push(now, [0.0; 7]);
+        out.recalculated = self.output.new_calculation || self.finger_output.new_calculation;
+        out.events = [None; 2];
     }
 
     /// The end of every tick: the commanded twist integrated into the
