@@ -233,9 +233,8 @@ impl<I: SequenceIndex> Pipeline<I> {
 
     /// Feeds the sample taken at tick `now`. RT-safe.
     pub fn step(&mut self, now: Tick, volts: f64) -> TickOutput {
-        let detected = self.detector.step(now, volts);
         let mut out = self.blank_output(now);
-        self.process(now, detected, &mut out);
+        self.step_into(now, volts, &mut out);
         out
     }
 
@@ -279,18 +278,16 @@ impl<I: SequenceIndex> Pipeline<I> {
     /// A tick on which no sample arrived (the runtime's sensor had none):
     /// after `stale_ms` the sensor is in fault and the arm brakes. RT-safe.
     pub fn step_missing(&mut self, now: Tick) -> TickOutput {
-        let detected = self.detector.step_missing(now);
         let mut out = self.blank_output(now);
-        self.process(now, detected, &mut out);
+        self.step_missing_into(now, &mut out);
         out
     }
 
     /// A tick on which the sensor's device is known to be gone: the
     /// sensor is in fault at once and the arm brakes. RT-safe.
     pub fn step_lost(&mut self, now: Tick) -> TickOutput {
-        let detected = self.detector.step_lost(now);
         let mut out = self.blank_output(now);
-        self.process(now, detected, &mut out);
+        self.step_lost_into(now, &mut out);
         out
     }
 
@@ -435,8 +432,11 @@ impl<I: SequenceIndex> Pipeline<I> {
     /// The motion layer's tick, on `out.command`, its events logged.
     fn step_motion(&mut self, now: Tick, out: &mut TickOutput) {
         self.motion.step_into(now, &out.command, &mut out.motion);
-        for event in out.motion.events.into_iter().flatten() {
-            out.log(Event::Motion(event));
+        // (They fill from the first slot: most ticks have none.)
+        if out.motion.events[0].is_some() {
+            for event in out.motion.events.into_iter().flatten() {
+                out.log(Event::Motion(event));
+            }
         }
     }
 }

@@ -21,7 +21,7 @@ use nalgebra::Isometry3;
 use crate::control::event::TimedEvent;
 use crate::control::motion::feedback::ArmFault;
 use crate::control::motion::stream::ArmCommand;
-use crate::control::pipeline::Pipeline;
+use crate::control::pipeline::{Pipeline, TickOutput};
 use crate::control::view::CoreView;
 use crate::rt::alloc_counter;
 use crate::rt::clock::Clock;
@@ -133,12 +133,15 @@ pub struct ControlTick<S: Samples> {
     start_pose: Option<Isometry3<f64>>,
     /// The core was told the arm's link is lost.
     told_link_lost: bool,
+    /// The core's output, written in place each tick (no copy of it).
+    out: TickOutput,
 }
 
 impl<S: Samples> ControlTick<S> {
     /// The tick for `core` fed by `sensor`. With `stop_when_sensor_ends`
     /// the run stops safely when the sensor's samples end.
     pub fn new(core: Pipeline, sensor: S, rings: OutputRings, stop_when_sensor_ends: bool) -> Self {
+        let core_output = core.blank_output(0);
         ControlTick {
             core,
             sensor,
@@ -156,6 +159,7 @@ impl<S: Samples> ControlTick<S> {
             measured: None,
             start_pose: None,
             told_link_lost: false,
+            out: core_output,
         }
     }
 
@@ -226,7 +230,8 @@ impl<S: Samples> TickWork for ControlTick<S> {
         // was given is recorded.
         arm.apply(&mut self.core);
         let sample = CoreSample::of(&reading);
-        let out = sample.step(&mut self.core, tick);
+        sample.step_into(&mut self.core, tick, &mut self.out);
+        let out = &self.out;
         // The core found the arm untrustworthy (its measured pose silent
         // or off the commanded path): the run ends once it is still.
         let stop = stop.or(self.core.arm_fault().map(|_| StopReason::ArmFault));

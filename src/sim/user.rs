@@ -524,6 +524,8 @@ fn simulate(
     let mut last_moving = 0u64;
     let mut unintended = false;
     let mut tick = 0u64;
+    // One output, written in place each tick.
+    let mut out = core.blank_output(tick);
     loop {
         let volts = loop {
             if let Some(v) = signal.next() {
@@ -532,7 +534,7 @@ fn simulate(
             agent.decide(tick, state, &events, &mut signal);
             events.clear();
         };
-        let out = core.step(tick, volts);
+        core.step_into(tick, volts, &mut out);
         arm.tick(out.motion.arm_command.as_ref());
         for event in out.events.iter() {
             match event {

@@ -479,11 +479,19 @@ impl Motion {
 
     /// [`Motion::step`], writing the output in place (the pipeline's
     /// tick output holds it: no copy of it a tick). RT-safe.
+    #[inline]
     pub fn step_into(&mut self, now: Tick, command: &ModeOutput, out: &mut MotionOutput) {
         if command.direction == Direction::Still && self.resting() {
             self.rest_into(now, out);
-            return;
+        } else {
+            self.move_into(now, command, out);
         }
+    }
+
+    /// [`Motion::step_into`] on any other tick: every stage. (Not
+    /// inlined: the rest path then saves none of its registers.)
+    #[inline(never)]
+    fn move_into(&mut self, now: Tick, command: &ModeOutput, out: &mut MotionOutput) {
         self.still_rest = false;
         let mut events = [None; 2];
         let mut emit = |e: MotionEvent| {
