@@ -319,14 +319,13 @@ impl<I: SequenceIndex> Pipeline<I> {
             self.motion.halt();
             out.motion = self.motion.idle_output();
         }
-        let emit = |out: &mut TickOutput, event: Event| out.log(event);
 
         out.held = detected.held;
         out.faulted = detected.faulted;
         if let Some(fault) = self.take_arm_news(now, out) {
             if self.arm_fault.is_none() {
                 self.arm_fault = Some(fault);
-                emit(out, Event::ArmFault { reason: fault });
+                out.log(Event::ArmFault { reason: fault });
             }
             // From this tick the interface is in detection mode for good:
             // every target is zero and the arm brakes.
@@ -348,7 +347,7 @@ impl<I: SequenceIndex> Pipeline<I> {
         let mut scan_burst = None;
         match detected.event {
             Some(DetectorEvent::Burst(burst)) => {
-                emit(out, Event::Burst(burst));
+                out.log(Event::Burst(burst));
                 if in_detection {
                     match &mut self.selector {
                         Selector::Sequences(matcher) => decision = matcher.on_burst(&burst),
@@ -365,23 +364,20 @@ impl<I: SequenceIndex> Pipeline<I> {
                 }
             }
             Some(DetectorEvent::Fault(reason)) => {
-                emit(out, Event::Fault { reason });
+                out.log(Event::Fault { reason });
 
                 if let Selector::Sequences(matcher) = &mut self.selector {
                     decision = matcher.interrupt();
                 }
             }
-            Some(DetectorEvent::Recovered) => emit(out, Event::Recovered),
+            Some(DetectorEvent::Recovered) => out.log(Event::Recovered),
             Some(DetectorEvent::Rezeroed {
                 neutral_volts,
                 previous_volts,
-            }) => emit(
-                out,
-                Event::Rezeroed {
-                    neutral_volts,
-                    previous_volts,
-                },
-            ),
+            }) => out.log(Event::Rezeroed {
+                neutral_volts,
+                previous_volts,
+            }),
             None => {}
         }
         match &mut self.selector {
@@ -394,7 +390,7 @@ impl<I: SequenceIndex> Pipeline<I> {
                 let scan =
                     scanner.step(now, in_detection && !detected.faulted, scan_burst.as_ref());
                 if let Some(mode) = scan.highlight {
-                    emit(out, Event::Highlight { mode });
+                    out.log(Event::Highlight { mode });
                 }
                 if let (Some(mode), Some(burst)) = (scan.selected, scan_burst) {
                     let mut sequence = ActionSeq::default();
@@ -407,11 +403,11 @@ impl<I: SequenceIndex> Pipeline<I> {
 
         let matched = match decision {
             Some(MatchEvent::Match { sequence, mode }) => {
-                emit(out, Event::Match { sequence, mode });
+                out.log(Event::Match { sequence, mode });
                 Some(mode)
             }
             Some(MatchEvent::Reset { sequence, reason }) => {
-                emit(out, Event::Reset { sequence, reason });
+                out.log(Event::Reset { sequence, reason });
                 None
             }
             None => None,
@@ -423,7 +419,7 @@ impl<I: SequenceIndex> Pipeline<I> {
         out.command = command;
         self.direction = command.direction;
         if let Some(reason) = left {
-            emit(out, Event::Detection { reason });
+            out.log(Event::Detection { reason });
         }
         // (An arm fault's stop takes effect through the mode machine.)
         self.step_motion(now, out);

@@ -654,14 +654,7 @@ impl Motion {
             "a still rest tick would have moved"
         );
         self.tracker.record(now, &self.pose, true);
-        out.linear = [0.0; 3];
-        out.angular = [0.0; 3];
-        out.fingers_velocity = 0.0;
-        out.pose = self.pose;
-        out.fingers = self.fingers;
-        out.arm_command = self.decimator.push(now, [0.0; 7]);
-        out.recalculated = self.output.new_calculation || self.finger_output.new_calculation;
-        out.events = [None; 2];
+        self.write_output(now, [0.0; 7], [0.0; 7], [None; 2], out);
     }
 
     /// The end of every tick: the commanded twist integrated into the
@@ -688,6 +681,21 @@ impl Motion {
         if reached {
             self.switch_to_velocity_plan();
         }
+        self.write_output(now, twist, mean, events, out);
+    }
+
+    /// The tick's output: its twist, the pose, the arm's stream fed with
+    /// the tick's mean velocity. (Inlined: a still tick's constants then
+    /// write less.)
+    #[inline(always)]
+    fn write_output(
+        &mut self,
+        now: Tick,
+        twist: [f64; 7],
+        mean: [f64; 7],
+        events: [Option<MotionEvent>; 2],
+        out: &mut MotionOutput,
+    ) {
         out.linear = [twist[0], twist[1], twist[2]];
         out.angular = [twist[3], twist[4], twist[5]];
         out.fingers_velocity = twist[6];
