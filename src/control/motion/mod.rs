@@ -255,12 +255,16 @@ pub struct Motion {
     always_update: bool,
     /// Ticks whose updates were skipped at rest.
     skipped_updates: u64,
-    /// The pose a zero-velocity step is known to leave as it is.
-    still_pose: still::StillPose,
-    /// The last tick rested ([`Motion::rest_into`]) with every velocity
-    /// +0 at a pose a step at +0 is known to leave as it is; nothing has
-    /// changed since (every other change of the pose or the velocities
-    /// clears it). The next rest tick is then the same tick again.
+    /// Rest ticks that repeated the last one ([`Motion::still_rest`]).
+    still_repeats: u64,
+    /// The zero-velocity step (velocities and pose) known to leave the
+    /// pose as it is.
+    still_step: still::StillStep,
+    /// The last tick rested ([`Motion::rest_into`]) with every velocity a
+    /// zero (of either sign) at a pose a step at those very velocities is
+    /// known to leave as it is; nothing has changed since (every other
+    /// change of the pose or the velocities clears it). The next rest
+    /// tick is then the same tick again.
     still_rest: bool,
 }
 
@@ -342,7 +346,8 @@ impl Motion {
             rest_inputs,
             always_update: false,
             skipped_updates: 0,
-            still_pose: still::StillPose::default(),
+            still_repeats: 0,
+            still_step: still::StillStep::default(),
             still_rest: false,
         }
     }
@@ -350,6 +355,13 @@ impl Motion {
     /// Ticks on which the Ruckig updates were skipped at rest.
     pub fn skipped_updates(&self) -> u64 {
         self.skipped_updates
+    }
+
+    /// Rest ticks that repeated the last one (no twist, mean or pose
+    /// step): the equivalence tests show they ran.
+    #[doc(hidden)]
+    pub fn still_repeats(&self) -> u64 {
+        self.still_repeats
     }
 
     /// Runs every Ruckig update and every pose step, at rest too: the
@@ -633,28 +645,35 @@ impl Motion {
             return;
         }
         self.finish_tick(now, false, [None; 2], out);
+        // The next rest tick's twist is this one (nothing changes the
+        // velocities or their axes on the way), and so is its mean: the
+        // mean of two equal zeros is that zero, sign and all.
         self.still_rest = !self.always_update
-            && still::all_positive_zero(&self.last)
-            && self
-                .still_pose
-                .known(&still::pose_bits(&self.pose, self.fingers));
+            && still::all_zero(&self.last)
+            && self.still_step.known(
+                &still::velocity_bits(&self.last),
+                &still::pose_bits(&self.pose, self.fingers),
+            );
     }
 
     /// [`Motion::finish_tick`] on a tick after a [`Motion::still_rest`]
-    /// one, reduced to its effects: the twist is the last one, +0 (the
-    /// same velocities), so is the mean, the pose step at +0 is known to
-    /// change nothing, and nothing is reached or logged.
+    /// one, reduced to its effects: the twist is the last one, zeros (the
+    /// same velocities, the same signs), so is the mean, the pose step at
+    /// it is known to change nothing, and nothing is reached or logged.
     fn finish_still_tick(&mut self, now: Tick, out: &mut MotionOutput) {
+        let twist = self.last;
         debug_assert!(
-            still::all_positive_zero(&self.twist())
-                && still::all_positive_zero(&self.last)
-                && self
-                    .still_pose
-                    .known(&still::pose_bits(&self.pose, self.fingers)),
+            still::velocity_bits(&self.twist()) == still::velocity_bits(&twist)
+                && still::all_zero(&twist)
+                && self.still_step.known(
+                    &still::velocity_bits(&twist),
+                    &still::pose_bits(&self.pose, self.fingers)
+                ),
             "a still rest tick would have moved"
         );
         self.tracker.record(now, &self.pose, true);
-        self.write_output(now, [0.0; 7], [0.0; 7], [None; 2], out);
+        self.still_repeats += 1;
+        self.write_output(now, twist, twist, [None; 2], out);
     }
 
     /// The end of every tick: the commanded twist integrated into the
@@ -844,19 +863,19 @@ impl Motion {
 
     /// Integrates the tick's mean velocity into the pose estimate.
     fn integrate(&mut self, mean: &[f64; 7]) {
-        let zero = still::all_positive_zero(mean);
-        if !zero || self.always_update {
+        if !still::all_zero(mean) || self.always_update {
             self.integrate_step(mean);
             return;
         }
         // At rest: the step is skipped where it is known to change nothing.
+        let velocity = still::velocity_bits(mean);
         let before = still::pose_bits(&self.pose, self.fingers);
-        if self.still_pose.known(&before) {
+        if self.still_step.known(&velocity, &before) {
             return;
         }
         self.integrate_step(mean);
         let after = still::pose_bits(&self.pose, self.fingers);
-        self.still_pose.observe(&before, &after);
+        self.still_step.observe(&velocity, &before, &after);
     }
 
     fn integrate_step(&mut self, mean: &[f64; 7]) {

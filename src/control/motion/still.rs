@@ -1,15 +1,19 @@
-//! Skipping a step at exactly zero velocity once it is known to change
-//! nothing. Integrating a pose over a tick at zero velocity leaves it as
-//! it is but for the signs of zeros (`x + 0` is `x` for every `x` but
-//! `−0`), so no step is skipped on that argument: a step is skipped only
-//! where the very same step — zero velocity, this very pose, bit for bit —
-//! was seen to change nothing. The step is a function of those alone, so
-//! it would change nothing again.
+//! Skipping a step at zero velocity once it is known to change nothing.
+//! Integrating a pose over a tick at zero velocity leaves it as it is but
+//! for the signs of zeros (`x + 0` is `x` for every `x` but `−0`, and a
+//! velocity's zeros may be either sign: an axis with a negative component
+//! times a speed of `+0` is `−0`), so no step is skipped on that argument:
+//! a step is skipped only where the very same step — these velocities and
+//! this very pose, bit for bit — was seen to change nothing. The step is a
+//! function of those alone, so it would change nothing again.
 
 use nalgebra::Isometry3;
 
 /// A pose (and finger position) bit for bit.
 pub type PoseBits = [u64; 8];
+
+/// A step's seven velocities (linear, angular, fingers) bit for bit.
+pub type VelocityBits = [u64; 7];
 
 /// `pose` and `fingers`, bit for bit.
 pub fn pose_bits(pose: &Isometry3<f64>, fingers: f64) -> PoseBits {
@@ -27,33 +31,39 @@ pub fn pose_bits(pose: &Isometry3<f64>, fingers: f64) -> PoseBits {
     ]
 }
 
-/// Every value is `+0.0` (not `−0.0`).
-pub fn all_positive_zero(values: &[f64]) -> bool {
-    values.iter().all(|v| v.to_bits() == 0)
+/// Seven velocities, bit for bit.
+pub fn velocity_bits(velocity: &[f64; 7]) -> VelocityBits {
+    velocity.map(f64::to_bits)
 }
 
-/// `a == b`, without a call to `memcmp` for 64 bytes.
-fn same(a: &PoseBits, b: &PoseBits) -> bool {
+/// Every value is a zero, `+0.0` or `−0.0` (no NaN).
+pub fn all_zero(values: &[f64]) -> bool {
+    values.iter().all(|v| *v == 0.0)
+}
+
+/// `a == b`, without a call to `memcmp`.
+fn same<const N: usize>(a: &[u64; N], b: &[u64; N]) -> bool {
     a.iter().zip(b).fold(0, |differ, (x, y)| differ | (x ^ y)) == 0
 }
 
-/// The pose a zero-velocity step was seen to leave unchanged. `Copy`,
-/// RT-safe.
+/// The zero-velocity step seen to leave its pose unchanged: the
+/// velocities (their zeros' signs) and the pose. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct StillPose {
-    at: Option<PoseBits>,
+pub struct StillStep {
+    at: Option<(VelocityBits, PoseBits)>,
 }
 
-impl StillPose {
-    /// A zero-velocity step from `pose` is known to change nothing.
-    pub fn known(&self, pose: &PoseBits) -> bool {
-        self.at.is_some_and(|at| same(&at, pose))
+impl StillStep {
+    /// A step at `velocity` from `pose` is known to change nothing.
+    pub fn known(&self, velocity: &VelocityBits, pose: &PoseBits) -> bool {
+        self.at
+            .is_some_and(|(v, at)| same(&v, velocity) && same(&at, pose))
     }
 
-    /// A zero-velocity step went from `before` to `after`.
-    pub fn observe(&mut self, before: &PoseBits, after: &PoseBits) {
+    /// A step at `velocity` (all zeros) went from `before` to `after`.
+    pub fn observe(&mut self, velocity: &VelocityBits, before: &PoseBits, after: &PoseBits) {
         if same(before, after) {
-            self.at = Some(*after);
+            self.at = Some((*velocity, *after));
         }
     }
 }
@@ -63,22 +73,42 @@ mod tests {
     use super::*;
     use nalgebra::{UnitQuaternion, Vector3};
 
+    const PLUS: [f64; 7] = [0.0; 7];
+
     #[test]
     fn only_a_step_seen_to_change_nothing_is_known() {
         let pose = Isometry3::from_parts(
             Vector3::new(0.3, -0.0, 0.5).into(),
             UnitQuaternion::from_euler_angles(0.1, 0.0, -0.2),
         );
+        let plus = velocity_bits(&PLUS);
         let before = pose_bits(&pose, 0.0);
-        let mut still = StillPose::default();
-        assert!(!still.known(&before));
+        let mut still = StillStep::default();
+        assert!(!still.known(&plus, &before));
         let mut moved = pose;
         moved.translation.vector.y = 0.0; // −0 became +0: a change
-        still.observe(&before, &pose_bits(&moved, 0.0));
-        assert!(!still.known(&before));
+        still.observe(&plus, &before, &pose_bits(&moved, 0.0));
+        assert!(!still.known(&plus, &before));
         let after = pose_bits(&moved, 0.0);
-        still.observe(&after, &after);
-        assert!(still.known(&after) && !still.known(&before));
-        assert!(all_positive_zero(&[0.0, 0.0]) && !all_positive_zero(&[0.0, -0.0]));
+        still.observe(&plus, &after, &after);
+        assert!(still.known(&plus, &after) && !still.known(&plus, &before));
+        assert!(all_zero(&[0.0, -0.0]) && !all_zero(&[0.0, f64::NAN]));
+        assert!(!all_zero(&[f64::MIN_POSITIVE]));
+    }
+
+    #[test]
+    fn a_step_is_known_only_with_the_signs_of_its_zeros() {
+        // Moving along −x, then stopped: the velocity is −1 × (+0) = −0.
+        let minus_x = [-0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let pose = Isometry3::from_parts(
+            Vector3::new(0.3, -0.26, 0.48).into(),
+            UnitQuaternion::from_euler_angles(0.1, 0.0, -0.2),
+        );
+        let bits = pose_bits(&pose, 0.0);
+        let mut still = StillStep::default();
+        still.observe(&velocity_bits(&minus_x), &bits, &bits);
+        assert!(still.known(&velocity_bits(&minus_x), &bits));
+        // The same pose at +0 everywhere is another step, not yet seen.
+        assert!(!still.known(&velocity_bits(&PLUS), &bits));
     }
 }

@@ -274,6 +274,23 @@ impl<R: Read> Bytes<R> {
         })
     }
 
+    /// The next op if it is `tag` followed by a `u64le` and lies whole in
+    /// the buffer (a noisy sensor's every tick: one `VALUE` op): its
+    /// value, taken without a check per byte. `None` leaves everything
+    /// as it was, for the op to be read the long way.
+    #[inline]
+    pub(super) fn take_u64_op(&mut self, tag: u8) -> Option<u64> {
+        match self.buf[self.pos..self.len].first_chunk::<9>() {
+            Some(&[t, b0, b1, b2, b3, b4, b5, b6, b7]) if t == tag => {
+                self.op_start = self.offset;
+                self.pos += 9;
+                self.offset += 9;
+                Some(u64::from_le_bytes([b0, b1, b2, b3, b4, b5, b6, b7]))
+            }
+            _ => None,
+        }
+    }
+
     pub(super) fn u64le(&mut self) -> Result<u64, FormatError> {
         if let Some(b) = self.buf[self.pos..self.len].first_chunk::<8>() {
             let v = u64::from_le_bytes(*b);

@@ -174,19 +174,37 @@ impl<R: Read> SampleDecoder<R> {
         })
     }
 
+    #[inline]
     fn tick(&mut self, sample: CoreSample) -> SampleItem {
         let tick = self.next_tick;
         self.next_tick = tick.wrapping_add(1);
-        let arm = std::mem::take(&mut self.arm);
+        let arm = if self.arm.is_empty() {
+            ArmInput::default()
+        } else {
+            std::mem::take(&mut self.arm)
+        };
         SampleItem::Input { tick, arm, sample }
     }
 
     /// The next item; `Ok(None)` after a valid end marker.
+    #[inline]
     pub fn next_item(&mut self) -> Result<Option<SampleItem>, FormatError> {
         if let Some((left, sample)) = self.run {
             self.run = (left > 1).then_some((left - 1, sample));
             return Ok(Some(self.tick(sample)));
         }
+        // A new value, whole in the buffer: most ticks of an analog sensor.
+        if let Some(bits) = self.bytes.take_u64_op(VALUE) {
+            let v = f64::from_bits(bits);
+            self.last = Some(v);
+            return Ok(Some(self.tick(CoreSample::Volts(v))));
+        }
+        self.next_op()
+    }
+
+    /// [`SampleDecoder::next_item`] from the next op, read the long way.
+    #[inline(never)]
+    fn next_op(&mut self) -> Result<Option<SampleItem>, FormatError> {
         if self.ended {
             return Ok(None);
         }
