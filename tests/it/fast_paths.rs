@@ -123,6 +123,7 @@ impl Pair {
     fn skipped(&self) -> u64 {
         assert_eq!(self.full.motion().skipped_updates(), 0);
         assert_eq!(self.full.motion().still_repeats(), 0);
+        assert_eq!(self.full.motion().skipped_single_updates(), 0);
         assert_eq!(self.full.skipped_stages(), 0);
         assert_eq!(self.full_arm.skipped_ms(), 0);
         // Its selector and mode machine are skipped only at rest, where
@@ -132,10 +133,12 @@ impl Pair {
     }
 
     /// Of the ticks that skipped Ruckig, those that repeated the last
-    /// tick whole, and the arm's milliseconds skipped standing still.
-    fn repeated(&self) -> (u64, u64) {
+    /// tick whole; the updates of one trajectory skipped while the other
+    /// moved; the arm's milliseconds skipped standing still.
+    fn repeated(&self) -> (u64, u64, u64) {
         (
             self.fast.motion().still_repeats(),
+            self.fast.motion().skipped_single_updates(),
             self.fast_arm.skipped_ms(),
         )
     }
@@ -149,6 +152,8 @@ struct Skipped {
     updates: u64,
     /// Rest ticks that repeated the last one.
     repeats: u64,
+    /// Updates of one trajectory skipped while the other moved.
+    single: u64,
     /// The simulated arm's milliseconds skipped standing still.
     arm_ms: u64,
 }
@@ -158,6 +163,7 @@ impl std::ops::AddAssign for Skipped {
         self.ticks += o.ticks;
         self.updates += o.updates;
         self.repeats += o.repeats;
+        self.single += o.single;
         self.arm_ms += o.arm_ms;
     }
 }
@@ -170,11 +176,12 @@ fn side_by_side(config: &Config, samples: impl Iterator<Item = f64>) -> Skipped 
         pair.step(t as u64, Input::Volts(volts));
         ticks += 1;
     }
-    let (repeats, arm_ms) = pair.repeated();
+    let (repeats, single, arm_ms) = pair.repeated();
     Skipped {
         ticks,
         updates: pair.skipped(),
         repeats,
+        single,
         arm_ms,
     }
 }
@@ -270,6 +277,9 @@ fn noisy_random_sessions_through_both_libraries_are_the_same() {
         total.updates
     );
     assert!(total.arm_ms * 10 > total.ticks * 7, "{total:?}");
+    // The fingers' update skipped while the arm moved, and the arm's
+    // while the fingers did.
+    assert!(total.single > 10_000, "{total:?}");
 }
 
 #[test]

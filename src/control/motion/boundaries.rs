@@ -13,7 +13,7 @@ use nalgebra::Vector3;
 use crate::control::motion::workspace::{self, Boundary};
 use crate::control::motion::{
     ANGULAR, CYCLE_S, FINGER_MARGIN, LINEAR, MIN_START_M, MIN_START_RAD, Motion, ROUNDING_GUARD,
-    braking, get, orientation,
+    braking, get,
 };
 
 impl Motion {
@@ -30,7 +30,7 @@ impl Motion {
     /// Turn about the unit `u` from the current orientation to the first
     /// orientation limit (less the rounding guard), and which one.
     pub(super) fn angular_room(&self, u: &Vector3<f64>) -> (f64, Option<Boundary>) {
-        let (room, limit) = orientation::room(&self.pose.rotation, u, &self.orientation);
+        let (room, limit) = self.orientation_room.room(&self.pose.rotation, u);
         ((room - ROUNDING_GUARD).max(0.0), limit)
     }
 

@@ -39,6 +39,7 @@ impl Motion {
         if angle > 0.0 {
             self.angular_axis = delta_r / angle;
         }
+        self.arm_rest = false;
         let input = &mut self.input;
         input.current_position.fill(0.0);
         input.current_velocity.fill(0.0);
@@ -88,7 +89,7 @@ impl Motion {
     /// Switches Ruckig to the velocity interface; the speeds along the
     /// line and about the axis carry over as they are.
     pub(super) fn switch_to_velocity_plan(&mut self) {
-        self.at_rest = false;
+        self.arm_rest = false;
         self.plan = Plan::Velocity;
         self.input.control_interface = ControlInterface::Velocity;
         self.input.synchronization = Synchronization::None;

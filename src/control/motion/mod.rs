@@ -55,7 +55,7 @@ use crate::control::modes::ModeOutput;
 use feedback::{ArmFault, FeedbackConfig, Measurement, PoseTracker};
 use home::HomeConfig;
 use limits::MotionConfig;
-use orientation::OrientationLimits;
+use orientation::{OrientationLimits, RoomGeometry};
 use stream::{ArmCommand, Decimator};
 use workspace::{Boundary, WorkspaceConfig};
 
@@ -203,6 +203,8 @@ pub struct Motion {
     limits: MotionConfig,
     workspace: WorkspaceConfig,
     orientation: OrientationLimits,
+    /// What the angular room takes from `orientation`, worked out once.
+    orientation_room: RoomGeometry,
     otg: Otg<2>,
     input: InputParameter<2>,
     output: OutputParameter<2>,
@@ -235,18 +237,21 @@ pub struct Motion {
     decimator: Decimator,
     /// The measured pose, when the arm reports one.
     tracker: PoseTracker,
-    /// Both trajectories are at rest and the last update changed nothing
-    /// (every velocity and acceleration, now and asked, zero; Ruckig's
-    /// own state the same). Until the next update, nothing changes
-    /// Ruckig's state but the targets — what would ([`Motion::halt`],
-    /// the switch of plans, a start from rest towards a new direction)
-    /// clears this — so while the targets stay zero an update would
-    /// compute nothing again and give back the same still state: it is
-    /// skipped (`tests/it/fast_paths.rs` runs both paths side by side;
-    /// debug builds check every skip against Ruckig's own comparison).
-    /// Off with [`Motion::always_update`].
-    at_rest: bool,
-    /// The inputs of the update that found both trajectories at rest
+    /// The arm's trajectory (linear and angular) is at rest and its last
+    /// update changed nothing (every velocity and acceleration, now and
+    /// asked, zero; Ruckig's own state the same). Until its next update,
+    /// nothing changes its Ruckig's state but the targets — what would
+    /// ([`Motion::halt`], the switch of plans, a start from rest towards a
+    /// new direction) clears this — so while its targets stay zero an
+    /// update would compute nothing again and give back the same still
+    /// state: it is skipped, whatever the fingers do
+    /// (`tests/it/fast_paths.rs` runs both paths side by side; debug
+    /// builds check every skip against Ruckig's own comparison). Off with
+    /// [`Motion::always_update`].
+    arm_rest: bool,
+    /// The same for the fingers' trajectory, whatever the arm does.
+    finger_rest: bool,
+    /// The inputs of the updates that found each trajectory at rest
     /// (debug builds: every skip is checked against them).
     #[cfg(debug_assertions)]
     rest_inputs: (InputParameter<2>, InputParameter<1>),
@@ -255,6 +260,8 @@ pub struct Motion {
     always_update: bool,
     /// Ticks whose updates were skipped at rest.
     skipped_updates: u64,
+    /// Updates of one trajectory skipped at rest while the other ran.
+    skipped_single_updates: u64,
     /// Rest ticks that repeated the last one ([`Motion::still_rest`]).
     still_repeats: u64,
     /// The zero-velocity step (velocities and pose) known to leave the
@@ -309,16 +316,18 @@ impl Motion {
             .fill(limits.finger_acceleration);
         finger_input.max_jerk.fill(limits.finger_jerk);
         let pose = home.pose();
+        let orientation = OrientationLimits {
+            home: pose.rotation,
+            max_tilt_rad: workspace.max_tilt_rad,
+            max_twist_rad: workspace.max_twist_rad,
+        };
         #[cfg(debug_assertions)]
         let rest_inputs = (input.clone(), finger_input.clone());
         Motion {
             limits,
             workspace: *workspace,
-            orientation: OrientationLimits {
-                home: pose.rotation,
-                max_tilt_rad: workspace.max_tilt_rad,
-                max_twist_rad: workspace.max_twist_rad,
-            },
+            orientation,
+            orientation_room: RoomGeometry::new(&orientation),
             otg: Otg::new(None, CYCLE_S),
             input,
             output: OutputParameter::new(None),
@@ -341,11 +350,13 @@ impl Motion {
             previous_direction: Direction::Still,
             decimator: Decimator::default(),
             tracker: PoseTracker::new(FeedbackConfig::default()),
-            at_rest: false,
+            arm_rest: false,
+            finger_rest: false,
             #[cfg(debug_assertions)]
             rest_inputs,
             always_update: false,
             skipped_updates: 0,
+            skipped_single_updates: 0,
             still_repeats: 0,
             still_step: still::StillStep::default(),
             still_rest: false,
@@ -355,6 +366,14 @@ impl Motion {
     /// Ticks on which the Ruckig updates were skipped at rest.
     pub fn skipped_updates(&self) -> u64 {
         self.skipped_updates
+    }
+
+    /// Updates of one trajectory skipped at rest while the other ran
+    /// (the arm's while the fingers move, or the fingers' while the arm
+    /// does): the equivalence tests show they ran.
+    #[doc(hidden)]
+    pub fn skipped_single_updates(&self) -> u64 {
+        self.skipped_single_updates
     }
 
     /// Rest ticks that repeated the last one (no twist, mean or pose
@@ -465,7 +484,8 @@ impl Motion {
     /// still held. RT-safe.
     pub fn halt(&mut self) {
         self.still_rest = false;
-        self.at_rest = false;
+        self.arm_rest = false;
+        self.finger_rest = false;
         self.goto_pending = !self.goto_done && (self.plan == Plan::Goto || self.goto_pending);
         self.switch_to_velocity_plan();
         self.fallback = false;
@@ -584,7 +604,7 @@ impl Motion {
         }
 
         // Zero targets in the velocity plan: Ruckig is asked for nothing.
-        let mut asked_nothing = false;
+        let mut arm_asked_nothing = false;
         if self.plan == Plan::Velocity {
             let (speed, boundary) = self.linear_target(linear);
             if let Some(boundary) = boundary {
@@ -596,16 +616,16 @@ impl Motion {
             }
             set_all(&mut self.input.target_velocity, [speed, rate]);
             self.input.target_acceleration.fill(0.0);
-            asked_nothing = speed == 0.0 && rate == 0.0;
+            arm_asked_nothing = speed == 0.0 && rate == 0.0;
         }
         if let Some(boundary) = self.hold_fingers_at_end(&mut fingers) {
             emit(MotionEvent::WorkspaceLimit { boundary });
         }
         let finger_target = finite_or_zero(fingers).clamp(-l.finger_speed, l.finger_speed);
         self.finger_input.target_velocity.fill(finger_target);
-        asked_nothing &= finger_target == 0.0;
+        let fingers_asked_nothing = finger_target == 0.0;
 
-        if let Some(event) = self.update_trajectories(asked_nothing) {
+        if let Some(event) = self.update_trajectories(arm_asked_nothing, fingers_asked_nothing) {
             emit(event);
         }
         let reached = self.plan == Plan::Goto && self.goto_done;
@@ -620,7 +640,7 @@ impl Motion {
     /// the fallback: a tick that asks for no motion then changes nothing
     /// but what [`Motion::rest_into`] does.
     fn resting(&self) -> bool {
-        self.at_rest && !self.fallback && self.plan == Plan::Velocity
+        self.arm_rest && self.finger_rest && !self.fallback && self.plan == Plan::Velocity
     }
 
     /// [`Motion::step_into`] for a command with no direction while
@@ -725,80 +745,125 @@ impl Motion {
         out.events = events;
     }
 
-    /// Still at rest (no update ran since the one that found it, and
-    /// nothing else changed Ruckig's state: see `at_rest`), nothing asked:
-    /// both updates would return `Finished` with this very state and no
-    /// new calculation, so they are skipped.
+    /// Both still at rest (no update ran since the one that found each,
+    /// and nothing else changed Ruckig's state: see `arm_rest`), nothing
+    /// asked: both updates would return `Finished` with this very state
+    /// and no new calculation, so they are skipped.
     #[inline]
     fn skip_update_at_rest(&mut self) {
-        #[cfg(debug_assertions)]
-        debug_assert!(
-            self.input == self.rest_inputs.0 && self.finger_input == self.rest_inputs.1,
-            "an update skipped at rest would have seen new inputs"
-        );
+        self.check_arm_skip();
+        self.check_finger_skip();
         self.skipped_updates += 1;
     }
 
-    /// Runs both Ruckig instances one cycle and feeds their output back;
-    /// if either fails, brakes on the fallback profile until still.
-    fn update_trajectories(&mut self, asked_nothing: bool) -> Option<MotionEvent> {
-        if self.at_rest && !self.fallback && asked_nothing {
+    /// Debug builds: the arm's update skipped at rest would have seen the
+    /// inputs of the update that found it still (Ruckig's own comparison).
+    #[inline]
+    fn check_arm_skip(&self) {
+        #[cfg(debug_assertions)]
+        debug_assert!(
+            self.input == self.rest_inputs.0,
+            "an arm update skipped at rest would have seen new inputs"
+        );
+    }
+
+    /// [`Motion::check_arm_skip`] for the fingers' update.
+    #[inline]
+    fn check_finger_skip(&self) {
+        #[cfg(debug_assertions)]
+        debug_assert!(
+            self.finger_input == self.rest_inputs.1,
+            "a finger update skipped at rest would have seen new inputs"
+        );
+    }
+
+    /// Runs both Ruckig instances one cycle and feeds their output back
+    /// (either skipped where it rests and is asked nothing: see
+    /// `arm_rest`); if either fails, brakes on the fallback profile until
+    /// still.
+    fn update_trajectories(
+        &mut self,
+        arm_asked_nothing: bool,
+        fingers_asked_nothing: bool,
+    ) -> Option<MotionEvent> {
+        let skip_arm = self.arm_rest && arm_asked_nothing;
+        let skip_fingers = self.finger_rest && fingers_asked_nothing;
+        if skip_arm && skip_fingers && !self.fallback {
             self.skip_update_at_rest();
             return None;
         }
-        self.at_rest = false;
         let was_falling_back = self.fallback;
-        let mut finished = true;
+        let (mut arm_finished, mut fingers_finished) = (true, true);
         if !self.fallback {
-            match self.otg.update(&self.input, &mut self.output) {
-                Ok(RuckigResult::Working) => {
-                    finished = false;
-                    self.output.pass_to_input(&mut self.input);
-                }
-                Ok(RuckigResult::Finished) => {
-                    self.output.pass_to_input(&mut self.input);
-                    settle(&mut self.input);
-                    if self.plan == Plan::Goto {
-                        self.goto_done = true;
+            if skip_arm {
+                self.check_arm_skip();
+                self.skipped_single_updates += 1;
+            } else {
+                self.arm_rest = false;
+                match self.otg.update(&self.input, &mut self.output) {
+                    Ok(RuckigResult::Working) => {
+                        arm_finished = false;
+                        self.output.pass_to_input(&mut self.input);
                     }
+                    Ok(RuckigResult::Finished) => {
+                        self.output.pass_to_input(&mut self.input);
+                        settle(&mut self.input);
+                        if self.plan == Plan::Goto {
+                            self.goto_done = true;
+                        }
+                    }
+                    _ => self.fallback = true,
                 }
-                _ => self.fallback = true,
             }
         }
         if !self.fallback {
-            match self
-                .finger_otg
-                .update(&self.finger_input, &mut self.finger_output)
-            {
-                Ok(RuckigResult::Working) => {
-                    finished = false;
-                    self.finger_output.pass_to_input(&mut self.finger_input);
+            if skip_fingers {
+                self.check_finger_skip();
+                self.skipped_single_updates += 1;
+            } else {
+                self.finger_rest = false;
+                match self
+                    .finger_otg
+                    .update(&self.finger_input, &mut self.finger_output)
+                {
+                    Ok(RuckigResult::Working) => {
+                        fingers_finished = false;
+                        self.finger_output.pass_to_input(&mut self.finger_input);
+                    }
+                    Ok(RuckigResult::Finished) => {
+                        self.finger_output.pass_to_input(&mut self.finger_input);
+                        settle(&mut self.finger_input);
+                    }
+                    _ => self.fallback = true,
                 }
-                Ok(RuckigResult::Finished) => {
-                    self.finger_output.pass_to_input(&mut self.finger_input);
-                    settle(&mut self.finger_input);
-                }
-                _ => self.fallback = true,
             }
         }
         if self.fallback {
+            self.arm_rest = false;
+            self.finger_rest = false;
             self.fallback_brake();
-        } else if finished
-            && !self.always_update
-            && self.plan == Plan::Velocity
-            && !self.output.new_calculation
-            && !self.finger_output.new_calculation
-            && is_still(&self.input)
-            && is_still(&self.finger_input)
-            && comes_out_still(&self.output)
-            && comes_out_still(&self.finger_output)
-        {
-            #[cfg(debug_assertions)]
+        } else if !self.always_update {
+            if !self.arm_rest
+                && arm_finished
+                && self.plan == Plan::Velocity
+                && !self.output.new_calculation
+                && is_still(&self.input)
+                && comes_out_still(&self.output)
             {
+                #[cfg(debug_assertions)]
                 self.rest_inputs.0.copy_from(&self.input);
-                self.rest_inputs.1.copy_from(&self.finger_input);
+                self.arm_rest = true;
             }
-            self.at_rest = true;
+            if !self.finger_rest
+                && fingers_finished
+                && !self.finger_output.new_calculation
+                && is_still(&self.finger_input)
+                && comes_out_still(&self.finger_output)
+            {
+                #[cfg(debug_assertions)]
+                self.rest_inputs.1.copy_from(&self.finger_input);
+                self.finger_rest = true;
+            }
         }
         (self.fallback && !was_falling_back).then_some(MotionEvent::TrajectoryError)
     }

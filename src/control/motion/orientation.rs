@@ -47,54 +47,89 @@ pub fn room(
     axis: &Vector3<f64>,
     limits: &OrientationLimits,
 ) -> (f64, Option<Boundary>) {
-    let tilt = tilt_room(rotation, axis, limits);
-    let twist = twist_room(rotation, axis, limits);
-    if tilt <= twist {
-        (tilt, tilt.is_finite().then_some(Boundary::Tilt))
-    } else {
-        (twist, Some(Boundary::Twist))
-    }
+    RoomGeometry::new(limits).room(rotation, axis)
 }
 
-/// First turn about `axis` at which the tilt reaches its limit.
-fn tilt_room(rotation: &UnitQuaternion<f64>, u: &Vector3<f64>, l: &OrientationLimits) -> f64 {
-    let z0 = rotation * Vector3::z();
-    let zh = l.home * Vector3::z();
-    // z(φ)·zh = c + A cos φ + B sin φ (Rodrigues' formula).
-    let c = u.dot(&z0) * u.dot(&zh);
-    let a = z0.dot(&zh) - c;
-    let b = u.cross(&z0).dot(&zh);
-    let k = l.max_tilt_rad.cos();
-    let m = a.hypot(b);
-    if c - m >= k || m < 1e-15 {
-        return f64::INFINITY; // the cone swept never leaves the limit
-    }
-    // Inside while cos(φ − φ0) ≥ q: |φ − φ0| ≤ α.
-    let alpha = ((k - c) / m).clamp(-1.0, 1.0).acos();
-    let now = wrap(-b.atan2(a));
-    (alpha - now).max(0.0)
+/// What [`room`] takes from the limits, worked out once (the motion layer
+/// asks on every tick it turns the tool): the same operations on the same
+/// values as computed each time, so the same bits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoomGeometry {
+    /// The home tool axis, base frame.
+    home_axis: Vector3<f64>,
+    /// The cosine of the tilt limit.
+    cos_tilt: f64,
+    /// From the base frame to home.
+    to_home: Quaternion<f64>,
+    /// The cosine and ± the sine of half the twist limit: the lines at
+    /// ±ψ/2.
+    half_twist: [(f64, f64); 2],
 }
 
-/// First turn about `axis` at which the twist reaches ±its limit.
-fn twist_room(rotation: &UnitQuaternion<f64>, u: &Vector3<f64>, l: &OrientationLimits) -> f64 {
-    let to_home = l.home.inverse();
-    let p = to_home.quaternion() * rotation.quaternion();
-    let q = to_home.quaternion() * Quaternion::from_imag(*u) * rotation.quaternion();
-    let half = l.max_twist_rad / 2.0;
-    let mut best = f64::INFINITY;
-    for sign in [1.0, -1.0] {
-        let (c, s) = (half.cos(), sign * half.sin());
-        // The (w, z) components on the line at angle ±ψ/2:
-        // α cos(φ/2) + β sin(φ/2) = 0.
-        let alpha = p.k * c - p.w * s;
-        let beta = q.k * c - q.w * s;
-        if alpha.abs() < 1e-15 && beta.abs() < 1e-15 {
-            continue; // the turn keeps the twist where it is
+impl RoomGeometry {
+    /// The geometry of `limits`.
+    pub fn new(limits: &OrientationLimits) -> Self {
+        let half = limits.max_twist_rad / 2.0;
+        RoomGeometry {
+            home_axis: limits.home * Vector3::z(),
+            cos_tilt: limits.max_tilt_rad.cos(),
+            to_home: *limits.home.inverse().quaternion(),
+            half_twist: [1.0, -1.0].map(|sign| (half.cos(), sign * half.sin())),
         }
-        let first = (-alpha).atan2(beta).rem_euclid(PI);
-        best = best.min(2.0 * first);
     }
-    best
+
+    /// [`room`] for these limits.
+    pub fn room(
+        &self,
+        rotation: &UnitQuaternion<f64>,
+        axis: &Vector3<f64>,
+    ) -> (f64, Option<Boundary>) {
+        let tilt = self.tilt_room(rotation, axis);
+        let twist = self.twist_room(rotation, axis);
+        if tilt <= twist {
+            (tilt, tilt.is_finite().then_some(Boundary::Tilt))
+        } else {
+            (twist, Some(Boundary::Twist))
+        }
+    }
+
+    /// First turn about `u` at which the tilt reaches its limit.
+    fn tilt_room(&self, rotation: &UnitQuaternion<f64>, u: &Vector3<f64>) -> f64 {
+        let z0 = rotation * Vector3::z();
+        let zh = self.home_axis;
+        // z(φ)·zh = c + A cos φ + B sin φ (Rodrigues' formula).
+        let c = u.dot(&z0) * u.dot(&zh);
+        let a = z0.dot(&zh) - c;
+        let b = u.cross(&z0).dot(&zh);
+        let k = self.cos_tilt;
+        let m = a.hypot(b);
+        if c - m >= k || m < 1e-15 {
+            return f64::INFINITY; // the cone swept never leaves the limit
+        }
+        // Inside while cos(φ − φ0) ≥ q: |φ − φ0| ≤ α.
+        let alpha = ((k - c) / m).clamp(-1.0, 1.0).acos();
+        let now = wrap(-b.atan2(a));
+        (alpha - now).max(0.0)
+    }
+
+    /// First turn about `u` at which the twist reaches ±its limit.
+    fn twist_room(&self, rotation: &UnitQuaternion<f64>, u: &Vector3<f64>) -> f64 {
+        let p = self.to_home * rotation.quaternion();
+        let q = self.to_home * Quaternion::from_imag(*u) * rotation.quaternion();
+        let mut best = f64::INFINITY;
+        for (c, s) in self.half_twist {
+            // The (w, z) components on the line at angle ±ψ/2:
+            // α cos(φ/2) + β sin(φ/2) = 0.
+            let alpha = p.k * c - p.w * s;
+            let beta = q.k * c - q.w * s;
+            if alpha.abs() < 1e-15 && beta.abs() < 1e-15 {
+                continue; // the turn keeps the twist where it is
+            }
+            let first = (-alpha).atan2(beta).rem_euclid(PI);
+            best = best.min(2.0 * first);
+        }
+        best
+    }
 }
 
 /// An angle in −π..π.

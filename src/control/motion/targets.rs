@@ -131,7 +131,7 @@ impl Motion {
             && get(&self.input.current_acceleration, dof).abs() < REST.1
         {
             *axis = wanted;
-            self.at_rest = false;
+            self.arm_rest = false;
             put(&mut self.input.current_velocity, dof, 0.0);
             put(&mut self.input.current_acceleration, dof, 0.0);
             return Some(speed);
