@@ -132,8 +132,9 @@ impl SafetyMonitor {
     }
 
     fn check_motion(&mut self, o: &MotionOutput) -> Result<(), String> {
-        let m = *self.config.motion();
-        let w = *self.config.workspace();
+        // (Borrowed, not copied: the fuzzer checks every tick.)
+        let m = self.config.motion();
+        let w = self.config.workspace();
         let p = o.pose.translation.vector;
         let values = o
             .linear
@@ -144,7 +145,7 @@ impl SafetyMonitor {
         if !values.copied().all(f64::is_finite) {
             return Err(format!("non-finite output {o:?}"));
         }
-        let clearance = workspace::clearance(&p, &w);
+        let clearance = workspace::clearance(&p, w);
         if clearance < w.stop_margin_m - ABSOLUTE {
             return Err(format!(
                 "tool {:.6} mm from a boundary (margin {} mm) at {:?}",
