@@ -27,8 +27,27 @@ pub(super) struct PlainLine<'a> {
     pub(super) crlf: bool,
     /// Its fields: one more than its commas.
     pub(super) fields: usize,
+    /// Where its first two commas are (`usize::MAX` for none): its first
+    /// two fields without a second pass.
+    pub(super) commas: [usize; 2],
     /// Every byte is ASCII.
     pub(super) ascii: bool,
+}
+
+impl<'a> PlainLine<'a> {
+    /// Its field `column` (empty past the last), as the `csv` crate
+    /// splits it: the first two from the commas found, others by a split.
+    pub(super) fn field(&self, column: usize) -> &'a [u8] {
+        let [first, second] = self.commas;
+        let end = |comma: usize| comma.min(self.bytes.len());
+        let range = match column {
+            0 => 0..end(first),
+            1 if first != usize::MAX => first + 1..end(second),
+            1 => return b"",
+            _ => return self.bytes.split(|b| *b == b',').nth(column).unwrap_or(b""),
+        };
+        self.bytes.get(range).unwrap_or(b"")
+    }
 }
 
 /// Splits its input into lines, one buffer at a time.
@@ -65,6 +84,7 @@ impl<R: Read> PlainLines<R> {
             // One pass finds the line's end and what it holds (a line is
             // a few bytes: one call a search would cost more).
             let (mut commas, mut quotes, mut returns, mut high) = (0, 0, 0, 0);
+            let mut comma_at = [usize::MAX; 2];
             let mut length = None;
             for (i, &b) in unread.iter().enumerate() {
                 match b {
@@ -72,7 +92,12 @@ impl<R: Read> PlainLines<R> {
                         length = Some(i);
                         break;
                     }
-                    b',' => commas += 1,
+                    b',' => {
+                        if let Some(at) = comma_at.get_mut(commas) {
+                            *at = i;
+                        }
+                        commas += 1;
+                    }
                     b'"' => quotes += 1,
                     b'\r' => returns += 1,
                     _ => high |= b,
@@ -108,9 +133,43 @@ impl<R: Read> PlainLines<R> {
                 bytes: &self.buffer[line_start..line_start + bytes.len()],
                 crlf,
                 fields: commas + 1,
+                commas: comma_at,
                 ascii: high < 0x80,
             }));
         }
+    }
+
+    /// The next line if it is a tick and a value, `digits,value\n`
+    /// (ASCII digits, a comma, then what `read` reads — it returns the
+    /// value and the bytes it took, stopping at the first it does not —
+    /// followed by a `\n`, all in the buffer): the value, the line
+    /// consumed. `None` leaves the line unread. Such a line, if `read`
+    /// takes only ASCII bytes other than quotes, commas and carriage
+    /// returns, is plain, of two fields and ends in `\n`: what
+    /// [`PlainLines::next_line`] would hand out, found in one pass.
+    #[inline]
+    pub(super) fn next_tick_and<T>(
+        &mut self,
+        read: impl FnOnce(&[u8]) -> Option<(T, usize)>,
+    ) -> Option<T> {
+        let unread = &self.buffer[self.start..self.end];
+        let mut digits = 0;
+        while let Some(b) = unread.get(digits)
+            && b.is_ascii_digit()
+        {
+            digits += 1;
+        }
+        if digits == 0 || unread.get(digits) != Some(&b',') {
+            return None;
+        }
+        let field = unread.get(digits + 1..)?;
+        let (value, used) = read(field)?;
+        if field.get(used) != Some(&b'\n') {
+            return None;
+        }
+        self.last = self.start;
+        self.start += digits + 1 + used + 1;
+        Some(value)
     }
 
     /// Makes the plain line just read unread again.
