@@ -26,6 +26,10 @@ pub struct SimulatedJaco {
     /// The zero-velocity millisecond (velocities and pose) known to
     /// leave the pose as it is.
     still_step: StillStep,
+    /// The current command's step was found in `still_step` at the
+    /// current pose, and neither has changed since: the next millisecond
+    /// is skipped without comparing them again.
+    still: bool,
     /// Milliseconds skipped standing still.
     skipped_ms: u64,
     /// Step every millisecond, standing still too (the reference the
@@ -43,6 +47,7 @@ impl SimulatedJaco {
             remaining_ms: 0,
             workspace: *config.workspace(),
             still_step: StillStep::default(),
+            still: false,
             skipped_ms: 0,
             full_path: false,
         }
@@ -57,6 +62,7 @@ impl SimulatedJaco {
 
     /// Takes a command for the next 10 ms cycle.
     pub fn command(&mut self, command: &ArmCommand) {
+        self.still = false;
         self.current = *command;
         self.remaining_ms = ARM_STREAM_PERIOD_TICKS;
     }
@@ -73,6 +79,7 @@ impl SimulatedJaco {
     /// Moves the simulation on by 1 ms.
     pub fn advance_ms(&mut self) {
         if self.remaining_ms == 0 {
+            self.still = false;
             self.current = ArmCommand {
                 seq: self.current.seq,
                 tick: self.current.tick,
@@ -81,6 +88,10 @@ impl SimulatedJaco {
             return;
         }
         self.remaining_ms -= 1;
+        if self.still {
+            self.skipped_ms += 1;
+            return;
+        }
         let c = &self.current;
         let [vx, vy, vz] = c.linear;
         let [wx, wy, wz] = c.angular;
@@ -93,6 +104,7 @@ impl SimulatedJaco {
         let velocity = velocity_bits(&velocity);
         let before = pose_bits(&self.pose, self.fingers);
         if self.still_step.known(&velocity, &before) {
+            self.still = true;
             self.skipped_ms += 1;
             return;
         }
@@ -120,6 +132,7 @@ impl SimulatedJaco {
 
     /// The stream ended: stand still.
     pub fn halt(&mut self) {
+        self.still = false;
         self.remaining_ms = 0;
         self.current = ArmCommand::default();
     }
@@ -135,6 +148,7 @@ impl SimulatedJaco {
 
     /// Puts the tool at `pose` (a recording's measured start).
     pub fn move_to(&mut self, pose: Isometry3<f64>) {
+        self.still = false;
         self.pose = pose;
     }
 
