@@ -70,11 +70,15 @@ pub const TRACE_HEADER: &str = "tick,mode,vx,vy,vz,wx,wy,wz,fingers_vel,x,y,z,rx
 /// the simulated arm's pose, one row a tick (also for recordings,
 /// `tools::recording`). The numbers are written as `format!("{}")`
 /// writes them ([`push_f64`]). One line is reused from row to row, and
-/// the pose's columns are laid out again only when the pose changed: at
-/// rest they are the previous row's, the same bits giving the same text.
+/// the twist's and the pose's columns are laid out again only when they
+/// changed: at rest, and at a steady speed, they are the previous row's,
+/// the same bits giving the same text.
 #[derive(Debug, Default)]
 pub struct TraceRows {
     line: Vec<u8>,
+    /// The last twist laid out (its bits), and its text.
+    twist: Option<[u64; 7]>,
+    twist_text: Vec<u8>,
     /// The last pose laid out (its bits and fingers), and its text.
     pose: Option<PoseBits>,
     pose_text: Vec<u8>,
@@ -94,10 +98,18 @@ impl TraceRows {
         line.extend_from_slice(itoa::Buffer::new().format(output.tick).as_bytes());
         line.push(b',');
         line.extend_from_slice(output.command.state.name().as_bytes());
-        for value in output.motion.velocity() {
-            line.push(b',');
-            push_f64(line, value);
+        let twist = output.motion.velocity();
+        let bits = twist.map(f64::to_bits);
+        if self.twist != Some(bits) {
+            self.twist = Some(bits);
+            let text = &mut self.twist_text;
+            text.clear();
+            for value in twist {
+                text.push(b',');
+                push_f64(text, value);
+            }
         }
+        line.extend_from_slice(&self.twist_text);
         let pose = arm.state().pose;
         let bits = pose_bits(&pose, arm.fingers());
         if self.pose != Some(bits) {
