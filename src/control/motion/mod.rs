@@ -800,19 +800,14 @@ impl Motion {
                 self.skipped_single_updates += 1;
             } else {
                 self.arm_rest = false;
-                match self.otg.update(&self.input, &mut self.output) {
-                    Ok(RuckigResult::Working) => {
-                        arm_finished = false;
-                        self.output.pass_to_input(&mut self.input);
-                    }
-                    Ok(RuckigResult::Finished) => {
-                        self.output.pass_to_input(&mut self.input);
-                        settle(&mut self.input);
-                        if self.plan == Plan::Goto {
+                match update_trajectory(&mut self.otg, &mut self.input, &mut self.output) {
+                    Some(finished) => {
+                        arm_finished = finished;
+                        if finished && self.plan == Plan::Goto {
                             self.goto_done = true;
                         }
                     }
-                    _ => self.fallback = true,
+                    None => self.fallback = true,
                 }
             }
         }
@@ -822,19 +817,13 @@ impl Motion {
                 self.skipped_single_updates += 1;
             } else {
                 self.finger_rest = false;
-                match self
-                    .finger_otg
-                    .update(&self.finger_input, &mut self.finger_output)
-                {
-                    Ok(RuckigResult::Working) => {
-                        fingers_finished = false;
-                        self.finger_output.pass_to_input(&mut self.finger_input);
-                    }
-                    Ok(RuckigResult::Finished) => {
-                        self.finger_output.pass_to_input(&mut self.finger_input);
-                        settle(&mut self.finger_input);
-                    }
-                    _ => self.fallback = true,
+                match update_trajectory(
+                    &mut self.finger_otg,
+                    &mut self.finger_input,
+                    &mut self.finger_output,
+                ) {
+                    Some(finished) => fingers_finished = finished,
+                    None => self.fallback = true,
                 }
             }
         }
@@ -973,6 +962,27 @@ fn comes_out_still<const N: usize>(output: &OutputParameter<N>) -> bool {
     [&output.new_velocity, &output.new_acceleration]
         .iter()
         .all(|values| values.iter().all(|v| v.to_bits() == 0))
+}
+
+/// One cycle of one Ruckig instance, its output fed back into `input`
+/// (settled once finished): whether it finished; `None` if it failed.
+fn update_trajectory<const N: usize>(
+    otg: &mut Otg<N>,
+    input: &mut InputParameter<N>,
+    output: &mut OutputParameter<N>,
+) -> Option<bool> {
+    match otg.update(input, output) {
+        Ok(RuckigResult::Working) => {
+            output.pass_to_input(input);
+            Some(false)
+        }
+        Ok(RuckigResult::Finished) => {
+            output.pass_to_input(input);
+            settle(input);
+            Some(true)
+        }
+        _ => None,
+    }
 }
 
 fn settle<const N: usize>(input: &mut InputParameter<N>) {
