@@ -153,13 +153,8 @@ impl<R: Read> PlainLines<R> {
         read: impl FnOnce(&[u8]) -> Option<(T, usize)>,
     ) -> Option<T> {
         let unread = &self.buffer[self.start..self.end];
-        let mut digits = 0;
-        while let Some(b) = unread.get(digits)
-            && b.is_ascii_digit()
-        {
-            digits += 1;
-        }
-        if digits == 0 || unread.get(digits) != Some(&b',') {
+        let digits = unread.iter().position(|b| !b.is_ascii_digit())?;
+        if digits == 0 || unread[digits] != b',' {
             return None;
         }
         let field = unread.get(digits + 1..)?;

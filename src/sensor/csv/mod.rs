@@ -395,38 +395,49 @@ fn decimal_prefix(bytes: &[u8]) -> Option<(f64, usize)> {
         b'+' => (false, 1),
         _ => (false, 0),
     };
-    let digits = bytes.get(sign..)?;
-    let mut mantissa: u64 = 0;
-    let mut significant = 0u32;
-    let mut after_point: Option<usize> = None;
-    let mut seen_digit = false;
-    let mut used = digits.len();
-    for (i, &b) in digits.iter().enumerate() {
-        match b {
-            b'0'..=b'9' => {
-                seen_digit = true;
-                if mantissa != 0 || b != b'0' {
-                    significant += 1;
-                    if significant > 15 {
-                        return None;
-                    }
-                }
-                mantissa = mantissa * 10 + u64::from(b - b'0');
-            }
-            b'.' if after_point.is_none() => after_point = Some(i),
-            _ => {
-                used = i;
-                break;
-            }
-        }
-    }
-    if !seen_digit {
+    let (whole_end, mantissa) = append_digits(bytes, sign, 0);
+    let (end, mantissa, scale) = if bytes.get(whole_end) == Some(&b'.') {
+        let (end, mantissa) = append_digits(bytes, whole_end + 1, mantissa);
+        (end, mantissa, end - whole_end - 1)
+    } else {
+        (whole_end, mantissa, 0)
+    };
+    let digits = whole_end - sign + scale;
+    if digits == 0 {
         return None;
     }
-    let scale = after_point.map_or(0, |point| used - point - 1);
+    // The significant digits: from the first one that is not a zero. At
+    // most 15, the mantissa never wrapped.
+    let mut leading_zeros = 0;
+    for &b in bytes.get(sign..end).unwrap_or_default() {
+        match b {
+            b'0' => leading_zeros += 1,
+            b'.' => {}
+            _ => break,
+        }
+    }
+    if digits - leading_zeros > 15 {
+        return None;
+    }
     let power = *POWERS_OF_TEN.get(scale)?;
     let value = mantissa as f64 / power;
-    Some((if negative { -value } else { value }, sign + used))
+    Some((if negative { -value } else { value }, end))
+}
+
+/// The digits of `bytes` from `at` on, appended to `mantissa` (wrapping
+/// past 19 digits: [`decimal_prefix`] refuses more than 15 significant
+/// ones): where they end, and the mantissa.
+#[inline(always)]
+fn append_digits(bytes: &[u8], mut at: usize, mut mantissa: u64) -> (usize, u64) {
+    while let Some(&b) = bytes.get(at) {
+        let digit = b.wrapping_sub(b'0');
+        if digit > 9 {
+            break;
+        }
+        mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(digit));
+        at += 1;
+    }
+    (at, mantissa)
 }
 
 /// A recording played in real time as a sensor.
