@@ -35,12 +35,16 @@ pub struct SimulatedJaco {
     /// Step every millisecond, standing still too (the reference the
     /// skipped steps are proven against).
     full_path: bool,
+    /// [`SimulatedJaco::inside_workspace`] as of the last change of the
+    /// pose or the fingers (it depends on nothing else): `replay` asks
+    /// every millisecond, and the arm mostly stands still.
+    inside: bool,
 }
 
 impl SimulatedJaco {
     /// An arm at the configured home pose.
     pub fn new(config: &CoreConfig) -> Self {
-        SimulatedJaco {
+        let mut arm = SimulatedJaco {
             pose: config.home().pose(),
             fingers: config.home().home_fingers,
             current: ArmCommand::default(),
@@ -50,7 +54,10 @@ impl SimulatedJaco {
             still: false,
             skipped_ms: 0,
             full_path: false,
-        }
+            inside: false,
+        };
+        arm.inside = arm.find_inside();
+        arm
     }
 
     /// Steps every millisecond, standing still too: the reference path
@@ -128,6 +135,7 @@ impl SimulatedJaco {
         self.pose.translation.vector += v * dt;
         self.pose.rotation = UnitQuaternion::from_scaled_axis(w * dt) * self.pose.rotation;
         self.fingers += c.fingers * dt;
+        self.inside = self.find_inside();
     }
 
     /// The stream ended: stand still.
@@ -150,6 +158,7 @@ impl SimulatedJaco {
     pub fn move_to(&mut self, pose: Isometry3<f64>) {
         self.still = false;
         self.pose = pose;
+        self.inside = self.find_inside();
     }
 
     /// The finger position, JACO2 units.
@@ -159,6 +168,13 @@ impl SimulatedJaco {
 
     /// Whether the tool is inside the workspace and the fingers in range.
     pub fn inside_workspace(&self) -> bool {
+        if self.full_path {
+            return self.find_inside();
+        }
+        self.inside
+    }
+
+    fn find_inside(&self) -> bool {
         let w = &self.workspace;
         workspace::contains(&self.pose.translation.vector, w)
             && self.fingers >= 0.0
@@ -206,5 +222,59 @@ impl Arm for SimArm {
     fn stop(&mut self) -> Result<(), ArmError> {
         self.jaco.halt();
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+
+    fn along_z(speed: f64) -> ArmCommand {
+        ArmCommand {
+            linear: [0.0, 0.0, speed],
+            ..ArmCommand::default()
+        }
+    }
+
+    /// Drives `arm` for `cycles` 10 ms cycles of `command`, still
+    /// milliseconds (skipped ones too) between them.
+    fn drive(arm: &mut SimulatedJaco, command: &ArmCommand, cycles: usize) {
+        for _ in 0..cycles {
+            arm.command(command);
+            for _ in 0..ARM_STREAM_PERIOD_TICKS + 5 {
+                arm.advance_ms();
+            }
+        }
+    }
+
+    #[test]
+    fn it_says_when_it_leaves_the_workspace_and_when_it_is_back() {
+        let config = Config::default();
+        let mut arm = SimulatedJaco::new(config.core());
+        assert!(arm.inside_workspace(), "home is inside");
+        // From z = 0.48 m down at 1 m/s: 60 cycles is 0.6 m, below the
+        // table (z = 0).
+        drive(&mut arm, &along_z(-1.0), 60);
+        assert!(arm.state().pose.translation.vector.z < 0.0);
+        assert!(!arm.inside_workspace());
+        drive(&mut arm, &ArmCommand::default(), 3); // standing still
+        assert!(!arm.inside_workspace());
+        drive(&mut arm, &along_z(1.0), 20);
+        assert!(arm.inside_workspace());
+        // Put outside the reach, and back home.
+        let mut far = arm.state().pose;
+        far.translation.vector.x = 2.0;
+        arm.move_to(far);
+        assert!(!arm.inside_workspace());
+        arm.move_to(config.core().home().pose());
+        assert!(arm.inside_workspace());
+        // The fingers past their closed end.
+        let close = ArmCommand {
+            fingers: 10_000.0,
+            ..ArmCommand::default()
+        };
+        drive(&mut arm, &close, 100);
+        assert!(!arm.inside_workspace(), "fingers at {}", arm.fingers());
     }
 }

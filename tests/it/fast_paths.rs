@@ -116,6 +116,11 @@ impl Pair {
         self.full_arm.tick(b.motion.arm_command.as_ref());
         let (fast_arm, full_arm) = (arm_bits(&self.fast_arm), arm_bits(&self.full_arm));
         assert_eq!(fast_arm, full_arm, "arm at tick {t}");
+        assert_eq!(
+            self.fast_arm.inside_workspace(),
+            self.full_arm.inside_workspace(),
+            "arm inside its workspace at tick {t}"
+        );
         &self.out
     }
 
@@ -125,6 +130,7 @@ impl Pair {
         assert_eq!(self.full.motion().still_repeats(), 0);
         assert_eq!(self.full.motion().skipped_single_updates(), 0);
         assert_eq!(self.full.skipped_stages(), 0);
+        assert_eq!(self.full.motion().brake_room_repeats(), 0);
         assert_eq!(self.full_arm.skipped_ms(), 0);
         // Its selector and mode machine are skipped only at rest, where
         // its updates are too (and more: a sequence begun, command mode).
@@ -134,12 +140,14 @@ impl Pair {
 
     /// Of the ticks that skipped Ruckig, those that repeated the last
     /// tick whole; the updates of one trajectory skipped while the other
-    /// moved; the arm's milliseconds skipped standing still.
-    fn repeated(&self) -> (u64, u64, u64) {
+    /// moved; the arm's milliseconds skipped standing still; the
+    /// questions of braking answered again.
+    fn repeated(&self) -> (u64, u64, u64, u64) {
         (
             self.fast.motion().still_repeats(),
             self.fast.motion().skipped_single_updates(),
             self.fast_arm.skipped_ms(),
+            self.fast.motion().brake_room_repeats(),
         )
     }
 }
@@ -156,6 +164,8 @@ struct Skipped {
     single: u64,
     /// The simulated arm's milliseconds skipped standing still.
     arm_ms: u64,
+    /// Questions of braking (cruising) answered again.
+    brake_repeats: u64,
 }
 
 impl std::ops::AddAssign for Skipped {
@@ -165,6 +175,7 @@ impl std::ops::AddAssign for Skipped {
         self.repeats += o.repeats;
         self.single += o.single;
         self.arm_ms += o.arm_ms;
+        self.brake_repeats += o.brake_repeats;
     }
 }
 
@@ -176,13 +187,14 @@ fn side_by_side(config: &Config, samples: impl Iterator<Item = f64>) -> Skipped 
         pair.step(t as u64, Input::Volts(volts));
         ticks += 1;
     }
-    let (repeats, single, arm_ms) = pair.repeated();
+    let (repeats, single, arm_ms, brake_repeats) = pair.repeated();
     Skipped {
         ticks,
         updates: pair.skipped(),
         repeats,
         single,
         arm_ms,
+        brake_repeats,
     }
 }
 
@@ -280,6 +292,10 @@ fn noisy_random_sessions_through_both_libraries_are_the_same() {
     // The fingers' update skipped while the arm moved, and the arm's
     // while the fingers did.
     assert!(total.single > 10_000, "{total:?}");
+    // Cruising, a channel asks the same question of braking every tick
+    // (56 % of the ticks that ran Ruckig): it is answered again.
+    let moving = total.ticks - total.updates;
+    assert!(total.brake_repeats * 10 > moving * 4, "{total:?}");
 }
 
 #[test]

@@ -16,6 +16,9 @@ use crate::control::motion::{
     braking, get,
 };
 
+/// The fingers' channel of [`Motion::brake_room`] (after the arm's two).
+const FINGERS: usize = 2;
+
 impl Motion {
     /// Distance along the unit `u` from the current position to the
     /// workspace shrunk by the margin, and which boundary is there.
@@ -36,7 +39,7 @@ impl Motion {
 
     /// Whether the linear channel, about to be driven along `u` (its axis
     /// times `sign`), must brake now to stop inside the margin.
-    pub(super) fn linear_must_brake(&self, u: &Vector3<f64>, sign: f64) -> Option<Boundary> {
+    pub(super) fn linear_must_brake(&mut self, u: &Vector3<f64>, sign: f64) -> Option<Boundary> {
         let (room, boundary) = self.linear_room(u);
         let l = &self.limits;
         let need = self.room_needed(
@@ -51,7 +54,7 @@ impl Motion {
 
     /// Whether the angular channel, about to be driven about `u`, must
     /// brake now to stop inside the orientation limits.
-    pub(super) fn angular_must_brake(&self, u: &Vector3<f64>, sign: f64) -> Option<Boundary> {
+    pub(super) fn angular_must_brake(&mut self, u: &Vector3<f64>, sign: f64) -> Option<Boundary> {
         let (room, boundary) = self.angular_room(u);
         let l = &self.limits;
         let need = self.room_needed(
@@ -67,14 +70,34 @@ impl Motion {
     /// Room needed ahead (in the direction `sign` along the channel's
     /// axis) to keep going one more tick and still stop: the worst case
     /// of full jerk ahead for a tick, then braking; `min_start` from rest.
-    fn room_needed(&self, dof: usize, sign: f64, a_max: f64, j_max: f64, min_start: f64) -> f64 {
+    fn room_needed(
+        &mut self,
+        dof: usize,
+        sign: f64,
+        a_max: f64,
+        j_max: f64,
+        min_start: f64,
+    ) -> f64 {
         let v = get(&self.input.current_velocity, dof) * sign;
         let a = get(&self.input.current_acceleration, dof) * sign;
         if v.abs() < 1e-9 && a <= 0.0 {
             min_start
         } else {
-            braking::room_to_brake_next_cycle(v, a, a_max, j_max, CYCLE_S)
+            self.brake_room(dof, v, a, a_max, j_max)
         }
+    }
+
+    /// [`braking::room_to_brake_next_cycle`] for channel `channel`
+    /// (linear, angular, fingers), the last answer given again to the
+    /// same question (computed every time with
+    /// [`Motion::always_update`]).
+    fn brake_room(&mut self, channel: usize, v: f64, a: f64, a_max: f64, j_max: f64) -> f64 {
+        if self.always_update {
+            return braking::room_to_brake_next_cycle(v, a, a_max, j_max, CYCLE_S);
+        }
+        let (room, repeated) = self.brake_rooms[channel].room(v, a, a_max, j_max, CYCLE_S);
+        self.brake_room_repeats += u64::from(repeated);
+        room
     }
 
     /// Zeroes a finger request that would run past an end.
@@ -106,7 +129,7 @@ impl Motion {
         let needed = if v.abs() < 1e-9 && a <= 0.0 {
             1.0 // do not start with less than one unit of room
         } else {
-            braking::room_to_brake_next_cycle(v, a, a_max, j_max, CYCLE_S)
+            self.brake_room(FINGERS, v, a, a_max, j_max)
         };
         if needed < room {
             return None;

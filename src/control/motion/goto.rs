@@ -59,20 +59,21 @@ impl Motion {
     /// Whether going on towards the saved pose would cross a boundary or
     /// an orientation limit before reaching it (the straight line may pass
     /// near the base; the turn may leave the tilt cone).
-    pub(super) fn goto_blocked(&self) -> Option<Boundary> {
+    pub(super) fn goto_blocked(&mut self) -> Option<Boundary> {
         let input = &self.input;
-        let remaining = |dof: usize| {
+        let remaining = [LINEAR, ANGULAR].map(|dof| {
             get(&input.target_position, dof) - get(&input.current_position, dof) + ROUNDING_GUARD
-        };
-        let (room, _) = self.linear_room(&self.linear_axis);
-        if room < remaining(LINEAR)
-            && let Some(boundary) = self.linear_must_brake(&self.linear_axis, 1.0)
+        });
+        let (linear_axis, angular_axis) = (self.linear_axis, self.angular_axis);
+        let (room, _) = self.linear_room(&linear_axis);
+        if room < remaining[LINEAR]
+            && let Some(boundary) = self.linear_must_brake(&linear_axis, 1.0)
         {
             return Some(boundary);
         }
-        let (room, _) = self.angular_room(&self.angular_axis);
-        if room < remaining(ANGULAR)
-            && let Some(boundary) = self.angular_must_brake(&self.angular_axis, 1.0)
+        let (room, _) = self.angular_room(&angular_axis);
+        if room < remaining[ANGULAR]
+            && let Some(boundary) = self.angular_must_brake(&angular_axis, 1.0)
         {
             return Some(boundary);
         }

@@ -273,6 +273,11 @@ pub struct Motion {
     /// change of the pose or the velocities clears it). The next rest
     /// tick is then the same tick again.
     still_rest: bool,
+    /// Each channel's last question of braking (linear, angular,
+    /// fingers): cruising, the same one comes every tick.
+    brake_rooms: [braking::BrakeRoomMemo; 3],
+    /// Questions of braking answered again ([`Motion::brake_room`]).
+    brake_room_repeats: u64,
 }
 
 impl std::fmt::Debug for Motion {
@@ -360,6 +365,8 @@ impl Motion {
             still_repeats: 0,
             still_step: still::StillStep::default(),
             still_rest: false,
+            brake_rooms: Default::default(),
+            brake_room_repeats: 0,
         }
     }
 
@@ -381,6 +388,13 @@ impl Motion {
     #[doc(hidden)]
     pub fn still_repeats(&self) -> u64 {
         self.still_repeats
+    }
+
+    /// Questions of braking answered again, not computed (the
+    /// equivalence tests show they ran).
+    #[doc(hidden)]
+    pub fn brake_room_repeats(&self) -> u64 {
+        self.brake_room_repeats
     }
 
     /// Runs every Ruckig update and every pose step, at rest too: the
