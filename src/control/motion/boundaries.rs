@@ -92,10 +92,11 @@ impl Motion {
     /// same question (computed every time with
     /// [`Motion::always_update`]).
     fn brake_room(&mut self, channel: usize, v: f64, a: f64, a_max: f64, j_max: f64) -> f64 {
-        if self.always_update {
+        let memo = self.brake_rooms.get_mut(channel);
+        let Some(memo) = memo.filter(|_| !self.always_update) else {
             return braking::room_to_brake_next_cycle(v, a, a_max, j_max, CYCLE_S);
-        }
-        let (room, repeated) = self.brake_rooms[channel].room(v, a, a_max, j_max, CYCLE_S);
+        };
+        let (room, repeated) = memo.room(v, a, a_max, j_max, CYCLE_S);
         self.brake_room_repeats += u64::from(repeated);
         room
     }
