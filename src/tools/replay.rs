@@ -7,7 +7,7 @@ use std::io::{Read, Write};
 use crate::arm::sim::SimulatedJaco;
 use crate::control::core_config::CoreConfig;
 use crate::control::event::TimedEvent;
-use crate::control::motion::still::{PoseBits, pose_bits};
+use crate::control::motion::still::{PoseBits, VelocityBits, pose_bits, velocity_bits};
 use crate::control::pipeline::{Pipeline, TickOutput};
 use crate::sensor::csv::{CsvError, CsvSignal};
 use crate::tools::float_text::push_f64;
@@ -77,7 +77,7 @@ pub const TRACE_HEADER: &str = "tick,mode,vx,vy,vz,wx,wy,wz,fingers_vel,x,y,z,rx
 pub struct TraceRows {
     line: Vec<u8>,
     /// The last twist laid out (its bits), and its text.
-    twist: Option<[u64; 7]>,
+    twist: Option<VelocityBits>,
     twist_text: Vec<u8>,
     /// The last pose laid out (its bits and fingers), and its text.
     pose: Option<PoseBits>,
@@ -99,7 +99,7 @@ impl TraceRows {
         line.push(b',');
         line.extend_from_slice(output.command.state.name().as_bytes());
         let twist = output.motion.velocity();
-        let bits = twist.map(f64::to_bits);
+        let bits = velocity_bits(&twist);
         if self.twist != Some(bits) {
             self.twist = Some(bits);
             let text = &mut self.twist_text;

@@ -56,7 +56,7 @@ impl std::error::Error for CsvError {}
 /// (the tests hold the old reading as their oracle); a plain decimal is
 /// parsed by [`parse_volts`]'s exact fast path. A file of `tick,volts`
 /// has its typical line, `digits,decimal\n`, read in one pass
-/// ([`PlainLines::next_tick_and_field`]) to the value the steps above
+/// ([`PlainLines::next_tick_and`]) to the value the steps above
 /// would give.
 pub struct CsvSignal<R: Read> {
     rows: Rows<R>,
@@ -763,6 +763,15 @@ mod tests {
         assert_eq!(parse_volts("inf"), Some(f64::INFINITY));
     }
 
+    /// A decimal from a property test's parts: sign, integer digits and,
+    /// if any, the digits after a point.
+    fn decimal_text(sign: &str, int: &str, frac: Option<&str>) -> String {
+        match frac {
+            Some(frac) => format!("{sign}{int}.{frac}"),
+            None => format!("{sign}{int}"),
+        }
+    }
+
     proptest::proptest! {
         /// Any decimal a recording may hold, and any float printed
         /// shortest or to fixed places: the same bits as std.
@@ -774,10 +783,7 @@ mod tests {
             value in proptest::num::f64::ANY,
             places in 0usize..20,
         ) {
-            let text = match &frac {
-                Some(frac) => format!("{sign}{int}.{frac}"),
-                None => format!("{sign}{int}"),
-            };
+            let text = decimal_text(sign, &int, frac.as_deref());
             proptest::prop_assert_eq!(
                 parse_volts(&text).map(f64::to_bits),
                 text.parse::<f64>().ok().map(f64::to_bits),
@@ -804,10 +810,7 @@ mod tests {
             frac in proptest::option::of("[0-9]{0,17}"),
             tail in proptest::sample::select(vec!["", "\n", "\n9", ",", "e", " ", "\r", "-", "+", "\"", "x"]),
         ) {
-            let text = match &frac {
-                Some(frac) => format!("{sign}{int}.{frac}"),
-                None => format!("{sign}{int}"),
-            };
+            let text = decimal_text(sign, &int, frac.as_deref());
             let whole = fast_decimal(text.as_bytes()).map(|v| (v.to_bits(), text.len()));
             let prefix = decimal_prefix(format!("{text}{tail}").as_bytes())
                 .map(|(v, used)| (v.to_bits(), used));
