@@ -18,6 +18,7 @@ use self::lines::{Line, PlainLine, PlainLines, Rest};
 use crate::sensor::ring::{RingSamples, SAMPLE_RING, ring};
 use crate::sensor::{Producer, Sensor, SensorError, Started};
 
+mod breaks;
 mod lines;
 
 /// The period of a recording's samples: 1 ms.
@@ -52,8 +53,9 @@ impl std::error::Error for CsvError {}
 /// the whole file if its header is not plain, the `csv` crate reads the
 /// rest as bytes into one reused record. Either way the row is checked as
 /// UTF-8 and the field trimmed as `csv`'s `Trim::All` on a `StringRecord`
-/// would, so values and errors — with their lines — are what they were
-/// (the tests hold the old reading as their oracle); a plain decimal is
+/// would, so values and errors are what they were (the tests hold the old
+/// reading as their oracle); an error names the line an editor shows the
+/// row on (see [`breaks`]: not the `csv` crate's count); a plain decimal is
 /// parsed by [`parse_volts`]'s exact fast path. A file of `tick,volts`
 /// has its typical line, `digits,decimal\n`, read in one pass
 /// ([`PlainLines::next_tick_and`]) to the value the steps above
@@ -69,20 +71,12 @@ pub struct CsvSignal<R: Read> {
 
 /// Where the rows come from.
 enum Rows<R: Read> {
-    /// Plain lines; `line` is the number of the next one, `named` the
-    /// line the next row's errors name.
-    Lines {
-        lines: PlainLines<R>,
-        line: u64,
-        named: u64,
-    },
-    /// The `csv` crate, from line `after + 1` on; its first row's errors
-    /// name line `first` if given.
+    /// Plain lines; `line` is the number of the next one.
+    Lines { lines: PlainLines<R>, line: u64 },
+    /// The `csv` crate (its input numbers its rows' lines).
     Csv {
         reader: csv::Reader<Rest<R>>,
         record: csv::ByteRecord,
-        after: u64,
-        first: Option<u64>,
     },
     /// Between the two (never seen outside [`CsvSignal::switch_to_csv`]).
     Switching,
@@ -115,48 +109,38 @@ impl<R: Read> CsvSignal<R> {
     /// [`CsvSignal::new`] with plain lines of at most `capacity` bytes.
     fn with_buffer(input: R, capacity: usize) -> Result<Self, CsvError> {
         let mut lines = PlainLines::new(input, capacity);
-        let (plain_header, read_one) = match lines.next_line().map_err(|e| error(&e.into()))? {
-            Line::Plain(header) => {
-                let crlf = header.crlf;
-                let names = plain_names(header.bytes).map(|names| (names, named_after(1, crlf)));
-                (names, true)
-            }
+        let (plain_header, read_one) = match lines.next_line().map_err(io_error)? {
+            Line::Plain(header) => (plain_names(header.bytes), true),
             Line::Other | Line::End => (None, false),
         };
         if plain_header.is_none() && read_one {
             lines.put_back();
         }
-        let (rows, names): (Rows<R>, Vec<String>) = match plain_header {
-            Some((names, named)) => (
-                Rows::Lines {
-                    lines,
-                    line: 2,
-                    named,
-                },
-                names,
-            ),
+        let (rows, names, header_line): (Rows<R>, Vec<String>, u64) = match plain_header {
+            Some(names) => (Rows::Lines { lines, line: 2 }, names, 1),
             None => {
                 // Not plain (quoted, empty lines first, not UTF-8): the
                 // `csv` crate reads the whole file, header included.
                 let mut reader = csv::ReaderBuilder::new()
                     .has_headers(true)
                     .from_reader(lines.into_rest());
-                let headers = reader.headers().map_err(|e| error(&e))?;
-                let names = headers.iter().map(|h| h.trim().to_owned()).collect();
-                let rows = Rows::Csv {
-                    reader,
-                    record: csv::ByteRecord::new(),
-                    after: 0,
-                    first: None,
+                let (names, at) = match reader.headers() {
+                    Ok(headers) => (
+                        headers.iter().map(|h| h.trim().to_owned()).collect(),
+                        headers.position().map_or(0, csv::Position::byte),
+                    ),
+                    Err(e) => return Err(parser_error(&e, reader.get_mut())),
                 };
-                (rows, names)
+                let header_line = reader.get_mut().line_of(at);
+                let record = csv::ByteRecord::new();
+                (Rows::Csv { reader, record }, names, header_line)
             }
         };
         let column = names
             .iter()
             .position(|h| *h == "volts")
             .ok_or_else(|| CsvError {
-                line: 1,
+                line: header_line,
                 message: format!(
                     "the header has no `volts` column (found: {})",
                     names.join(", ")
@@ -176,20 +160,17 @@ impl<R: Read> CsvSignal<R> {
     pub fn next_sample(&mut self) -> Result<Option<f64>, CsvError> {
         loop {
             let (row, line) = match &mut self.rows {
-                Rows::Lines { lines, line, named } => {
+                Rows::Lines { lines, line } => {
                     if self.tick_then_volts
                         && let Some(volts) = lines.next_tick_and(decimal_prefix)
                     {
                         // A typical line: its value as `read_volts` would
-                        // read it (two fields, ASCII, a plain decimal),
-                        // its line counted as any plain line's ending in
-                        // `\n`.
-                        *named = named_after(*line, false);
+                        // read it (two fields, ASCII, a plain decimal).
                         *line += 1;
                         return Ok(Some(volts));
                     }
                     match lines.next_line() {
-                        Err(e) => return Err(error(&e.into())),
+                        Err(e) => return Err(io_error(e)),
                         Ok(Line::End) => return Ok(None),
                         Ok(Line::Other) => {
                             self.switch_to_csv();
@@ -201,33 +182,19 @@ impl<R: Read> CsvSignal<R> {
                             continue;
                         }
                         Ok(Line::Plain(row)) => {
-                            let this = *named;
-                            *named = named_after(*line, row.crlf);
                             *line += 1;
-                            (Row::Plain(row), this)
+                            (Row::Plain(row), *line - 1)
                         }
                     }
                 }
-                Rows::Csv {
-                    reader,
-                    record,
-                    after,
-                    first,
-                } => {
-                    let read = reader.read_byte_record(record).map_err(|e| {
-                        let mut error = error(&e);
-                        if error.line > 0 {
-                            error.line += *after;
-                        }
-                        error
-                    });
-                    if !read? {
-                        return Ok(None);
+                Rows::Csv { reader, record } => {
+                    match reader.read_byte_record(record) {
+                        Ok(true) => {}
+                        Ok(false) => return Ok(None),
+                        Err(e) => return Err(parser_error(&e, reader.get_mut())),
                     }
-                    let line = first
-                        .take()
-                        .unwrap_or_else(|| *after + record.position().map_or(0, |p| p.line()));
-                    (Row::Record(record), line)
+                    let at = record.position().map_or(0, csv::Position::byte);
+                    (Row::Record(record), reader.get_mut().line_of(at))
                 }
                 Rows::Switching => return Ok(None),
             };
@@ -237,20 +204,15 @@ impl<R: Read> CsvSignal<R> {
 
     /// From the line not plain on, the `csv` crate reads the rest.
     fn switch_to_csv(&mut self) {
-        if let Rows::Lines { lines, line, named } =
-            std::mem::replace(&mut self.rows, Rows::Switching)
-        {
+        if let Rows::Lines { lines, line } = std::mem::replace(&mut self.rows, Rows::Switching) {
             let reader = csv::ReaderBuilder::new()
                 .has_headers(false)
                 // The fields are counted here, as the plain lines' are.
                 .flexible(true)
-                .from_reader(lines.into_rest_mid_file());
+                .from_reader(lines.into_rest_mid_file(line));
             self.rows = Rows::Csv {
                 reader,
                 record: csv::ByteRecord::new(),
-                // Its line 1 is the `\n` put first, its line 2 `line`.
-                after: line - 2,
-                first: Some(named),
             };
         }
     }
@@ -270,16 +232,6 @@ fn plain_names(header: &[u8]) -> Option<Vec<String>> {
             .map(|name| name.trim().to_owned())
             .collect(),
     )
-}
-
-/// The line the `csv` crate names for the row after one that ended on
-/// line `line`, as it always has: where it stood after that row's end,
-/// one line on after a `\n`, none after a `\r\n` (it takes the `\r` for
-/// the end and its `\n` for an empty line, which it skips and counts
-/// with the next row) — and so empty lines before a row are not counted
-/// for it either.
-fn named_after(line: u64, crlf: bool) -> u64 {
-    if crlf { line } else { line + 1 }
 }
 
 /// One row's bytes.
@@ -508,8 +460,19 @@ fn unequal_lengths(fields: usize, header: usize) -> String {
     format!("{fields} fields, the header has {header}")
 }
 
-fn error(e: &csv::Error) -> CsvError {
-    let line = e.position().map_or(0, |p| p.line());
+/// An error of the `csv` crate, on the line its input places it.
+fn parser_error<R: Read>(e: &csv::Error, input: &mut Rest<R>) -> CsvError {
+    error(e, |byte| input.line_of(byte))
+}
+
+/// The input could not be read (no line).
+fn io_error(e: std::io::Error) -> CsvError {
+    error(&e.into(), |_| 0)
+}
+
+/// An error of the `csv` crate; `line_of` turns its byte into its line.
+fn error(e: &csv::Error, line_of: impl FnOnce(u64) -> u64) -> CsvError {
+    let line = e.position().map_or(0, |p| line_of(p.byte()));
     let message = match e.kind() {
         csv::ErrorKind::UnequalLengths {
             expected_len, len, ..
@@ -525,25 +488,51 @@ mod tests {
     use super::*;
 
     /// The reading of recordings before the fast path (the `csv` crate's
-    /// trimmed `StringRecord`s and std's parser): the oracle.
-    struct Oracle<R: Read> {
-        reader: csv::Reader<R>,
+    /// trimmed `StringRecord`s and std's parser), each error on the line
+    /// of the row's first byte, counted in the whole text: the oracle.
+    struct Oracle<'a> {
+        reader: csv::Reader<&'a [u8]>,
+        bytes: &'a [u8],
         column: usize,
         record: csv::StringRecord,
     }
 
-    impl<R: Read> Oracle<R> {
-        fn new(input: R) -> Result<Self, CsvError> {
+    /// The line of what starts at `byte` of `bytes`, or after the line
+    /// breaks there (where the parser leaves a row: before the empty lines
+    /// it skips, on the `\n` of a `\r\n`) and a byte order mark at the
+    /// start: one more than the `\n`s and lone `\r`s before it.
+    fn line_at(bytes: &[u8], byte: u64) -> u64 {
+        let mut at = byte as usize;
+        if at == 0 && bytes.starts_with(BOM) {
+            at = BOM.len();
+        }
+        while matches!(bytes.get(at), Some(b'\r' | b'\n')) {
+            at += 1;
+        }
+        let breaks = (0..at.min(bytes.len()))
+            .filter(|&i| match bytes[i] {
+                b'\n' => true,
+                b'\r' => bytes.get(i + 1) != Some(&b'\n'),
+                _ => false,
+            })
+            .count();
+        1 + breaks as u64
+    }
+
+    impl<'a> Oracle<'a> {
+        fn new(bytes: &'a [u8]) -> Result<Self, CsvError> {
             let mut reader = csv::ReaderBuilder::new()
                 .has_headers(true)
                 .trim(csv::Trim::All)
-                .from_reader(input);
-            let headers = reader.headers().map_err(|e| error(&e))?;
+                .from_reader(bytes);
+            let headers = reader
+                .headers()
+                .map_err(|e| error(&e, |b| line_at(bytes, b)))?;
             let column = headers
                 .iter()
                 .position(|h| h == "volts")
                 .ok_or_else(|| CsvError {
-                    line: 1,
+                    line: line_at(bytes, headers.position().map_or(0, |p| p.byte())),
                     message: format!(
                         "the header has no `volts` column (found: {})",
                         headers.iter().collect::<Vec<_>>().join(", ")
@@ -551,20 +540,22 @@ mod tests {
                 })?;
             Ok(Oracle {
                 reader,
+                bytes,
                 column,
                 record: csv::StringRecord::new(),
             })
         }
 
         fn next_sample(&mut self) -> Result<Option<f64>, CsvError> {
+            let bytes = self.bytes;
             if !self
                 .reader
                 .read_record(&mut self.record)
-                .map_err(|e| error(&e))?
+                .map_err(|e| error(&e, |b| line_at(bytes, b)))?
             {
                 return Ok(None);
             }
-            let line = self.record.position().map_or(0, |p| p.line());
+            let line = line_at(bytes, self.record.position().map_or(0, |p| p.byte()));
             let field = self.record.get(self.column).unwrap_or("");
             if field.is_empty() {
                 return Err(CsvError {
@@ -815,6 +806,48 @@ mod tests {
             let prefix = decimal_prefix(format!("{text}{tail}").as_bytes())
                 .map(|(v, used)| (v.to_bits(), used));
             proptest::prop_assert_eq!(prefix, whole, "{:?}", text);
+        }
+    }
+
+    /// A bad row's error names the line an editor shows it on, however
+    /// the file's lines end (`\n`, `\r\n`, a lone `\r`), whatever empty
+    /// lines come before it, after a value quoted over two lines, and
+    /// whichever reader (plain lines or the `csv` crate, from any buffer)
+    /// reads it.
+    #[test]
+    fn bad_rows_name_their_line_however_lines_end() {
+        for (text, line) in [
+            // Windows line endings.
+            (&b"tick,volts\r\n0,2.5\r\n1,abc\r\n"[..], 3),
+            (b"tick,volts\r\n0,2.5\r\n1\r\n", 3),
+            // Empty lines before the row.
+            (b"tick,volts\n0,2.5\n\n\n1,abc\n", 5),
+            (b"tick,volts\r\n0,2.5\r\n\r\n1,abc\r\n", 4),
+            // Old Mac line endings: a lone `\r` ends a line.
+            (b"tick,volts\n0,2.5\r1,3\r\r2,x\n", 5),
+            // A value quoted over two lines; the rows after it.
+            (b"tick,note,volts\n0,\"a\nb\",3\n\n4,5,x\n", 5),
+            (b"tick,note,volts\r\n0,\"a\r\nb\",3\r\n4,5,\r\n", 4),
+            // Empty lines, or a byte order mark and a quote, before the header.
+            (b"\n\ntick,volts\n0,2.5\n1,x\n", 5),
+            (b"\xEF\xBB\xBF\"tick\",volts\r\n0,1\r\n\r\n1,x\r\n", 4),
+            (b"\n\n\"tick\",volts\r\n0,2.5\r\n\r\n2\r\n", 6),
+            (b"\n\ntick,voltage\n0,2.5\n", 3),
+            (b"\xEF\xBB\xBF\n\"tick\",voltage\n0,2.5\n", 2),
+            // After the `csv` crate takes over mid-file (a quote).
+            (b"tick,volts\n0,2.5\n1,\"3\"\n\n2,x\n", 5),
+            (b"tick,volts\r\n0,2.5\r\n1,\"3\"\r\n\r\n\r\n2,x\r\n", 6),
+            (b"tick,volts\n0,2.5\n1,\"3\"\n2,4\n3\n", 5),
+        ] {
+            for capacity in CAPACITIES {
+                let (_, e) = outcome(text, Some(capacity));
+                assert_eq!(
+                    e.as_ref().map(|e| e.line),
+                    Some(line),
+                    "{:?}, buffer {capacity}: {e:?}",
+                    String::from_utf8_lossy(text)
+                );
+            }
         }
     }
 
