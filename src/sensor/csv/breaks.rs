@@ -24,8 +24,8 @@ pub(super) struct LineBreaks {
     ahead: VecDeque<(u64, u64)>,
     /// The line after the breaks already behind.
     line: u64,
-    /// The last byte seen was a `\r` (a `\n` next makes one `\r\n`).
-    after_cr: bool,
+    /// The last break is a `\r` (a `\n` right after makes it a `\r\n`).
+    last_is_cr: bool,
     /// How many of the first bytes are a byte order mark so far; `None`
     /// once they are not (or the input is not the file's start).
     bom: Option<usize>,
@@ -40,29 +40,30 @@ impl LineBreaks {
             seen: 0,
             ahead: VecDeque::new(),
             line: first_line,
-            after_cr: false,
+            last_is_cr: false,
             bom: file_start.then_some(0),
         }
     }
 
     /// The next bytes on their way to the parser.
     pub(super) fn see(&mut self, bytes: &[u8]) {
-        for (at, &byte) in (self.seen..).zip(bytes) {
-            if let Some(matched) = self.bom
-                && matched < BOM.len()
-            {
-                self.bom = (BOM.get(matched) == Some(&byte)).then_some(matched + 1);
+        for &byte in bytes {
+            match self.bom {
+                Some(matched) if matched < BOM.len() => {
+                    self.bom = (BOM.get(matched) == Some(&byte)).then_some(matched + 1);
+                }
+                _ => break,
             }
-            match byte {
-                b'\n' => match self.ahead.back_mut() {
-                    // The `\n` of a `\r\n`: one break.
-                    Some((_, end)) if self.after_cr && *end == at => *end = at + 1,
-                    _ => self.ahead.push_back((at, at + 1)),
-                },
-                b'\r' => self.ahead.push_back((at, at + 1)),
-                _ => {}
+        }
+        for i in memchr::memchr2_iter(b'\r', b'\n', bytes) {
+            let at = self.seen + i as u64;
+            let is_cr = bytes.get(i) == Some(&b'\r');
+            match self.ahead.back_mut() {
+                // The `\n` of a `\r\n`: one break.
+                Some((_, end)) if !is_cr && self.last_is_cr && *end == at => *end = at + 1,
+                _ => self.ahead.push_back((at, at + 1)),
             }
-            self.after_cr = byte == b'\r';
+            self.last_is_cr = is_cr;
         }
         self.seen += bytes.len() as u64;
     }
