@@ -393,6 +393,11 @@ pub struct BurstDetector {
     strength: f64,
     /// After a stuck fault: is the stuck level steady?
     steady: Steadiness,
+    /// Every sample takes the whole step (the reference path of
+    /// [`BurstDetector::full_path`]).
+    full_path: bool,
+    /// Samples that took [`BurstDetector::rest_step`].
+    rest_steps: u64,
 }
 
 impl BurstDetector {
@@ -424,7 +429,20 @@ impl BurstDetector {
             candidate: None,
             strength: 0.0,
             steady: Steadiness::new(),
+            full_path: false,
+            rest_steps: 0,
         }
+    }
+
+    /// Every sample takes the whole step, never [`BurstDetector::rest_step`]:
+    /// the reference the tests compare the fast path with.
+    pub fn full_path(&mut self) {
+        self.full_path = true;
+    }
+
+    /// Samples that took the rest step (the whole step's effects at rest).
+    pub fn rest_steps(&self) -> u64 {
+        self.rest_steps
     }
 
     /// A gap between ticks longer than this (ms) is a stall: the runtime
@@ -485,7 +503,19 @@ impl BurstDetector {
     /// Feeds one sample taken at tick `now`. Ticks must increase: a tick
     /// that does not is a fault ([`FaultReason::TickNotIncreasing`]), never
     /// an overflow. RT-safe.
+    #[inline]
     pub fn step(&mut self, now: Tick, volts: f64) -> DetectorOutput {
+        if self.rest_step(now, volts) {
+            DetectorOutput::default()
+        } else {
+            self.whole_step(now, volts)
+        }
+    }
+
+    /// [`BurstDetector::step`], every stage. (Not inlined: the rest step
+    /// then saves none of its registers.)
+    #[inline(never)]
+    fn whole_step(&mut self, now: Tick, volts: f64) -> DetectorOutput {
         if let Err(reason) = self.advance_to(now) {
             let event = self.fault(reason);
             return self.output(event);
@@ -506,6 +536,36 @@ impl BurstDetector {
             },
         };
         self.output(event)
+    }
+
+    /// [`BurstDetector::step`] on most of a day's samples, reduced to its
+    /// effects: at rest, no crossing pending, the sample on a tick that
+    /// follows the last one within `stale_ms`, valid (a number inside the
+    /// range: NaN fails every comparison) and between the thresholds. The
+    /// step would then find no fault, the rest zone, nothing to confirm
+    /// and nothing held: it only records the tick and tracks the neutral,
+    /// and its output is the default one. Returns whether it took the step.
+    #[inline(always)]
+    fn rest_step(&mut self, now: Tick, volts: f64) -> bool {
+        let next_tick = self
+            .last_tick
+            .is_some_and(|last| now > last && now - last <= self.stale);
+        let at_rest = matches!(self.state, State::Rest) && self.candidate.is_none();
+        if self.full_path || !at_rest || !next_tick {
+            return false;
+        }
+        let in_range = volts >= self.low_limit && volts <= self.high_limit;
+        // As `zone` finds the rest zone with nothing held.
+        let between =
+            volts <= self.neutral + self.puff_offset && volts >= self.neutral + self.sip_offset;
+        if !(in_range && between) {
+            return false;
+        }
+        self.last_tick = Some(now);
+        self.last_sample = Some(now);
+        self.rest_steps += 1;
+        self.track_neutral(now, volts);
+        true
     }
 
     /// Checks that `now` comes after the last tick, and records it. Time
@@ -774,6 +834,79 @@ fn run_length(since: Tick, now: Tick) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Everything a detector holds but the rest step's switch and count.
+    fn state(d: &BurstDetector) -> String {
+        let mut d = d.clone();
+        d.full_path = false;
+        d.rest_steps = 0;
+        format!("{d:?}")
+    }
+
+    /// A detector that takes the rest step and one that never does.
+    fn fast_and_whole(config: &DetectorConfig) -> (BurstDetector, BurstDetector) {
+        let mut whole = BurstDetector::new(config);
+        whole.full_path();
+        (BurstDetector::new(config), whole)
+    }
+
+    proptest::proptest! {
+        /// The rest step is the whole step: over runs of samples near the
+        /// neutral (long enough for it to be tracked), breaths, the exact
+        /// thresholds and range limits, NaN and infinities, on ticks that
+        /// follow, repeat, skip and stall, a detector that takes it and
+        /// one that never does give the same output every tick and hold
+        /// the same state (the neutral's delay line included), floats
+        /// bit for bit (`Debug` writes `-0.0`).
+        #[test]
+        fn the_rest_step_is_the_whole_step(
+            runs in proptest::collection::vec((
+                proptest::prop_oneof![8 => proptest::strategy::Just(1u64), 1 => proptest::strategy::Just(0u64), 1 => 2u64..80],
+                proptest::prop_oneof![
+                    6 => 2.2f64..2.8,
+                    2 => proptest::sample::select(vec![
+                        3.0, 2.0, 2.9, 2.1, 3.8, 1.2, -0.5, 5.5, -0.6, 5.6, 0.0, -0.0, 5.0,
+                        f64::NAN, f64::INFINITY, f64::NEG_INFINITY,
+                    ]),
+                    1 => -1.0f64..6.0,
+                ],
+                proptest::prop_oneof![3 => 1usize..4, 1 => 4usize..400],
+            ), 1..120),
+            fast_tracking in proptest::bool::ANY,
+        ) {
+            let mut config = DetectorConfig::default();
+            if fast_tracking {
+                // The neutral follows closely: the thresholds move a lot.
+                config.neutral_tracking_ms = 20;
+                config.glitch_ms = 0;
+            }
+            let (mut fast, mut whole) = fast_and_whole(&config);
+            let mut tick = 0u64;
+            for (delta, volts, repeat) in runs {
+                tick += delta;
+                for _ in 0..repeat {
+                    let (a, b) = (fast.step(tick, volts), whole.step(tick, volts));
+                    proptest::prop_assert_eq!(format!("{a:?}"), format!("{b:?}"), "tick {}", tick);
+                    tick += 1;
+                }
+                proptest::prop_assert_eq!(state(&fast), state(&whole));
+            }
+            proptest::prop_assert_eq!(whole.rest_steps(), 0);
+        }
+    }
+
+    #[test]
+    fn a_day_at_rest_takes_the_rest_step() {
+        let (mut fast, mut whole) = fast_and_whole(&DetectorConfig::default());
+        for t in 0..10_000 {
+            // Noise about the neutral, inside the thresholds.
+            let volts = 2.5 + 0.2 * ((t as f64) * 0.37).sin();
+            assert_eq!(fast.step(t, volts), whole.step(t, volts));
+        }
+        assert_eq!(state(&fast), state(&whole));
+        // All but the first sample (no tick before it).
+        assert_eq!(fast.rest_steps(), 9_999);
+    }
 
     /// Runs a detector over samples, returning (tick, event) pairs.
     fn run(config: &DetectorConfig, samples: &[f64]) -> Vec<(Tick, DetectorEvent)> {

@@ -178,6 +178,7 @@ impl<I: SequenceIndex> Pipeline<I> {
     #[doc(hidden)]
     pub fn always_update(&mut self) {
         self.full_path = true;
+        self.detector.full_path();
         self.motion.always_update();
     }
 

@@ -130,6 +130,7 @@ impl Pair {
         assert_eq!(self.full.motion().still_repeats(), 0);
         assert_eq!(self.full.motion().skipped_single_updates(), 0);
         assert_eq!(self.full.skipped_stages(), 0);
+        assert_eq!(self.full.detector().rest_steps(), 0);
         assert_eq!(self.full.motion().brake_room_repeats(), 0);
         assert_eq!(self.full_arm.skipped_ms(), 0);
         // Its selector and mode machine are skipped only at rest, where
@@ -166,6 +167,8 @@ struct Skipped {
     arm_ms: u64,
     /// Questions of braking (cruising) answered again.
     brake_repeats: u64,
+    /// Samples the detector took at rest (its rest step).
+    rest_samples: u64,
 }
 
 impl std::ops::AddAssign for Skipped {
@@ -176,6 +179,7 @@ impl std::ops::AddAssign for Skipped {
         self.single += o.single;
         self.arm_ms += o.arm_ms;
         self.brake_repeats += o.brake_repeats;
+        self.rest_samples += o.rest_samples;
     }
 }
 
@@ -195,6 +199,7 @@ fn side_by_side(config: &Config, samples: impl Iterator<Item = f64>) -> Skipped 
         single,
         arm_ms,
         brake_repeats,
+        rest_samples: pair.fast.detector().rest_steps(),
     }
 }
 
@@ -296,6 +301,9 @@ fn noisy_random_sessions_through_both_libraries_are_the_same() {
     // (56 % of the ticks that ran Ruckig): it is answered again.
     let moving = total.ticks - total.updates;
     assert!(total.brake_repeats * 10 > moving * 4, "{total:?}");
+    // Most samples are at rest, between the thresholds: the detector
+    // takes its rest step.
+    assert!(total.rest_samples * 2 > total.ticks, "{total:?}");
 }
 
 #[test]

@@ -528,7 +528,11 @@ impl Motion {
     #[inline]
     pub fn step_into(&mut self, now: Tick, command: &ModeOutput, out: &mut MotionOutput) {
         if command.direction == Direction::Still && self.resting() {
-            self.rest_into(now, out);
+            if self.still_rest {
+                self.still_into(now, out);
+            } else {
+                self.rest_into(now, out);
+            }
         } else {
             self.move_into(now, command, out);
         }
@@ -657,12 +661,39 @@ impl Motion {
         self.arm_rest && self.finger_rest && !self.fallback && self.plan == Plan::Velocity
     }
 
+    /// [`Motion::rest_into`] after a [`Motion::still_rest`] tick, reduced
+    /// to its effects: that tick was a rest tick and nothing since cleared
+    /// `still_rest` (every other way to the requests does), so what it
+    /// cleared is still clear and needs no writing again.
+    #[inline(always)]
+    fn still_into(&mut self, now: Tick, out: &mut MotionOutput) {
+        debug_assert!(self.requests_cleared(), "a still rest tick found a request");
+        self.skip_update_at_rest();
+        self.finish_still_tick(now, out);
+    }
+
+    /// Nothing requested, as [`Motion::rest_into`] leaves it: no press,
+    /// nothing held off, no go-to pending, zero targets (`+0`).
+    fn requests_cleared(&self) -> bool {
+        let zeros = |values: &[f64]| values.iter().all(|v| v.to_bits() == 0);
+        self.previous_direction == Direction::Still
+            && !self.goto_pending
+            && self.linear_blocked.is_none()
+            && self.angular_blocked.is_none()
+            && self.finger_blocked.is_none()
+            && zeros(&self.input.target_velocity)
+            && zeros(&self.input.target_acceleration)
+            && zeros(&self.finger_input.target_velocity)
+    }
+
     /// [`Motion::step_into`] for a command with no direction while
     /// [`Motion::resting`], reduced to its effects: whatever the mode,
     /// nothing is requested (no press, nothing held off, no go-to pending
     /// or under way, zero targets), so the updates are skipped and the
     /// tick ends as every tick does. `tests/it/fast_paths.rs` runs it side
-    /// by side with the full step, which never takes it.
+    /// by side with the full step, which never takes it. (Not inlined:
+    /// the still path then saves none of its registers.)
+    #[inline(never)]
     fn rest_into(&mut self, now: Tick, out: &mut MotionOutput) {
         self.previous_direction = Direction::Still;
         self.goto_pending = false;
@@ -674,10 +705,6 @@ impl Motion {
         set_all(&mut self.input.target_acceleration, [0.0, 0.0]);
         set_all(&mut self.finger_input.target_velocity, [0.0]);
         self.skip_update_at_rest();
-        if self.still_rest {
-            self.finish_still_tick(now, out);
-            return;
-        }
         self.finish_tick(now, false, [None; 2], out);
         // The next rest tick's twist is this one (nothing changes the
         // velocities or their axes on the way), and so is its mean: the
