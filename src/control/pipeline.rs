@@ -343,7 +343,20 @@ impl<I: SequenceIndex> Pipeline<I> {
             self.step_motion(now, out);
             return;
         }
+        self.select_and_move(now, detected, in_detection, out);
+    }
 
+    /// The rest of [`Pipeline::process`] on a tick that is not quiet:
+    /// the selector, the mode machine, the motion layer. (Not inlined:
+    /// the quiet path then saves none of its registers.)
+    #[inline(never)]
+    fn select_and_move(
+        &mut self,
+        now: Tick,
+        detected: DetectorOutput,
+        in_detection: bool,
+        out: &mut TickOutput,
+    ) {
         let mut decision = None;
         let mut scan_burst = None;
         match detected.event {
