@@ -850,11 +850,20 @@ mod tests {
         (BurstDetector::new(config), whole)
     }
 
+    /// How a tick reaches the detector.
+    #[derive(Debug, Clone, Copy)]
+    enum Call {
+        Sample,
+        Missing,
+        Lost,
+    }
+
     proptest::proptest! {
         /// The rest step is the whole step: over runs of samples near the
         /// neutral (long enough for it to be tracked), breaths, the exact
         /// thresholds and range limits, NaN and infinities, on ticks that
-        /// follow, repeat, skip and stall, a detector that takes it and
+        /// follow, repeat, skip and stall, with ticks of no sample and of
+        /// a device gone among them, a detector that takes it and
         /// one that never does give the same output every tick and hold
         /// the same state (the neutral's delay line included), floats
         /// bit for bit (`Debug` writes `-0.0`).
@@ -871,6 +880,11 @@ mod tests {
                     1 => -1.0f64..6.0,
                 ],
                 proptest::prop_oneof![3 => 1usize..4, 1 => 4usize..400],
+                proptest::prop_oneof![
+                    10 => proptest::strategy::Just(Call::Sample),
+                    1 => proptest::strategy::Just(Call::Missing),
+                    1 => proptest::strategy::Just(Call::Lost),
+                ],
             ), 1..120),
             fast_tracking in proptest::bool::ANY,
         ) {
@@ -882,10 +896,14 @@ mod tests {
             }
             let (mut fast, mut whole) = fast_and_whole(&config);
             let mut tick = 0u64;
-            for (delta, volts, repeat) in runs {
+            for (delta, volts, repeat, call) in runs {
                 tick += delta;
                 for _ in 0..repeat {
-                    let (a, b) = (fast.step(tick, volts), whole.step(tick, volts));
+                    let (a, b) = match call {
+                        Call::Sample => (fast.step(tick, volts), whole.step(tick, volts)),
+                        Call::Missing => (fast.step_missing(tick), whole.step_missing(tick)),
+                        Call::Lost => (fast.step_lost(tick), whole.step_lost(tick)),
+                    };
                     proptest::prop_assert_eq!(format!("{a:?}"), format!("{b:?}"), "tick {}", tick);
                     tick += 1;
                 }
