@@ -11,8 +11,7 @@
 
 use std::collections::VecDeque;
 
-/// UTF-8's byte order mark (the parser drops one at the very start).
-const BOM: &[u8] = b"\xEF\xBB\xBF";
+use super::BOM;
 
 /// The line breaks in the bytes passed to the parser and not yet behind a
 /// row it reported: at most the parser's buffer's worth.
