@@ -540,9 +540,8 @@ impl BurstDetector {
 
     /// [`BurstDetector::step`] on most of a day's samples, reduced to its
     /// effects: at rest, no crossing pending, the sample on a tick that
-    /// follows the last one within `stale_ms`, valid (a number inside the
-    /// range: NaN fails every comparison) and between the thresholds. The
-    /// step would then find no fault, the rest zone, nothing to confirm
+    /// follows the last one within `stale_ms`, valid and in the rest zone
+    /// (the whole step's own `check` and `zone`). The step would then find no fault, the rest zone, nothing to confirm
     /// and nothing held: it only records the tick and tracks the neutral,
     /// and its output is the default one. Returns whether it took the step.
     #[inline(always)]
@@ -554,11 +553,8 @@ impl BurstDetector {
         if self.full_path || !at_rest || !next_tick {
             return false;
         }
-        let in_range = volts >= self.low_limit && volts <= self.high_limit;
-        // As `zone` finds the rest zone with nothing held.
-        let between =
-            volts <= self.neutral + self.puff_offset && volts >= self.neutral + self.sip_offset;
-        if !(in_range && between) {
+        let valid = Self::check(volts, self.low_limit, self.high_limit).is_ok();
+        if !valid || self.zone(volts, None) != Zone::Rest {
             return false;
         }
         self.last_tick = Some(now);
