@@ -11,7 +11,8 @@
 
 use std::collections::VecDeque;
 
-use super::BOM;
+/// UTF-8's byte order mark (the parser drops one at the very start).
+pub(super) const BOM: &[u8] = b"\xEF\xBB\xBF";
 
 /// The line breaks in the bytes passed to the parser and not yet behind a
 /// row it reported: at most the parser's buffer's worth.

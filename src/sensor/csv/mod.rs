@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
+use self::breaks::BOM;
 use self::lines::{Line, PlainLine, PlainLines, Rest};
 use crate::sensor::ring::{RingSamples, SAMPLE_RING, ring};
 use crate::sensor::{Producer, Sensor, SensorError, Started};
@@ -81,9 +82,6 @@ enum Rows<R: Read> {
     /// Between the two (never seen outside [`CsvSignal::switch_to_csv`]).
     Switching,
 }
-
-/// UTF-8's byte order mark.
-const BOM: &[u8] = b"\xEF\xBB\xBF";
 
 /// The plain lines' buffer: 64 KiB.
 const LINE_BUFFER: usize = 1 << 16;
