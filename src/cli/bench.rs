@@ -1,4 +1,4 @@
-//! `sipnpuff bench latency | tick | accuracy`: the project's own
+//! `sipnpuff bench latency | tick | replay | accuracy`: the project's own
 //! measurements, each against a reference measured in the same run.
 
 use std::path::PathBuf;
@@ -13,8 +13,11 @@ use crate::rt::control_loop::StopReason;
 use crate::rt::threads::RunOptions;
 use crate::sensor::synthetic::SyntheticSensor;
 use crate::tools::accuracy::{GridOptions, GridReport, accuracy_grid, grid_table};
+use crate::tools::bench_replay::bench_replay;
 use crate::tools::bench_tick::bench_tick;
 use crate::tools::latency::{LatencyReport, bench_latency};
+use crate::tools::recording::read::Recording;
+use crate::tools::recording::replay::ReplayError;
 
 /// What to measure.
 #[derive(clap::Subcommand, Debug)]
@@ -50,6 +53,19 @@ pub enum BenchCommand {
         /// The configuration.
         #[command(flatten)]
         config: ConfigArg,
+        /// Print one JSON object instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// How fast a recording made by `run --record` replays, against the
+    /// core alone stepped through the same inputs (the floor of any
+    /// replay of it), in alternating rounds in one process.
+    Replay {
+        /// The recording's directory.
+        recording: PathBuf,
+        /// Rounds of each (after one of each not counted).
+        #[arg(long, default_value_t = 11, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        rounds: u32,
         /// Print one JSON object instead of a table.
         #[arg(long)]
         json: bool,
@@ -163,6 +179,27 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<u8> {
                 output::stdout_line(&serde_json::to_string(&report)?)
             } else {
                 output::stdout(&report.to_text())
+            }
+            .context("stdout")?;
+            Ok(output::COMPLETED)
+        }
+        BenchCommand::Replay {
+            recording,
+            rounds,
+            json,
+        } => {
+            let opened = Recording::open(&recording)?;
+            let report = match bench_replay(&opened, rounds) {
+                Ok(bench) => bench.report(),
+                Err(ReplayError::Recording(e)) => return Err(e.into()),
+                Err(ReplayError::Write(e)) => {
+                    return Err(anyhow::Error::new(e).context(recording.display().to_string()));
+                }
+            };
+            if json {
+                output::stdout_line(&serde_json::to_string(&report)?)
+            } else {
+                output::stdout(&format!("{}: {}", recording.display(), report.to_text()))
             }
             .context("stdout")?;
             Ok(output::COMPLETED)

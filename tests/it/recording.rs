@@ -635,6 +635,68 @@ fn a_damaged_recording_is_an_error_naming_the_file_and_offset() {
     assert!(e.contains("rec/meta.json: says 1"), "{e}");
 }
 
+/// `bench replay` times the whole replay against the core alone through
+/// the same inputs, and the core alone did the replay's work: its steps,
+/// events and arm commands are the recording's. A damaged recording is
+/// refused as `replay` refuses it.
+#[test]
+fn bench_replay_times_the_replay_against_the_core_alone() {
+    let dir = short_recording();
+    let out = sipnpuff(&[
+        "bench",
+        "replay",
+        dir.to_str().unwrap(),
+        "--rounds",
+        "3",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let report: Value = serde_json::from_str(&text(&out.stdout)).unwrap();
+    let meta = json(&dir.join("meta.json"));
+    assert_eq!(report["ticks"], meta["ticks"], "{report}");
+    assert_eq!(report["events"], meta["events"], "{report}");
+    assert_eq!(report["arm_commands"], meta["arm_commands"], "{report}");
+    assert_eq!(report["identical"], true);
+    assert_eq!(report["rounds"], 3);
+    let ticks = meta["ticks"].as_f64().unwrap();
+    assert_eq!(report["recorded_s"].as_f64().unwrap(), ticks / 1000.0);
+    let figure = |part: &str, key: &str| report[part][key].as_f64().unwrap();
+    for part in ["whole_replay", "core_alone"] {
+        let (median, min) = (figure(part, "median_ms"), figure(part, "min_ms"));
+        assert!(min > 0.0 && min <= median, "{report}");
+        assert_eq!(figure(part, "real_time"), ticks / 1000.0 / (median / 1e3));
+    }
+    assert_eq!(
+        report["core_share"].as_f64().unwrap(),
+        figure("core_alone", "median_ms") / figure("whole_replay", "median_ms")
+    );
+    let out = sipnpuff(&["bench", "replay", dir.to_str().unwrap(), "--rounds", "1"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let table = text(&out.stdout);
+    assert!(
+        table.contains("identical to the recording; 1 rounds of each")
+            && table.contains("the core alone, stepped through the same inputs (the floor)"),
+        "{table}"
+    );
+
+    let damaged = scratch("bench-damaged").join("rec");
+    std::fs::create_dir_all(&damaged).unwrap();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, damaged.join(path.file_name().unwrap())).unwrap();
+    }
+    edit_bytes(&damaged.join("samples.bin"), |b| b.truncate(b.len() / 2));
+    let out = sipnpuff(&["bench", "replay", damaged.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let e = text(&out.stderr);
+    assert!(
+        e.contains("rec/samples.bin: offset ") && e.contains(": truncated"),
+        "{e}"
+    );
+    assert!(out.stdout.is_empty());
+    std::fs::remove_dir_all(damaged.parent().unwrap()).unwrap();
+}
+
 /// `--events` and `--trace` work for a recording as for a CSV signal:
 /// the events are the recorded lines, the trace has a row per tick.
 #[test]
