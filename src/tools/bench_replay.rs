@@ -26,7 +26,7 @@ use crate::control::pipeline::Pipeline;
 use crate::tools::recording::format::commands::CommandItem;
 use crate::tools::recording::format::samples::SampleItem;
 use crate::tools::recording::read::{Recording, RecordingError};
-use crate::tools::recording::replay::{ReplayError, replay};
+use crate::tools::recording::replay::{ReplayError, give_to_core, replay};
 use crate::tools::recording::{COMMANDS, SAMPLES};
 
 /// Inputs decoded between two timed stretches of the core-alone round.
@@ -180,7 +180,7 @@ fn first_other_event(
     Ok(None)
 }
 
-/// A fresh core given exactly the replay's calls, the inputs decoded a
+/// A fresh core given exactly the replay's calls ([`give_to_core`]), the inputs decoded a
 /// block at a time outside the timed stretches: the time of its steps,
 /// what they produced, its events (in `events`) and the fingerprint of
 /// its arm commands.
@@ -211,24 +211,18 @@ fn core_alone(
             return Ok((time, work, commands));
         }
         let started = Instant::now();
-        for item in inputs.iter() {
-            match *item {
-                SampleItem::Input { tick, arm, sample } => {
-                    arm.apply(&mut core);
-                    sample.step_into(&mut core, tick, &mut output);
-                    work.ticks += 1;
-                    for &event in output.events.iter() {
-                        events.push(TimedEvent { tick, event });
-                    }
-                    work.events += output.events.len() as u64;
-                    if let Some(command) = &output.motion.arm_command {
-                        commands.add(command);
-                        work.arm_commands += 1;
-                    }
-                }
-                SampleItem::BeginStop => core.begin_stop(),
-                // The replay makes no call for lost ticks.
-                SampleItem::Lost(_) => {}
+        for &item in inputs.iter() {
+            let Some(tick) = give_to_core(item, &mut core, &mut output) else {
+                continue;
+            };
+            work.ticks += 1;
+            for &event in output.events.iter() {
+                events.push(TimedEvent { tick, event });
+            }
+            work.events += output.events.len() as u64;
+            if let Some(command) = &output.motion.arm_command {
+                commands.add(command);
+                work.arm_commands += 1;
             }
         }
         time += started.elapsed();

@@ -13,7 +13,7 @@ use crate::config::Config;
 use crate::control::Tick;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
-use crate::control::pipeline::Pipeline;
+use crate::control::pipeline::{Pipeline, TickOutput};
 use crate::rt::telemetry::ArmPose;
 use crate::tools::recording::format::commands::{CommandDecoder, CommandItem};
 use crate::tools::recording::format::samples::SampleItem;
@@ -294,6 +294,26 @@ impl Comparer<'_> {
     }
 }
 
+/// Makes the core's calls one item of `samples.bin` stands for, as the
+/// control tick made them: the arm's news, then the step, into `out`; or
+/// `begin_stop`; nothing for lost ticks. The tick stepped, if any. The
+/// replay and `bench replay`'s core-alone rounds both give the core its
+/// input through this, so both make the same calls.
+pub fn give_to_core(item: SampleItem, core: &mut Pipeline, out: &mut TickOutput) -> Option<Tick> {
+    match item {
+        SampleItem::Input { tick, arm, sample } => {
+            arm.apply(core);
+            sample.step_into(core, tick, out);
+            Some(tick)
+        }
+        SampleItem::BeginStop => {
+            core.begin_stop();
+            None
+        }
+        SampleItem::Lost(_) => None,
+    }
+}
+
 /// Replays `recording` through a fresh core built from `config` and the
 /// simulated arm, writing events as JSON lines to `out` and, if given, the
 /// per-tick trace. With `compare`, checks the events and arm commands
@@ -368,31 +388,20 @@ pub fn replay(
         .next_item()
         .map_err(|e| RecordingError::format(recording.path(SAMPLES), e))?
     {
-        let (tick, sample) = match item {
-            SampleItem::Input {
-                tick,
-                arm: news,
-                sample,
-            } => {
-                news.apply(&mut core);
+        match item {
+            SampleItem::Input { arm: news, .. } => {
                 if let Some((ArmPose::Start, pose)) = news.pose {
                     // The trace's arm starts where the real one did.
                     arm.move_to(pose);
                 }
-                (tick, sample)
             }
-            SampleItem::BeginStop => {
-                core.begin_stop();
-                v.stop_tick = v.last_tick;
-                continue;
-            }
-            SampleItem::Lost(_) => {
-                // What follows is not the core's whole input.
-                cmp.comparing = false;
-                continue;
-            }
+            SampleItem::BeginStop => v.stop_tick = v.last_tick,
+            // What follows is not the core's whole input.
+            SampleItem::Lost(_) => cmp.comparing = false,
+        }
+        let Some(tick) = give_to_core(item, &mut core, &mut output) else {
+            continue;
         };
-        sample.step_into(&mut core, tick, &mut output);
         v.ticks += 1;
         v.first_tick.get_or_insert(tick);
         v.last_tick = Some(tick);
