@@ -555,15 +555,21 @@ fn short_recording() -> &'static Path {
     })
 }
 
-/// A copy of the short recording, `damage` done to it, replayed: the
-/// error.
-fn damaged(name: &str, damage: impl FnOnce(&Path)) -> String {
-    let dir = scratch(&format!("damaged-{name}")).join("rec");
+/// A copy of the short recording, in `rec` in a fresh scratch directory.
+fn copy_of_short_recording(name: &str) -> PathBuf {
+    let dir = scratch(name).join("rec");
     std::fs::create_dir_all(&dir).unwrap();
     for entry in std::fs::read_dir(short_recording()).unwrap() {
         let path = entry.unwrap().path();
         std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
     }
+    dir
+}
+
+/// A copy of the short recording, `damage` done to it, replayed: the
+/// error.
+fn damaged(name: &str, damage: impl FnOnce(&Path)) -> String {
+    let dir = copy_of_short_recording(&format!("damaged-{name}"));
     damage(&dir);
     let (code, events, stderr) = replay(&dir);
     assert_eq!(code, 1, "{name}: {stderr}");
@@ -685,12 +691,7 @@ fn bench_replay_times_the_replay_against_the_core_alone() {
         "{table}"
     );
 
-    let damaged = scratch("bench-damaged").join("rec");
-    std::fs::create_dir_all(&damaged).unwrap();
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let path = entry.unwrap().path();
-        std::fs::copy(&path, damaged.join(path.file_name().unwrap())).unwrap();
-    }
+    let damaged = copy_of_short_recording("bench-damaged");
     edit_bytes(&damaged.join("samples.bin"), |b| b.truncate(b.len() / 2));
     let out = sipnpuff(&["bench", "replay", damaged.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
@@ -750,12 +751,7 @@ fn a_recording_replays_to_events_and_trace_files() {
 
 #[test]
 fn a_recorded_event_that_differs_is_named_with_its_line() {
-    let dir = scratch("event-differs").join("rec");
-    std::fs::create_dir_all(&dir).unwrap();
-    for entry in std::fs::read_dir(short_recording()).unwrap() {
-        let path = entry.unwrap().path();
-        std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
-    }
+    let dir = copy_of_short_recording("event-differs");
     let events = std::fs::read_to_string(dir.join("events.jsonl")).unwrap();
     let first = events
         .lines()
