@@ -253,7 +253,9 @@ fn run(
 ) -> Run {
     let config = config(dir, library_dir, "", extra);
     let log = dir.join("calls.log");
-    let output = command(arm, &config, &log, env, args).output().unwrap();
+    let mut command = command(arm, &config, &log, env, args);
+    let what = crate::common::describe_command(&command);
+    let output = crate::watchdog::output(&mut command, &what);
     crate::common::witness(&String::from_utf8_lossy(&output.stdout));
     Run {
         status: output.status,
@@ -648,15 +650,16 @@ fn an_init_that_never_returns_gives_up_after_the_connect_timeout() {
         let dir = temp_dir("slow-run");
         let config = config(&dir, &lib, "connect_timeout_ms = 300", "");
         let log = dir.join("calls.log");
-        let output = command(
-            "kinova-sdk:usb",
-            &config,
-            &log,
-            &[("KINOVA_STANDIN_INIT_DELAY_MS", "20000")],
-            &["--seconds", "1"],
-        )
-        .output()
-        .unwrap();
+        let output = crate::watchdog::output(
+            &mut command(
+                "kinova-sdk:usb",
+                &config,
+                &log,
+                &[("KINOVA_STANDIN_INIT_DELAY_MS", "20000")],
+                &["--seconds", "1"],
+            ),
+            "sipnpuff with an init that never returns",
+        );
         let all = format!(
             "{}{}",
             String::from_utf8_lossy(&output.stdout),
@@ -711,9 +714,10 @@ fn sigint_mid_motion_sends_a_zero_point_then_closes() {
         let dir = temp_dir("sigint-run");
         let config = config(&dir, &lib, "", "");
         let log = dir.join("calls.log");
-        let mut child = command("kinova-sdk:usb", &config, &log, &[], &["--seconds", "30"])
-            .spawn()
-            .unwrap();
+        let mut child = crate::watchdog::spawn(
+            &mut command("kinova-sdk:usb", &config, &log, &[], &["--seconds", "30"]),
+            "sipnpuff run --arm kinova-sdk:usb",
+        );
         let stdout = std::io::BufReader::new(child.stdout.take().unwrap());
         let mut lines = stdout.lines();
         loop {
@@ -742,8 +746,13 @@ fn sigint_mid_motion_sends_a_zero_point_then_closes() {
             unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
             0
         );
+        crate::watchdog::watch(
+            &child,
+            "sipnpuff after SIGINT",
+            crate::watchdog::AFTER_SIGNAL,
+        );
         let rest: Vec<String> = lines.map_while(Result::ok).collect();
-        let status = child.wait().unwrap();
+        let status = crate::watchdog::wait(&mut child);
         assert_eq!(status.code(), Some(130), "{rest:?}");
         let calls = read_log(&log);
         let sends: Vec<&Call> = calls

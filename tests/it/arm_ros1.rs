@@ -549,7 +549,7 @@ fn no_master_is_a_clear_error() {
                 None => command.env_remove("ROS_MASTER_URI"),
             };
             let started = Instant::now();
-            let out = command.output().unwrap();
+            let out = crate::watchdog::output(&mut command, "sipnpuff run --arm ros1");
             (
                 out.status.code(),
                 String::from_utf8_lossy(&out.stderr).into_owned(),

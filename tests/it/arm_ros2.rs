@@ -118,7 +118,7 @@ impl Peer {
             command.args(["--pose-topic", pose]);
         }
         command.args(extra);
-        let mut child = command.spawn().expect("the peer starts");
+        let mut child = crate::watchdog::spawn(&mut command, "the Cyclone DDS peer");
         let mut line = String::new();
         BufReader::new(child.stdout.take().unwrap())
             .read_line(&mut line)
@@ -130,7 +130,12 @@ impl Peer {
     /// Ends it cleanly (SIGTERM) and returns what it received.
     fn finish(mut self) -> Vec<Received> {
         self.signal(libc::SIGTERM);
-        let status = self.child.wait().unwrap();
+        crate::watchdog::watch(
+            &self.child,
+            "the Cyclone DDS peer after SIGTERM",
+            crate::watchdog::AFTER_SIGNAL,
+        );
+        let status = crate::watchdog::wait(&mut self.child);
         assert!(status.success(), "the peer failed: {status}");
         received(&self.out)
     }
@@ -246,17 +251,18 @@ struct Outcome {
 /// Starts `sipnpuff run` with `args` (as a user would: real-time
 /// priority where the machine grants it).
 fn spawn_run(args: &[&str]) -> Child {
-    crate::common::sipnpuff()
+    let mut command = crate::common::sipnpuff();
+    command
         .arg("run")
         .args(args)
         .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("the sipnpuff binary runs")
+        .stderr(Stdio::piped());
+    let what = crate::common::describe_command(&command);
+    crate::watchdog::spawn(&mut command, &what)
 }
 
 fn finish_run(child: Child) -> Outcome {
-    let output = child.wait_with_output().unwrap();
+    let output = crate::watchdog::wait_with_output(child);
     let exited_ns = monotonic_ns();
     let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
     crate::common::witness(&stdout);
@@ -601,6 +607,7 @@ fn a_stop_request_ends_the_stream_with_a_zero_at_the_peer() {
             }
             std::thread::sleep(Duration::from_millis(200));
             let signalled_ns = monotonic_ns();
+            crate::watchdog::watch(&run, "sipnpuff after SIGINT", crate::watchdog::AFTER_SIGNAL);
             // SAFETY: kill(2) on our own child's pid.
             unsafe { libc::kill(run.id() as libc::pid_t, libc::SIGINT) };
             let outcome = finish_run(run);

@@ -3,17 +3,17 @@
 //! that fails mid-run stops the arm and says where, and the `--json`
 //! outputs carry every field of their structs.
 
-use std::process::Output;
+use std::process::{Output, Stdio};
 
 use sipnpuff::config::Config;
 
 use crate::common::{Running, fixture};
 
 fn sipnpuff(args: &[&str]) -> Output {
-    crate::common::sipnpuff()
-        .args(args)
-        .output()
-        .expect("the sipnpuff binary runs")
+    let mut command = crate::common::sipnpuff();
+    command.args(args);
+    let what = crate::common::describe_command(&command);
+    crate::watchdog::output(&mut command, &what)
 }
 
 /// Runs a command that must fail, returning its standard error.
@@ -433,11 +433,13 @@ fn run_onto_a_full_disk_stops_safely_and_fails() {
         .write(true)
         .open("/dev/full")
         .unwrap();
-    let out = crate::common::sipnpuff()
-        .args(LONG_RUN)
-        .stdout(full)
-        .output()
-        .unwrap();
+    let out = crate::watchdog::wait_with_output(crate::watchdog::spawn(
+        crate::common::sipnpuff()
+            .args(LONG_RUN)
+            .stdout(full)
+            .stderr(Stdio::piped()),
+        "sipnpuff run onto /dev/full",
+    ));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{}\n{stderr}", out.status);
     assert!(!stderr.contains("panicked"), "{stderr}");
@@ -457,11 +459,18 @@ fn with_closed(args: &[&str], close_stderr: bool) -> Output {
     let mut command = crate::common::sipnpuff();
     command.args(args);
     if close_stderr {
-        command.stderr(writer);
+        command
+            .stderr(writer)
+            .stdout(Stdio::piped())
+            .stdin(Stdio::null());
     } else {
-        command.stdout(writer);
+        command
+            .stdout(writer)
+            .stderr(Stdio::piped())
+            .stdin(Stdio::null());
     }
-    command.output().unwrap()
+    let what = crate::common::describe_command(&command);
+    crate::watchdog::wait_with_output(crate::watchdog::spawn(&mut command, &what))
 }
 
 #[test]

@@ -115,6 +115,17 @@ pub fn sipnpuff() -> std::process::Command {
     command
 }
 
+/// A command as a person would type it: the program's name and its
+/// arguments (for the watchdog's report).
+pub fn describe_command(command: &std::process::Command) -> String {
+    let program = std::path::Path::new(command.get_program());
+    std::iter::once(program.file_name().unwrap_or(program.as_os_str()))
+        .chain(command.get_args())
+        .map(|a| a.to_string_lossy())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// The real binary, its stdout lines arriving on a channel (stderr piped).
 pub struct Running {
     /// The process.
@@ -136,11 +147,13 @@ impl Running {
     /// Starts `command` (a `sipnpuff` set up by the test), stdout and
     /// stderr piped.
     pub fn start(mut command: std::process::Command) -> Running {
-        let mut child = command
-            .stdout(std::process::Stdio::piped())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .expect("the sipnpuff binary runs");
+        let what = describe_command(&command);
+        let mut child = crate::watchdog::spawn(
+            command
+                .stdout(std::process::Stdio::piped())
+                .stderr(std::process::Stdio::piped()),
+            &what,
+        );
         let stdout = child.stdout.take().unwrap();
         let (tx, lines) = std::sync::mpsc::channel();
         std::thread::spawn(move || {
@@ -183,7 +196,14 @@ impl Running {
         std::thread::sleep(std::time::Duration::from_millis(900));
     }
 
+    /// Sends `signal`; from then on the process has
+    /// [`crate::watchdog::AFTER_SIGNAL`] to exit.
     pub fn signal(&self, signal: libc::c_int) {
+        crate::watchdog::watch(
+            &self.child,
+            &format!("sipnpuff after signal {signal}"),
+            crate::watchdog::AFTER_SIGNAL,
+        );
         // SAFETY: kill with a valid pid and signal number has no memory effects.
         let rc = unsafe { libc::kill(self.child.id() as libc::pid_t, signal) };
         assert_eq!(rc, 0);
@@ -193,7 +213,7 @@ impl Running {
     pub fn finish(mut self) -> (std::process::ExitStatus, Vec<String>, String) {
         let mut stderr = String::new();
         std::io::Read::read_to_string(self.child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
-        let status = self.child.wait().unwrap();
+        let status = crate::watchdog::wait(&mut self.child);
         let mut seen = std::mem::take(&mut self.seen);
         seen.extend(self.lines.iter());
         (status, seen, stderr)
@@ -207,7 +227,7 @@ impl Running {
         self.lines = std::sync::mpsc::channel().1;
         let mut stderr = String::new();
         std::io::Read::read_to_string(self.child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
-        let status = self.child.wait().unwrap();
+        let status = crate::watchdog::wait(&mut self.child);
         (status, std::mem::take(&mut self.seen), stderr)
     }
 

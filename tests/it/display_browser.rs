@@ -69,12 +69,13 @@ struct Browser {
 impl Browser {
     fn start() -> Browser {
         let port = free_port();
-        let driver = Command::new(CHROMEDRIVER)
-            .arg(format!("--port={port}"))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("chromedriver starts");
+        let driver = crate::watchdog::spawn(
+            Command::new(CHROMEDRIVER)
+                .arg(format!("--port={port}"))
+                .stdout(Stdio::null())
+                .stderr(Stdio::null()),
+            "chromedriver",
+        );
         let base = format!("http://127.0.0.1:{port}");
         let started = Instant::now();
         while ureq::get(format!("{base}/status")).call().is_err() {

@@ -34,3 +34,4 @@ mod sensors;
 mod sessions;
 mod stress;
 mod study;
+mod watchdog;

@@ -28,10 +28,10 @@ use sipnpuff::tools::recording::writer::RecordOptions;
 use crate::common::{Running, fixture};
 
 fn sipnpuff(args: &[&str]) -> Output {
-    let output = crate::common::sipnpuff()
-        .args(args)
-        .output()
-        .expect("the sipnpuff binary runs");
+    let mut command = crate::common::sipnpuff();
+    command.args(args);
+    let what = crate::common::describe_command(&command);
+    let output = crate::watchdog::output(&mut command, &what);
     crate::common::witness(&text(&output.stdout));
     output
 }

@@ -267,7 +267,9 @@ fn a_user_without_privileges_runs_and_is_told_what_it_lacks() {
     } else {
         binary()
     };
-    let output = command.args(["run", "--seconds", "1.5"]).output().unwrap();
+    command.args(["run", "--seconds", "1.5"]);
+    let what = crate::common::describe_command(&command);
+    let output = crate::watchdog::output(&mut command, &what);
     let text = String::from_utf8_lossy(&output.stdout);
     assert!(
         output.status.success(),

@@ -1,0 +1,298 @@
+//! A bound on every process a test starts. A child that outlives its bound
+//! (a stop that hangs, in sipnpuff or in a peer) is described (each
+//! thread's state, kernel wait channel and kernel stack, and its user-space
+//! stacks when gdb is installed) and killed. The test's own wait then
+//! returns, and [`check`] fails the test naming the process and where it
+//! hung, instead of the whole test run waiting for CI's limit: the CI of
+//! 4748c25 sat 80 minutes in `arm_ros2`'s stop test and said nothing.
+//!
+//! One thread watches every registered child. It reports on the process's
+//! stderr directly (not through the test harness's capture, which belongs
+//! to whichever test started the thread), so CI's log always has it.
+
+use std::collections::HashMap;
+use std::io::Write;
+use std::process::{Child, Command, ExitStatus, Output, Stdio};
+use std::sync::{Mutex, OnceLock};
+use std::time::{Duration, Instant};
+
+/// Longer than any test's child needs even on a loaded machine (the
+/// longest run is 60 s of real time, the whole integration binary about
+/// 4 minutes), short against CI's limit.
+pub const LIMIT: Duration = Duration::from_secs(300);
+
+/// How long a process told to end (SIGINT, SIGTERM) may take to exit:
+/// sipnpuff's safe stop brakes for under a second and waits at most
+/// 0.5 s for an acknowledgement; a peer deletes its participant.
+pub const AFTER_SIGNAL: Duration = Duration::from_secs(60);
+
+/// A process by pid and start time (a pid alone may be reused).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+struct Process {
+    pid: u32,
+    started: u64,
+}
+
+struct Watched {
+    deadline: Instant,
+    what: String,
+}
+
+#[derive(Default)]
+struct State {
+    watched: HashMap<Process, Watched>,
+    /// Processes the watchdog killed, with what they were doing.
+    hung: HashMap<Process, String>,
+}
+
+fn state() -> &'static Mutex<State> {
+    static STATE: OnceLock<Mutex<State>> = OnceLock::new();
+    STATE.get_or_init(|| {
+        std::thread::Builder::new()
+            .name("watchdog".into())
+            .spawn(watch_loop)
+            .expect("the watchdog thread starts");
+        Mutex::new(State::default())
+    })
+}
+
+fn lock() -> std::sync::MutexGuard<'static, State> {
+    state().lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Bounds `child` (described as `what`): it must have exited within
+/// `limit` from now. Watching it again replaces the bound.
+pub fn watch(child: &Child, what: &str, limit: Duration) {
+    let Some(process) = process(child.id()) else {
+        return; // already gone
+    };
+    lock().watched.insert(
+        process,
+        Watched {
+            deadline: Instant::now() + limit,
+            what: what.to_string(),
+        },
+    );
+}
+
+/// Spawns `command` (described as `what`) bounded by [`LIMIT`].
+pub fn spawn(command: &mut Command, what: &str) -> Child {
+    let child = command
+        .spawn()
+        .unwrap_or_else(|e| panic!("{what} does not start: {e}"));
+    watch(&child, what, LIMIT);
+    child
+}
+
+/// Runs `command` (described as `what`) to its end, its output captured,
+/// bounded by [`LIMIT`]; fails the test if it hung.
+pub fn output(command: &mut Command, what: &str) -> Output {
+    let child = spawn(
+        command
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped()),
+        what,
+    );
+    wait_with_output(child)
+}
+
+/// [`Child::wait_with_output`], bounded as `child` was watched; fails the
+/// test if it hung.
+pub fn wait_with_output(child: Child) -> Output {
+    let started = process(child.id());
+    let output = child.wait_with_output().expect("waiting for a child");
+    if let Some(process) = started {
+        check_process(process);
+    }
+    output
+}
+
+/// Waits for `child`, bounded as it was watched; fails the test if it hung.
+pub fn wait(child: &mut Child) -> ExitStatus {
+    let started = process(child.id());
+    let status = child.wait().expect("waiting for a child");
+    if let Some(process) = started {
+        check_process(process);
+    }
+    status
+}
+
+/// Fails the test if the watchdog killed `child` (call after its wait
+/// returned).
+pub fn check(child: &Child) {
+    let pid = child.id();
+    let hung: Vec<String> = lock()
+        .hung
+        .iter()
+        .filter(|(p, _)| p.pid == pid)
+        .map(|(_, why)| why.clone())
+        .collect();
+    if let Some(why) = hung.into_iter().next() {
+        panic!("{why}");
+    }
+}
+
+fn check_process(process: Process) {
+    let hung = lock().hung.get(&process).cloned();
+    if let Some(why) = hung {
+        panic!("{why}");
+    }
+}
+
+fn watch_loop() {
+    loop {
+        std::thread::sleep(Duration::from_millis(200));
+        let now = Instant::now();
+        let overdue: Vec<(Process, String)> = {
+            let mut state = lock();
+            // Forget the processes that ended.
+            state.watched.retain(|p, _| alive(*p));
+            state
+                .watched
+                .iter()
+                .filter(|(_, w)| w.deadline <= now)
+                .map(|(p, w)| (*p, w.what.clone()))
+                .collect()
+        };
+        for (process, what) in overdue {
+            let report = format!(
+                "WATCHDOG: {what} (pid {}) did not exit within its bound; killed. What it was doing:\n{}",
+                process.pid,
+                describe(process.pid)
+            );
+            // SAFETY: kill(2) on a pid whose start time was just checked.
+            unsafe { libc::kill(process.pid as libc::pid_t, libc::SIGKILL) };
+            let _ = std::io::stderr().write_all(format!("{report}\n").as_bytes());
+            let mut state = lock();
+            state.watched.remove(&process);
+            state.hung.insert(process, report);
+        }
+    }
+}
+
+/// `pid` with its start time, if it runs.
+fn process(pid: u32) -> Option<Process> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    // Fields after the command name (which may hold spaces): state is the
+    // first, the start time the 20th.
+    let after = &stat[stat.rfind(')')? + 2..];
+    let started = after.split(' ').nth(19)?.parse().ok()?;
+    Some(Process { pid, started })
+}
+
+/// Whether `process` still runs (a zombie has exited: its parent has not
+/// reaped it yet).
+fn alive(process: Process) -> bool {
+    let Ok(stat) = std::fs::read_to_string(format!("/proc/{}/stat", process.pid)) else {
+        return false;
+    };
+    let Some(close) = stat.rfind(')') else {
+        return false;
+    };
+    let mut fields = stat[close + 2..].split(' ');
+    let state = fields.next();
+    let started = fields.nth(18).and_then(|s| s.parse::<u64>().ok());
+    state != Some("Z") && started == Some(process.started)
+}
+
+/// Each thread of `pid`: name, state, kernel wait channel and stack; then
+/// gdb's backtraces if gdb is installed.
+fn describe(pid: u32) -> String {
+    let read = |path: String| std::fs::read_to_string(path).unwrap_or_default();
+    let mut text = format!(
+        "  command: {}\n",
+        read(format!("/proc/{pid}/cmdline")).replace('\0', " ")
+    );
+    let mut tasks: Vec<u32> = std::fs::read_dir(format!("/proc/{pid}/task"))
+        .map(|dir| {
+            dir.filter_map(|e| e.ok()?.file_name().to_str()?.parse().ok())
+                .collect()
+        })
+        .unwrap_or_default();
+    tasks.sort_unstable();
+    for tid in tasks {
+        let task = format!("/proc/{pid}/task/{tid}");
+        let stat = read(format!("{task}/stat"));
+        let state = stat
+            .rfind(')')
+            .and_then(|i| stat.get(i + 2..i + 3))
+            .unwrap_or("?");
+        text += &format!(
+            "  thread {tid} {:?} state {state} waiting in {}\n",
+            read(format!("{task}/comm")).trim(),
+            read(format!("{task}/wchan"))
+        );
+        for frame in read(format!("{task}/stack")).lines().take(8) {
+            text += &format!("      {frame}\n");
+        }
+    }
+    text + &gdb_backtraces(pid)
+}
+
+/// `gdb -batch -p PID -ex 'thread apply all bt'`, bounded, if gdb is here.
+fn gdb_backtraces(pid: u32) -> String {
+    let Ok(mut gdb) = Command::new("gdb")
+        .args(["-batch", "-nx", "-p", &pid.to_string(), "-ex"])
+        .arg("thread apply all bt 30")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+    else {
+        return "  (no gdb here for user-space stacks)\n".into();
+    };
+    let stdout = gdb.stdout.take().expect("piped");
+    let reader = std::thread::spawn(move || {
+        let mut text = String::new();
+        let _ = std::io::Read::read_to_string(&mut { stdout }, &mut text);
+        text
+    });
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while matches!(gdb.try_wait(), Ok(None)) && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let _ = gdb.kill();
+    let _ = gdb.wait();
+    let text = reader.join().unwrap_or_default();
+    let frames: String = text
+        .lines()
+        .filter(|l| l.starts_with("Thread ") || l.starts_with('#'))
+        .map(|l| format!("  {l}\n"))
+        .collect();
+    format!("  gdb:\n{frames}")
+}
+
+/// A child past its bound is killed, and its test fails saying what it
+/// was and what its threads were doing; a child that ends in time is left
+/// alone.
+#[test]
+fn a_child_past_its_bound_is_killed_and_described() {
+    const STUCK: &str = "`sleep 1000`, stuck on purpose by the watchdog's own test";
+    let mut stuck = Command::new("sleep");
+    stuck.arg("1000");
+    let mut stuck = spawn(&mut stuck, STUCK);
+    watch(&stuck, STUCK, Duration::from_millis(300));
+    let status = stuck.wait().unwrap();
+    assert_eq!(
+        std::os::unix::process::ExitStatusExt::signal(&status),
+        Some(libc::SIGKILL)
+    );
+    let why = std::panic::catch_unwind(|| check(&stuck))
+        .expect_err("the test fails")
+        .downcast::<String>()
+        .expect("a message");
+    for part in [
+        "WATCHDOG: `sleep 1000`, stuck on purpose by the watchdog's own test (pid ",
+        "did not exit within its bound; killed",
+        "command: sleep 1000",
+        "\"sleep\" state S waiting in ",
+    ] {
+        assert!(why.contains(part), "{part:?} in {why}");
+    }
+
+    let mut quick = Command::new("true");
+    let mut quick = spawn(&mut quick, "true");
+    assert!(wait(&mut quick).success());
+    check(&quick);
+}
