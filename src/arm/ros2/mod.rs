@@ -21,7 +21,10 @@
 //! - **Stop**: the zero command (sent by `end_stream`) is waited on until
 //!   acknowledged ([`STOP_ACK_WAIT`]), then the writer and the participant
 //!   are deleted (the participant says goodbye: the receivers unmatch at
-//!   once).
+//!   once). The deletion joins rustdds's threads; it is waited on for
+//!   [`CLOSE_WAIT`] at most, so a teardown that hangs cannot keep a
+//!   stopped run from ending (it is left to the process's exit, and the
+//!   stop says so).
 
 pub mod messages;
 pub mod pose;
@@ -47,6 +50,12 @@ use messages::{CommandMessage, PoseStamped};
 /// acknowledgements every 100 ms, and a receiver on a loaded machine
 /// answers late.
 pub const STOP_ACK_WAIT: Duration = Duration::from_millis(500);
+
+/// How long `stop` waits for rustdds to delete the writer, the reader and
+/// the participant (which joins its discovery and event-loop threads).
+/// The zero command has gone out and been waited on by then: a stop that
+/// was asked for must end even if the library's teardown hangs.
+pub const CLOSE_WAIT: Duration = Duration::from_secs(2);
 
 /// How often `connect` looks again while it waits.
 const CONNECT_POLL: Duration = Duration::from_millis(2);
@@ -404,17 +413,78 @@ impl Arm for Ros2Arm {
             )
         };
         // Writer, reader, then the participant (its goodbye).
-        drop(link);
-        if acknowledged {
+        let closed = drop_within(link, CLOSE_WAIT);
+        let mut problems = Vec::new();
+        if !acknowledged {
+            problems.push(format!(
+                "the zero command on {} was not acknowledged within {} ms",
+                self.what(),
+                STOP_ACK_WAIT.as_millis()
+            ));
+        }
+        if !closed {
+            problems.push(format!(
+                "the DDS participant of {} did not close within {} ms (rustdds hung deleting it); it is left to the process's exit, and receivers see it go when its lease runs out",
+                self.what(),
+                CLOSE_WAIT.as_millis()
+            ));
+        }
+        if problems.is_empty() {
             Ok(())
         } else {
             Err(ArmError::Disconnected {
-                detail: format!(
-                    "the zero command on {} was not acknowledged within {} ms",
-                    self.what(),
-                    STOP_ACK_WAIT.as_millis()
-                ),
+                detail: problems.join("; "),
             })
         }
+    }
+}
+
+/// Drops `value` on a thread of its own and waits up to `limit` for the
+/// drop to finish: whether it did. A drop that hangs is left running (the
+/// process's exit ends it). If no thread can be started, the value has
+/// been dropped here, unbounded, as it always was.
+fn drop_within<T: Send + 'static>(value: T, limit: Duration) -> bool {
+    let (done_tx, done_rx) = std::sync::mpsc::channel();
+    let closing = std::thread::Builder::new()
+        .name("dds-close".into())
+        .spawn(move || {
+            drop(value);
+            let _ = done_tx.send(());
+        });
+    match closing {
+        // A drop that panicked ended its thread too: not hanging.
+        Ok(_) => !matches!(
+            done_rx.recv_timeout(limit),
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout)
+        ),
+        Err(_) => true,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::mpsc;
+
+    /// A value whose drop blocks until the test releases it.
+    struct HangsOnDrop(mpsc::Receiver<()>);
+
+    impl Drop for HangsOnDrop {
+        fn drop(&mut self) {
+            let _ = self.0.recv();
+        }
+    }
+
+    #[test]
+    fn a_teardown_that_hangs_is_left_behind_and_a_quick_one_is_waited_for() {
+        let (release, held) = mpsc::channel();
+        assert!(!drop_within(HangsOnDrop(held), Duration::from_millis(50)));
+        // Let the left-behind thread end.
+        release.send(()).unwrap();
+
+        let (dropped_tx, dropped) = mpsc::channel::<()>();
+        assert!(drop_within(dropped_tx, Duration::from_secs(60)));
+        // The value was dropped: its channel is closed.
+        assert!(dropped.recv().is_err());
     }
 }
