@@ -173,6 +173,14 @@ impl Ros2Arm {
         })
     }
 
+    /// Deletes the DDS entities after a failed connect, waiting at most
+    /// [`CLOSE_WAIT`] (the connect's own error says what went wrong).
+    fn close_link(&mut self) {
+        if let Some(link) = self.link.take() {
+            drop_within(link, CLOSE_WAIT);
+        }
+    }
+
     /// Takes every pose waiting; keeps the newest good one.
     fn take_poses(&mut self) {
         let Some(link) = self.link.as_mut() else {
@@ -302,7 +310,7 @@ impl Arm for Ros2Arm {
                 break;
             }
             if Instant::now() >= deadline {
-                self.link = None;
+                self.close_link();
                 return Err(unavailable(format!(
                     "no subscriber matched {} within {} ms: is the driver / servo node running, on this topic and with this message type? Is ROS_DOMAIN_ID (here [arm.ros2] domain_id = {}) the same? A subscriber asking for transient-local durability does not match this volatile stream.",
                     self.what(),
@@ -325,7 +333,7 @@ impl Arm for Ros2Arm {
             }
         };
         if !acknowledged {
-            self.link = None;
+            self.close_link();
             return Err(unavailable(format!(
                 "a subscriber matched {} but did not acknowledge a command within {} ms: is it reliable, and is the network between us open both ways (a firewall on UDP)?",
                 self.what(),
@@ -341,7 +349,7 @@ impl Arm for Ros2Arm {
                 }
                 if Instant::now() >= deadline {
                     let refused = self.refused_poses;
-                    self.link = None;
+                    self.close_link();
                     return Err(unavailable(format!(
                         "no pose on ROS 2 topic {} (geometry_msgs/msg/PoseStamped; DDS topic {}, type {}) on domain {} within {} ms{}: is the driver publishing the tool pose there ([arm.ros2] pose_topic)?",
                         self.settings.pose_topic,
