@@ -68,11 +68,8 @@ struct Proc {
 
 impl Proc {
     fn spawn(name: &str, mut command: Command) -> Proc {
-        let mut child = command
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap_or_else(|e| panic!("{name} starts: {e}"));
+        let mut child =
+            crate::watchdog::spawn(command.stdout(Stdio::piped()).stderr(Stdio::null()), name);
         let stdout = child.stdout.take().unwrap();
         let (tx, lines) = mpsc::channel();
         std::thread::spawn(move || {

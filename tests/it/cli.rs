@@ -436,6 +436,7 @@ fn run_onto_a_full_disk_stops_safely_and_fails() {
     let out = crate::watchdog::wait_with_output(crate::watchdog::spawn(
         crate::common::sipnpuff()
             .args(LONG_RUN)
+            .stdin(Stdio::null())
             .stdout(full)
             .stderr(Stdio::piped()),
         "sipnpuff run onto /dev/full",

@@ -196,14 +196,24 @@ impl Running {
         std::thread::sleep(std::time::Duration::from_millis(900));
     }
 
-    /// Sends `signal`; from then on the process has
+    /// Sends `signal`; after one that ends the process, it has
     /// [`crate::watchdog::AFTER_SIGNAL`] to exit.
     pub fn signal(&self, signal: libc::c_int) {
-        crate::watchdog::watch(
-            &self.child,
-            &format!("sipnpuff after signal {signal}"),
-            crate::watchdog::AFTER_SIGNAL,
-        );
+        if [
+            libc::SIGINT,
+            libc::SIGTERM,
+            libc::SIGHUP,
+            libc::SIGQUIT,
+            libc::SIGKILL,
+        ]
+        .contains(&signal)
+        {
+            crate::watchdog::watch(
+                &self.child,
+                &format!("sipnpuff after signal {signal}"),
+                crate::watchdog::AFTER_SIGNAL,
+            );
+        }
         // SAFETY: kill with a valid pid and signal number has no memory effects.
         let rc = unsafe { libc::kill(self.child.id() as libc::pid_t, signal) };
         assert_eq!(rc, 0);

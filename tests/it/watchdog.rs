@@ -1,10 +1,12 @@
-//! A bound on every process a test starts. A child that outlives its bound
-//! (a stop that hangs, in sipnpuff or in a peer) is described (each
-//! thread's state, kernel wait channel and kernel stack, and its user-space
-//! stacks when gdb is installed) and killed. The test's own wait then
-//! returns, and [`check`] fails the test naming the process and where it
-//! hung, instead of the whole test run waiting for CI's limit: the CI of
-//! 4748c25 sat 80 minutes in `arm_ros2`'s stop test and said nothing.
+//! A bound on the processes the integration tests start (sipnpuff, the
+//! peers, chromedriver; not the compiler or `ip`, which return at once). A
+//! child that outlives its bound (a stop that hangs, in sipnpuff or in a
+//! peer) is described (each thread's state, kernel wait channel and kernel
+//! stack, and its user-space stacks when gdb is installed) and killed. The
+//! test's own wait ([`wait`], [`wait_with_output`], [`output`]) then
+//! returns and fails the test naming the process and where it hung,
+//! instead of the whole test run waiting for CI's limit: the CI of 4748c25
+//! sat 80 minutes in `arm_ros2`'s stop test and said nothing.
 //!
 //! One thread watches every registered child. It reports on the process's
 //! stderr directly (not through the test harness's capture, which belongs
@@ -61,18 +63,26 @@ fn lock() -> std::sync::MutexGuard<'static, State> {
 }
 
 /// Bounds `child` (described as `what`): it must have exited within
-/// `limit` from now. Watching it again replaces the bound.
+/// `limit` from now. Watching it again can only bring its bound closer
+/// (and then describes it anew).
 pub fn watch(child: &Child, what: &str, limit: Duration) {
     let Some(process) = process(child.id()) else {
         return; // already gone
     };
-    lock().watched.insert(
-        process,
-        Watched {
-            deadline: Instant::now() + limit,
-            what: what.to_string(),
-        },
-    );
+    let deadline = Instant::now() + limit;
+    let mut state = lock();
+    match state.watched.get_mut(&process) {
+        Some(watched) if watched.deadline <= deadline => {}
+        _ => {
+            state.watched.insert(
+                process,
+                Watched {
+                    deadline,
+                    what: what.to_string(),
+                },
+            );
+        }
+    }
 }
 
 /// Spawns `command` (described as `what`) bounded by [`LIMIT`].
@@ -118,21 +128,6 @@ pub fn wait(child: &mut Child) -> ExitStatus {
     status
 }
 
-/// Fails the test if the watchdog killed `child` (call after its wait
-/// returned).
-pub fn check(child: &Child) {
-    let pid = child.id();
-    let hung: Vec<String> = lock()
-        .hung
-        .iter()
-        .filter(|(p, _)| p.pid == pid)
-        .map(|(_, why)| why.clone())
-        .collect();
-    if let Some(why) = hung.into_iter().next() {
-        panic!("{why}");
-    }
-}
-
 fn check_process(process: Process) {
     let hung = lock().hung.get(&process).cloned();
     if let Some(why) = hung {
@@ -161,12 +156,22 @@ fn watch_loop() {
                 process.pid,
                 describe(process.pid)
             );
-            // SAFETY: kill(2) on a pid whose start time was just checked.
-            unsafe { libc::kill(process.pid as libc::pid_t, libc::SIGKILL) };
-            let _ = std::io::stderr().write_all(format!("{report}\n").as_bytes());
+            // Recorded before the kill: the test's wait returns as soon as
+            // the process dies, and must find why. Checked alive (the same
+            // start time: the same process) under the lock, after the
+            // description: it may have ended meanwhile, and the test that
+            // reaps it holds no lock, so a pid reused in the instant
+            // between the check and the kill is the one race left.
             let mut state = lock();
             state.watched.remove(&process);
-            state.hung.insert(process, report);
+            if !alive(process) {
+                continue;
+            }
+            state.hung.insert(process, report.clone());
+            // SAFETY: kill(2) on a pid whose start time was just checked.
+            unsafe { libc::kill(process.pid as libc::pid_t, libc::SIGKILL) };
+            drop(state);
+            let _ = std::io::stderr().write_all(format!("{report}\n").as_bytes());
         }
     }
 }
@@ -237,17 +242,22 @@ fn gdb_backtraces(pid: u32) -> String {
         .arg("thread apply all bt 30")
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
-        .stderr(Stdio::null())
+        .stderr(Stdio::piped())
         .spawn()
     else {
         return "  (no gdb here for user-space stacks)\n".into();
     };
-    let stdout = gdb.stdout.take().expect("piped");
-    let reader = std::thread::spawn(move || {
-        let mut text = String::new();
-        let _ = std::io::Read::read_to_string(&mut { stdout }, &mut text);
-        text
-    });
+    let read = |pipe: Option<Box<dyn std::io::Read + Send>>| {
+        std::thread::spawn(move || {
+            let mut text = String::new();
+            if let Some(mut pipe) = pipe {
+                let _ = pipe.read_to_string(&mut text);
+            }
+            text
+        })
+    };
+    let reader = read(gdb.stdout.take().map(|p| Box::new(p) as _));
+    let errors = read(gdb.stderr.take().map(|p| Box::new(p) as _));
     let deadline = Instant::now() + Duration::from_secs(60);
     while matches!(gdb.try_wait(), Ok(None)) && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(100));
@@ -255,11 +265,18 @@ fn gdb_backtraces(pid: u32) -> String {
     let _ = gdb.kill();
     let _ = gdb.wait();
     let text = reader.join().unwrap_or_default();
+    let errors = errors.join().unwrap_or_default();
     let frames: String = text
         .lines()
         .filter(|l| l.starts_with("Thread ") || l.starts_with('#'))
         .map(|l| format!("  {l}\n"))
         .collect();
+    if frames.is_empty() {
+        // It could not attach (no ptrace here?): say what it said.
+        let said: Vec<&str> = errors.lines().rev().take(5).collect();
+        let said: Vec<&str> = said.into_iter().rev().collect();
+        return format!("  gdb gave no stacks: {}\n", said.join(" / "));
+    }
     format!("  gdb:\n{frames}")
 }
 
@@ -273,15 +290,16 @@ fn a_child_past_its_bound_is_killed_and_described() {
     stuck.arg("1000");
     let mut stuck = spawn(&mut stuck, STUCK);
     watch(&stuck, STUCK, Duration::from_millis(300));
+    let why = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| wait(&mut stuck)))
+        .expect_err("the test fails")
+        .downcast::<String>()
+        .expect("a message");
+    // Reaped by that wait: its status is kept.
     let status = stuck.wait().unwrap();
     assert_eq!(
         std::os::unix::process::ExitStatusExt::signal(&status),
         Some(libc::SIGKILL)
     );
-    let why = std::panic::catch_unwind(|| check(&stuck))
-        .expect_err("the test fails")
-        .downcast::<String>()
-        .expect("a message");
     for part in [
         "WATCHDOG: `sleep 1000`, stuck on purpose by the watchdog's own test (pid ",
         "did not exit within its bound; killed",
@@ -294,5 +312,4 @@ fn a_child_past_its_bound_is_killed_and_described() {
     let mut quick = Command::new("true");
     let mut quick = spawn(&mut quick, "true");
     assert!(wait(&mut quick).success());
-    check(&quick);
 }

@@ -173,8 +173,9 @@ impl Ros2Arm {
         })
     }
 
-    /// Deletes the DDS entities after a failed connect, waiting at most
-    /// [`CLOSE_WAIT`] (the connect's own error says what went wrong).
+    /// Deletes the DDS entities without a stop (a failed connect, a drop),
+    /// waiting at most [`CLOSE_WAIT`] (the caller's own error, if any, says
+    /// what went wrong).
     fn close_link(&mut self) {
         if let Some(link) = self.link.take() {
             drop_within(link, CLOSE_WAIT);
@@ -444,6 +445,15 @@ impl Arm for Ros2Arm {
                 detail: problems.join("; "),
             })
         }
+    }
+}
+
+/// Dropped without `stop` (a connect that failed part-way, a panic
+/// unwinding): the DDS entities are deleted within [`CLOSE_WAIT`] all the
+/// same.
+impl Drop for Ros2Arm {
+    fn drop(&mut self) {
+        self.close_link();
     }
 }
 
