@@ -254,8 +254,7 @@ fn run(
     let config = config(dir, library_dir, "", extra);
     let log = dir.join("calls.log");
     let mut command = command(arm, &config, &log, env, args);
-    let what = crate::common::describe_command(&command);
-    let output = crate::watchdog::output(&mut command, &what);
+    let output = crate::watchdog::output(&mut command);
     crate::common::witness(&String::from_utf8_lossy(&output.stdout));
     Run {
         status: output.status,
@@ -650,16 +649,13 @@ fn an_init_that_never_returns_gives_up_after_the_connect_timeout() {
         let dir = temp_dir("slow-run");
         let config = config(&dir, &lib, "connect_timeout_ms = 300", "");
         let log = dir.join("calls.log");
-        let output = crate::watchdog::output(
-            &mut command(
-                "kinova-sdk:usb",
-                &config,
-                &log,
-                &[("KINOVA_STANDIN_INIT_DELAY_MS", "20000")],
-                &["--seconds", "1"],
-            ),
-            "sipnpuff with an init that never returns",
-        );
+        let output = crate::watchdog::output(&mut command(
+            "kinova-sdk:usb",
+            &config,
+            &log,
+            &[("KINOVA_STANDIN_INIT_DELAY_MS", "20000")],
+            &["--seconds", "1"],
+        ));
         let all = format!(
             "{}{}",
             String::from_utf8_lossy(&output.stdout),
@@ -714,10 +710,13 @@ fn sigint_mid_motion_sends_a_zero_point_then_closes() {
         let dir = temp_dir("sigint-run");
         let config = config(&dir, &lib, "", "");
         let log = dir.join("calls.log");
-        let mut child = crate::watchdog::spawn(
-            &mut command("kinova-sdk:usb", &config, &log, &[], &["--seconds", "30"]),
-            "sipnpuff run --arm kinova-sdk:usb",
-        );
+        let mut child = crate::watchdog::spawn(&mut command(
+            "kinova-sdk:usb",
+            &config,
+            &log,
+            &[],
+            &["--seconds", "30"],
+        ));
         let stdout = std::io::BufReader::new(child.stdout.take().unwrap());
         let mut lines = stdout.lines();
         loop {

@@ -69,7 +69,7 @@ struct Proc {
 impl Proc {
     fn spawn(name: &str, mut command: Command) -> Proc {
         let mut child =
-            crate::watchdog::spawn(command.stdout(Stdio::piped()).stderr(Stdio::null()), name);
+            crate::watchdog::spawn(command.stdout(Stdio::piped()).stderr(Stdio::null()));
         let stdout = child.stdout.take().unwrap();
         let (tx, lines) = mpsc::channel();
         std::thread::spawn(move || {
@@ -546,7 +546,7 @@ fn no_master_is_a_clear_error() {
                 None => command.env_remove("ROS_MASTER_URI"),
             };
             let started = Instant::now();
-            let out = crate::watchdog::output(&mut command, "sipnpuff run --arm ros1");
+            let out = crate::watchdog::output(&mut command);
             (
                 out.status.code(),
                 String::from_utf8_lossy(&out.stderr).into_owned(),

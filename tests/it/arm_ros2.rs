@@ -118,7 +118,7 @@ impl Peer {
             command.args(["--pose-topic", pose]);
         }
         command.args(extra);
-        let mut child = crate::watchdog::spawn(&mut command, "the Cyclone DDS peer");
+        let mut child = crate::watchdog::spawn(&mut command);
         let mut line = String::new();
         BufReader::new(child.stdout.take().unwrap())
             .read_line(&mut line)
@@ -257,8 +257,7 @@ fn spawn_run(args: &[&str]) -> Child {
         .args(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
-    let what = crate::common::describe_command(&command);
-    crate::watchdog::spawn(&mut command, &what)
+    crate::watchdog::spawn(&mut command)
 }
 
 fn finish_run(child: Child) -> Outcome {

@@ -12,8 +12,7 @@ use crate::common::{Running, fixture};
 fn sipnpuff(args: &[&str]) -> Output {
     let mut command = crate::common::sipnpuff();
     command.args(args);
-    let what = crate::common::describe_command(&command);
-    crate::watchdog::output(&mut command, &what)
+    crate::watchdog::output(&mut command)
 }
 
 /// Runs a command that must fail, returning its standard error.
@@ -439,7 +438,6 @@ fn run_onto_a_full_disk_stops_safely_and_fails() {
             .stdin(Stdio::null())
             .stdout(full)
             .stderr(Stdio::piped()),
-        "sipnpuff run onto /dev/full",
     ));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{}\n{stderr}", out.status);
@@ -470,8 +468,7 @@ fn with_closed(args: &[&str], close_stderr: bool) -> Output {
             .stderr(Stdio::piped())
             .stdin(Stdio::null());
     }
-    let what = crate::common::describe_command(&command);
-    crate::watchdog::wait_with_output(crate::watchdog::spawn(&mut command, &what))
+    crate::watchdog::wait_with_output(crate::watchdog::spawn(&mut command))
 }
 
 #[test]

@@ -115,17 +115,6 @@ pub fn sipnpuff() -> std::process::Command {
     command
 }
 
-/// A command as a person would type it: the program's name and its
-/// arguments (for the watchdog's report).
-pub fn describe_command(command: &std::process::Command) -> String {
-    let program = std::path::Path::new(command.get_program());
-    std::iter::once(program.file_name().unwrap_or(program.as_os_str()))
-        .chain(command.get_args())
-        .map(|a| a.to_string_lossy())
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
 /// The real binary, its stdout lines arriving on a channel (stderr piped).
 pub struct Running {
     /// The process.
@@ -147,12 +136,10 @@ impl Running {
     /// Starts `command` (a `sipnpuff` set up by the test), stdout and
     /// stderr piped.
     pub fn start(mut command: std::process::Command) -> Running {
-        let what = describe_command(&command);
         let mut child = crate::watchdog::spawn(
             command
                 .stdout(std::process::Stdio::piped())
                 .stderr(std::process::Stdio::piped()),
-            &what,
         );
         let stdout = child.stdout.take().unwrap();
         let (tx, lines) = std::sync::mpsc::channel();

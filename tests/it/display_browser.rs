@@ -74,7 +74,6 @@ impl Browser {
                 .arg(format!("--port={port}"))
                 .stdout(Stdio::null())
                 .stderr(Stdio::null()),
-            "chromedriver",
         );
         let base = format!("http://127.0.0.1:{port}");
         let started = Instant::now();

@@ -30,8 +30,7 @@ use crate::common::{Running, fixture};
 fn sipnpuff(args: &[&str]) -> Output {
     let mut command = crate::common::sipnpuff();
     command.args(args);
-    let what = crate::common::describe_command(&command);
-    let output = crate::watchdog::output(&mut command, &what);
+    let output = crate::watchdog::output(&mut command);
     crate::common::witness(&text(&output.stdout));
     output
 }

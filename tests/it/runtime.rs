@@ -268,8 +268,7 @@ fn a_user_without_privileges_runs_and_is_told_what_it_lacks() {
         binary()
     };
     command.args(["run", "--seconds", "1.5"]);
-    let what = crate::common::describe_command(&command);
-    let output = crate::watchdog::output(&mut command, &what);
+    let output = crate::watchdog::output(&mut command);
     let text = String::from_utf8_lossy(&output.stdout);
     assert!(
         output.status.success(),

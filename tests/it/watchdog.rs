@@ -85,26 +85,38 @@ pub fn watch(child: &Child, what: &str, limit: Duration) {
     }
 }
 
-/// Spawns `command` (described as `what`) bounded by [`LIMIT`].
-pub fn spawn(command: &mut Command, what: &str) -> Child {
+/// Spawns `command` bounded by [`LIMIT`] (described in reports as its
+/// command line).
+pub fn spawn(command: &mut Command) -> Child {
+    let what = command_line(command);
     let child = command
         .spawn()
-        .unwrap_or_else(|e| panic!("{what} does not start: {e}"));
-    watch(&child, what, LIMIT);
+        .unwrap_or_else(|e| panic!("`{what}` does not start: {e}"));
+    watch(&child, &format!("`{what}`"), LIMIT);
     child
 }
 
-/// Runs `command` (described as `what`) to its end, its output captured,
-/// bounded by [`LIMIT`]; fails the test if it hung.
-pub fn output(command: &mut Command, what: &str) -> Output {
+/// Runs `command` to its end, its output captured, bounded by [`LIMIT`];
+/// fails the test if it hung.
+pub fn output(command: &mut Command) -> Output {
     let child = spawn(
         command
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped()),
-        what,
     );
     wait_with_output(child)
+}
+
+/// A command as a person would type it: the program's name and its
+/// arguments.
+fn command_line(command: &Command) -> String {
+    let program = std::path::Path::new(command.get_program());
+    std::iter::once(program.file_name().unwrap_or(program.as_os_str()))
+        .chain(command.get_args())
+        .map(|a| a.to_string_lossy())
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// [`Child::wait_with_output`], bounded as `child` was watched; fails the
@@ -178,27 +190,26 @@ fn watch_loop() {
 
 /// `pid` with its start time, if it runs.
 fn process(pid: u32) -> Option<Process> {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
-    // Fields after the command name (which may hold spaces): state is the
-    // first, the start time the 20th.
-    let after = &stat[stat.rfind(')')? + 2..];
-    let started = after.split(' ').nth(19)?.parse().ok()?;
+    let (_, started) = stat(&format!("/proc/{pid}/stat"))?;
     Some(Process { pid, started })
 }
 
 /// Whether `process` still runs (a zombie has exited: its parent has not
 /// reaped it yet).
 fn alive(process: Process) -> bool {
-    let Ok(stat) = std::fs::read_to_string(format!("/proc/{}/stat", process.pid)) else {
-        return false;
-    };
-    let Some(close) = stat.rfind(')') else {
-        return false;
-    };
-    let mut fields = stat[close + 2..].split(' ');
-    let state = fields.next();
-    let started = fields.nth(18).and_then(|s| s.parse::<u64>().ok());
-    state != Some("Z") && started == Some(process.started)
+    stat(&format!("/proc/{}/stat", process.pid))
+        .is_some_and(|(state, started)| state != 'Z' && started == process.started)
+}
+
+/// A process's or thread's state and start time, from its `stat` file:
+/// the fields after the command name (which may hold spaces and
+/// parentheses) begin with the state; the start time is the 20th after it.
+fn stat(path: &str) -> Option<(char, u64)> {
+    let stat = std::fs::read_to_string(path).ok()?;
+    let mut fields = stat.get(stat.rfind(')')? + 2..)?.split(' ');
+    let state = fields.next()?.chars().next()?;
+    let started = fields.nth(18)?.parse().ok()?;
+    Some((state, started))
 }
 
 /// Each thread of `pid`: name, state, kernel wait channel and stack; then
@@ -218,11 +229,7 @@ fn describe(pid: u32) -> String {
     tasks.sort_unstable();
     for tid in tasks {
         let task = format!("/proc/{pid}/task/{tid}");
-        let stat = read(format!("{task}/stat"));
-        let state = stat
-            .rfind(')')
-            .and_then(|i| stat.get(i + 2..i + 3))
-            .unwrap_or("?");
+        let state = stat(&format!("{task}/stat")).map_or('?', |(state, _)| state);
         text += &format!(
             "  thread {tid} {:?} state {state} waiting in {}\n",
             read(format!("{task}/comm")).trim(),
@@ -288,7 +295,7 @@ fn a_child_past_its_bound_is_killed_and_described() {
     const STUCK: &str = "`sleep 1000`, stuck on purpose by the watchdog's own test";
     let mut stuck = Command::new("sleep");
     stuck.arg("1000");
-    let mut stuck = spawn(&mut stuck, STUCK);
+    let mut stuck = spawn(&mut stuck);
     watch(&stuck, STUCK, Duration::from_millis(300));
     let why = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| wait(&mut stuck)))
         .expect_err("the test fails")
@@ -310,6 +317,6 @@ fn a_child_past_its_bound_is_killed_and_described() {
     }
 
     let mut quick = Command::new("true");
-    let mut quick = spawn(&mut quick, "true");
+    let mut quick = spawn(&mut quick);
     assert!(wait(&mut quick).success());
 }
