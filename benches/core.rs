@@ -1,21 +1,19 @@
-//! Per-sample cost of the core, and the matcher's data structure chosen by
-//! measurement.
+//! Per-sample cost of the core and of its stages.
 //!
 //! * `per_sample/*`: 10 s of noisy signal through the detector alone, the
 //!   mode machine alone (fed what the core's detector and matcher made of
 //!   the same signal) and the whole core (detector → matcher → modes →
 //!   motion), against a reference measured in the same run: the bare
 //!   threshold comparison every detector must make.
-//! * `matcher_per_burst/{trie,scan}/{9,64,256}`: bursts entering every
-//!   sequence of a prefix-free library in turn (the built-in 9; all 64
-//!   sequences of 3 actions; all 256 of 4).
+//! * `matcher_per_burst/{9,64,256}`: bursts entering every sequence of a
+//!   prefix-free library in turn (the built-in 9; all 64 sequences of 3
+//!   actions; all 256 of 4): the CS compared with the whole library.
 //! * `ruckig/*`: one `rsruckig` update, six axes, as the motion layer uses
 //!   it: velocity interface steady (same target) and on a new target every
 //!   update; position interface (go to point) on a new target.
 //! * `tick/*`: one full tick (detector → matcher → modes → Ruckig →
 //!   100 Hz decimation → simulated arm): at rest (no breath, the arm
-//!   still; returned and written in place; against one sample's bare
-//!   threshold test); steady, holding a
+//!   still; against one sample's bare threshold test); steady, holding a
 //!   puff in `translate_x`; and on a new target every tick (sip and puff
 //!   alternating each sample, glitch filter off).
 //! * `replay/*`: `sipnpuff replay` end to end on 60 s of noisy recording
@@ -32,9 +30,9 @@ use sipnpuff::control::detector::{Burst, BurstDetector};
 use sipnpuff::control::event::Event;
 use sipnpuff::control::mode::{Held, Mode};
 use sipnpuff::control::modes::ModeMachine;
-use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::sample::Sample;
 use sipnpuff::control::selection::SequenceEntry;
-use sipnpuff::control::selection::index::{ScanIndex, SequenceIndex, TrieIndex};
 use sipnpuff::control::selection::matcher::SequenceMatcher;
 use sipnpuff::sensor::csv::CsvSignal;
 use sipnpuff::sim::script::random_session;
@@ -75,19 +73,20 @@ fn per_sample(c: &mut Criterion) {
     group.bench_function("detector", |b| {
         b.iter(|| {
             for &v in &samples {
-                black_box(detector.step(tick, black_box(v)));
+                black_box(detector.step(tick, black_box(Sample::Volts(v))));
                 tick += 1;
             }
         })
     });
 
     // What the mode machine sees of this signal, tick by tick.
-    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut core = Pipeline::new(config.core());
+    let mut out = TickOutput::default();
     let inputs: Vec<(Held, Option<Mode>, bool)> = samples
         .iter()
         .enumerate()
         .map(|(t, &v)| {
-            let out = core.step(t as u64, v);
+            core.step(t as u64, Sample::Volts(v), &mut out);
             let matched = out.events.iter().find_map(|e| match e {
                 Event::Match { mode, .. } => Some(*mode),
                 _ => None,
@@ -110,12 +109,13 @@ fn per_sample(c: &mut Criterion) {
         })
     });
 
-    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut core = Pipeline::new(config.core());
     let mut tick = 0u64;
     group.bench_function("core", |b| {
         b.iter(|| {
             for &v in &samples {
-                black_box(core.step(tick, black_box(v)));
+                core.step(tick, black_box(Sample::Volts(v)), &mut out);
+                black_box(&out);
                 tick += 1;
             }
         })
@@ -138,19 +138,18 @@ fn all_sequences(len: u32) -> Vec<SequenceEntry> {
         .collect()
 }
 
-fn bench_matcher<I: SequenceIndex>(
+fn bench_matcher(
     group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
-    name: &str,
     library: &[SequenceEntry],
 ) {
     let bursts: Vec<Action> = library
         .iter()
         .flat_map(|e| e.actions.as_slice().to_vec())
         .collect();
-    let mut matcher: SequenceMatcher<I> = SequenceMatcher::new(library, 1000);
+    let mut matcher = SequenceMatcher::new(library, 1000);
     let mut end = 0u64;
     group.throughput(Throughput::Elements(bursts.len() as u64));
-    group.bench_function(BenchmarkId::new(name, library.len()), |b| {
+    group.bench_function(BenchmarkId::from_parameter(library.len()), |b| {
         b.iter(|| {
             for &action in &bursts {
                 end += 200;
@@ -174,8 +173,7 @@ fn matcher_per_burst(c: &mut Criterion) {
         all_sequences(4),
     ];
     for library in &libraries {
-        bench_matcher::<TrieIndex>(&mut group, "trie", library);
-        bench_matcher::<ScanIndex>(&mut group, "scan", library);
+        bench_matcher(&mut group, library);
     }
     group.finish();
 }
@@ -249,13 +247,14 @@ fn ruckig_updates(c: &mut Criterion) {
 
 /// A core (and arm) in `translate_x` command mode, after `warm_up` ticks.
 fn in_translate_x(config: &Config) -> (Pipeline, SimulatedJaco, u64) {
-    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut core = Pipeline::new(config.core());
     let mut arm = SimulatedJaco::new(config.core());
+    let mut out = TickOutput::default();
     let mut tick = 0u64;
     // Two short puffs select translate_x in the built-in library.
     let mut feed = |volts: f64, ms: u64, core: &mut Pipeline, arm: &mut SimulatedJaco| {
         for _ in 0..ms {
-            let out = core.step(tick, volts);
+            core.step(tick, Sample::Volts(volts), &mut out);
             arm.tick(out.motion.arm_command.as_ref());
             tick += 1;
         }
@@ -283,25 +282,16 @@ fn full_tick(c: &mut Criterion) {
     });
 
     // At rest: no breath, the arm still, nothing asked (most of a day).
-    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut core = Pipeline::new(config.core());
+    let mut out = TickOutput::default();
     let mut tick = 0u64;
     for _ in 0..5000 {
-        core.step(tick, 2.5);
+        core.step(tick, Sample::Volts(2.5), &mut out);
         tick += 1;
     }
     group.bench_function("at_rest", |b| {
         b.iter(|| {
-            let out = core.step(tick, black_box(2.5));
-            tick += 1;
-            black_box(out)
-        })
-    });
-    // The same, the output written in place (`Pipeline::step_into`, as
-    // replay runs the core).
-    let mut out = core.blank_output(tick);
-    group.bench_function("at_rest_into", |b| {
-        b.iter(|| {
-            core.step_into(tick, black_box(2.5), &mut out);
+            core.step(tick, black_box(Sample::Volts(2.5)), &mut out);
             tick += 1;
             black_box(&out);
         })
@@ -310,15 +300,15 @@ fn full_tick(c: &mut Criterion) {
     let (mut core, mut arm, mut tick) = in_translate_x(&config);
     // Into steady forward motion (0.2 m/s after 0.51 s).
     for _ in 0..1000 {
-        core.step(tick, 3.8);
+        core.step(tick, Sample::Volts(3.8), &mut out);
         tick += 1;
     }
     group.bench_function("steady", |b| {
         b.iter(|| {
-            let out = core.step(tick, black_box(3.8));
+            core.step(tick, black_box(Sample::Volts(3.8)), &mut out);
             arm.tick(out.motion.arm_command.as_ref());
             tick += 1;
-            black_box(out)
+            black_box(&out);
         })
     });
 
@@ -327,11 +317,11 @@ fn full_tick(c: &mut Criterion) {
     group.bench_function("new_target", |b| {
         b.iter(|| {
             let volts = if tick % 2 == 0 { 3.8 } else { 1.2 };
-            let out = core.step(tick, black_box(volts));
+            core.step(tick, black_box(Sample::Volts(volts)), &mut out);
             debug_assert!(out.motion.recalculated);
             arm.tick(out.motion.arm_command.as_ref());
             tick += 1;
-            black_box(out)
+            black_box(&out);
         })
     });
     group.finish();
@@ -351,9 +341,11 @@ fn replay_throughput(c: &mut Criterion) {
     group.sample_size(20);
     group.bench_function("core_only", |b| {
         b.iter(|| {
-            let mut core: Pipeline = Pipeline::new(config.core());
+            let mut core = Pipeline::new(config.core());
+            let mut out = TickOutput::default();
             for (t, &v) in samples.iter().enumerate() {
-                black_box(core.step(t as u64, v));
+                core.step(t as u64, Sample::Volts(v), &mut out);
+                black_box(&out);
             }
         })
     });

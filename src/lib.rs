@@ -27,29 +27,31 @@
 //! use sipnpuff::config::Config;
 //! use sipnpuff::control::event::Event;
 //! use sipnpuff::control::mode::{Direction, Mode, ModeState};
-//! use sipnpuff::control::pipeline::Pipeline;
+//! use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+//! use sipnpuff::control::sample::Sample;
 //!
 //! // Built-in library: two short puffs select forward/backward.
-//! let config = Config::default();
-//! let mut core: Pipeline = Pipeline::new(config.core());
+//! let mut core = Pipeline::new(Config::default().core());
+//! let mut out = TickOutput::default();
 //! let mut tick = 0;
-//! let mut feed = |core: &mut Pipeline, volts: f64, ms: u64| {
+//! let mut breathe = |core: &mut Pipeline, out: &mut TickOutput, volts: f64, ms: u64| {
 //!     let mut events = Vec::new();
 //!     for _ in 0..ms {
-//!         events.extend(core.step(tick, volts).events.iter().copied());
+//!         core.step(tick, Sample::Volts(volts), out);
+//!         events.extend(out.events.iter().copied());
 //!         tick += 1;
 //!     }
 //!     events
 //! };
-//! feed(&mut core, 2.5, 500);
-//! feed(&mut core, 4.0, 150); // short puff
-//! feed(&mut core, 2.5, 300);
-//! feed(&mut core, 4.0, 150); // short puff
-//! let events = feed(&mut core, 2.5, 10);
+//! breathe(&mut core, &mut out, 2.5, 500);
+//! breathe(&mut core, &mut out, 4.0, 150); // short puff
+//! breathe(&mut core, &mut out, 2.5, 300);
+//! breathe(&mut core, &mut out, 4.0, 150); // short puff
+//! let events = breathe(&mut core, &mut out, 2.5, 10);
 //! assert!(events.iter().any(|e| matches!(e, Event::Match { mode: Mode::TranslateX, .. })));
 //!
 //! // Hold-to-run: a puff now means "forward" for as long as it is held.
-//! let out = (0..20).map(|_| { tick += 1; core.step(tick, 3.8) }).last().unwrap();
+//! breathe(&mut core, &mut out, 3.8, 20);
 //! assert_eq!(out.command.state, ModeState::Command(Mode::TranslateX));
 //! assert_eq!(out.command.direction, Direction::Positive);
 //! ```

@@ -13,7 +13,8 @@
 use std::process::Command;
 
 use sipnpuff::config::Config;
-use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::sample::Sample;
 use sipnpuff::rt::alloc_counter::CountingAllocator;
 use sipnpuff::rt::control_loop::StopReason;
 use sipnpuff::rt::threads::{run_simulated, run_simulated_measured};
@@ -74,9 +75,14 @@ fn control_loop_ticks_with_a_measuring_arm_are_realtime_safe() {
 #[ignore = "run in a child process by rtsan_catches_an_allocating_tick"]
 fn allocating_tick() {
     let config = Config::default();
-    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut core = Pipeline::new(config.core());
+    let mut out = TickOutput::default();
     let _realtime = rtsan_standalone::ScopedSanitizeRealtime::default();
-    let out = core.step(0, config.core().detector().neutral_volts);
+    core.step(
+        0,
+        Sample::Volts(config.core().detector().neutral_volts),
+        &mut out,
+    );
     let line = format!("tick {} state {:?}", out.tick, out.command.state);
     std::hint::black_box(line);
 }

@@ -9,7 +9,8 @@
 
 use libfuzzer_sys::fuzz_target;
 use sipnpuff::config::Config;
-use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::sample::Sample;
 
 /// Numeric keys, by section.
 const KEYS: [(&str, &str); 22] = [
@@ -100,9 +101,10 @@ fuzz_target!(|data: &[u8]| {
                     assert!(a.actions != b.actions, "duplicate sequence accepted");
                 }
             }
-            let mut core: Pipeline = Pipeline::new(config.core());
+            let mut core = Pipeline::new(config.core());
+            let mut out = TickOutput::default();
             for tick in 0..200 {
-                let out = core.step(tick, d.neutral_volts);
+                core.step(tick, Sample::Volts(d.neutral_volts), &mut out);
                 assert!(out.motion.arm_command.is_none_or(|c| c.is_zero()));
             }
         }

@@ -1,5 +1,5 @@
 //! Arbitrary sample streams (levels anywhere in and out of 0–5 V, NaN,
-//! infinities, missing samples) through the whole core and motion layer,
+//! infinities, missing samples, a device gone) through the whole core and motion layer,
 //! with the built-in library or the paper's (with prefixes), and process
 //! stalls (ticks that jump ahead): never a panic; matches only from the
 //! library; nothing but finite numbers reaching the arm; and the safety
@@ -16,6 +16,7 @@ use libfuzzer_sys::fuzz_target;
 use sipnpuff::config::Config;
 use sipnpuff::control::event::Event;
 use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::sample::Sample;
 use sipnpuff::tools::safety::SafetyMonitor;
 
 const PAPER_LIBRARY: &str = include_str!("../../fixtures/paper-example.toml");
@@ -36,29 +37,22 @@ fn norm(v: &[f64; 3]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
-/// One sample from a 3-byte chunk: what, at which level, for how long.
-enum Sample {
-    Volts(f64),
-    Missing,
-    /// The process stalls: the next tick comes this many ticks later.
-    Stall(u64),
-}
-
-fn decode(kind: u8, level: u8) -> Sample {
-    let level = f64::from(level);
-    match kind % 10 {
+/// One tick's input from two bytes of a chunk: the sample, and how many
+/// ticks the process stalled before it (the tick jumps ahead).
+fn decode(kind: u8, level: u8) -> (Sample, u64) {
+    let volts = f64::from(level);
+    let sample = match kind % 10 {
         // Mostly inside 0–5 V, where breaths are.
-        0..=5 => Sample::Volts(level / 255.0 * 5.0),
-        6 => Sample::Volts(level / 255.0 * 9.0 - 2.0), // out of range too
+        0..=5 => Sample::Volts(volts / 255.0 * 5.0),
+        6 => Sample::Volts(volts / 255.0 * 9.0 - 2.0), // out of range too
         7 => Sample::Volts(f64::NAN),
-        8 => Sample::Volts(if level < 128.0 {
-            f64::INFINITY
-        } else {
-            f64::NEG_INFINITY
-        }),
-        _ if level < 128.0 => Sample::Missing,
-        _ => Sample::Stall((level as u64 - 127) * 20),
-    }
+        8 if level < 128 => Sample::Volts(f64::INFINITY),
+        8 => Sample::Volts(f64::NEG_INFINITY),
+        _ if level < 96 => Sample::Missing,
+        _ if level < 128 => Sample::Lost,
+        _ => return (Sample::Missing, (u64::from(level) - 127) * 20),
+    };
+    (sample, 0)
 }
 
 fn check(config: &Config, o: &TickOutput, monitor: &mut SafetyMonitor) {
@@ -93,23 +87,17 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     let config = &configs()[usize::from(choice % 2)];
-    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut core = Pipeline::new(config.core());
     let mut monitor = SafetyMonitor::new(config.core());
-    // One output, written in place each tick (as replay runs the core).
-    let mut out = core.blank_output(0);
+    let mut out = TickOutput::default();
     let mut tick = 0u64;
     for chunk in chunks.chunks_exact(3) {
         let (kind, level, len) = (chunk[0], chunk[1], chunk[2]);
         // Hold each level 4 ms to 1 s, so breaths, sequences and holds form.
         for _ in 0..(u64::from(len) + 1) * 4 {
-            match decode(kind, level) {
-                Sample::Volts(v) => core.step_into(tick, v, &mut out),
-                Sample::Missing => core.step_missing_into(tick, &mut out),
-                Sample::Stall(ticks) => {
-                    tick += ticks;
-                    core.step_missing_into(tick, &mut out);
-                }
-            }
+            let (sample, stalled) = decode(kind, level);
+            tick += stalled;
+            core.step(tick, sample, &mut out);
             check(config, &out, &mut monitor);
             tick += 1;
             if tick >= MAX_TICKS {

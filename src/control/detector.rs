@@ -30,6 +30,7 @@ use serde::{Serialize, Serializer};
 use crate::control::Tick;
 use crate::control::action::{Action, Breath};
 use crate::control::mode::Held;
+use crate::control::sample::Sample;
 
 /// Burst detector settings (`[detector]` in the config file).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -469,10 +470,24 @@ impl BurstDetector {
         matches!(self.state, State::Faulted { .. })
     }
 
-    /// A tick on which no sample arrived: nothing changes until `stale_ms`
-    /// have passed since the last one (or since start), then the sensor is
-    /// in fault. RT-safe.
-    pub fn step_missing(&mut self, now: Tick) -> DetectorOutput {
+    /// Takes tick `now`'s input. Ticks must increase: a tick that does not
+    /// is a fault ([`FaultReason::TickNotIncreasing`]), never an overflow.
+    /// A missing sample changes nothing until `stale_ms` have passed since
+    /// the last one (or since start); a device gone is a fault at once.
+    /// RT-safe.
+    #[inline]
+    pub fn step(&mut self, now: Tick, sample: Sample) -> DetectorOutput {
+        match sample {
+            Sample::Volts(volts) if self.rest_step(now, volts) => DetectorOutput::default(),
+            Sample::Volts(volts) => self.whole_step(now, volts),
+            Sample::Missing => self.missing_step(now),
+            Sample::Lost => self.lost_step(now),
+        }
+    }
+
+    /// A tick with no sample: a fault once `stale_ms` have passed without
+    /// one (the count then restarts, so recovery needs fresh samples).
+    fn missing_step(&mut self, now: Tick) -> DetectorOutput {
         if let Err(reason) = self.advance_to(now) {
             let event = self.fault(reason);
             return self.output(event);
@@ -481,7 +496,6 @@ impl BurstDetector {
             .last_sample
             .map_or(now.saturating_add(1), |t| now.saturating_sub(t));
         let event = if since >= self.stale {
-            // Restart the count so recovery needs fresh samples.
             self.fault(FaultReason::Stale { ms: since })
         } else {
             None
@@ -489,27 +503,14 @@ impl BurstDetector {
         self.output(event)
     }
 
-    /// A tick on which the sensor's device is known to be gone: the sensor
-    /// is in fault at once (a missing sample waits `stale_ms`; a device
-    /// that is gone will not send one). RT-safe.
-    pub fn step_lost(&mut self, now: Tick) -> DetectorOutput {
+    /// A tick with the device gone: a fault at once (a device that is gone
+    /// sends no sample to wait `stale_ms` for).
+    fn lost_step(&mut self, now: Tick) -> DetectorOutput {
         let event = match self.advance_to(now) {
             Err(reason) => self.fault(reason),
             Ok(()) => self.fault(FaultReason::Disconnected),
         };
         self.output(event)
-    }
-
-    /// Feeds one sample taken at tick `now`. Ticks must increase: a tick
-    /// that does not is a fault ([`FaultReason::TickNotIncreasing`]), never
-    /// an overflow. RT-safe.
-    #[inline]
-    pub fn step(&mut self, now: Tick, volts: f64) -> DetectorOutput {
-        if self.rest_step(now, volts) {
-            DetectorOutput::default()
-        } else {
-            self.whole_step(now, volts)
-        }
     }
 
     /// [`BurstDetector::step`], every stage. (Not inlined: the rest step
@@ -830,6 +831,7 @@ fn run_length(since: Tick, now: Tick) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::control::sample::Sample::{Lost, Missing, Volts};
 
     /// Everything a detector holds but the rest step's switch and count.
     fn state(d: &BurstDetector) -> String {
@@ -844,14 +846,6 @@ mod tests {
         let mut whole = BurstDetector::new(config);
         whole.full_path();
         (BurstDetector::new(config), whole)
-    }
-
-    /// How a tick reaches the detector.
-    #[derive(Debug, Clone, Copy)]
-    enum Call {
-        Sample,
-        Missing,
-        Lost,
     }
 
     proptest::proptest! {
@@ -877,9 +871,9 @@ mod tests {
                 ],
                 proptest::prop_oneof![3 => 1usize..4, 1 => 4usize..400],
                 proptest::prop_oneof![
-                    10 => proptest::strategy::Just(Call::Sample),
-                    1 => proptest::strategy::Just(Call::Missing),
-                    1 => proptest::strategy::Just(Call::Lost),
+                    10 => proptest::strategy::Just(None),
+                    1 => proptest::strategy::Just(Some(Missing)),
+                    1 => proptest::strategy::Just(Some(Lost)),
                 ],
             ), 1..120),
             fast_tracking in proptest::bool::ANY,
@@ -892,14 +886,11 @@ mod tests {
             }
             let (mut fast, mut whole) = fast_and_whole(&config);
             let mut tick = 0u64;
-            for (delta, volts, repeat, call) in runs {
+            for (delta, volts, repeat, no_sample) in runs {
                 tick += delta;
+                let sample = no_sample.unwrap_or(Volts(volts));
                 for _ in 0..repeat {
-                    let (a, b) = match call {
-                        Call::Sample => (fast.step(tick, volts), whole.step(tick, volts)),
-                        Call::Missing => (fast.step_missing(tick), whole.step_missing(tick)),
-                        Call::Lost => (fast.step_lost(tick), whole.step_lost(tick)),
-                    };
+                    let (a, b) = (fast.step(tick, sample), whole.step(tick, sample));
                     proptest::prop_assert_eq!(format!("{a:?}"), format!("{b:?}"), "tick {}", tick);
                     tick += 1;
                 }
@@ -915,7 +906,7 @@ mod tests {
         for t in 0..10_000 {
             // Noise about the neutral, inside the thresholds.
             let volts = 2.5 + 0.2 * ((t as f64) * 0.37).sin();
-            assert_eq!(fast.step(t, volts), whole.step(t, volts));
+            assert_eq!(fast.step(t, Volts(volts)), whole.step(t, Volts(volts)));
         }
         assert_eq!(state(&fast), state(&whole));
         // All but the first sample (no tick before it).
@@ -928,7 +919,7 @@ mod tests {
         samples
             .iter()
             .enumerate()
-            .filter_map(|(t, &v)| d.step(t as Tick, v).event.map(|e| (t as Tick, e)))
+            .filter_map(|(t, &v)| d.step(t as Tick, Volts(v)).event.map(|e| (t as Tick, e)))
             .collect()
     }
 
@@ -1027,16 +1018,16 @@ mod tests {
         let c = DetectorConfig::default();
         let mut d = BurstDetector::new(&c);
         for t in 0..10 {
-            assert_eq!(d.step(t, 2.5).held, Held::default());
+            assert_eq!(d.step(t, Volts(2.5)).held, Held::default());
         }
         let mut out = DetectorOutput::default();
         for t in 10..20 {
-            out = d.step(t, 3.7);
+            out = d.step(t, Volts(3.7));
         }
         assert_eq!(out.held.breath, Some(Breath::Puff));
         assert!((out.held.strength_volts - 0.7).abs() < 1e-12);
         // A one-sample spike keeps the held state and its strength.
-        let spike = d.step(20, 0.0);
+        let spike = d.step(20, Volts(0.0));
         assert_eq!(spike.held, out.held);
         assert!(spike.in_progress);
     }
@@ -1055,7 +1046,7 @@ mod tests {
             } else {
                 neutral
             };
-            if let Some(DetectorEvent::Burst(b)) = d.step(t, v).event {
+            if let Some(DetectorEvent::Burst(b)) = d.step(t, Volts(v)).event {
                 assert_eq!(b.action, Action::ShortPuff);
                 assert_eq!(b.duration_ms(), 150);
                 bursts += 1;
@@ -1075,7 +1066,7 @@ mod tests {
             } else {
                 neutral
             };
-            if let Some(DetectorEvent::Burst(b)) = d.step(t, v).event {
+            if let Some(DetectorEvent::Burst(b)) = d.step(t, Volts(v)).event {
                 assert_eq!(b.action, Action::ShortSip);
                 bursts += 1;
             }
@@ -1090,15 +1081,15 @@ mod tests {
         // A 5 s breath, then a one-sample spike and the start of another
         // breath (crossings pending): none of it moves the neutral.
         for t in 0..5_000 {
-            d.step(t, 4.0);
+            d.step(t, Volts(4.0));
         }
         for t in 5_000..5_100 {
-            d.step(t, 2.5);
+            d.step(t, Volts(2.5));
         }
         assert_eq!(d.neutral_volts(), 2.5);
-        d.step(5_100, 0.0);
+        d.step(5_100, Volts(0.0));
         for t in 5_101..5_104 {
-            d.step(t, 4.0);
+            d.step(t, Volts(4.0));
         }
         assert_eq!(d.neutral_volts(), 2.5);
         // A resting level that moved by 0.2 V is followed with the
@@ -1108,7 +1099,7 @@ mod tests {
         let mut d = BurstDetector::new(&c);
         let start = 2 * TRACKING_DELAY_MS as u64;
         for t in 0..start + 1000 {
-            d.step(t, 2.7);
+            d.step(t, Volts(2.7));
         }
         let followed = (d.neutral_volts() - 2.5) / 0.2;
         let expected = 1.0 - (1.0 - 1.0 / 1000.0f64).powi(1000);
@@ -1165,37 +1156,42 @@ mod tests {
         let c = DetectorConfig::default(); // stale 50 ms, recovery 250 ms
         let mut d = BurstDetector::new(&c);
         for t in 0..100 {
-            d.step(t, 3.8); // puff held …
+            d.step(t, Volts(3.8)); // puff held …
         }
         for t in 100..149 {
-            let out = d.step_missing(t); // … then the sensor goes quiet
+            let out = d.step(t, Missing); // … then the sensor goes quiet
             assert_eq!(out.held.breath, Some(Breath::Puff), "held until stale");
             assert!(out.event.is_none());
         }
-        let out = d.step_missing(149);
+        let out = d.step(149, Missing);
         assert_eq!(
             out.event,
             Some(DetectorEvent::Fault(FaultReason::Stale { ms: 50 }))
         );
         assert!(out.faulted);
         assert_eq!(out.held, Held::default());
-        assert_eq!(d.step_missing(500).event, None, "one event per fault");
-        let events: Vec<_> = (501..800).filter_map(|t| d.step(t, 2.5).event).collect();
+        assert_eq!(d.step(500, Missing).event, None, "one event per fault");
+        let events: Vec<_> = (501..800)
+            .filter_map(|t| d.step(t, Volts(2.5)).event)
+            .collect();
         assert_eq!(events, [DetectorEvent::Recovered]);
         // Never a sample from start: stale too.
         let mut d = BurstDetector::new(&c);
-        assert!(d.step_missing(48).event.is_none());
-        assert!(d.step_missing(49).event.is_some());
+        assert!(d.step(48, Missing).event.is_none());
+        assert!(d.step(49, Missing).event.is_some());
     }
 
     #[test]
     fn output_reports_fault_state() {
         let c = DetectorConfig::default();
         let mut d = BurstDetector::new(&c);
-        let out = d.step(0, f64::NEG_INFINITY);
+        let out = d.step(0, Volts(f64::NEG_INFINITY));
         assert!(out.faulted);
         assert_eq!(out.held, Held::default());
-        assert!(d.step(1, f64::NAN).event.is_none(), "one event per fault");
+        assert!(
+            d.step(1, Volts(f64::NAN)).event.is_none(),
+            "one event per fault"
+        );
     }
 
     #[test]
@@ -1203,9 +1199,9 @@ mod tests {
         let c = DetectorConfig::default();
         let mut d = BurstDetector::new(&c);
         for t in 1000..1100 {
-            d.step(t, 3.8); // a puff held
+            d.step(t, Volts(3.8)); // a puff held
         }
-        let out = d.step(5, 3.8); // time went back
+        let out = d.step(5, Volts(3.8)); // time went back
         assert_eq!(
             out.event,
             Some(DetectorEvent::Fault(FaultReason::TickNotIncreasing {
@@ -1216,10 +1212,12 @@ mod tests {
         assert!(out.faulted && out.held == Held::default());
         // The same tick again, and a missing sample at an earlier one: still
         // one fault (the sensor is in fault already), no panic.
-        assert_eq!(d.step(5, 2.5).event, None);
-        assert_eq!(d.step_missing(3).event, None);
+        assert_eq!(d.step(5, Volts(2.5)).event, None);
+        assert_eq!(d.step(3, Missing).event, None);
         // Time goes on from there: valid samples at rest recover.
-        let recovered: Vec<_> = (6..400).filter_map(|t| d.step(t, 2.5).event).collect();
+        let recovered: Vec<_> = (6..400)
+            .filter_map(|t| d.step(t, Volts(2.5)).event)
+            .collect();
         assert_eq!(recovered, [DetectorEvent::Recovered]);
         assert_eq!(
             FaultReason::TickNotIncreasing {
@@ -1322,11 +1320,11 @@ mod tests {
         let c = DetectorConfig::default(); // stale 50 ms
         let mut d = BurstDetector::new(&c);
         for t in 0..600 {
-            d.step(t, 3.8); // a puff held
+            d.step(t, Volts(3.8)); // a puff held
         }
         // A gap of 50 ms (49 ticks missed) is not a stall; 51 ms is.
-        assert_eq!(d.step(649, 3.8).event, None);
-        let out = d.step(700, 3.8);
+        assert_eq!(d.step(649, Volts(3.8)).event, None);
+        let out = d.step(700, Volts(3.8));
         assert_eq!(
             out.event,
             Some(DetectorEvent::Fault(FaultReason::Stalled { ms: 51 }))
@@ -1334,12 +1332,14 @@ mod tests {
         assert!(out.faulted && out.held == Held::default());
         // Seen on a tick without a sample too; then rest recovers.
         let mut d = BurstDetector::new(&c);
-        d.step(0, 2.5);
+        d.step(0, Volts(2.5));
         assert_eq!(
-            d.step_missing(2000).event,
+            d.step(2000, Missing).event,
             Some(DetectorEvent::Fault(FaultReason::Stalled { ms: 2000 }))
         );
-        let events: Vec<_> = (2001..2300).filter_map(|t| d.step(t, 2.5).event).collect();
+        let events: Vec<_> = (2001..2300)
+            .filter_map(|t| d.step(t, Volts(2.5)).event)
+            .collect();
         assert_eq!(events, [DetectorEvent::Recovered]);
         assert_eq!(
             FaultReason::Stalled { ms: 2000 }.to_string(),

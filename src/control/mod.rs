@@ -38,6 +38,7 @@ pub mod mode;
 pub mod modes;
 pub mod motion;
 pub mod pipeline;
+pub mod sample;
 pub mod selection;
 pub mod view;
 

@@ -15,14 +15,14 @@ use crate::control::modes::{ModeMachine, ModeOutput};
 use crate::control::motion::feedback::ArmFault;
 use crate::control::motion::stream::ARM_STOPS_AFTER_TICKS;
 use crate::control::motion::{Motion, MotionOutput};
+use crate::control::sample::Sample;
 use crate::control::selection::Interface;
-use crate::control::selection::index::{SequenceIndex, TrieIndex};
 use crate::control::selection::matcher::{MatchEvent, ResetReason, SequenceMatcher};
 use crate::control::selection::scanning::Scanner;
 use crate::control::view::CoreView;
 
 /// Everything the core says about one tick. `Copy`, RT-safe.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TickOutput {
     /// The tick this output belongs to.
     pub tick: Tick,
@@ -42,6 +42,17 @@ pub struct TickOutput {
 }
 
 impl TickOutput {
+    /// The start of tick `now`'s output: nothing held, nothing happened
+    /// (`motion` is written whole by the motion step).
+    fn restart(&mut self, now: Tick) {
+        self.tick = now;
+        self.command = ModeOutput::default();
+        self.held = Held::default();
+        self.faulted = false;
+        self.events.clear();
+        self.dropped_events = 0;
+    }
+
     /// Logs `event` on this tick (counted in `dropped_events` if full).
     fn log(&mut self, event: Event) {
         if self.events.push(event).is_err() {
@@ -51,12 +62,12 @@ impl TickOutput {
 }
 
 /// The deterministic core's pipeline. Build with [`Pipeline::new`] at
-/// start-up (allocates the matcher's index); [`Pipeline::step`] is RT-safe:
-/// no allocation, no panic, no clock.
+/// start-up (allocates the matcher's library); [`Pipeline::step`] is
+/// RT-safe: no allocation, no panic, no clock.
 #[derive(Debug)]
-pub struct Pipeline<I: SequenceIndex = TrieIndex> {
+pub struct Pipeline {
     detector: BurstDetector,
-    selector: Selector<I>,
+    selector: Selector,
     modes: ModeMachine,
     motion: Motion,
     /// The previous tick, to see gaps.
@@ -78,14 +89,14 @@ pub struct Pipeline<I: SequenceIndex = TrieIndex> {
 
 /// How a mode is selected in detection mode.
 #[derive(Debug)]
-enum Selector<I: SequenceIndex> {
+enum Selector {
     /// ASP: sequences matched against the library.
-    Sequences(SequenceMatcher<I>),
+    Sequences(SequenceMatcher),
     /// BSP: the modes scroll; a puff enters the highlighted one.
     Scanning(Scanner),
 }
 
-impl<I: SequenceIndex> Pipeline<I> {
+impl Pipeline {
     /// Takes in what the arm said since the last step: its link lost, a
     /// measured pose (logged if it moved the estimate), or silence.
     /// Returns a new arm fault.
@@ -232,78 +243,14 @@ impl<I: SequenceIndex> Pipeline<I> {
         &self.detector
     }
 
-    /// Feeds the sample taken at tick `now`. RT-safe.
-    pub fn step(&mut self, now: Tick, volts: f64) -> TickOutput {
-        let mut out = self.blank_output(now);
-        self.step_into(now, volts, &mut out);
-        out
-    }
-
-    /// [`Pipeline::step`] into `out`, a previous tick's output (replay
-    /// and the study reuse one: the large output is neither built anew
-    /// nor copied). `out` ends as `step` would have returned. RT-safe.
-    pub fn step_into(&mut self, now: Tick, volts: f64, out: &mut TickOutput) {
-        let detected = self.detector.step(now, volts);
-        Self::restart(now, out);
-        self.process(now, detected, out);
-    }
-
-    /// [`Pipeline::step_missing`] into `out`, as [`Pipeline::step_into`].
+    /// Takes tick `now`'s input from the sensor and writes what the core
+    /// says about the tick into `out` (a previous tick's output, or
+    /// [`TickOutput::default`] before the first: it is written whole).
     /// RT-safe.
-    pub fn step_missing_into(&mut self, now: Tick, out: &mut TickOutput) {
-        let detected = self.detector.step_missing(now);
-        Self::restart(now, out);
+    pub fn step(&mut self, now: Tick, sample: Sample, out: &mut TickOutput) {
+        let detected = self.detector.step(now, sample);
+        out.restart(now);
         self.process(now, detected, out);
-    }
-
-    /// [`Pipeline::step_lost`] into `out`, as [`Pipeline::step_into`].
-    /// RT-safe.
-    pub fn step_lost_into(&mut self, now: Tick, out: &mut TickOutput) {
-        let detected = self.detector.step_lost(now);
-        Self::restart(now, out);
-        self.process(now, detected, out);
-    }
-
-    /// A previous tick's output made the start of tick `now`'s, as
-    /// [`Pipeline::blank_output`] would be (`out.motion` is written whole
-    /// by the motion step).
-    fn restart(now: Tick, out: &mut TickOutput) {
-        out.tick = now;
-        out.command = ModeOutput::default();
-        out.held = Held::default();
-        out.faulted = false;
-        out.events.clear();
-        out.dropped_events = 0;
-    }
-
-    /// A tick on which no sample arrived (the runtime's sensor had none):
-    /// after `stale_ms` the sensor is in fault and the arm brakes. RT-safe.
-    pub fn step_missing(&mut self, now: Tick) -> TickOutput {
-        let mut out = self.blank_output(now);
-        self.step_missing_into(now, &mut out);
-        out
-    }
-
-    /// A tick on which the sensor's device is known to be gone: the
-    /// sensor is in fault at once and the arm brakes. RT-safe.
-    pub fn step_lost(&mut self, now: Tick) -> TickOutput {
-        let mut out = self.blank_output(now);
-        self.step_lost_into(now, &mut out);
-        out
-    }
-
-    /// A tick's output before the tick: nothing happened, the arm where
-    /// it is (the output [`Pipeline::step_into`] starts from).
-    pub fn blank_output(&self, now: Tick) -> TickOutput {
-        TickOutput {
-            tick: now,
-            command: ModeOutput::default(),
-            held: Held::default(),
-            faulted: false,
-            motion: self.motion.idle_output(),
-            events: Events::default(),
-            dropped_events: 0,
-        }
     }
 
     /// One tick into `out` (built in the caller's frame: the large output

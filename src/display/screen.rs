@@ -14,9 +14,10 @@ use crate::control::mode::{Direction, Mode, ModeState};
 use crate::control::modes::DetectionReason;
 use crate::control::motion::MotionEvent;
 use crate::control::motion::workspace::Boundary;
+use crate::control::sample::Sample;
 use crate::control::selection::Interface;
 use crate::control::view::CoreView;
-use crate::rt::telemetry::{CoreSample, TickRecord};
+use crate::rt::telemetry::TickRecord;
 
 /// One breath of a sequence, as the page draws it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -360,7 +361,7 @@ impl Screen {
         self.view = view;
         self.tick = record.tick;
         self.volts = match record.input.sample {
-            CoreSample::Volts(v) if v.is_finite() => Some(v),
+            Sample::Volts(v) if v.is_finite() => Some(v),
             _ => None,
         };
         if self

@@ -25,11 +25,12 @@ use crate::control::pipeline::{Pipeline, TickOutput};
 use crate::control::view::CoreView;
 use crate::rt::alloc_counter;
 use crate::rt::clock::Clock;
+use crate::rt::core_input::{ArmInput, ArmPose, CoreInput};
 use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
 use crate::rt::setup::{RtOptions, Setting, setup_current_thread};
 pub use crate::rt::stop::StopReason;
 use crate::rt::stop::StopRequest;
-use crate::rt::telemetry::{ArmInput, ArmPose, CoreInput, CoreSample, Drops, TickRecord};
+use crate::rt::telemetry::{Drops, TickRecord};
 use crate::sensor::{Reading, Samples};
 
 /// The control period: 1 ms.
@@ -141,7 +142,6 @@ impl<S: Samples> ControlTick<S> {
     /// The tick for `core` fed by `sensor`. With `stop_when_sensor_ends`
     /// the run stops safely when the sensor's samples end.
     pub fn new(core: Pipeline, sensor: S, rings: OutputRings, stop_when_sensor_ends: bool) -> Self {
-        let core_output = core.blank_output(0);
         ControlTick {
             core,
             sensor,
@@ -159,7 +159,7 @@ impl<S: Samples> ControlTick<S> {
             measured: None,
             start_pose: None,
             told_link_lost: false,
-            out: core_output,
+            out: TickOutput::default(),
         }
     }
 
@@ -225,22 +225,20 @@ impl<S: Samples> TickWork for ControlTick<S> {
             }
             arm.pose = newest.map(|pose| (ArmPose::Measured, pose));
         }
-        // What the arm said and the sample become the core's calls in one
-        // place each, here and in the replay of a recording; what the core
+        // What the arm said and the sample become the core's calls in
+        // one place, here and in the replay of a recording; what the core
         // was given is recorded.
-        arm.apply(&mut self.core);
-        let sample = CoreSample::of(&reading);
-        sample.step_into(&mut self.core, tick, &mut self.out);
+        let mut input = CoreInput {
+            tick,
+            arm,
+            sample: reading.sample,
+            began_stop: false,
+        };
+        input.apply(&mut self.core, &mut self.out);
         let out = &self.out;
         // The core found the arm untrustworthy (its measured pose silent
         // or off the commanded path): the run ends once it is still.
         let stop = stop.or(self.core.arm_fault().map(|_| StopReason::ArmFault));
-        let mut input = CoreInput {
-            tick,
-            arm,
-            sample,
-            began_stop: false,
-        };
         if let Some(command) = out.motion.arm_command {
             self.last_arm_command = command;
             if self.rings.arm.push(command).is_err() {

@@ -9,6 +9,7 @@
 //! * [`stop`], [`signals`]: why a run stops; stop requests, from signals
 //!   (which ones, and their handlers) and failed outputs;
 //! * [`control_loop`]: the 1 kHz loop and the production tick;
+//! * [`core_input`]: the core's whole input on one tick, as recorded;
 //! * [`arm_thread`]: the 100 Hz arm stream;
 //! * [`threads`]: `run`, wiring the threads and rings;
 //! * [`telemetry`], [`report`]: histograms and the run report;
@@ -20,6 +21,7 @@ pub mod alloc_counter;
 pub mod arm_thread;
 pub mod clock;
 pub mod control_loop;
+pub mod core_input;
 pub mod recorder;
 pub mod report;
 pub mod scheduler;

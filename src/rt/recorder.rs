@@ -13,7 +13,8 @@ use serde::{Deserialize, Serialize};
 use crate::control::Tick;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
-use crate::rt::telemetry::{CoreInput, Drops};
+use crate::rt::core_input::CoreInput;
+use crate::rt::telemetry::Drops;
 
 /// Where the telemetry thread hands what the control thread sent it.
 /// Called on the telemetry thread, never on the control thread; not

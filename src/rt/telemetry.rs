@@ -7,15 +7,12 @@
 use std::io::Write;
 
 use hdrhistogram::Histogram;
-use nalgebra::Isometry3;
 use serde::{Serialize, Serializer};
 
 use crate::control::Tick;
 use crate::control::event::TimedEvent;
-use crate::control::pipeline::{Pipeline, TickOutput};
-use crate::control::selection::index::SequenceIndex;
 use crate::control::view::CoreView;
-use crate::sensor::Reading;
+use crate::rt::core_input::CoreInput;
 
 /// Items dropped because a ring was full, cumulative. A full ring never
 /// blocks the control thread: the item is dropped and counted here.
@@ -32,118 +29,6 @@ pub struct Drops {
     /// Copies of arm commands for the session recorder dropped (`run
     /// --record` only: the recorder's command ring was full).
     pub recorded_commands: u64,
-}
-
-/// What the core was given as its sample on one tick. `Copy`.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub enum CoreSample {
-    /// A sample: `Pipeline::step(tick, volts)`. Any `f64`, bits kept
-    /// (a recording may hold NaN: the core faults on it).
-    Volts(f64),
-    /// No sample arrived: `Pipeline::step_missing(tick)`.
-    #[default]
-    Missing,
-    /// The sensor's device is gone (unplugged, unbound):
-    /// `Pipeline::step_lost(tick)`.
-    Disconnected,
-}
-
-impl CoreSample {
-    /// The sample a sensor's reading gives the core: its volts, else a
-    /// device gone, else none. RT-safe.
-    pub fn of(reading: &Reading) -> CoreSample {
-        match reading {
-            Reading {
-                volts: Some(volts), ..
-            } => CoreSample::Volts(*volts),
-            Reading { lost: true, .. } => CoreSample::Disconnected,
-            _ => CoreSample::Missing,
-        }
-    }
-
-    /// Steps `core` at `tick` with this sample: the one place a sample
-    /// becomes a call to the core, on the control thread and in the
-    /// replay of a recording. RT-safe.
-    pub fn step<I: SequenceIndex>(self, core: &mut Pipeline<I>, tick: Tick) -> TickOutput {
-        match self {
-            CoreSample::Volts(volts) => core.step(tick, volts),
-            CoreSample::Missing => core.step_missing(tick),
-            CoreSample::Disconnected => core.step_lost(tick),
-        }
-    }
-
-    /// [`CoreSample::step`] into `out`, a previous tick's output (the
-    /// replay of a recording reuses one). RT-safe.
-    pub fn step_into<I: SequenceIndex>(
-        self,
-        core: &mut Pipeline<I>,
-        tick: Tick,
-        out: &mut TickOutput,
-    ) {
-        match self {
-            CoreSample::Volts(volts) => core.step_into(tick, volts, out),
-            CoreSample::Missing => core.step_missing_into(tick, out),
-            CoreSample::Disconnected => core.step_lost_into(tick, out),
-        }
-    }
-}
-
-/// What the arm told the core before one tick's step. `Copy`.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct ArmInput {
-    /// A pose: the measured start (`Pipeline::start_measured`, on the
-    /// first tick) or a measurement (`Pipeline::observe_arm`).
-    pub pose: Option<(ArmPose, Isometry3<f64>)>,
-    /// `Pipeline::arm_link_lost()`.
-    pub link_lost: bool,
-}
-
-/// Which call a recorded pose was.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ArmPose {
-    /// `Pipeline::start_measured`: where the motion starts.
-    Start,
-    /// `Pipeline::observe_arm`: a measurement.
-    Measured,
-}
-
-impl ArmInput {
-    /// Nothing from the arm.
-    pub fn is_empty(&self) -> bool {
-        self.pose.is_none() && !self.link_lost
-    }
-
-    /// Gives `core` what the arm said: the one place arm news become core
-    /// calls, on the control thread and in the replay of a recording.
-    /// RT-safe (`start_measured` is called on the first tick only).
-    pub fn apply<I: SequenceIndex>(&self, core: &mut Pipeline<I>) {
-        match self.pose {
-            Some((ArmPose::Start, pose)) => core.start_measured(pose),
-            Some((ArmPose::Measured, pose)) => core.observe_arm(&pose),
-            None => {}
-        }
-        if self.link_lost {
-            core.arm_link_lost();
-        }
-    }
-}
-
-/// Everything the control tick gave the core on one tick, in the order it
-/// gave it: what the arm said, the step (its tick and sample), then, on
-/// the tick the safe stop began, `Pipeline::begin_stop()`. With the
-/// configuration, the sequence of these is the core's whole input:
-/// `replay` of a recording repeats exactly these calls. `Copy`.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct CoreInput {
-    /// The tick given to the core (skipped ticks and stalls show as
-    /// jumps).
-    pub tick: Tick,
-    /// What the arm said before the step.
-    pub arm: ArmInput,
-    /// The sample, or none.
-    pub sample: CoreSample,
-    /// `Pipeline::begin_stop()` was called after this tick's step.
-    pub began_stop: bool,
 }
 
 /// One tick, as the control thread saw it. `Copy`, 272 bytes.

@@ -74,6 +74,7 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::control::sample::Sample;
     use crate::sensor::Samples;
     use crate::sensor::held::hold;
 
@@ -118,7 +119,7 @@ mod tests {
         let e = run(&mut once, &holder, &stop).unwrap_err().to_string();
         assert!(e.starts_with("flaky disconnected: "), "{e}");
         assert!(e.contains("reconnect = true"), "{e}");
-        assert!(samples.try_read(0).lost);
+        assert_eq!(samples.try_read(0).sample, Sample::Lost);
         let mut again = Flaky {
             reads: 0,
             attempts: 0,
@@ -126,6 +127,6 @@ mod tests {
         };
         assert!(run(&mut again, &holder, &stop).is_ok());
         assert_eq!((again.reads, again.attempts), (2, 2));
-        assert_eq!(samples.try_read(0).volts, Some(2.0), "live again");
+        assert_eq!(samples.try_read(0).sample, Sample::Volts(2.0), "live again");
     }
 }

@@ -15,6 +15,7 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU8, AtomicU64, Ordering};
 
+use crate::control::sample::Sample;
 use crate::sensor::{Reading, Samples};
 
 /// What the reader knows about the device.
@@ -136,12 +137,12 @@ impl Samples for HeldSamples {
     fn try_read(&mut self, _skipped: u64) -> Reading {
         match self.link() {
             Link::Live => Reading {
-                volts: Some(f64::from_bits(self.shared.volts.load(Ordering::Acquire))),
+                sample: Sample::Volts(f64::from_bits(self.shared.volts.load(Ordering::Acquire))),
                 ..Reading::default()
             },
             Link::Waiting | Link::Silent => Reading::default(),
             Link::Lost | Link::Ended => Reading {
-                lost: true,
+                sample: Sample::Lost,
                 ..Reading::default()
             },
         }
@@ -168,18 +169,22 @@ mod tests {
         holder.set(2.5);
         holder.set(2.75);
         for _ in 0..3 {
-            assert_eq!(samples.try_read(0).volts, Some(2.75), "held every tick");
+            assert_eq!(
+                samples.try_read(0).sample,
+                Sample::Volts(2.75),
+                "held every tick"
+            );
         }
         assert_eq!(samples.updates(), 2);
         holder.link(Link::Silent);
         assert_eq!(samples.try_read(0), Reading::default(), "stale: missing");
         holder.link(Link::Lost);
         let lost = samples.try_read(0);
-        assert!(lost.lost && lost.volts.is_none());
+        assert_eq!(lost.sample, Sample::Lost);
         assert!(!samples.ended(), "a lost device may come back");
         holder.set(2.5);
-        assert_eq!(samples.try_read(0).volts, Some(2.5), "back");
+        assert_eq!(samples.try_read(0).sample, Sample::Volts(2.5), "back");
         drop(holder);
-        assert!(samples.ended() && samples.try_read(0).lost);
+        assert!(samples.ended() && samples.try_read(0).sample == Sample::Lost);
     }
 }

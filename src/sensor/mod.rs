@@ -17,8 +17,8 @@
 //! thread throws away the whole backlog ([`Samples::discard_backlog`]),
 //! counted. A backend that can compute its
 //! samples without I/O (the synthetic sensor) computes them in the loop.
-//! A tick with no sample is `Pipeline::step_missing`: after `stale_ms` the
-//! core faults and the arm brakes.
+//! A tick with no sample gives the core [`Sample::Missing`]: after
+//! `stale_ms` the core faults and the arm brakes.
 //!
 //! Backends: [`synthetic`] (the built-in scripted user), [`csv`]
 //! (recordings played in real time), and the devices: [`evdev`] (USB HID
@@ -46,6 +46,8 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
+
+use crate::control::sample::Sample;
 
 /// Which sensor to open: the `--sensor` forms, a contract documented in
 /// `--help` and `docs/commands.md`. A new backend adds its form here and
@@ -157,13 +159,12 @@ impl std::fmt::Display for EvdevTarget {
 /// One tick's read of a sensor. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Reading {
-    /// The sample for this tick, volts; `None` if none arrived.
-    pub volts: Option<f64>,
+    /// What the core is given on this tick: the sample, none, or the
+    /// device gone (the core then faults at once instead of waiting
+    /// `stale_ms`).
+    pub sample: Sample,
     /// Older samples thrown away to catch up (the producer ran ahead).
     pub discarded: u64,
-    /// The device is gone (unplugged, unbound, its reader ended): the
-    /// core faults at once instead of waiting `stale_ms`.
-    pub lost: bool,
 }
 
 /// The control thread's side of a sensor. RT-safe: never blocks, never

@@ -14,6 +14,7 @@
 use std::time::{Duration, Instant};
 
 use crate::control::detector::DetectorConfig;
+use crate::control::sample::Sample;
 use crate::sensor::settings::SensorSettings;
 use crate::sensor::{Samples, SensorError};
 
@@ -129,13 +130,13 @@ pub fn measure(
     let mut next = Instant::now();
     loop {
         let reading = samples.try_read(0);
-        if reading.lost {
+        if reading.sample == Sample::Lost {
             return Err(SensorError::Disconnected {
                 what: "the sensor".into(),
                 detail: "it went away while its neutral was being measured".into(),
             });
         }
-        if let Some(volts) = reading.volts {
+        if let Sample::Volts(volts) = reading.sample {
             match window.push(volts) {
                 Verdict::Measuring => {}
                 Verdict::AtRest(neutral) => return Ok(neutral),

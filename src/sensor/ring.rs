@@ -12,6 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use rtrb::RingBuffer;
 
+use crate::control::sample::Sample;
 use crate::sensor::{Reading, Samples};
 
 /// Samples the ring holds: one second at 1 kHz.
@@ -67,7 +68,7 @@ impl Samples for RingSamples {
         let mut reading = Reading::default();
         for _ in 0..=skipped {
             match self.rx.pop() {
-                Ok(v) => reading.volts = Some(v),
+                Ok(v) => reading.sample = Sample::Volts(v),
                 Err(_) => break,
             }
         }
@@ -105,12 +106,12 @@ mod tests {
             assert!(feed.push(v));
         }
         // Two ticks were skipped: their samples and this one's, the last wins.
-        assert_eq!(samples.try_read(2).volts, Some(3.0));
+        assert_eq!(samples.try_read(2).sample, Sample::Volts(3.0));
         for v in 0..8 {
             feed.push(f64::from(v));
         }
         let r = samples.try_read(0);
-        assert_eq!((r.volts, r.discarded), (Some(0.0), 5));
+        assert_eq!((r.sample, r.discarded), (Sample::Volts(0.0), 5));
         assert!(!samples.ended());
         drop(feed);
         assert!(!samples.ended(), "two samples still queued");
@@ -127,6 +128,10 @@ mod tests {
         assert_eq!(samples.discard_backlog(2000), 10);
         assert_eq!(samples.try_read(0), Reading::default());
         feed.push(7.0);
-        assert_eq!(samples.try_read(0).volts, Some(7.0), "fresh samples after");
+        assert_eq!(
+            samples.try_read(0).sample,
+            Sample::Volts(7.0),
+            "fresh samples after"
+        );
     }
 }

@@ -3,6 +3,7 @@
 //! no I/O, no allocation), so a run is repeatable sample for sample.
 
 use crate::config::Config;
+use crate::control::sample::Sample;
 use crate::control::selection::Interface;
 use crate::sensor::{Producer, Reading, Samples, Sensor, SensorError, Started};
 use crate::sim::script::run_script;
@@ -109,7 +110,7 @@ impl Samples for SyntheticSamples {
         }
         self.ended |= volts.is_none();
         Reading {
-            volts: Some(volts.unwrap_or(self.rest_volts)),
+            sample: Sample::Volts(volts.unwrap_or(self.rest_volts)),
             ..Reading::default()
         }
     }

@@ -472,12 +472,13 @@ pub fn write_csv(out: &mut impl Write, samples: impl Iterator<Item = f64>) -> st
 mod tests {
     use super::*;
     use crate::control::detector::{BurstDetector, DetectorEvent};
+    use crate::control::sample::Sample;
 
     fn bursts(params: SignalParams, script: &[Step]) -> Vec<(Breath, u64, u64)> {
         let mut d = BurstDetector::new(&DetectorConfig::default());
         SignalGenerator::new(params, script)
             .enumerate()
-            .filter_map(|(t, v)| match d.step(t as u64, v).event {
+            .filter_map(|(t, v)| match d.step(t as u64, Sample::Volts(v)).event {
                 Some(DetectorEvent::Burst(b)) => {
                     Some((b.action.breath(), b.start, b.duration_ms()))
                 }

@@ -15,7 +15,8 @@ use crate::control::Tick;
 use crate::control::action::{Action, Breath};
 use crate::control::event::Event;
 use crate::control::mode::{Direction, Mode, ModeState};
-use crate::control::pipeline::Pipeline;
+use crate::control::pipeline::{Pipeline, TickOutput};
+use crate::control::sample::Sample;
 use crate::control::selection::Interface;
 use crate::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 use crate::sim::study::tasks::{Task, TaskStep};
@@ -506,7 +507,7 @@ fn simulate(
         .with_noise(0.02)
         .with_hum(0.03);
     let mut signal = SignalGenerator::live(params);
-    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut core = Pipeline::new(config.core());
     let mut arm = SimulatedJaco::new(config.core());
     let mut agent = Agent {
         user: *user,
@@ -525,7 +526,7 @@ fn simulate(
     let mut unintended = false;
     let mut tick = 0u64;
     // One output, written in place each tick.
-    let mut out = core.blank_output(tick);
+    let mut out = TickOutput::default();
     loop {
         let volts = loop {
             if let Some(v) = signal.next() {
@@ -534,7 +535,7 @@ fn simulate(
             agent.decide(tick, state, &events, &mut signal);
             events.clear();
         };
-        core.step_into(tick, volts, &mut out);
+        core.step(tick, Sample::Volts(volts), &mut out);
         arm.tick(out.motion.arm_command.as_ref());
         for event in out.events.iter() {
             match event {

@@ -10,7 +10,8 @@ use crate::config::Config;
 use crate::control::detector::{Burst, FaultReason};
 use crate::control::event::Event;
 use crate::control::mode::Mode;
-use crate::control::pipeline::Pipeline;
+use crate::control::pipeline::{Pipeline, TickOutput};
+use crate::control::sample::Sample;
 use crate::rt::alloc_counter;
 use crate::sim::script::random_session;
 use crate::sim::sensor_model::{ScriptedBreath, SignalGenerator, SignalParams, Step};
@@ -130,7 +131,8 @@ pub struct Observed {
 /// Plays `script` through a fresh core, one sample per tick, and records
 /// what the script placed and what the core saw.
 pub fn observe(config: &Config, params: SignalParams, script: &[Step]) -> Observed {
-    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut core = Pipeline::new(config.core());
+    let mut out = TickOutput::default();
     let mut signal = SignalGenerator::new(params, script);
     let mut seen = Observed::default();
     let mut tick = 0;
@@ -141,7 +143,7 @@ pub fn observe(config: &Config, params: SignalParams, script: &[Step]) -> Observ
             seen.scripted.push(b);
         }
         let before = alloc_counter::thread_allocations();
-        let out = core.step(tick, volts);
+        core.step(tick, Sample::Volts(volts), &mut out);
         seen.core_allocations += alloc_counter::thread_allocations() - before;
         for event in out.events.iter() {
             match *event {

@@ -22,7 +22,7 @@ use serde::Serialize;
 
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
-use crate::control::pipeline::Pipeline;
+use crate::control::pipeline::{Pipeline, TickOutput};
 use crate::tools::recording::format::commands::CommandItem;
 use crate::tools::recording::format::samples::SampleItem;
 use crate::tools::recording::read::{Recording, RecordingError};
@@ -192,8 +192,8 @@ fn core_alone(
     events.clear();
     let mut commands = Fingerprint::default();
     let mut samples = recording.samples()?;
-    let mut core: Pipeline = Pipeline::new(recording.config.core());
-    let mut output = core.blank_output(0);
+    let mut core = Pipeline::new(recording.config.core());
+    let mut output = TickOutput::default();
     let mut work = CoreWork::default();
     let mut time = Duration::ZERO;
     loop {

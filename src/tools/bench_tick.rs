@@ -16,7 +16,8 @@ use serde::Serialize;
 
 use crate::arm::sim::SimulatedJaco;
 use crate::config::Config;
-use crate::control::pipeline::Pipeline;
+use crate::control::pipeline::{Pipeline, TickOutput};
+use crate::control::sample::Sample;
 use crate::rt::alloc_counter;
 use crate::rt::telemetry::{PERCENTILES, Percentiles, histogram};
 use crate::sim::script::demo_script;
@@ -60,7 +61,8 @@ pub fn bench_tick(config: &Config, seconds: u64) -> TickBench {
         .take(ticks as usize)
         .collect();
 
-    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut core = Pipeline::new(config.core());
+    let mut out = TickOutput::default();
     let mut arm = SimulatedJaco::new(config.core());
     let mut bench = TickBench {
         ticks: samples.len() as u64,
@@ -75,7 +77,7 @@ pub fn bench_tick(config: &Config, seconds: u64) -> TickBench {
         let r0 = Instant::now();
         let r1 = Instant::now();
         let start = Instant::now();
-        let out = core.step(t as u64, volts);
+        core.step(t as u64, Sample::Volts(volts), &mut out);
         arm.tick(out.motion.arm_command.as_ref());
         let end = Instant::now();
         let tick_ns = (end - start).as_nanos() as u64;

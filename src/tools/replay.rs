@@ -9,6 +9,7 @@ use crate::control::core_config::CoreConfig;
 use crate::control::event::TimedEvent;
 use crate::control::motion::still::{PoseBits, VelocityBits, pose_bits, velocity_bits};
 use crate::control::pipeline::{Pipeline, TickOutput};
+use crate::control::sample::Sample;
 use crate::sensor::csv::{CsvError, CsvSignal};
 use crate::tools::float_text::push_f64;
 
@@ -138,16 +139,16 @@ pub fn replay<R: Read>(
     out: &mut dyn Write,
     mut trace: Option<&mut dyn Write>,
 ) -> Result<ReplaySummary, ReplayError> {
-    let mut core: Pipeline = Pipeline::new(config);
+    let mut core = Pipeline::new(config);
     let mut arm = SimulatedJaco::new(config);
     let mut summary = ReplaySummary::default();
     if let Some(trace) = trace.as_deref_mut() {
         writeln!(trace, "{TRACE_HEADER}")?;
     }
-    let mut output = core.blank_output(0);
+    let mut output = TickOutput::default();
     let mut rows = TraceRows::default();
     while let Some(volts) = signal.next_sample()? {
-        core.step_into(summary.samples, volts, &mut output);
+        core.step(summary.samples, Sample::Volts(volts), &mut output);
         let output = &output;
         for &event in output.events.iter() {
             let line = TimedEvent {

@@ -6,11 +6,13 @@
 //! finger limits, braking after faults, the 100 Hz stream) and the
 //! simulated arm.
 
+use crate::common::TickByTick;
 use sipnpuff::arm::sim::SimulatedJaco;
 use sipnpuff::config::Config;
 use sipnpuff::control::event::Event;
 use sipnpuff::control::motion::MotionEvent;
 use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::sample::Sample;
 use sipnpuff::control::selection::Interface;
 use sipnpuff::rt::alloc_counter::thread_allocations;
 use sipnpuff::sim::script::every_path_session;
@@ -38,9 +40,9 @@ fn core_step_never_allocates() {
     let before = thread_allocations();
     for (t, &v) in samples.iter().enumerate() {
         let out = if t % 5000 == 4999 {
-            core.step_missing(t as u64) // a lost sample now and then
+            core.tick_with(t as u64, Sample::Missing) // a lost sample now and then
         } else {
-            core.step(t as u64, v)
+            core.tick(t as u64, v)
         };
         arm.tick(out.motion.arm_command.as_ref());
         for event in out.events.iter() {
@@ -82,7 +84,7 @@ fn bsp_core_step_never_allocates() {
     let (mut highlights, mut matches) = (0, 0);
     let before = thread_allocations();
     for (t, &v) in samples.iter().enumerate() {
-        for event in core.step(t as u64, v).events.iter() {
+        for event in core.tick(t as u64, v).events.iter() {
             match event {
                 Event::Highlight { .. } => highlights += 1,
                 Event::Match { .. } => matches += 1,

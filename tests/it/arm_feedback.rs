@@ -20,6 +20,7 @@ use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
 use crate::motion::clearance;
 
+use crate::common::TickByTick;
 use Action::{ShortPuff, ShortSip};
 const TRANSLATE_X: [Action; 2] = [ShortPuff, ShortPuff];
 const TRANSLATE_Z: [Action; 2] = [ShortSip, ShortSip];
@@ -102,7 +103,7 @@ fn session(
     let mut ticks = Vec::new();
     for (t, volts) in SignalGenerator::new(params, script).enumerate() {
         let t = t as u64;
-        let out = core.step(t, volts);
+        let out = core.tick(t, volts);
         each(t, &mut arm);
         if let Some(measured) = arm.tick(t, out.motion.arm_command.as_ref())
             && feedback
@@ -237,7 +238,7 @@ fn a_whole_session_with_an_imperfect_arm_is_no_fault() {
     let params = SignalParams::clean(config.core().detector(), 7);
     let mut matched = Vec::new();
     for (t, volts) in SignalGenerator::new(params, &script).enumerate() {
-        let out = core.step(t as u64, volts);
+        let out = core.tick(t as u64, volts);
         for e in out.events.iter() {
             assert!(!matches!(e, Event::ArmFault { .. }), "tick {t}: {e:?}");
             if let Event::Match { mode, .. } = e {
@@ -368,7 +369,7 @@ fn a_silent_pose_is_a_fault_exactly_after_the_timeout() {
         if t <= 500 && t.is_multiple_of(10) {
             core.observe_arm(&home(&config)); // last one at tick 500
         }
-        let out = core.step(t, neutral);
+        let out = core.tick(t, neutral);
         for e in out.events.iter() {
             if let Event::ArmFault { reason } = e {
                 assert!(fault_at.is_none());
@@ -396,7 +397,7 @@ fn a_lost_link_is_a_fault_on_the_next_tick_and_the_arm_brakes() {
     let mut outs = Vec::new();
     for (t, volts) in SignalGenerator::new(params, &script).enumerate() {
         let t = t as u64;
-        let out = core.step(t, volts);
+        let out = core.tick(t, volts);
         if lost_at.is_none() && out.motion.linear[0] >= 0.2 {
             core.arm_link_lost();
             lost_at = Some(t);
@@ -433,7 +434,7 @@ fn taking_in_measurements_allocates_nothing() {
     arm.in_flight.reserve(16);
     let before = alloc_counter::thread_allocations();
     for (t, volts) in samples.iter().enumerate() {
-        let out = core.step(t as u64, *volts);
+        let out = core.tick(t as u64, *volts);
         if let Some(measured) = arm.tick(t as u64, out.motion.arm_command.as_ref()) {
             core.observe_arm(&measured);
         }
@@ -466,7 +467,7 @@ fn a_measured_pose_past_the_margin_lets_the_arm_move_away_only() {
     let (mut lowest_command, mut highest) = (0.0f64, f64::MIN);
     let mut limits = 0;
     for (t, volts) in SignalGenerator::new(params, &script).enumerate() {
-        let out = core.step(t as u64, volts);
+        let out = core.tick(t as u64, volts);
         lowest_command = lowest_command.min(out.motion.linear[2]);
         highest = highest.max(arm.pose.translation.vector.z);
         limits += out
@@ -519,7 +520,7 @@ fn a_pose_that_is_not_a_pose_is_a_fault_and_never_reaches_the_estimate() {
             } else if t.is_multiple_of(10) {
                 core.observe_arm(&home(&config));
             }
-            let out = core.step(t, neutral);
+            let out = core.tick(t, neutral);
             let p = out.motion.pose.translation.vector;
             assert!(p.iter().all(|v| v.is_finite()), "tick {t}: {p:?}");
             faults.extend(out.events.iter().filter_map(|e| match e {
@@ -556,7 +557,7 @@ fn an_arm_held_still_at_a_turned_pose_stays_trusted_for_minutes() {
         if t.is_multiple_of(10) {
             core.observe_arm(&pose);
         }
-        let out = core.step(t, neutral);
+        let out = core.tick(t, neutral);
         assert!(out.events.is_empty(), "tick {t}: {:?}", out.events);
         let q = out.motion.pose.rotation.quaternion().norm();
         assert!((q - 1.0).abs() < 1e-12, "tick {t}: |q| = {q}");

@@ -1,12 +1,35 @@
 //! Checks shared by the integration tests.
 
 use sipnpuff::config::Config;
+use sipnpuff::control::Tick;
 use sipnpuff::control::action::Breath;
 use sipnpuff::control::event::Event;
 use sipnpuff::control::mode::Mode;
 use sipnpuff::control::motion::MotionEvent;
-use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::sample::Sample;
 use sipnpuff::sim::sensor_model::Step;
+
+/// The core driven one tick at a time, each tick's output returned: how
+/// the tests call `Pipeline::step`.
+pub trait TickByTick {
+    /// Tick `t` with a sample of `volts`.
+    fn tick(&mut self, t: Tick, volts: f64) -> TickOutput;
+    /// Tick `t` with `sample` (a sample, none, or the device gone).
+    fn tick_with(&mut self, t: Tick, sample: Sample) -> TickOutput;
+}
+
+impl TickByTick for Pipeline {
+    fn tick(&mut self, t: Tick, volts: f64) -> TickOutput {
+        self.tick_with(t, Sample::Volts(volts))
+    }
+
+    fn tick_with(&mut self, t: Tick, sample: Sample) -> TickOutput {
+        let mut out = TickOutput::default();
+        self.step(t, sample, &mut out);
+        out
+    }
+}
 
 /// Runs `samples` through a fresh core and checks it against the script
 /// that made them: every scripted breath detected exactly once, in order,
@@ -26,7 +49,7 @@ pub fn assert_session(
     let mut matched = Vec::new();
     let mut n = 0;
     for (t, v) in samples.enumerate() {
-        for event in core.step(t as u64, v).events.iter() {
+        for event in core.tick(t as u64, v).events.iter() {
             match event {
                 Event::Burst(b) => bursts.push(*b),
                 Event::Match { mode, .. } => matched.push(*mode),

@@ -7,11 +7,13 @@ use sipnpuff::config::Config;
 use sipnpuff::control::Tick;
 use sipnpuff::control::event::{Event, TimedEvent};
 use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::sample::Sample;
 use sipnpuff::display::screen::{Cue, Frame, Screen};
-use sipnpuff::rt::telemetry::{CoreInput, CoreSample, TickRecord};
+use sipnpuff::rt::core_input::CoreInput;
+use sipnpuff::rt::telemetry::TickRecord;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
-use crate::common::{self, puff, rest, sip};
+use crate::common::{self, TickByTick, puff, rest, sip};
 
 /// The core and the screen, stepped together one simulated tick at a time
 /// as the telemetry side sees them.
@@ -42,8 +44,8 @@ impl Session {
     fn frame_at(&mut self, tick: Tick) -> Frame {
         while self.tick <= tick {
             let volts = self.samples.get(self.tick as usize).copied().unwrap_or(2.5);
-            let sample = CoreSample::Volts(volts);
-            let out = sample.step(&mut self.core, self.tick);
+            let sample = Sample::Volts(volts);
+            let out = self.core.tick_with(self.tick, sample);
             let record = TickRecord {
                 tick: self.tick,
                 input: CoreInput {

@@ -17,7 +17,9 @@ use sipnpuff::control::pipeline::{Pipeline, TickOutput};
 use sipnpuff::sim::script::{demo_script, random_session};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
+use crate::common::TickByTick;
 use crate::common::paper_config;
+use sipnpuff::control::sample::Sample;
 
 /// The floats of a tick's output, as bits (`==` would take −0 for 0).
 fn float_bits(out: &TickOutput) -> [u64; 24] {
@@ -54,16 +56,6 @@ fn arm_bits(arm: &SimulatedJaco) -> [u64; 8] {
     pose_bits(&arm.state().pose, arm.fingers())
 }
 
-/// One tick's input to both cores.
-#[derive(Clone, Copy)]
-enum Input {
-    Volts(f64),
-    /// No sample (`step_missing`).
-    Missing,
-    /// The sensor's device gone (`step_lost`).
-    Lost,
-}
-
 /// The core with its fast paths (stepped in place, one output reused, as
 /// replay runs it) and the core with every update and step run, each
 /// driving its simulated arm (the fast one with its own skipped steps).
@@ -83,7 +75,7 @@ impl Pair {
         let mut full_arm = SimulatedJaco::new(config.core());
         full_arm.full_path();
         Pair {
-            out: fast.blank_output(0),
+            out: TickOutput::default(),
             fast,
             full,
             fast_arm: SimulatedJaco::new(config.core()),
@@ -93,22 +85,10 @@ impl Pair {
 
     /// Steps both at tick `t` and checks that every field of the outputs,
     /// the views and the arms' poses are the same, floats bit for bit.
-    fn step(&mut self, t: u64, input: Input) -> &TickOutput {
+    fn step(&mut self, t: u64, sample: Sample) -> &TickOutput {
         let (fast, a) = (&mut self.fast, &mut self.out);
-        let b = match input {
-            Input::Volts(volts) => {
-                fast.step_into(t, volts, a);
-                self.full.step(t, volts)
-            }
-            Input::Missing => {
-                fast.step_missing_into(t, a);
-                self.full.step_missing(t)
-            }
-            Input::Lost => {
-                fast.step_lost_into(t, a);
-                self.full.step_lost(t)
-            }
-        };
+        fast.step(t, sample, a);
+        let b = self.full.tick_with(t, sample);
         assert_eq!(*a, b, "tick {t}");
         assert_eq!(float_bits(a), float_bits(&b), "tick {t}");
         assert_eq!(fast.view(), self.full.view(), "tick {t}");
@@ -188,7 +168,7 @@ fn side_by_side(config: &Config, samples: impl Iterator<Item = f64>) -> Skipped 
     let mut pair = Pair::new(config);
     let mut ticks = 0;
     for (t, volts) in samples.enumerate() {
-        pair.step(t as u64, Input::Volts(volts));
+        pair.step(t as u64, Sample::Volts(volts));
         ticks += 1;
     }
     let (repeats, single, arm_ms, brake_repeats) = pair.repeated();
@@ -207,7 +187,7 @@ fn side_by_side(config: &Config, samples: impl Iterator<Item = f64>) -> Skipped 
 /// samples, both cores measuring their arm's pose (every 10 ticks, 0.1 mm
 /// off so that it corrects the estimate, at rest too), and the arm's link
 /// lost at `link_lost_at`. Returns the ticks skipped.
-fn side_by_side_measured(config: &Config, inputs: &[Input], link_lost_at: u64) -> u64 {
+fn side_by_side_measured(config: &Config, inputs: &[Sample], link_lost_at: u64) -> u64 {
     let mut pair = Pair::new(config);
     let start = pair.fast_arm.state().pose;
     pair.fast.start_measured(start);
@@ -250,7 +230,7 @@ fn the_demo_user_moves_the_same_with_updates_skipped_at_rest() {
     let mut pair = Pair::new(&config);
     let mut ticks = 0;
     for (t, volts) in stream(clean, &script).into_iter().enumerate() {
-        pair.step(t as u64, Input::Volts(volts));
+        pair.step(t as u64, Sample::Volts(volts));
         ticks += 1;
     }
     let (skipped, stages) = (pair.skipped(), pair.fast.skipped_stages());
@@ -338,18 +318,18 @@ fn measured_poses_missing_samples_and_a_lost_device_are_the_same() {
     let config = Config::default();
     let (script, _) = random_session(&config, 120, 11);
     let params = SignalParams::clean(config.core().detector(), 11).with_noise(0.02);
-    let mut inputs: Vec<Input> = stream(params, &script)
+    let mut inputs: Vec<Sample> = stream(params, &script)
         .into_iter()
         .enumerate()
         .map(|(t, volts)| match t % 5_003 {
             // Short gaps (under `stale_ms`) and long ones (a fault).
-            1_000..1_030 | 3_000..3_400 => Input::Missing,
-            4_000..4_010 => Input::Lost,
-            _ => Input::Volts(volts),
+            1_000..1_030 | 3_000..3_400 => Sample::Missing,
+            4_000..4_010 => Sample::Lost,
+            _ => Sample::Volts(volts),
         })
         .collect();
     let ticks = inputs.len() as u64;
-    inputs.extend([Input::Volts(2.5); 3_000]);
+    inputs.extend([Sample::Volts(2.5); 3_000]);
     let skipped = side_by_side_measured(&config, &inputs, ticks);
     eprintln!(
         "measured: {skipped} of {} ticks skipped Ruckig",

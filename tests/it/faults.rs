@@ -1,6 +1,7 @@
 //! Issue 11 (e, g): a breath held too long is a stuck sensor, and a stall
 //! of the process is a fault, both seen through the whole pipeline.
 
+use crate::common::TickByTick;
 use sipnpuff::config::Config;
 use sipnpuff::control::action::Action;
 use sipnpuff::control::detector::FaultReason;
@@ -31,7 +32,7 @@ impl Run {
     /// `ms` samples at `volts`; `check` sees every output.
     fn hold_with(&mut self, volts: f64, ms: u64, mut check: impl FnMut(&TickOutput)) {
         for _ in 0..ms {
-            let out = self.core.step(self.tick, volts);
+            let out = self.core.tick(self.tick, volts);
             self.events
                 .extend(out.events.iter().map(|e| (self.tick, *e)));
             check(&out);
@@ -286,7 +287,7 @@ fn an_offset_shift_on_the_harsh_signal_rezeroes() {
         let mut core: Pipeline = Pipeline::new(config.core());
         let mut events = Vec::new();
         for (t, &v) in samples.iter().enumerate() {
-            events.extend(core.step(t as u64, v).events.iter().map(|e| (t as u64, *e)));
+            events.extend(core.tick(t as u64, v).events.iter().map(|e| (t as u64, *e)));
         }
         let fault = events
             .iter()

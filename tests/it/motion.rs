@@ -3,6 +3,7 @@
 //! trace), no NaN, the workspace, stopping after release, in detection mode
 //! and after a sensor fault.
 
+use crate::common::TickByTick;
 use nalgebra::Vector3;
 use sipnpuff::arm::sim::SimulatedJaco;
 use sipnpuff::config::Config;
@@ -12,6 +13,7 @@ use sipnpuff::control::mode::{Direction, ModeState};
 use sipnpuff::control::motion::MotionEvent;
 use sipnpuff::control::motion::workspace::{self, Boundary};
 use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::sample::Sample;
 use sipnpuff::sim::script::{Timing, demo_script, random_session, sequence_steps};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
@@ -32,8 +34,8 @@ pub fn run(config: &Config, samples: impl Iterator<Item = Option<f64>>) -> Vec<R
         .enumerate()
         .map(|(t, v)| {
             let out = match v {
-                Some(v) => core.step(t as u64, v),
-                None => core.step_missing(t as u64),
+                Some(v) => core.tick(t as u64, v),
+                None => core.tick_with(t as u64, Sample::Missing),
             };
             arm.tick(out.motion.arm_command.as_ref());
             Record {

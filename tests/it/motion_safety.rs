@@ -19,6 +19,7 @@ use crate::motion::{Record, check_invariants, clearance, motion_events, run};
 
 const DT: f64 = 0.001;
 
+use crate::common::TickByTick;
 use Action::{LongPuff, LongSip, ShortPuff, ShortSip};
 const TRANSLATE_X: [Action; 2] = [ShortPuff, ShortPuff];
 const TRANSLATE_Y: [Action; 2] = [ShortPuff, ShortSip];
@@ -486,7 +487,7 @@ fn after_a_stall_the_commands_resume_from_rest() {
     let mut speeds = Vec::new();
     for (i, v) in samples.into_iter().enumerate() {
         tick += if i == cut { 31 } else { 1 }; // a 30 ms stall
-        let out = core.step(tick, v);
+        let out = core.tick(tick, v);
         monitor.check(&out).unwrap_or_else(|v| panic!("{v}"));
         speeds.push((tick, Vector3::from(out.motion.linear).norm()));
     }

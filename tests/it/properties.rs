@@ -1,17 +1,16 @@
 //! Seeded property tests of the core's invariants (proptest; failures are
 //! shrunk and persisted by seed).
 
+use crate::common::TickByTick;
 use proptest::prelude::*;
 use sipnpuff::config::Config;
 use sipnpuff::control::action::{Action, ActionSeq, Breath};
-use sipnpuff::control::detector::{BurstDetector, DetectorEvent};
 use sipnpuff::control::event::Event;
 use sipnpuff::control::mode::{Direction, Mode, ModeState};
 use sipnpuff::control::motion::limits::{caps, hold_to_run_min_jerk};
 use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::sample::Sample;
 use sipnpuff::control::selection::Interface;
-use sipnpuff::control::selection::index::{ScanIndex, TrieIndex};
-use sipnpuff::control::selection::matcher::SequenceMatcher;
 use sipnpuff::sim::script::{Timing, sequence_steps};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 use sipnpuff::tools::safety::SafetyMonitor;
@@ -187,17 +186,6 @@ fn samples() -> impl Strategy<Value = Vec<f64>> {
     })
 }
 
-/// A random user: breaths of 10–1500 ms and rests of 10–3000 ms.
-fn random_script() -> impl Strategy<Value = Vec<Step>> {
-    let breath = prop::sample::select(vec![Breath::Sip, Breath::Puff]);
-    prop::collection::vec((breath, 10u32..1500, 10u32..3000), 1..40).prop_map(|steps| {
-        steps
-            .into_iter()
-            .flat_map(|(breath, ms, rest)| [Step::Breath { breath, ms }, Step::Rest { ms: rest }])
-            .collect()
-    })
-}
-
 fn in_library(config: &Config, sequence: &ActionSeq, mode: Mode) -> bool {
     config
         .core()
@@ -228,7 +216,7 @@ proptest! {
     fn any_samples_are_safe(config in library(), samples in samples()) {
         let mut core: Pipeline = Pipeline::new(config.core());
         for (t, &v) in samples.iter().enumerate() {
-            let out = core.step(t as u64, v);
+            let out = core.tick(t as u64, v);
             prop_assert_eq!(out.dropped_events, 0);
             prop_assert!(out.command.strength_volts.is_finite() && out.command.strength_volts >= 0.0);
             if out.command.state == ModeState::Detection || out.faulted {
@@ -254,7 +242,7 @@ proptest! {
         let mut bursts = Vec::new();
         let mut decisions = Vec::new();
         for (t, v) in SignalGenerator::new(SignalParams::clean(config.core().detector(), seed), &script).enumerate() {
-            for event in core.step(t as u64, v).events.iter() {
+            for event in core.tick(t as u64, v).events.iter() {
                 match event {
                     Event::Burst(b) => bursts.push(b.action),
                     Event::Match { .. } | Event::Reset { .. } => decisions.push(*event),
@@ -264,33 +252,6 @@ proptest! {
         }
         prop_assert_eq!(bursts.as_slice(), entry.actions.as_slice());
         prop_assert_eq!(decisions, vec![Event::Match { sequence: entry.actions, mode: entry.mode }]);
-    }
-
-    /// The trie and the reference linear scan decide the same on the same
-    /// noisy signal, burst for burst and tick for tick: every burst the
-    /// detector makes goes to both matchers, the timeout runs every tick.
-    #[test]
-    fn trie_and_scan_agree(config in library(), script in random_script(), seed in any::<u64>()) {
-        let params = SignalParams::clean(config.core().detector(), seed).with_noise(0.05);
-        let core = config.core();
-        let timeout = core.matcher().sequence_timeout_ms;
-        let mut detector = BurstDetector::new(core.detector());
-        let mut trie: SequenceMatcher<TrieIndex> = SequenceMatcher::new(core.sequences(), timeout);
-        let mut scan: SequenceMatcher<ScanIndex> = SequenceMatcher::new(core.sequences(), timeout);
-        for (t, v) in SignalGenerator::new(params, &script).enumerate() {
-            let t = t as u64;
-            let out = detector.step(t, v);
-            let decided = match out.event {
-                Some(DetectorEvent::Burst(burst)) => (trie.on_burst(&burst), scan.on_burst(&burst)),
-                Some(DetectorEvent::Fault(_)) => (trie.interrupt(), scan.interrupt()),
-                _ => (None, None),
-            };
-            prop_assert_eq!(decided.0, decided.1, "tick {}", t);
-            if decided.0.is_none() {
-                prop_assert_eq!(trie.on_tick(t, out.in_progress), scan.on_tick(t, out.in_progress), "tick {}", t);
-            }
-            prop_assert_eq!(trie.current(), scan.current());
-        }
     }
 
     /// Any valid configuration, any samples, and ticks that jump ahead,
@@ -315,7 +276,7 @@ proptest! {
                 Some((_, by)) => tick + by,
                 None => tick + 1,
             };
-            let out = if v.is_nan() && i % 7 == 0 { core.step_missing(tick) } else { core.step(tick, v) };
+            let out = if v.is_nan() && i % 7 == 0 { core.tick_with(tick, Sample::Missing) } else { core.tick(tick, v) };
             prop_assert_eq!(out.dropped_events, 0);
             let motion = out.motion.velocity();
             prop_assert!(motion.iter().all(|x| x.is_finite()), "{:?}", motion);
@@ -341,22 +302,6 @@ proptest! {
         let again = Config::from_toml_str(&text);
         prop_assert_eq!(again.as_ref(), Ok(&config), "{}", text);
         prop_assert_eq!(again.unwrap().to_toml().unwrap(), text);
-    }
-}
-
-proptest! {
-    // Each case runs the motion layer too: fewer cases.
-    #![proptest_config(ProptestConfig::with_cases(24))]
-
-    /// Whole pipelines built on either index agree, output for output.
-    #[test]
-    fn pipelines_on_either_index_agree(config in library(), script in random_script(), seed in any::<u64>()) {
-        let params = SignalParams::clean(config.core().detector(), seed).with_noise(0.05);
-        let mut trie: Pipeline<TrieIndex> = Pipeline::new(config.core());
-        let mut scan: Pipeline<ScanIndex> = Pipeline::new(config.core());
-        for (t, v) in SignalGenerator::new(params, &script).enumerate() {
-            prop_assert_eq!(trie.step(t as u64, v), scan.step(t as u64, v));
-        }
     }
 }
 
@@ -492,7 +437,7 @@ proptest! {
         prop_assert!(samples.len() >= MIN_SESSION_TICKS);
         for (gap, v) in samples {
             tick += gap;
-            let out = core.step(tick, v);
+            let out = core.tick(tick, v);
             if let Err(violation) = monitor.check(&out) {
                 prop_assert!(false, "{}", violation);
             }

@@ -14,9 +14,10 @@ use serde_json::Value;
 use sipnpuff::arm::sim::SimArm;
 use sipnpuff::config::Config;
 use sipnpuff::control::motion::stream::ArmCommand;
+use sipnpuff::control::sample::Sample;
+use sipnpuff::rt::core_input::CoreInput;
 use sipnpuff::rt::setup::RtOptions;
 use sipnpuff::rt::stop::StopRequest;
-use sipnpuff::rt::telemetry::{CoreInput, CoreSample};
 use sipnpuff::rt::threads::{RunOptions, run_recorded};
 use sipnpuff::sensor::synthetic::SyntheticSensor;
 use sipnpuff::tools::recording::format::commands::{CommandDecoder, CommandEncoder, CommandItem};
@@ -25,6 +26,7 @@ use sipnpuff::tools::recording::format::{Stream, StreamFile};
 use sipnpuff::tools::recording::recorder::Recorder;
 use sipnpuff::tools::recording::writer::RecordOptions;
 
+use crate::common::TickByTick;
 use crate::common::{Running, fixture};
 
 fn sipnpuff(args: &[&str]) -> Output {
@@ -229,7 +231,7 @@ fn a_recorded_csv_run_with_a_stall_replays_bit_for_bit() {
 /// A serial device (a real kernel tty) resting at 2.6 V, re-zeroed at
 /// start, then unplugged: the recording holds the configuration the core
 /// ran with (the measured neutral, not the configured 2.5 V) and the
-/// ticks with the device gone (`Pipeline::step_lost`), and replays bit for
+/// ticks with the device gone (`Sample::Lost`), and replays bit for
 /// bit.
 #[test]
 fn a_recorded_serial_device_that_is_unplugged_replays_bit_for_bit() {
@@ -273,7 +275,7 @@ fn a_recorded_serial_device_that_is_unplugged_replays_bit_for_bit() {
         let mut gone = 0;
         while let Some(item) = samples.next_item().unwrap() {
             if let SampleItem::Input {
-                sample: CoreSample::Disconnected,
+                sample: Sample::Lost,
                 ..
             } = item
             {
@@ -470,10 +472,10 @@ fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() 
         let mut ticks = 0;
         for (tick, volts) in samples.enumerate() {
             let tick = tick as u64;
-            let out = core.step(tick, volts);
+            let out = core.tick(tick, volts);
             recorder.input(&CoreInput {
                 tick,
-                sample: CoreSample::Volts(volts),
+                sample: Sample::Volts(volts),
                 began_stop: false,
                 ..CoreInput::default()
             });
@@ -777,16 +779,16 @@ fn a_recorded_event_that_differs_is_named_with_its_line() {
 /// A core input: a sample (any bits: NaN payloads, -0.0, the rails, a few
 /// levels a sample-and-hold sensor repeats), none, or the device gone,
 /// after a gap of skipped ticks, perhaps where the stop began.
-fn inputs() -> impl Strategy<Value = Vec<(u64, CoreSample, bool)>> {
+fn inputs() -> impl Strategy<Value = Vec<(u64, Sample, bool)>> {
     let value = prop_oneof![
         3 => prop::sample::select(vec![2.5, 2.5, 4.0, -0.0, 0.0, 5.0]),
         2 => any::<f64>(),
         1 => any::<u64>().prop_map(f64::from_bits),
     ];
     let sample = prop_oneof![
-        8 => value.prop_map(CoreSample::Volts),
-        2 => Just(CoreSample::Missing),
-        1 => Just(CoreSample::Disconnected),
+        8 => value.prop_map(Sample::Volts),
+        2 => Just(Sample::Missing),
+        1 => Just(Sample::Lost),
     ];
     let gap = prop_oneof![6 => Just(0u64), 2 => 1u64..100, 1 => 0u64..u64::MAX / 4];
     prop::collection::vec((gap, sample, prop::bool::weighted(0.02)), 0..400)
@@ -845,9 +847,9 @@ proptest! {
         prop_assert_eq!(back.len(), expected.len());
         for (a, b) in back.iter().zip(&expected) {
             let bits = |item: &SampleItem| match *item {
-                SampleItem::Input { tick, sample: CoreSample::Volts(v), .. } => (0, tick, v.to_bits()),
-                SampleItem::Input { tick, sample: CoreSample::Missing, .. } => (1, tick, 0),
-                SampleItem::Input { tick, sample: CoreSample::Disconnected, .. } => (4, tick, 0),
+                SampleItem::Input { tick, sample: Sample::Volts(v), .. } => (0, tick, v.to_bits()),
+                SampleItem::Input { tick, sample: Sample::Missing, .. } => (1, tick, 0),
+                SampleItem::Input { tick, sample: Sample::Lost, .. } => (4, tick, 0),
                 SampleItem::BeginStop => (2, 0, 0),
                 SampleItem::Lost(n) => (3, n, 0),
             };

@@ -24,6 +24,7 @@ use sipnpuff::rt::threads::{RunOptions, run};
 use sipnpuff::sensor::synthetic::SyntheticSensor;
 
 use crate::common::Running;
+use crate::common::TickByTick;
 use sipnpuff::sim::script::run_script;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams};
 
@@ -56,7 +57,7 @@ fn simulated_run(stall: Option<(u64, u64)>) -> (Vec<(u64, Event)>, u64) {
             samples.next();
         }
         let Some(volts) = samples.next() else { break };
-        let out = core.step(wake.tick, volts);
+        let out = core.tick(wake.tick, volts);
         events.extend(out.events.iter().map(|e| (out.tick, *e)));
         clock.advance(5_000);
     }

@@ -3,6 +3,7 @@
 //! inactivity returns to scanning from the first mode; the study is
 //! deterministic for a seed and its comparison behaves as the design says.
 
+use crate::common::TickByTick;
 use sipnpuff::config::Config;
 use sipnpuff::control::action::Breath;
 use sipnpuff::control::event::Event;
@@ -23,7 +24,7 @@ fn events(config: &Config, script: &[Step]) -> Vec<(u64, Event)> {
     let params = SignalParams::clean(config.core().detector(), 7);
     let mut out = Vec::new();
     for (t, v) in SignalGenerator::new(params, script).enumerate() {
-        for e in core.step(t as u64, v).events.iter() {
+        for e in core.tick(t as u64, v).events.iter() {
             out.push((t as u64, *e));
         }
     }
@@ -105,7 +106,7 @@ fn a_puff_enters_the_highlighted_mode_and_inactivity_restarts_the_scan() {
     let params = SignalParams::clean(config.core().detector(), 7);
     let moved_down = SignalGenerator::new(params, &script)
         .enumerate()
-        .map(|(t, v)| core.step(t as u64, v))
+        .map(|(t, v)| core.tick(t as u64, v))
         .any(|o| {
             o.command.state == ModeState::Command(Mode::TranslateZ) && o.motion.linear[2] < 0.0
         });
@@ -141,7 +142,7 @@ fn the_run_users_session_selects_every_mode_of_its_plan() {
     let mut core: Pipeline = Pipeline::new(config.core());
     let mut matched = Vec::new();
     for (t, v) in SignalGenerator::new(params, &script).enumerate() {
-        for e in core.step(t as u64, v).events.iter() {
+        for e in core.tick(t as u64, v).events.iter() {
             if let Event::Match { mode, .. } = e {
                 matched.push(*mode);
             }

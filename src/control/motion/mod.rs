@@ -165,7 +165,7 @@ impl MotionOutput {
 }
 
 /// The motion layer's output for one tick. `Copy`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct MotionOutput {
     /// Commanded linear velocity, m/s, base frame.
     pub linear: [f64; 3],

@@ -10,9 +10,9 @@
 //! | neither a UDS nor a prefix of one         | reset now                     |
 //!
 //! The timeout runs from the end of the last burst and does not run out
-//! while a breath is in progress.
-//!
-//! The library lives in a [`SequenceIndex`] (see [`super::index`]).
+//! while a breath is in progress. The CS is compared with every UDS, as
+//! the paper does: a library is a few short sequences, and a burst comes
+//! at most every few tens of milliseconds.
 
 use serde::Serialize;
 
@@ -21,7 +21,6 @@ use crate::control::action::ActionSeq;
 use crate::control::detector::Burst;
 use crate::control::mode::Mode;
 use crate::control::selection::SequenceEntry;
-use crate::control::selection::index::{Lookup, SequenceIndex, TrieIndex};
 
 /// Sequence matcher settings (`[matcher]` in the config file).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -76,31 +75,53 @@ pub enum MatchEvent {
 /// The sequence matcher. Construct once at start-up; `on_burst`, `on_tick`
 /// and `interrupt` are RT-safe (no allocation, no panic).
 #[derive(Debug, Clone)]
-pub struct SequenceMatcher<I: SequenceIndex = TrieIndex> {
-    index: I,
-    modes: Box<[Mode]>,
+pub struct SequenceMatcher {
+    library: Box<[SequenceEntry]>,
     timeout: u64,
     cs: ActionSeq,
-    cursor: I::Cursor,
-    /// The CS equals this entry but a longer one starts with it.
-    pending: Option<usize>,
+    /// The CS equals this entry's sequence, but a longer one starts with it.
+    pending: Option<Mode>,
     last_end: Tick,
 }
 
-impl<I: SequenceIndex> SequenceMatcher<I> {
+/// Where the CS stands in the library.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Standing {
+    /// The mode of the entry equal to the CS, if any (the last one, should
+    /// a library hold a sequence twice; a validated one never does).
+    exact: Option<Mode>,
+    /// Some longer entry starts with the CS.
+    has_longer: bool,
+}
+
+impl SequenceMatcher {
     /// Builds the matcher over a validated library. Not RT-safe (allocates).
     pub fn new(library: &[SequenceEntry], sequence_timeout_ms: u32) -> Self {
-        let index = I::build(library);
-        let cursor = index.root();
         SequenceMatcher {
-            index,
-            modes: library.iter().map(|e| e.mode).collect(),
+            library: library.into(),
             timeout: sequence_timeout_ms.into(),
             cs: ActionSeq::EMPTY,
-            cursor,
             pending: None,
             last_end: 0,
         }
+    }
+
+    /// The CS compared with every entry of the library. RT-safe.
+    fn standing(&self) -> Standing {
+        let cs = self.cs.as_slice();
+        let mut standing = Standing {
+            exact: None,
+            has_longer: false,
+        };
+        for entry in self.library.iter() {
+            let sequence = entry.actions.as_slice();
+            if sequence == cs {
+                standing.exact = Some(entry.mode);
+            } else if sequence.starts_with(cs) {
+                standing.has_longer = true;
+            }
+        }
+        standing
     }
 
     /// The current sequence (what the user has entered so far).
@@ -119,7 +140,6 @@ impl<I: SequenceIndex> SequenceMatcher<I> {
     /// longer one starts with it); `None`: it resets. RT-safe.
     pub fn pending(&self) -> Option<Mode> {
         self.pending
-            .and_then(|entry| self.modes.get(entry).copied())
     }
 
     /// Appends a finished burst to the current sequence. RT-safe.
@@ -130,16 +150,17 @@ impl<I: SequenceIndex> SequenceMatcher<I> {
             // proper prefix); kept total so the control thread cannot panic.
             return self.reset(ResetReason::NoMatch);
         }
-        match self.index.advance(self.cursor, &self.cs, burst.action) {
-            None => self.reset(ResetReason::NoMatch),
-            Some(Lookup {
-                exact: Some(entry),
+        match self.standing() {
+            Standing {
+                exact: None,
                 has_longer: false,
-                ..
-            }) => self.matched(entry),
-            Some(lookup) => {
-                self.cursor = lookup.cursor;
-                self.pending = lookup.exact;
+            } => self.reset(ResetReason::NoMatch),
+            Standing {
+                exact: Some(mode),
+                has_longer: false,
+            } => self.matched(mode),
+            Standing { exact, .. } => {
+                self.pending = exact;
                 None
             }
         }
@@ -152,7 +173,7 @@ impl<I: SequenceIndex> SequenceMatcher<I> {
             return None;
         }
         match self.pending {
-            Some(entry) => self.matched(entry),
+            Some(mode) => self.matched(mode),
             None => self.reset(ResetReason::Timeout),
         }
     }
@@ -171,9 +192,8 @@ impl<I: SequenceIndex> SequenceMatcher<I> {
         }
     }
 
-    fn matched(&mut self, entry: usize) -> Option<MatchEvent> {
+    fn matched(&mut self, mode: Mode) -> Option<MatchEvent> {
         let sequence = self.cs;
-        let mode = *self.modes.get(entry)?;
         self.clear();
         Some(MatchEvent::Match { sequence, mode })
     }
@@ -186,7 +206,6 @@ impl<I: SequenceIndex> SequenceMatcher<I> {
 
     fn clear(&mut self) {
         self.cs.clear();
-        self.cursor = self.index.root();
         self.pending = None;
     }
 }
@@ -195,7 +214,6 @@ impl<I: SequenceIndex> SequenceMatcher<I> {
 mod tests {
     use super::*;
     use crate::control::action::Action;
-    use crate::control::selection::index::ScanIndex;
     use Action::{LongPuff, LongSip, ShortPuff, ShortSip};
 
     fn entry(actions: &[Action], mode: Mode) -> SequenceEntry {
@@ -206,7 +224,7 @@ mod tests {
     }
 
     /// The paper's example: S1 = ⟨1, 2, −1⟩, S2 = ⟨1, 2⟩, S3 = ⟨2, 1⟩.
-    fn paper<I: SequenceIndex>() -> SequenceMatcher<I> {
+    fn paper() -> SequenceMatcher {
         SequenceMatcher::new(
             &[
                 entry(&[ShortSip, LongSip, ShortPuff], Mode::TranslateX),
@@ -239,10 +257,11 @@ mod tests {
         })
     }
 
-    /// Every case of the paper's worked example, for both indexes.
-    fn paper_cases<I: SequenceIndex>() {
+    /// Every case of the paper's worked example.
+    #[test]
+    fn paper_example() {
         // ⟨2⟩: no confusion, wait for a 1 to match S3 (16-17-19-22) …
-        let mut m = paper::<I>();
+        let mut m = paper();
         assert_eq!(m.on_burst(&b(LongSip, 1000)), None);
         assert_eq!(m.on_tick(1999, false), None);
         // … which matches on the very tick it arrives (16-17-18-21).
@@ -254,7 +273,7 @@ mod tests {
 
         // ⟨2⟩ and the user takes too long: reset (16-20-23), exactly 1000 ms
         // after the end of the burst.
-        let mut m = paper::<I>();
+        let mut m = paper();
         m.on_burst(&b(LongSip, 1000));
         assert_eq!(m.on_tick(1999, false), None);
         assert_eq!(
@@ -263,7 +282,7 @@ mod tests {
         );
 
         // ⟨1, 2⟩: confusion between S1 and S2, wait (16-17-18-22) …
-        let mut m = paper::<I>();
+        let mut m = paper();
         assert_eq!(m.on_burst(&b(ShortSip, 1000)), None);
         assert_eq!(m.on_burst(&b(LongSip, 1800)), None);
         // … a −1 matches S1 (16-17-18-21).
@@ -273,7 +292,7 @@ mod tests {
         );
 
         // ⟨1, 2⟩ then a peak that is not −1: reset (16-17-19-23).
-        let mut m = paper::<I>();
+        let mut m = paper();
         m.on_burst(&b(ShortSip, 1000));
         m.on_burst(&b(LongSip, 1800));
         assert_eq!(
@@ -282,7 +301,7 @@ mod tests {
         );
 
         // ⟨1, 2⟩ and no new peak: S2 is matched at the timeout (16-20-21).
-        let mut m = paper::<I>();
+        let mut m = paper();
         m.on_burst(&b(ShortSip, 1000));
         m.on_burst(&b(LongSip, 1800));
         assert_eq!(m.on_tick(2799, false), None);
@@ -293,14 +312,14 @@ mod tests {
         assert_eq!(m.on_tick(5000, false), None, "matched once");
 
         // A first action that starts no UDS: reset on this tick.
-        let mut m = paper::<I>();
+        let mut m = paper();
         assert_eq!(
             m.on_burst(&b(LongPuff, 1000)),
             reset(&[LongPuff], ResetReason::NoMatch)
         );
 
         // A breath in progress holds the timeout off.
-        let mut m = paper::<I>();
+        let mut m = paper();
         m.on_burst(&b(ShortSip, 1000));
         m.on_burst(&b(LongSip, 1800));
         assert_eq!(m.on_tick(2800, true), None);
@@ -312,26 +331,16 @@ mod tests {
         );
 
         // A fault drops the sequence.
-        let mut m = paper::<I>();
+        let mut m = paper();
         m.on_burst(&b(ShortSip, 1000));
         assert_eq!(m.interrupt(), reset(&[ShortSip], ResetReason::Fault));
         assert_eq!(m.interrupt(), None);
     }
 
     #[test]
-    fn paper_example_trie() {
-        paper_cases::<TrieIndex>();
-    }
-
-    #[test]
-    fn paper_example_scan() {
-        paper_cases::<ScanIndex>();
-    }
-
-    #[test]
     fn a_full_length_sequence_matches() {
         let long = [ShortPuff; crate::control::action::MAX_SEQUENCE_LEN];
-        let mut m: SequenceMatcher = SequenceMatcher::new(&[entry(&long, Mode::Fingers)], 1000);
+        let mut m = SequenceMatcher::new(&[entry(&long, Mode::Fingers)], 1000);
         for (i, &a) in long.iter().enumerate() {
             let event = m.on_burst(&b(a, 1000 + 200 * i as Tick));
             if i + 1 < long.len() {

@@ -1,12 +1,11 @@
 //! Selection: how the user picks one of the nine modes in detection mode.
 //!
 //! * ASP, the paper's interface: bursts form sequences matched against the
-//!   user's library ([`matcher`], over an [`index`] of the library).
+//!   user's library ([`matcher`]).
 //! * BSP, the paper's baseline (Kinova's classic sip-and-puff): the modes
 //!   scroll on their own and a puff enters the highlighted one
 //!   ([`scanning`]).
 
-pub mod index;
 pub mod matcher;
 pub mod scanning;
 

@@ -13,9 +13,9 @@ use std::time::{Duration, Instant};
 use crate::config::Config;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
+use crate::rt::core_input::CoreInput;
 use crate::rt::recorder::{Lost, RecordingReport, SessionRecorder};
 use crate::rt::report::RunReport;
-use crate::rt::telemetry::CoreInput;
 use crate::tools::recording::writer::{Finish, Item, RecordOptions, Writer, one, problems};
 use crate::tools::recording::{CONFIG, META};
 
@@ -313,9 +313,9 @@ impl<'a> Watch<'a> {
 mod tests {
     use super::*;
     use crate::arm::sim::SimArm;
+    use crate::control::sample::Sample;
     use crate::rt::setup::RtOptions;
     use crate::rt::stop::StopRequest;
-    use crate::rt::telemetry::CoreSample;
     use crate::rt::threads::{RunOptions, run};
     use crate::sensor::synthetic::SyntheticSensor;
     use crate::tools::recording::format::samples::{SampleDecoder, SampleItem};
@@ -386,7 +386,7 @@ mod tests {
             for t in batch * 100..(batch + 1) * 100 {
                 recorder.input(&CoreInput {
                     tick: t,
-                    sample: CoreSample::Volts(2.5 + t as f64 * 1e-3),
+                    sample: Sample::Volts(2.5 + t as f64 * 1e-3),
                     began_stop: false,
                     ..CoreInput::default()
                 });
@@ -417,7 +417,7 @@ mod tests {
                 SampleItem::Input {
                     tick: ticks,
                     arm: Default::default(),
-                    sample: CoreSample::Volts(2.5 + ticks as f64 * 1e-3)
+                    sample: Sample::Volts(2.5 + ticks as f64 * 1e-3)
                 }
             );
             ticks += 1;

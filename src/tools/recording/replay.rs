@@ -14,7 +14,7 @@ use crate::control::Tick;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
 use crate::control::pipeline::{Pipeline, TickOutput};
-use crate::rt::telemetry::ArmPose;
+use crate::rt::core_input::ArmPose;
 use crate::tools::recording::format::commands::{CommandDecoder, CommandItem};
 use crate::tools::recording::format::samples::SampleItem;
 use crate::tools::recording::read::{EventLines, Recording, RecordingError};
@@ -303,7 +303,7 @@ pub fn give_to_core(item: SampleItem, core: &mut Pipeline, out: &mut TickOutput)
     match item {
         SampleItem::Input { tick, arm, sample } => {
             arm.apply(core);
-            sample.step_into(core, tick, out);
+            core.step(tick, sample, out);
             Some(tick)
         }
         SampleItem::BeginStop => {
@@ -352,7 +352,7 @@ pub fn replay(
         );
     }
 
-    let mut core: Pipeline = Pipeline::new(config.core());
+    let mut core = Pipeline::new(config.core());
     let mut arm = SimulatedJaco::new(config.core());
     let mut samples = recording.samples()?;
     let mut events = recording.events()?;
@@ -382,7 +382,7 @@ pub fn replay(
     }
     let mut line = Vec::new();
     // One output, written in place each tick.
-    let mut output = core.blank_output(0);
+    let mut output = TickOutput::default();
     let mut rows = TraceRows::default();
     while let Some(item) = samples
         .next_item()

@@ -5,7 +5,8 @@ use std::io::Read;
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 
 use crate::control::Tick;
-use crate::rt::telemetry::{ArmInput, ArmPose, CoreInput, CoreSample};
+use crate::control::sample::Sample;
+use crate::rt::core_input::{ArmInput, ArmPose, CoreInput};
 use crate::tools::recording::format::{Bytes, END, FormatError, Stream, op};
 
 const VALUE: u8 = 0x01;
@@ -78,16 +79,16 @@ impl SampleEncoder {
             }
         }
         let kind = match input.sample {
-            CoreSample::Volts(v) if self.last_bits == Some(v.to_bits()) => REPEAT,
-            CoreSample::Volts(v) => {
+            Sample::Volts(v) if self.last_bits == Some(v.to_bits()) => REPEAT,
+            Sample::Volts(v) => {
                 self.flush(out);
                 out.push(VALUE);
                 out.extend_from_slice(&v.to_bits().to_le_bytes());
                 self.last_bits = Some(v.to_bits());
                 VALUE
             }
-            CoreSample::Missing => MISSING,
-            CoreSample::Disconnected => DISCONNECTED,
+            Sample::Missing => MISSING,
+            Sample::Lost => DISCONNECTED,
         };
         if kind != VALUE {
             match &mut self.run {
@@ -137,7 +138,7 @@ pub enum SampleItem {
         /// What the arm said before it.
         arm: ArmInput,
         /// Its sample, or none.
-        sample: CoreSample,
+        sample: Sample,
     },
     /// `begin_stop` after the last step.
     BeginStop,
@@ -153,7 +154,7 @@ pub struct SampleDecoder<R: Read> {
     next_tick: Tick,
     last: Option<f64>,
     /// Ticks left of a run: (count, sample).
-    run: Option<(u64, CoreSample)>,
+    run: Option<(u64, Sample)>,
     /// What the arm said before the next tick.
     arm: ArmInput,
     ended: bool,
@@ -175,7 +176,7 @@ impl<R: Read> SampleDecoder<R> {
     }
 
     #[inline]
-    fn tick(&mut self, sample: CoreSample) -> SampleItem {
+    fn tick(&mut self, sample: Sample) -> SampleItem {
         let tick = self.next_tick;
         self.next_tick = tick.wrapping_add(1);
         let arm = if self.arm.is_empty() {
@@ -197,7 +198,7 @@ impl<R: Read> SampleDecoder<R> {
         if let Some(bits) = self.bytes.take_u64_op(VALUE) {
             let v = f64::from_bits(bits);
             self.last = Some(v);
-            return Ok(Some(self.tick(CoreSample::Volts(v))));
+            return Ok(Some(self.tick(Sample::Volts(v))));
         }
         self.next_op()
     }
@@ -214,14 +215,14 @@ impl<R: Read> SampleDecoder<R> {
                 VALUE => {
                     let v = f64::from_bits(self.bytes.u64le()?);
                     self.last = Some(v);
-                    return Ok(Some(self.tick(CoreSample::Volts(v))));
+                    return Ok(Some(self.tick(Sample::Volts(v))));
                 }
                 REPEAT | MISSING | DISCONNECTED => {
                     let n = self.bytes.count("a run")?;
                     let sample = match tag {
-                        MISSING => CoreSample::Missing,
-                        DISCONNECTED => CoreSample::Disconnected,
-                        _ => CoreSample::Volts(self.last.ok_or_else(|| {
+                        MISSING => Sample::Missing,
+                        DISCONNECTED => Sample::Lost,
+                        _ => Sample::Volts(self.last.ok_or_else(|| {
                             self.bytes
                                 .error("a repeat before any value (the file is corrupted)")
                         })?),
@@ -275,7 +276,7 @@ mod tests {
         CoreInput {
             tick,
             arm: ArmInput::default(),
-            sample: volts.map_or(CoreSample::Missing, CoreSample::Volts),
+            sample: volts.map_or(Sample::Missing, Sample::Volts),
             began_stop: false,
         }
     }
@@ -314,7 +315,7 @@ mod tests {
             SampleItem::Input {
                 tick: 9_999,
                 arm: ArmInput::default(),
-                sample: CoreSample::Volts(2.5)
+                sample: Sample::Volts(2.5)
             }
         );
     }
@@ -325,7 +326,7 @@ mod tests {
         let gone = |tick| CoreInput {
             tick,
             arm: ArmInput::default(),
-            sample: CoreSample::Disconnected,
+            sample: Sample::Lost,
             began_stop: false,
         };
         let mut inputs = vec![
@@ -377,10 +378,10 @@ mod tests {
                 )
             };
             assert_eq!(arm_bits(&a.arm), arm_bits(&b.arm));
-            let bits = |s: CoreSample| match s {
-                CoreSample::Volts(v) => (0, v.to_bits()),
-                CoreSample::Missing => (1, 0),
-                CoreSample::Disconnected => (2, 0),
+            let bits = |s: Sample| match s {
+                Sample::Volts(v) => (0, v.to_bits()),
+                Sample::Missing => (1, 0),
+                Sample::Lost => (2, 0),
             };
             assert_eq!(bits(a.sample), bits(b.sample));
         }
