@@ -519,10 +519,33 @@ static inline int feed_option(int argc, char **argv, int *i, struct feed_options
     return 1;
 }
 
-/* A command line option no feeder option and none of this feeder's. */
-static inline void unknown_option(const char *a)
+/* One of a feeder's own options: a flag sets `*flag` to 1; an option with
+ * a value points `*value` at it. A table of them ends with {0}. */
+struct own_option {
+    const char *name;
+    const char **value;
+    int *flag;
+};
+
+/* Parses the command line: the options every feeder takes into `o`, the
+ * feeder's own by the table `own`; anything else is an error. */
+static inline void parse_options(int argc, char **argv, struct feed_options *o,
+                                 const struct own_option *own)
 {
-    die("unknown or incomplete option \"%s\" (see the comment at the top of %s.c)", a, prog);
+    for (int i = 1; i < argc; i++) {
+        if (feed_option(argc, argv, &i, o))
+            continue;
+        const struct own_option *opt = own;
+        while (opt->name && strcmp(opt->name, argv[i]))
+            opt++;
+        if (!opt->name || (opt->value && i + 1 >= argc))
+            die("unknown or incomplete option \"%s\" (see the comment at the top of %s.c)", argv[i],
+                prog);
+        if (opt->flag)
+            *opt->flag = 1;
+        else
+            *opt->value = argv[++i];
+    }
 }
 
 /* The level `--prime` gives: volts 0..5. */

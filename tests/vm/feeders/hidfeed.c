@@ -73,22 +73,15 @@ int main(int argc, char **argv)
 {
     prog = "hidfeed";
     const char *dev = "/dev/hidg0", *prime = NULL;
-    struct feed_options o = {.period_us = 1000, .min_period_us = 100, .cpu = -1, .usb = 1};
     int buttons = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int more = i + 1 < argc;
-        if (feed_option(argc, argv, &i, &o))
-            continue;
-        if (!strcmp(a, "--buttons"))
-            buttons = 1;
-        else if (!strcmp(a, "--dev") && more)
-            dev = argv[++i];
-        else if (!strcmp(a, "--prime") && more)
-            prime = argv[++i];
-        else
-            unknown_option(a);
-    }
+    struct feed_options o = {.period_us = 1000, .min_period_us = 100, .cpu = -1, .usb = 1};
+    const struct own_option own[] = {
+        {"--buttons", NULL, &buttons},
+        {"--dev", &dev, NULL},
+        {"--prime", &prime, NULL},
+        {0},
+    };
+    parse_options(argc, argv, &o, own);
     int fd = open(dev, O_WRONLY);
     if (fd < 0)
         die("cannot open %s: %s", dev, strerror(errno));

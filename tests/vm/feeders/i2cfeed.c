@@ -69,28 +69,20 @@ static double read_scale(const char *path)
 int main(int argc, char **argv)
 {
     prog = "i2cfeed";
-    const char *bus = "/dev/i2c-0", *scale_path = NULL, *prime = NULL;
+    const char *bus = "/dev/i2c-0", *scale_path = NULL, *prime = NULL, *addr_text = "0x48";
     struct feed_options o = {.period_us = 1000, .min_period_us = 1, .cpu = -1};
-    long addr = 0x48;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int more = i + 1 < argc;
-        if (feed_option(argc, argv, &i, &o))
-            continue;
-        if (!strcmp(a, "--scale-file") && more)
-            scale_path = argv[++i];
-        else if (!strcmp(a, "--bus") && more)
-            bus = argv[++i];
-        else if (!strcmp(a, "--addr") && more) {
-            char *end;
-            addr = strtol(argv[++i], &end, 0);
-            if (*end || addr < 0x03 || addr > 0x77)
-                die("--addr must be a 7-bit address, got \"%s\"", argv[i]);
-        } else if (!strcmp(a, "--prime") && more)
-            prime = argv[++i];
-        else
-            unknown_option(a);
-    }
+    const struct own_option own[] = {
+        {"--scale-file", &scale_path, NULL},
+        {"--bus", &bus, NULL},
+        {"--addr", &addr_text, NULL},
+        {"--prime", &prime, NULL},
+        {0},
+    };
+    parse_options(argc, argv, &o, own);
+    char *end;
+    long addr = strtol(addr_text, &end, 0);
+    if (*end || end == addr_text || addr < 0x03 || addr > 0x77)
+        die("--addr must be a 7-bit address, got \"%s\"", addr_text);
     if (!scale_path)
         die("--scale-file is required (the channel's in_voltageN_scale)");
     struct adc adc = {.volts_per_lsb = read_scale(scale_path)};

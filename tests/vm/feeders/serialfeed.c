@@ -140,32 +140,23 @@ static void wait_command(struct ser *s, const char *command, double timeout_s)
 int main(int argc, char **argv)
 {
     prog = "serialfeed";
-    const char *dev = "/dev/ttyGS0";
+    const char *dev = "/dev/ttyGS0", *format_name = "volts", *wait_text = "60";
     struct feed_options o = {.min_period_us = 100, .cpu = -1, .usb = 1};
+    const struct own_option own[] = {
+        {"--format", &format_name, NULL},
+        {"--dev", &dev, NULL},
+        {"--wait-s", &wait_text, NULL},
+        {0},
+    };
+    parse_options(argc, argv, &o, own);
     enum format format = VOLTS;
-    double wait_s = 60;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int more = i + 1 < argc;
-        if (feed_option(argc, argv, &i, &o))
-            continue;
-        if (!strcmp(a, "--format") && more) {
-            const char *f = argv[++i];
-            if (!strcmp(f, "volts"))
-                format = VOLTS;
-            else if (!strcmp(f, "flipmouse"))
-                format = FLIPMOUSE;
-            else if (!strcmp(f, "lipsync"))
-                format = LIPSYNC;
-            else
-                die("--format: choose volts, flipmouse or lipsync, got \"%s\"", f);
-        } else if (!strcmp(a, "--dev") && more)
-            dev = argv[++i];
-        else if (!strcmp(a, "--wait-s") && more)
-            wait_s = (double)parse_long(argv[++i], "--wait-s", 1, 3600);
-        else
-            unknown_option(a);
-    }
+    if (!strcmp(format_name, "flipmouse"))
+        format = FLIPMOUSE;
+    else if (!strcmp(format_name, "lipsync"))
+        format = LIPSYNC;
+    else if (strcmp(format_name, "volts"))
+        die("--format: choose volts, flipmouse or lipsync, got \"%s\"", format_name);
+    double wait_s = (double)parse_long(wait_text, "--wait-s", 1, 3600);
     if (o.period_us == 0)
         o.period_us = format == VOLTS ? 1000 : format == FLIPMOUSE ? 50000 : 100000;
     static struct pattern p;
