@@ -522,10 +522,9 @@ fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() 
 /// A short recording of the built-in user to damage (made once): 3 s,
 /// its first bursts and match.
 fn short_recording() -> &'static Path {
-    static DIR: std::sync::OnceLock<(Scratch, PathBuf)> = std::sync::OnceLock::new();
-    &DIR.get_or_init(|| {
-        let scratch = Scratch::new();
-        let dir = scratch.join("rec");
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = Scratch::new().until_exit().join("rec");
         let out = sipnpuff(&[
             "run",
             "--seconds",
@@ -536,9 +535,8 @@ fn short_recording() -> &'static Path {
             dir.to_str().unwrap(),
         ]);
         assert!(out.status.success(), "{}", text(&out.stderr));
-        (scratch, dir)
+        dir
     })
-    .1
 }
 
 /// A copy of the short recording, in `rec` in a fresh scratch directory

@@ -1,7 +1,7 @@
 //! Each test's own scratch folder and its own name, both found without the
 //! test writing either.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The environment variable that keeps a failed test's scratch folder.
 const KEEP: &str = "SIPNPUFF_KEEP_SCRATCH";
@@ -57,6 +57,32 @@ impl Scratch {
             .tempdir()
             .expect("a scratch folder");
         Scratch(Some(dir))
+    }
+}
+
+impl Scratch {
+    /// The folder, kept for the rest of the test process (for what several
+    /// tests share) and removed when the process exits.
+    pub fn until_exit(mut self) -> PathBuf {
+        let path = self.0.take().expect("a scratch folder").keep();
+        let mut folders = UNTIL_EXIT.lock().unwrap_or_else(|e| e.into_inner());
+        if folders.is_empty() {
+            // SAFETY: registers a function that takes no arguments and
+            // neither panics nor unwinds.
+            unsafe { libc::atexit(remove_at_exit) };
+        }
+        folders.push(path.clone());
+        path
+    }
+}
+
+/// The folders [`Scratch::until_exit`] keeps.
+static UNTIL_EXIT: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+extern "C" fn remove_at_exit() {
+    let folders = UNTIL_EXIT.lock().unwrap_or_else(|e| e.into_inner());
+    for folder in folders.iter() {
+        let _ = std::fs::remove_dir_all(folder);
     }
 }
 
