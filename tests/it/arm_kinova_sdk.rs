@@ -654,8 +654,8 @@ fn sigint_mid_motion_sends_a_zero_point_then_closes() {
         run.wait_until_moving();
         let sigint_ns = monotonic_ns() as u64;
         run.signal(libc::SIGINT);
-        let (status, rest, _) = run.finish();
-        assert_eq!(status.code(), Some(130), "{rest:?}");
+        let (status, lines, stderr) = run.finish();
+        assert_eq!(status.code(), Some(130), "{lines:?}\n{stderr}");
         let calls = read_log(&standin.log());
         let sends: Vec<&Call> = calls
             .iter()

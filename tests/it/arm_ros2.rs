@@ -91,25 +91,25 @@ fn pose_topic_line() -> String {
     format!("pose_topic = \"{}\"", topic("tool_pose"))
 }
 
-/// One run's setting: a scratch folder, the command topic, sipnpuff's
+/// What a run needs: a scratch folder, the command topic, sipnpuff's
 /// config (if any).
-struct Graph {
+struct Setup {
     dir: Scratch,
     topic: String,
     config: Option<PathBuf>,
 }
 
-impl Graph {
+impl Setup {
     /// A config with these `[arm]` / `[arm.ros2]` lines; none when both
     /// are empty.
-    fn new(arm: &str, ros2: &str) -> Graph {
+    fn new(arm: &str, ros2: &str) -> Setup {
         let dir = Scratch::new();
         let config = (!arm.is_empty() || !ros2.is_empty()).then(|| {
             let path = dir.join("config.toml");
             std::fs::write(&path, format!("[arm]\n{arm}\n[arm.ros2]\n{ros2}\n")).unwrap();
             path
         });
-        Graph {
+        Setup {
             dir,
             topic: topic("cmd"),
             config,
@@ -333,9 +333,9 @@ fn assert_stream(received: &[Received], commands: &[ArmCommand], message: &str) 
 #[test]
 fn a_twist_stream_reaches_cyclone_dds_whole_at_100_hz() {
     ros2_test(|| {
-        let graph = Graph::new("connect_timeout_ms = 10000", "frame_id = \"tool_base\"");
+        let setup = Setup::new("connect_timeout_ms = 10000", "frame_id = \"tool_base\"");
         let (messages, outcome, commands) =
-            graph.recorded_stream("twist_stamped", "10", Duration::from_millis(500));
+            setup.recorded_stream("twist_stamped", "10", Duration::from_millis(500));
         let report = outcome.report.expect("a JSON report");
         assert_eq!(report["stream_ended_with_zero"], true, "{report}");
         assert_eq!(report["arm_commands"].as_u64(), Some(commands.len() as u64));
@@ -376,9 +376,9 @@ fn the_kinova_messages_arrive_as_float32() {
             ("pose_velocity_with_finger_velocity", "9"),
             ("pose_velocity", "2"),
         ] {
-            let graph = Graph::new("", &format!("message = \"{message}\""));
+            let setup = Setup::new("", &format!("message = \"{message}\""));
             let (messages, _, commands) =
-                graph.recorded_stream(message, seconds, Duration::from_millis(300));
+                setup.recorded_stream(message, seconds, Duration::from_millis(300));
             let stream = assert_stream(&messages, &commands, message);
             let gaps = timing(&stream[..stream.len() - 1]);
             eprintln!(
@@ -399,10 +399,10 @@ fn the_kinova_messages_arrive_as_float32() {
 fn a_receiver_killed_mid_run_is_a_fault() {
     ros2_test(|| {
         for (signal, name) in [(libc::SIGKILL, "SIGKILL"), (libc::SIGTERM, "SIGTERM")] {
-            let graph = Graph::new("", "");
+            let setup = Setup::new("", "");
             let (killed_ns, got, outcome) = in_private_network(|| {
-                let peer = graph.peer("twist_stamped", None);
-                let run = graph.run(&["--seconds", "30", "--json"]);
+                let peer = setup.peer("twist_stamped", None);
+                let run = setup.run(&["--seconds", "30", "--json"]);
                 // Killed once the stream has run a while.
                 poll_until(Duration::from_secs(20), Duration::from_millis(20), || {
                     peer.received().len() >= 200
@@ -421,7 +421,7 @@ fn a_receiver_killed_mid_run_is_a_fault() {
             );
             assert!(!outcome.status.success(), "{name}: the run fails");
             assert!(
-                errors.contains("the receiver of ROS 2 topic") && errors.contains(&graph.topic),
+                errors.contains("the receiver of ROS 2 topic") && errors.contains(&setup.topic),
                 "{name}: {report}"
             );
             assert!(
@@ -436,10 +436,10 @@ fn a_receiver_killed_mid_run_is_a_fault() {
 /// pose, with these `options` (`--follow`, …); returns sipnpuff's outcome
 /// and the arm-fault reasons it printed.
 fn run_with_pose(options: &[&str], seconds: &str) -> (Outcome, Vec<String>) {
-    let graph = Graph::new("", &pose_topic_line());
+    let setup = Setup::new("", &pose_topic_line());
     let outcome = in_private_network(|| {
-        let _peer = graph.peer("twist_stamped", Some(options));
-        finish_run(graph.run(&["--seconds", seconds, "--json"]))
+        let _peer = setup.peer("twist_stamped", Some(options));
+        finish_run(setup.run(&["--seconds", seconds, "--json"]))
     });
     let faults = outcome
         .stdout
@@ -477,10 +477,10 @@ fn a_pose_from_the_peer_is_the_measured_pose() {
 #[test]
 fn no_subscriber_is_a_clear_error_within_the_timeout() {
     ros2_test(|| {
-        let graph = Graph::new("connect_timeout_ms = 1500", "domain_id = 7");
+        let setup = Setup::new("connect_timeout_ms = 1500", "domain_id = 7");
         let (outcome, started_ns) = in_private_network(|| {
             let started_ns = monotonic_ns();
-            (finish_run(graph.run(&["--seconds", "5"])), started_ns)
+            (finish_run(setup.run(&["--seconds", "5"])), started_ns)
         });
         assert!(!outcome.status.success());
         let took = (outcome.exited_ns - started_ns) as f64 / 1e9;
@@ -491,7 +491,7 @@ fn no_subscriber_is_a_clear_error_within_the_timeout() {
         for part in [
             "no subscriber matched ROS 2 topic",
             "geometry_msgs::msg::dds_::TwistStamped_",
-            &format!("rt{}", graph.topic),
+            &format!("rt{}", setup.topic),
             "domain 7",
             "ROS_DOMAIN_ID",
             "within 1500 ms",
@@ -506,10 +506,10 @@ fn no_subscriber_is_a_clear_error_within_the_timeout() {
 #[test]
 fn a_stop_request_ends_the_stream_with_a_zero_at_the_peer() {
     ros2_test(|| {
-        let graph = Graph::new("", "");
+        let setup = Setup::new("", "");
         let (messages, signalled_ns, outcome) = in_private_network(|| {
-            let peer = graph.peer("twist_stamped", None);
-            let run = graph.run(&["--seconds", "30", "--json"]);
+            let peer = setup.peer("twist_stamped", None);
+            let run = setup.run(&["--seconds", "30", "--json"]);
             // Mid-motion: once the arm moves.
             poll_until(Duration::from_secs(25), Duration::from_millis(10), || {
                 peer.received().iter().any(|m| !m.is_zero())

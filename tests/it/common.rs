@@ -184,8 +184,8 @@ impl Running {
         }
     }
 
-    /// Reads stdout until a line contains `text`; returns that line.
-    pub fn wait_for(&mut self, text: &str) -> String {
+    /// Reads stdout until a line contains `text`.
+    pub fn wait_for(&mut self, text: &str) {
         loop {
             let line = self.lines.recv().unwrap_or_else(|_| {
                 panic!(
@@ -195,9 +195,9 @@ impl Running {
                 )
             });
             let found = line.contains(text);
-            self.seen.push(line.clone());
+            self.seen.push(line);
             if found {
-                return line;
+                return;
             }
         }
     }
