@@ -23,8 +23,7 @@ use sipnpuff::rt::stop::StopRequest;
 use sipnpuff::rt::threads::{RunOptions, run};
 use sipnpuff::sensor::synthetic::SyntheticSensor;
 
-use crate::common::{NO_ALLOCATIONS, Running, STOPPED_AT_REST};
-use crate::scratch::Scratch;
+use crate::common::Running;
 use sipnpuff::sim::script::run_script;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams};
 
@@ -185,7 +184,7 @@ fn a_short_real_run_reports_its_structure() {
 
     // --histogram-dir: one .hgrm per histogram, in the plotter's format,
     // its total the number of ticks.
-    let dir = Scratch::new();
+    let dir = crate::scratch::Scratch::new();
     let written = report.write_histograms(&dir).unwrap();
     let names: Vec<_> = written
         .iter()
@@ -248,8 +247,8 @@ fn sigint_stops_safely_with_a_report() {
             text.contains("\"event\":\"detection\",\"reason\":\"stop\""),
             "{text}"
         );
-        assert!(text.contains(STOPPED_AT_REST), "{text}");
-        assert!(text.contains(NO_ALLOCATIONS), "{text}");
+        assert!(text.contains(crate::common::STOPPED_AT_REST), "{text}");
+        assert!(text.contains(crate::common::NO_ALLOCATIONS), "{text}");
     });
 }
 
@@ -288,7 +287,7 @@ fn a_user_without_privileges_runs_and_is_told_what_it_lacks() {
         text.contains("final commanded velocity: linear (0, 0, 0)"),
         "{text}"
     );
-    assert!(text.contains(NO_ALLOCATIONS), "{text}");
+    assert!(text.contains(crate::common::NO_ALLOCATIONS), "{text}");
 }
 
 /// An arm that takes `good` commands, then refuses the next; it records
@@ -463,7 +462,7 @@ fn a_stopped_and_continued_process_reports_the_stall_and_stops_safely() {
             .collect();
         assert!(gaps.iter().any(|&ms| ms >= 1900), "{gaps:?}\n{text}");
         assert!(text.contains("stopped by: time"), "{text}");
-        assert!(text.contains(STOPPED_AT_REST), "{text}");
+        assert!(text.contains(crate::common::STOPPED_AT_REST), "{text}");
     });
 }
 
