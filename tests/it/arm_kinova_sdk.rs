@@ -10,39 +10,22 @@
 //! `SIPNPUFF_REQUIRE_PEERS=1` (CI), where that is a failure.
 
 use std::collections::HashMap;
-use std::io::BufRead;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::Duration;
 
 use nalgebra::{UnitQuaternion, Vector3};
 use serde_json::Value;
 use sipnpuff::arm::kinova_sdk::abi::{
     CartesianPosition, EthernetCommConfig, KinovaDevice, TrajectoryPoint, UserPosition,
 };
-use sipnpuff::control::motion::stream::ArmCommand;
-use sipnpuff::tools::recording::format::commands::CommandItem;
-use sipnpuff::tools::recording::read::Recording;
 
-use crate::common::{assert_rate, have_peer};
+use crate::common::{Running, assert_rate, have_peer, monotonic_ns};
+use crate::peers::{Gaps, quantile, recorded_commands};
+use crate::scratch::Scratch;
 
 /// The stand-in's starting orientation (Euler XYZ, rad): not the identity,
 /// so the conversion to a rotation is exercised end to end.
 const START: [f64; 6] = [0.21, -0.26, 0.48, 0.3, -0.2, 1.0];
-
-/// A fresh folder under the system's temporary directory.
-fn temp_dir(name: &str) -> PathBuf {
-    static N: AtomicUsize = AtomicUsize::new(0);
-    let dir = std::env::temp_dir().join(format!(
-        "sipnpuff-kinova-sdk-{}-{}-{name}",
-        std::process::id(),
-        N.fetch_add(1, Ordering::Relaxed)
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// The C compiler: `$CC`, else `cc`, else `gcc`.
 fn compiler() -> Option<String> {
@@ -64,56 +47,157 @@ fn compiler() -> Option<String> {
     None
 }
 
-/// Builds the stand-in into a new folder under both file names (USB and
-/// Ethernet, the latter with `Ethernet_` names), with extra `-D` defines;
-/// `None` (after a notice) when there is no C compiler and peers are not
-/// required.
-fn standin(name: &str, defines: &[&str]) -> Option<PathBuf> {
-    let Some(cc) = compiler() else {
-        have_peer(
-            name,
-            Some(
+/// Runs a real-time test (see [`crate::common::real_time`]) with the
+/// stand-in built with these extra `-D` defines; a notice (or, under
+/// `SIPNPUFF_REQUIRE_PEERS=1`, a failure) when there is no C compiler.
+fn kinova_test(defines: &[&str], test: impl Fn(&Standin)) {
+    crate::common::real_time(|| {
+        let Some(cc) = compiler() else {
+            have_peer(Some(
                 "no C compiler (cc, gcc or $CC) to build the Kinova SDK stand-in: run tests/peers/kinova_sdk/install.sh"
                     .into(),
-            ),
-        );
-        return None;
-    };
-    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/peers/kinova_sdk/standin.c");
-    let dir = temp_dir(name);
-    for (file, ethernet) in [
-        ("Kinova.API.USBCommandLayerUbuntu.so", false),
-        ("Kinova.API.EthCommandLayerUbuntu.so", true),
-    ] {
-        let mut command = Command::new(&cc);
-        command.args([
-            "-shared",
-            "-fPIC",
-            "-O2",
-            "-Wall",
-            "-Werror",
-            "-fvisibility=hidden",
-        ]);
-        if ethernet {
-            command.arg("-DSTANDIN_ETHERNET");
+            ));
+            return;
+        };
+        test(&Standin::build(&cc, defines));
+    });
+}
+
+/// The stand-in built into a test's scratch folder (`lib/`), where its
+/// runs keep their config and the stand-in's log of calls.
+struct Standin {
+    dir: Scratch,
+}
+
+impl Standin {
+    /// Builds the stand-in under both file names (USB and Ethernet, the
+    /// latter with `Ethernet_` names) with `cc` and extra `-D` defines.
+    fn build(cc: &str, defines: &[&str]) -> Standin {
+        let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/peers/kinova_sdk/standin.c");
+        let standin = Standin {
+            dir: Scratch::new(),
+        };
+        std::fs::create_dir(standin.lib()).unwrap();
+        for (file, ethernet) in [
+            ("Kinova.API.USBCommandLayerUbuntu.so", false),
+            ("Kinova.API.EthCommandLayerUbuntu.so", true),
+        ] {
+            let mut command = Command::new(cc);
+            command.args([
+                "-shared",
+                "-fPIC",
+                "-O2",
+                "-Wall",
+                "-Werror",
+                "-fvisibility=hidden",
+            ]);
+            if ethernet {
+                command.arg("-DSTANDIN_ETHERNET");
+            }
+            for define in defines {
+                command.arg(format!("-D{define}"));
+            }
+            let output = command
+                .arg("-o")
+                .arg(standin.lib().join(file))
+                .arg(&source)
+                .args(["-lm", "-lpthread"])
+                .output()
+                .unwrap();
+            assert!(
+                output.status.success(),
+                "building the stand-in failed:\n{}",
+                String::from_utf8_lossy(&output.stderr)
+            );
         }
-        for define in defines {
-            command.arg(format!("-D{define}"));
-        }
-        let output = command
-            .arg("-o")
-            .arg(dir.join(file))
-            .arg(&source)
-            .args(["-lm", "-lpthread"])
-            .output()
-            .unwrap();
-        assert!(
-            output.status.success(),
-            "building the stand-in failed:\n{}",
-            String::from_utf8_lossy(&output.stderr)
-        );
+        standin
     }
-    Some(dir)
+
+    /// The folder of the built library.
+    fn lib(&self) -> PathBuf {
+        self.dir.join("lib")
+    }
+
+    /// The stand-in's log of calls.
+    fn log(&self) -> PathBuf {
+        self.dir.join("calls.log")
+    }
+
+    /// The config: the library folder, the home pose the stand-in starts
+    /// at, `arm` lines for `[arm]` and `extra` lines for
+    /// `[arm.kinova_sdk]`.
+    fn config(&self, library_dir: &Path, arm: &str, extra: &str) -> PathBuf {
+        let rotation = euler_xyz(START[3], START[4], START[5]).scaled_axis();
+        let path = self.dir.join("config.toml");
+        std::fs::write(
+            &path,
+            format!(
+                "[arm]\nhome_position_m = [{}, {}, {}]\nhome_rotation_vector_rad = [{}, {}, {}]\n{arm}\n\
+                 [arm.feedback]\ntimeout_ms = {FEEDBACK_TIMEOUT_MS}\n\
+                 [arm.kinova_sdk]\nlibrary_dir = {:?}\n{extra}\n",
+                START[0],
+                START[1],
+                START[2],
+                rotation.x,
+                rotation.y,
+                rotation.z,
+                library_dir.display().to_string()
+            ),
+        )
+        .unwrap();
+        path
+    }
+
+    /// `sipnpuff run --arm ARM --json ARGS` with `config` and the
+    /// stand-in's env.
+    fn command(&self, arm: &str, config: &Path, env: &[(&str, &str)], args: &[&str]) -> Command {
+        let mut command = crate::common::sipnpuff();
+        command
+            .args(["run", "--arm", arm, "--json", "--config"])
+            .arg(config)
+            .args(args)
+            .env("KINOVA_STANDIN_LOG", self.log())
+            .env("KINOVA_STANDIN_POSE", start_env())
+            .envs(env.iter().copied())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped());
+        command
+    }
+
+    /// A run to its end with the library in `library_dir` and `extra`
+    /// lines for `[arm.kinova_sdk]`.
+    fn run_with(
+        &self,
+        library_dir: &Path,
+        arm: &str,
+        extra: &str,
+        env: &[(&str, &str)],
+        args: &[&str],
+    ) -> Run {
+        let config = self.config(library_dir, "", extra);
+        let output = crate::watchdog::output(&mut self.command(arm, &config, env, args));
+        crate::common::witness(&String::from_utf8_lossy(&output.stdout));
+        Run {
+            status: output.status,
+            stdout: String::from_utf8_lossy(&output.stdout).into(),
+            stderr: String::from_utf8_lossy(&output.stderr).into(),
+            calls: read_log(&self.log()),
+        }
+    }
+
+    /// [`Standin::run_with`] the stand-in's library.
+    fn run(&self, arm: &str, extra: &str, env: &[(&str, &str)], args: &[&str]) -> Run {
+        self.run_with(&self.lib(), arm, extra, env, args)
+    }
+
+    /// A USB run of 1 s that fails with the stand-in told `env`: all it
+    /// printed, and the calls' names.
+    fn failed_start(&self, env: (&str, &str)) -> (String, Vec<String>) {
+        let run = self.run("kinova-sdk:usb", "", &[env], &["--seconds", "1"]);
+        assert!(!run.status.success());
+        let names = run.names().iter().map(|n| n.to_string()).collect();
+        (run.all(), names)
+    }
 }
 
 /// One recorded call.
@@ -193,30 +277,6 @@ impl Run {
 /// arm fault, rightly); 1 s keeps them about what they test.
 const FEEDBACK_TIMEOUT_MS: u32 = 1000;
 
-/// The config: the library folder, the home pose the stand-in starts at,
-/// and `extra` lines for `[arm.kinova_sdk]`.
-fn config(dir: &Path, library_dir: &Path, arm: &str, extra: &str) -> PathBuf {
-    let rotation = euler_xyz(START[3], START[4], START[5]).scaled_axis();
-    let path = dir.join("config.toml");
-    std::fs::write(
-        &path,
-        format!(
-            "[arm]\nhome_position_m = [{}, {}, {}]\nhome_rotation_vector_rad = [{}, {}, {}]\n{arm}\n\
-             [arm.feedback]\ntimeout_ms = {FEEDBACK_TIMEOUT_MS}\n\
-             [arm.kinova_sdk]\nlibrary_dir = {:?}\n{extra}\n",
-            START[0],
-            START[1],
-            START[2],
-            rotation.x,
-            rotation.y,
-            rotation.z,
-            library_dir.display().to_string()
-        ),
-    )
-    .unwrap();
-    path
-}
-
 /// R = Rx(tx)·Ry(ty)·Rz(tz), as kinova-ros reads Kinova's angles.
 fn euler_xyz(tx: f64, ty: f64, tz: f64) -> UnitQuaternion<f64> {
     UnitQuaternion::from_axis_angle(&Vector3::x_axis(), tx)
@@ -226,42 +286,6 @@ fn euler_xyz(tx: f64, ty: f64, tz: f64) -> UnitQuaternion<f64> {
 
 fn start_env() -> String {
     START.map(|v| v.to_string()).join(",")
-}
-
-/// `sipnpuff run --arm ARM --json ARGS` with the stand-in's env.
-fn command(arm: &str, config: &Path, log: &Path, env: &[(&str, &str)], args: &[&str]) -> Command {
-    let mut command = crate::common::sipnpuff();
-    command
-        .args(["run", "--arm", arm, "--json", "--config"])
-        .arg(config)
-        .args(args)
-        .env("KINOVA_STANDIN_LOG", log)
-        .env("KINOVA_STANDIN_POSE", start_env())
-        .envs(env.iter().copied())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    command
-}
-
-fn run(
-    dir: &Path,
-    library_dir: &Path,
-    arm: &str,
-    extra: &str,
-    env: &[(&str, &str)],
-    args: &[&str],
-) -> Run {
-    let config = config(dir, library_dir, "", extra);
-    let log = dir.join("calls.log");
-    let mut command = command(arm, &config, &log, env, args);
-    let output = crate::watchdog::output(&mut command);
-    crate::common::witness(&String::from_utf8_lossy(&output.stdout));
-    Run {
-        status: output.status,
-        stdout: String::from_utf8_lossy(&output.stdout).into(),
-        stderr: String::from_utf8_lossy(&output.stderr).into(),
-        calls: read_log(&log),
-    }
 }
 
 /// The connection's calls, in order (kinova-ros's start, stop, start).
@@ -280,31 +304,11 @@ const CONNECT: [&str; 9] = [
 /// The stop's calls, after the zero point and its measurement.
 const STOP: [&str; 3] = ["EraseAllTrajectories", "StopControlAPI", "CloseAPI"];
 
-/// Sorted intervals between calls, ms.
-fn intervals_ms(calls: &[&Call]) -> Vec<f64> {
-    let mut d: Vec<f64> = calls
-        .windows(2)
-        .map(|w| (w[1].ns - w[0].ns) as f64 / 1e6)
-        .collect();
-    d.sort_by(f64::total_cmp);
-    d
-}
-
-fn quantile(sorted: &[f64], q: f64) -> f64 {
-    sorted[((sorted.len() - 1) as f64 * q).round() as usize]
-}
-
 #[test]
 fn usb_streams_the_cores_commands_at_100_hz_and_reads_the_measured_pose() {
-    crate::common::real_time(|| {
-        let Some(lib) = standin("usb", &[]) else {
-            return;
-        };
-        let dir = temp_dir("usb-run");
-        let record = dir.join("rec");
-        let run = run(
-            &dir,
-            &lib,
+    kinova_test(&[], |standin| {
+        let record = standin.dir.join("rec");
+        let run = standin.run(
             "kinova-sdk:usb",
             "",
             &[],
@@ -361,15 +365,7 @@ fn usb_streams_the_cores_commands_at_100_hz_and_reads_the_measured_pose() {
         );
 
         // Every command the core made, as f32, in order; then one zero point.
-        let recording = Recording::open(&record).unwrap();
-        let mut decoder = recording.commands().unwrap();
-        let mut commands: Vec<ArmCommand> = Vec::new();
-        while let Some(item) = decoder.next_item().unwrap() {
-            match item {
-                CommandItem::Command(c) => commands.push(c),
-                CommandItem::Lost(n) => panic!("{n} commands lost from the recording"),
-            }
-        }
+        let commands = recorded_commands(&record);
         let sends = run.sends();
         assert_eq!(report["arm_commands"], commands.len() as u64);
         assert_eq!(sends.len(), commands.len() + 1, "the commands and one zero");
@@ -408,17 +404,17 @@ fn usb_streams_the_cores_commands_at_100_hz_and_reads_the_measured_pose() {
 
         // 100 Hz at the library, over the stream (the core's ticks).
         let stream = &sends[..sends.len() - 1];
-        let span_ms = (stream.last().unwrap().ns - stream[0].ns) as f64 / 1e6;
-        let rate = (stream.len() - 1) as f64 / span_ms * 1000.0;
-        let d = intervals_ms(stream);
+        let times: Vec<i64> = stream.iter().map(|s| s.ns as i64).collect();
+        let gaps = Gaps::of(&times);
+        let rate = gaps.rate_hz();
         eprintln!(
             "kinova-sdk:usb at the stand-in: {} points, {rate:.3} Hz; interval p50 {:.3} ms, \
          p99 {:.3} ms, min {:.3} ms, max {:.3} ms",
             stream.len(),
-            quantile(&d, 0.5),
-            quantile(&d, 0.99),
-            d[0],
-            d[d.len() - 1]
+            gaps.quantile(0.5),
+            gaps.quantile(0.99),
+            gaps.quantile(0.0),
+            gaps.quantile(1.0)
         );
         assert_rate(rate, &report);
         // Each point's time at the library against its core tick (1 ms each):
@@ -472,14 +468,8 @@ fn usb_streams_the_cores_commands_at_100_hz_and_reads_the_measured_pose() {
 
 #[test]
 fn eth_uses_the_ethernet_layer_with_the_configured_addresses() {
-    crate::common::real_time(|| {
-        let Some(lib) = standin("eth", &[]) else {
-            return;
-        };
-        let dir = temp_dir("eth-run");
-        let run = run(
-            &dir,
-            &lib,
+    kinova_test(&[], |standin| {
+        let run = standin.run(
             "kinova-sdk:eth",
             "local_ip = \"10.1.2.3\"\nsubnet_mask = \"255.255.0.0\"\nrobot_ip = \"10.1.9.8\"\n\
          robot_port = 55001\nlocal_cmd_port = 25001\nlocal_broadcast_port = 25026",
@@ -516,14 +506,8 @@ fn eth_uses_the_ethernet_layer_with_the_configured_addresses() {
 
 #[test]
 fn a_failing_send_is_a_lost_link_and_the_arm_is_still_stopped() {
-    crate::common::real_time(|| {
-        let Some(lib) = standin("fail", &[]) else {
-            return;
-        };
-        let dir = temp_dir("fail-run");
-        let run = run(
-            &dir,
-            &lib,
+    kinova_test(&[], |standin| {
+        let run = standin.run(
             "kinova-sdk:usb",
             "",
             &[
@@ -564,14 +548,8 @@ fn a_failing_send_is_a_lost_link_and_the_arm_is_still_stopped() {
 
 #[test]
 fn a_hanging_call_is_a_lost_link_within_the_call_timeout() {
-    crate::common::real_time(|| {
-        let Some(lib) = standin("hang", &[]) else {
-            return;
-        };
-        let dir = temp_dir("hang-run");
-        let run = run(
-            &dir,
-            &lib,
+    kinova_test(&[], |standin| {
+        let run = standin.run(
             "kinova-sdk:usb",
             "call_timeout_ms = 50",
             &[("KINOVA_STANDIN_HANG_SEND_AFTER", "100")],
@@ -590,69 +568,37 @@ fn a_hanging_call_is_a_lost_link_within_the_call_timeout() {
 
 #[test]
 fn init_failure_says_what_to_check_and_touches_nothing_else() {
-    crate::common::real_time(|| {
-        let Some(lib) = standin("init", &[]) else {
-            return;
-        };
-        let dir = temp_dir("init-run");
-        let run = run(
-            &dir,
-            &lib,
-            "kinova-sdk:usb",
-            "",
-            &[("KINOVA_STANDIN_INIT_CODE", "1015")],
-            &["--seconds", "1"],
-        );
-        assert!(!run.status.success());
-        let all = run.all();
+    kinova_test(&[], |standin| {
+        let (all, names) = standin.failed_start(("KINOVA_STANDIN_INIT_CODE", "1015"));
         assert!(
             all.contains("InitAPI returned 1015 (ERROR_NO_DEVICE_FOUND")
                 && all.contains("no JACO2 found on USB")
                 && all.contains("10-kinova-arm.rules"),
             "{all}"
         );
-        assert_eq!(run.names(), ["InitAPI"]);
+        assert_eq!(names, ["InitAPI"]);
     });
 }
 
 #[test]
 fn no_arm_found_is_a_clear_error_and_the_api_is_closed() {
-    crate::common::real_time(|| {
-        let Some(lib) = standin("nodevice", &[]) else {
-            return;
-        };
-        let dir = temp_dir("nodevice-run");
-        let run = run(
-            &dir,
-            &lib,
-            "kinova-sdk:usb",
-            "",
-            &[("KINOVA_STANDIN_DEVICES", "0")],
-            &["--seconds", "1"],
-        );
-        assert!(!run.status.success());
-        let all = run.all();
+    kinova_test(&[], |standin| {
+        let (all, names) = standin.failed_start(("KINOVA_STANDIN_DEVICES", "0"));
         assert!(
             all.contains("GetDevices found no device") && all.contains("is it powered"),
             "{all}"
         );
-        assert_eq!(run.names(), ["InitAPI", "GetDevices", "CloseAPI"]);
+        assert_eq!(names, ["InitAPI", "GetDevices", "CloseAPI"]);
     });
 }
 
 #[test]
 fn an_init_that_never_returns_gives_up_after_the_connect_timeout() {
-    crate::common::real_time(|| {
-        let Some(lib) = standin("slow", &[]) else {
-            return;
-        };
-        let dir = temp_dir("slow-run");
-        let config = config(&dir, &lib, "connect_timeout_ms = 300", "");
-        let log = dir.join("calls.log");
-        let output = crate::watchdog::output(&mut command(
+    kinova_test(&[], |standin| {
+        let config = standin.config(&standin.lib(), "connect_timeout_ms = 300", "");
+        let output = crate::watchdog::output(&mut standin.command(
             "kinova-sdk:usb",
             &config,
-            &log,
             &[("KINOVA_STANDIN_INIT_DELAY_MS", "20000")],
             &["--seconds", "1"],
         ));
@@ -673,13 +619,10 @@ fn an_init_that_never_returns_gives_up_after_the_connect_timeout() {
 
 #[test]
 fn a_missing_library_or_symbol_is_named() {
-    crate::common::real_time(|| {
-        let Some(lib) = standin("nosend", &["STANDIN_OMIT_SEND"]) else {
-            return;
-        };
-        let dir = temp_dir("missing-run");
-        let empty = temp_dir("empty-lib");
-        let run1 = run(&dir, &empty, "kinova-sdk:usb", "", &[], &["--seconds", "1"]);
+    kinova_test(&["STANDIN_OMIT_SEND"], |standin| {
+        let empty = standin.dir.join("empty");
+        std::fs::create_dir(&empty).unwrap();
+        let run1 = standin.run_with(&empty, "kinova-sdk:usb", "", &[], &["--seconds", "1"]);
         assert!(!run1.status.success());
         let all = run1.all();
         assert!(
@@ -690,7 +633,7 @@ fn a_missing_library_or_symbol_is_named() {
                 && all.contains("[arm.kinova_sdk] library_dir"),
             "{all}"
         );
-        let run2 = run(&dir, &lib, "kinova-sdk:eth", "", &[], &["--seconds", "1"]);
+        let run2 = standin.run("kinova-sdk:eth", "", &[], &["--seconds", "1"]);
         assert!(!run2.status.success());
         let all = run2.all();
         assert!(
@@ -703,57 +646,17 @@ fn a_missing_library_or_symbol_is_named() {
 
 #[test]
 fn sigint_mid_motion_sends_a_zero_point_then_closes() {
-    crate::common::real_time(|| {
-        let Some(lib) = standin("sigint", &[]) else {
-            return;
-        };
-        let dir = temp_dir("sigint-run");
-        let config = config(&dir, &lib, "", "");
-        let log = dir.join("calls.log");
-        let mut child = crate::watchdog::spawn(&mut command(
-            "kinova-sdk:usb",
-            &config,
-            &log,
-            &[],
-            &["--seconds", "30"],
-        ));
-        let stdout = std::io::BufReader::new(child.stdout.take().unwrap());
-        let mut lines = stdout.lines();
-        loop {
-            let line = lines
-                .next()
-                .expect("stdout ended before the arm moved")
-                .unwrap();
-            if line.contains("\"mode\":\"translate_x\"") {
-                break;
-            }
-        }
+    kinova_test(&[], |standin| {
+        let config = standin.config(&standin.lib(), "", "");
+        let mut run =
+            Running::start(standin.command("kinova-sdk:usb", &config, &[], &["--seconds", "30"]));
         // 0.9 s into the scripted user's 1.5 s puff: moving.
-        std::thread::sleep(Duration::from_millis(900));
-        let mut now = libc::timespec {
-            tv_sec: 0,
-            tv_nsec: 0,
-        };
-        // SAFETY: a valid pointer to a timespec.
-        assert_eq!(
-            unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut now) },
-            0
-        );
-        let sigint_ns = now.tv_sec as u64 * 1_000_000_000 + now.tv_nsec as u64;
-        // SAFETY: kill with the child's pid and a valid signal.
-        assert_eq!(
-            unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) },
-            0
-        );
-        crate::watchdog::watch(
-            &child,
-            "sipnpuff after SIGINT",
-            crate::watchdog::AFTER_SIGNAL,
-        );
-        let rest: Vec<String> = lines.map_while(Result::ok).collect();
-        let status = crate::watchdog::wait(&mut child);
-        assert_eq!(status.code(), Some(130), "{rest:?}");
-        let calls = read_log(&log);
+        run.wait_until_moving();
+        let sigint_ns = monotonic_ns() as u64;
+        run.signal(libc::SIGINT);
+        let (status, lines, stderr) = run.finish();
+        assert_eq!(status.code(), Some(130), "{lines:?}\n{stderr}");
+        let calls = read_log(&standin.log());
         let sends: Vec<&Call> = calls
             .iter()
             .filter(|c| c.name == "SendAdvanceTrajectory")

@@ -11,45 +11,40 @@
 //! Skipped with a notice when the peers are not installed, unless
 //! `SIPNPUFF_REQUIRE_PEERS=1` (CI), where that is a failure.
 
-use std::io::BufRead;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use serde_json::Value;
 use sipnpuff::control::motion::stream::ArmCommand;
-use sipnpuff::tools::recording::format::commands::{CommandDecoder, CommandItem};
 
-use crate::common::{Running, free_port, have_peer, monotonic_ns};
+use crate::common::{Running, free_port, have_peer, monotonic_ns, poll_until};
+use crate::peers::{Gaps, recorded_commands};
+use crate::scratch::{Scratch, test_name};
 
 const NS: &str = "/j2n6s300_driver";
 const PYTHON: &str = "/usr/bin/python3";
 const ROSMASTER: &str = "/usr/bin/rosmaster";
 
-/// Whether Debian's ROS 1 is here; a notice (or, under
+/// Runs a real-time test (see [`crate::common::real_time`]) in a ROS graph
+/// of its own if Debian's ROS 1 is here; a notice (or, under
 /// `SIPNPUFF_REQUIRE_PEERS=1`, a failure) when not.
-fn peers_installed(test: &str) -> bool {
-    let ok = Path::new(ROSMASTER).exists()
-        && Command::new(PYTHON)
-            .args(["-c", "import rospy, genmsg, geometry_msgs.msg"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .status()
-            .is_ok_and(|s| s.success());
-    have_peer(
-        test,
-        (!ok).then(|| {
+fn ros1_test(test: impl Fn(&mut Graph)) {
+    crate::common::real_time(|| {
+        let ok = Path::new(ROSMASTER).exists()
+            && Command::new(PYTHON)
+                .args(["-c", "import rospy, genmsg, geometry_msgs.msg"])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .status()
+                .is_ok_and(|s| s.success());
+        let missing = (!ok).then(|| {
             "Debian's ROS 1 (rosmaster, python3-rospy, python3-geometry-msgs) is not installed: run tests/peers/ros1/install.sh as root".into()
-        }),
-    )
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sipnpuff-ros1-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+        });
+        if have_peer(missing) {
+            test(&mut Graph::start());
+        }
+    });
 }
 
 fn peer_script(name: &str) -> PathBuf {
@@ -58,89 +53,33 @@ fn peer_script(name: &str) -> PathBuf {
         .join(name)
 }
 
-/// A process killed (SIGKILL) when dropped, its stdout lines on a
-/// channel with their arrival times.
-struct Proc {
-    child: Child,
-    lines: mpsc::Receiver<String>,
-    name: String,
-}
-
-impl Proc {
-    fn spawn(name: &str, mut command: Command) -> Proc {
-        let mut child =
-            crate::watchdog::spawn(command.stdout(Stdio::piped()).stderr(Stdio::null()));
-        let stdout = child.stdout.take().unwrap();
-        let (tx, lines) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in std::io::BufReader::new(stdout).lines() {
-                let Ok(line) = line else { break };
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        Proc {
-            child,
-            lines,
-            name: name.into(),
-        }
-    }
-
-    /// Waits (up to 30 s) for a line containing `text`.
-    fn wait_for(&self, text: &str) -> String {
-        let deadline = Instant::now() + Duration::from_secs(30);
-        loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            match self.lines.recv_timeout(left) {
-                Ok(line) if line.contains(text) => return line,
-                Ok(_) => {}
-                Err(e) => panic!("{}: no line with {text:?}: {e}", self.name),
-            }
-        }
-    }
-
-    fn kill(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        self.kill();
-    }
-}
-
 /// A ROS graph of its own: a rosmaster on a free port, logs in `dir`.
 struct Graph {
-    dir: PathBuf,
     port: u16,
-    master: Option<Proc>,
+    /// Declared before `dir`: stopped before the folder is removed.
+    master: Option<Running>,
+    dir: Scratch,
 }
 
 impl Graph {
-    fn start(name: &str) -> Graph {
-        let dir = scratch(name);
-        let port = free_port();
+    fn start() -> Graph {
         let mut graph = Graph {
-            dir,
-            port,
+            port: free_port(),
             master: None,
+            dir: Scratch::new(),
         };
         let mut command = Command::new(ROSMASTER);
-        command.args(["--core", "-p", &port.to_string()]);
+        command.args(["--core", "-p", &graph.port.to_string()]);
         graph.env(&mut command);
-        graph.master = Some(Proc::spawn("rosmaster", command));
+        graph.master = Some(Running::start(command));
         // Up when it answers.
-        let deadline = Instant::now() + Duration::from_secs(30);
-        while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
-            assert!(
-                Instant::now() < deadline,
-                "rosmaster did not open port {port}"
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        }
+        let port = graph.port;
+        assert!(
+            poll_until(Duration::from_secs(30), Duration::from_millis(50), || {
+                std::net::TcpStream::connect(("127.0.0.1", port)).is_ok()
+            }),
+            "rosmaster did not open port {port}"
+        );
         graph
     }
 
@@ -153,35 +92,38 @@ impl Graph {
             .env("ROS_MASTER_URI", self.uri())
             .env("ROS_HOSTNAME", "127.0.0.1")
             .env_remove("ROS_IP")
-            .env("ROS_HOME", &self.dir)
+            .env("ROS_HOME", &*self.dir)
             .env("ROS_LOG_DIR", self.dir.join("log"))
             .env("PYTHONUNBUFFERED", "1");
     }
 
-    /// The driver's side: a rospy AnyMsg subscriber, subscribed.
-    fn subscriber(&self, fingers: bool) -> Proc {
+    /// A rospy peer (`script` with `args`) in this graph, once it says it
+    /// is ready.
+    fn peer(&self, script: &str, args: &[&str]) -> Running {
         let mut command = Command::new(PYTHON);
-        command.arg(peer_script("subscriber.py")).args(["--ns", NS]);
-        if fingers {
-            command.arg("--fingers");
-        }
+        command
+            .arg(peer_script(script))
+            .args(["--ns", NS])
+            .args(args);
         self.env(&mut command);
-        let peer = Proc::spawn("subscriber.py", command);
+        let mut peer = Running::start(command);
         peer.wait_for("\"ready\"");
         peer
     }
 
+    /// The driver's side: a rospy AnyMsg subscriber, subscribed.
+    fn subscriber(&self, fingers: bool) -> Running {
+        self.peer("subscriber.py", if fingers { &["--fingers"] } else { &[] })
+    }
+
     /// The tool pose: a rospy PoseStamped publisher at 10 Hz.
-    fn pose_publisher(&self, pose: [f64; 7]) -> Proc {
-        let mut command = Command::new(PYTHON);
-        command
-            .arg(peer_script("pose_publisher.py"))
-            .args(["--ns", NS, "--pose"]);
-        command.args(pose.map(|v| v.to_string()));
-        self.env(&mut command);
-        let peer = Proc::spawn("pose_publisher.py", command);
-        peer.wait_for("\"ready\"");
-        peer
+    fn pose_publisher(&self, pose: [f64; 7]) -> Running {
+        let pose = pose.map(|v| v.to_string());
+        let args: Vec<&str> = ["--pose"]
+            .into_iter()
+            .chain(pose.iter().map(String::as_str))
+            .collect();
+        self.peer("pose_publisher.py", &args)
     }
 
     /// A config file: `[arm]` settings for this test, and the loaded
@@ -196,6 +138,17 @@ impl Graph {
         )
         .unwrap();
         path.to_str().unwrap().into()
+    }
+
+    /// The driver's subscriber (with the fingers or not) and a 60 s run
+    /// with `args` streaming to it, returned once the arm moves; and the
+    /// run's config.
+    fn moving_arm(&self, fingers: bool, args: &[&str]) -> (Running, Running, String) {
+        let peer = self.subscriber(fingers);
+        let config = self.config(fingers, false, 10_000);
+        let mut run = self.sipnpuff(&config, &[&["--seconds", "60"], args].concat());
+        run.wait_until_moving();
+        (peer, run, config)
     }
 
     /// `sipnpuff run --arm ros1:NS ARGS` in this graph.
@@ -215,13 +168,6 @@ impl Graph {
     }
 }
 
-impl Drop for Graph {
-    fn drop(&mut self) {
-        drop(self.master.take());
-        let _ = std::fs::remove_dir_all(&self.dir);
-    }
-}
-
 /// What the subscriber received: (CLOCK_MONOTONIC ns, float32 fields).
 struct Received {
     header: Value,
@@ -229,7 +175,7 @@ struct Received {
 }
 
 /// Everything the subscriber printed so far (waits `settle` for more).
-fn received(peer: &Proc, settle: Duration) -> Received {
+fn received(peer: &Running, settle: Duration) -> Received {
     let mut header = Value::Null;
     let mut messages = Vec::new();
     while let Ok(line) = peer.lines.recv_timeout(settle) {
@@ -255,19 +201,6 @@ fn report(lines: &[String]) -> Value {
     serde_json::from_str(last).unwrap_or_else(|e| panic!("{last}: {e}"))
 }
 
-fn recorded_commands(dir: &Path) -> Vec<ArmCommand> {
-    let file = std::fs::File::open(dir.join("commands.bin")).unwrap();
-    let mut decoder = CommandDecoder::new(std::io::BufReader::new(file)).unwrap();
-    let mut commands = Vec::new();
-    while let Some(item) = decoder.next_item().unwrap() {
-        match item {
-            CommandItem::Command(c) => commands.push(c),
-            CommandItem::Lost(n) => panic!("the recording lost {n} commands"),
-        }
-    }
-    commands
-}
-
 fn as_fields(c: &ArmCommand, fingers: bool) -> Vec<f32> {
     let mut v: Vec<f32> = c
         .linear
@@ -281,33 +214,11 @@ fn as_fields(c: &ArmCommand, fingers: bool) -> Vec<f32> {
     v
 }
 
-/// Rate, and the inter-arrival's mean, standard deviation and maximum (ms).
-fn timing(times: &[i64]) -> (f64, f64, f64, f64) {
-    let gaps: Vec<f64> = times
-        .windows(2)
-        .map(|w| (w[1] - w[0]) as f64 / 1e6)
-        .collect();
-    let n = gaps.len() as f64;
-    let mean = gaps.iter().sum::<f64>() / n;
-    let sd = (gaps.iter().map(|g| (g - mean).powi(2)).sum::<f64>() / n).sqrt();
-    let max = gaps.iter().cloned().fold(0.0, f64::max);
-    (1000.0 / mean, mean, sd, max)
-}
-
 /// The stream test: SIGINT mid-motion, everything compared.
-fn stream_run(name: &str, fingers: bool) {
-    if !peers_installed(name) {
-        return;
-    }
-    let graph = Graph::start(name);
-    let peer = graph.subscriber(fingers);
-    let config = graph.config(fingers, false, 10_000);
+fn stream_run(graph: &Graph, fingers: bool) {
+    let name = test_name();
     let rec = graph.dir.join("rec");
-    let mut run = graph.sipnpuff(
-        &config,
-        &["--seconds", "60", "--record", rec.to_str().unwrap()],
-    );
-    run.wait_until_moving();
+    let (peer, run, _) = graph.moving_arm(fingers, &["--record", rec.to_str().unwrap()]);
     let sigint_ns = monotonic_ns();
     run.signal(libc::SIGINT);
     let (status, lines, stderr) = run.finish();
@@ -356,7 +267,13 @@ fn stream_run(name: &str, fingers: bool) {
 
     // Rate and jitter at the peer, over the core's commands.
     let times: Vec<i64> = got.messages[..n].iter().map(|(t, _)| *t).collect();
-    let (rate, mean, sd, max) = timing(&times);
+    let gaps = Gaps::of(&times);
+    let (rate, mean, sd, max) = (
+        gaps.rate_hz(),
+        gaps.mean_ms(),
+        gaps.sd_ms(),
+        gaps.quantile(1.0),
+    );
     // The core's own rate, from its ticks (ms): below 100 Hz only when its
     // loop skipped ticks (a stalled machine).
     let core_rate = (n - 1) as f64 * 1000.0 / (commands[n - 1].tick - commands[0].tick) as f64;
@@ -391,32 +308,21 @@ fn stream_run(name: &str, fingers: bool) {
 
 #[test]
 fn pose_velocity_stream_is_the_core_s_commands_at_100_hz_and_ends_with_zero() {
-    crate::common::real_time(|| {
-        stream_run("pose-velocity", false);
-    });
+    ros1_test(|graph| stream_run(graph, false));
 }
 
 #[test]
 fn finger_velocity_stream_carries_the_fingers_on_its_own_topic() {
-    crate::common::real_time(|| {
-        stream_run("finger-velocity", true);
-    });
+    ros1_test(|graph| stream_run(graph, true));
 }
 
 #[test]
 fn the_driver_killed_mid_run_is_a_fault_with_a_brake() {
-    crate::common::real_time(|| {
-        let name = "driver-killed";
-        if !peers_installed(name) {
-            return;
-        }
-        let graph = Graph::start(name);
-        let mut peer = graph.subscriber(true);
-        let config = graph.config(true, false, 10_000);
-        let mut run = graph.sipnpuff(&config, &["--seconds", "60"]);
-        run.wait_until_moving();
+    ros1_test(|graph| {
+        let name = test_name();
+        let (peer, mut run, _) = graph.moving_arm(true, &[]);
         let killed = Instant::now();
-        peer.kill();
+        drop(peer);
         run.wait_for("\"detection\"");
         let detected = killed.elapsed();
         let (status, lines, stderr) = run.finish();
@@ -449,18 +355,11 @@ fn the_driver_killed_mid_run_is_a_fault_with_a_brake() {
 
 #[test]
 fn the_master_killed_mid_run_is_a_fault_and_the_driver_still_gets_the_zero() {
-    crate::common::real_time(|| {
-        let name = "master-killed";
-        if !peers_installed(name) {
-            return;
-        }
-        let mut graph = Graph::start(name);
-        let peer = graph.subscriber(false);
-        let config = graph.config(false, false, 10_000);
-        let mut run = graph.sipnpuff(&config, &["--seconds", "60"]);
-        run.wait_until_moving();
+    ros1_test(|graph| {
+        let name = test_name();
+        let (peer, run, _) = graph.moving_arm(false, &[]);
         let killed_ns = monotonic_ns();
-        graph.master.take().unwrap().kill();
+        drop(graph.master.take());
         let (status, lines, stderr) = run.finish();
         let report = report(&lines);
         let got = received(&peer, Duration::from_millis(500));
@@ -489,12 +388,7 @@ fn the_master_killed_mid_run_is_a_fault_and_the_driver_still_gets_the_zero() {
 
 #[test]
 fn the_tool_pose_is_the_measured_arm_pose() {
-    crate::common::real_time(|| {
-        let name = "tool-pose";
-        if !peers_installed(name) {
-            return;
-        }
-        let graph = Graph::start(name);
+    ros1_test(|graph| {
         let _peer = graph.subscriber(true);
         // 45° about z.
         let (s, c) = (
@@ -526,7 +420,7 @@ fn the_tool_pose_is_the_measured_arm_pose() {
 fn no_master_is_a_clear_error() {
     crate::common::real_time(|| {
         // Needs no peer: nothing listens on the port.
-        let dir = scratch("no-master");
+        let dir = Scratch::new();
         let config = dir.join("config.toml");
         // A long timeout: these errors must not wait for it.
         std::fs::write(&config, "[arm]\nconnect_timeout_ms = 60000\n").unwrap();
@@ -576,24 +470,23 @@ fn no_master_is_a_clear_error() {
         let (code, stderr, _) = run(Some("localhost:11311"));
         assert_eq!(code, Some(1));
         assert!(stderr.contains("is not http://HOST:PORT"), "{stderr}");
-        let _ = std::fs::remove_dir_all(&dir);
     });
 }
 
 #[test]
 fn no_driver_and_no_pose_are_clear_errors_within_the_timeout() {
-    crate::common::real_time(|| {
-        let name = "no-driver";
-        if !peers_installed(name) {
-            return;
-        }
-        let graph = Graph::start(name);
+    ros1_test(|graph| {
+        let name = test_name();
         let timeout_ms = 1500;
         let config = graph.config(false, true, timeout_ms);
-        let started = Instant::now();
-        let (status, _, stderr) = graph.sipnpuff(&config, &["--seconds", "5"]).finish();
-        let took = started.elapsed();
-        assert_eq!(status.code(), Some(1), "{stderr}");
+        // A run that fails: its stderr, and how long it took.
+        let failed = || {
+            let started = Instant::now();
+            let (status, _, stderr) = graph.sipnpuff(&config, &["--seconds", "5"]).finish();
+            assert_eq!(status.code(), Some(1), "{stderr}");
+            (stderr, started.elapsed())
+        };
+        let (stderr, took) = failed();
         assert!(
         stderr.contains(&format!(
             "nothing subscribed to {NS}/in/cartesian_velocity (kinova_msgs/PoseVelocity) within {timeout_ms} ms"
@@ -610,10 +503,7 @@ fn no_driver_and_no_pose_are_clear_errors_within_the_timeout() {
 
         // A driver but no tool pose.
         let _peer = graph.subscriber(false);
-        let started = Instant::now();
-        let (status, _, stderr) = graph.sipnpuff(&config, &["--seconds", "5"]).finish();
-        let took = started.elapsed();
-        assert_eq!(status.code(), Some(1), "{stderr}");
+        let (stderr, took) = failed();
         assert!(
             stderr.contains(&format!(
                 "no geometry_msgs/PoseStamped on {NS}/out/tool_pose within {timeout_ms} ms"
@@ -629,16 +519,9 @@ fn no_driver_and_no_pose_are_clear_errors_within_the_timeout() {
 
 #[test]
 fn sipnpuff_killed_mid_motion_the_stream_just_stops() {
-    crate::common::real_time(|| {
-        let name = "sipnpuff-killed";
-        if !peers_installed(name) {
-            return;
-        }
-        let graph = Graph::start(name);
-        let peer = graph.subscriber(false);
-        let config = graph.config(false, false, 10_000);
-        let mut run = graph.sipnpuff(&config, &["--seconds", "60"]);
-        run.wait_until_moving();
+    ros1_test(|graph| {
+        let name = test_name();
+        let (peer, run, config) = graph.moving_arm(false, &[]);
         let killed_ns = monotonic_ns();
         run.signal(libc::SIGKILL);
         let (status, _, _) = run.finish();
@@ -667,12 +550,7 @@ fn sipnpuff_killed_mid_motion_the_stream_just_stops() {
 
 #[test]
 fn a_second_sipnpuff_is_refused_and_the_first_drives_on() {
-    crate::common::real_time(|| {
-        let name = "second-sipnpuff";
-        if !peers_installed(name) {
-            return;
-        }
-        let graph = Graph::start(name);
+    ros1_test(|graph| {
         let _peer = graph.subscriber(false);
         let config = graph.config(false, false, 10_000);
         let mut first = graph.sipnpuff(&config, &["--seconds", "60"]);

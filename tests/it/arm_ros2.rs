@@ -11,16 +11,15 @@
 //! root (CI runs as root). Without the peer or root a test prints why and
 //! passes, unless `SIPNPUFF_REQUIRE_PEERS=1`.
 
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Command;
+use std::time::Duration;
 
 use sipnpuff::control::motion::stream::ArmCommand;
-use sipnpuff::tools::recording::format::commands::CommandItem;
-use sipnpuff::tools::recording::read::Recording;
 
-use crate::common::{assert_rate, have_peer, monotonic_ns};
+use crate::common::{Running, assert_rate, have_peer, monotonic_ns, poll_until};
+use crate::peers::{Gaps, recorded_commands};
+use crate::scratch::{Scratch, on_a_thread_of_this_test, test_name};
 
 /// The peer's Python, if installed.
 fn peer_python() -> Option<PathBuf> {
@@ -32,26 +31,31 @@ fn peer_script() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/peers/ros2/peer.py")
 }
 
-/// Whether the test can run; says why not (or fails, when peers are
+/// Runs a real-time test (see [`crate::common::real_time`]) if the peer
+/// and root are here; says why not otherwise (or fails, when peers are
 /// required).
-fn ready(test: &str) -> bool {
-    // SAFETY: geteuid has no preconditions.
-    let root = unsafe { libc::geteuid() } == 0;
-    let missing = if peer_python().is_none() {
-        Some("the Cyclone DDS peer is not installed (tests/peers/ros2/install.sh)".into())
-    } else if !root {
-        Some("not root: no private network namespace for DDS".into())
-    } else {
-        None
-    };
-    have_peer(test, missing)
+fn ros2_test(test: impl Fn()) {
+    crate::common::real_time(|| {
+        // SAFETY: geteuid has no preconditions.
+        let root = unsafe { libc::geteuid() } == 0;
+        let missing = if peer_python().is_none() {
+            Some("the Cyclone DDS peer is not installed (tests/peers/ros2/install.sh)".into())
+        } else if !root {
+            Some("not root: no private network namespace for DDS".into())
+        } else {
+            None
+        };
+        if have_peer(missing) {
+            test();
+        }
+    });
 }
 
-/// Runs `body` on a thread in a new network namespace with only loopback
-/// (up, multicast on, the multicast route on it): every process it spawns
-/// is in there too.
-fn in_private_network<T: Send + 'static>(body: impl FnOnce() -> T + Send + 'static) -> T {
-    std::thread::spawn(move || {
+/// Runs `body` on a thread of this test in a new network namespace with
+/// only loopback (up, multicast on, the multicast route on it): every
+/// process it spawns is in there too.
+fn in_private_network<T: Send>(body: impl FnOnce() -> T + Send) -> T {
+    let private_network = || {
         // SAFETY: unshare affects only this thread (a network namespace
         // is per task); no pointer is passed.
         let rc = unsafe { libc::unshare(libc::CLONE_NEWNET) };
@@ -69,87 +73,131 @@ fn in_private_network<T: Send + 'static>(body: impl FnOnce() -> T + Send + 'stat
             let status = Command::new("ip").args(args).status().expect("ip runs");
             assert!(status.success(), "ip {args:?}");
         }
-        body()
-    })
-    .join()
-    .unwrap_or_else(|e| std::panic::resume_unwind(e))
+    };
+    on_a_thread_of_this_test(private_network, body)
 }
 
-/// A scratch directory.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "sipnpuff-ros2-{name}-{}-{}",
-        std::process::id(),
-        monotonic_ns()
-    ));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A topic of this test's own, `/sipnpuff_test_<test>_<pid>/<leaf>`.
+fn topic(leaf: &str) -> String {
+    format!(
+        "/sipnpuff_test_{}_{}/{leaf}",
+        test_name(),
+        std::process::id()
+    )
+}
+
+/// The `[arm.ros2]` line that reads the pose the peer publishes.
+fn pose_topic_line() -> String {
+    format!("pose_topic = \"{}\"", topic("tool_pose"))
+}
+
+/// What a run needs: a scratch folder, the command topic, sipnpuff's
+/// config (if any).
+struct Setup {
+    dir: Scratch,
+    topic: String,
+    config: Option<PathBuf>,
+}
+
+impl Setup {
+    /// A config with these `[arm]` / `[arm.ros2]` lines; none when both
+    /// are empty.
+    fn new(arm: &str, ros2: &str) -> Setup {
+        let dir = Scratch::new();
+        let config = (!arm.is_empty() || !ros2.is_empty()).then(|| {
+            let path = dir.join("config.toml");
+            std::fs::write(&path, format!("[arm]\n{arm}\n[arm.ros2]\n{ros2}\n")).unwrap();
+            path
+        });
+        Setup {
+            dir,
+            topic: topic("cmd"),
+            config,
+        }
+    }
+
+    /// Starts the peer on the topic, sending `message`s, and waits until
+    /// its reader exists; with `pose`, it also publishes a pose on
+    /// [`pose_topic_line`]'s topic, with these options (`--follow`, …).
+    fn peer(&self, message: &str, pose: Option<&[&str]>) -> Peer {
+        let out = self.dir.join("peer.jsonl");
+        let mut command = Command::new(peer_python().unwrap());
+        command
+            .arg(peer_script())
+            .args(["--topic", &self.topic, "--message", message, "--out"])
+            .arg(&out);
+        if let Some(options) = pose {
+            command.args(["--pose-topic", &topic("tool_pose")]);
+            command.args(options);
+        }
+        let mut run = Running::start(command);
+        run.wait_for("ready");
+        Peer { run, out }
+    }
+
+    /// Starts `sipnpuff run --arm ros2:TOPIC` with the config and `args`
+    /// (as a user would: real-time priority where the machine grants it).
+    fn run(&self, args: &[&str]) -> Running {
+        let mut command = crate::common::sipnpuff();
+        command.args(["run", "--arm", &format!("ros2:{}", self.topic)]);
+        if let Some(config) = &self.config {
+            command.arg("--config").arg(config);
+        }
+        command.args(args);
+        Running::start(command)
+    }
+
+    /// A run of `seconds` recorded against a peer receiving `message`s,
+    /// then `settle` for anything after the end to arrive: what the peer
+    /// received, sipnpuff's end and the core's commands.
+    fn recorded_stream(
+        &self,
+        message: &str,
+        seconds: &str,
+        settle: Duration,
+    ) -> (Vec<Received>, Outcome, Vec<ArmCommand>) {
+        let rec = self.dir.join("rec");
+        let (messages, outcome) = in_private_network(|| {
+            let peer = self.peer(message, None);
+            let args = [
+                "--seconds",
+                seconds,
+                "--json",
+                "--record",
+                rec.to_str().unwrap(),
+            ];
+            let outcome = finish_run(self.run(&args));
+            std::thread::sleep(settle);
+            (peer.finish(), outcome)
+        });
+        assert!(
+            outcome.status.success(),
+            "{message}: {}\n{}",
+            outcome.stdout,
+            outcome.stderr
+        );
+        (messages, outcome, recorded_commands(&rec))
+    }
 }
 
 /// The running peer.
 struct Peer {
-    child: Child,
+    run: Running,
     out: PathBuf,
 }
 
 impl Peer {
-    /// Starts the peer on `topic` and waits until its reader exists.
-    fn start(dir: &Path, topic: &str, message: &str, pose_topic: Option<&str>) -> Peer {
-        Peer::start_with(dir, topic, message, pose_topic, &[])
-    }
-
-    /// [`Peer::start`] with more of the peer's options (`--follow`, …).
-    fn start_with(
-        dir: &Path,
-        topic: &str,
-        message: &str,
-        pose_topic: Option<&str>,
-        extra: &[&str],
-    ) -> Peer {
-        let out = dir.join("peer.jsonl");
-        let mut command = Command::new(peer_python().unwrap());
-        command
-            .arg(peer_script())
-            .args(["--topic", topic, "--message", message, "--out"])
-            .arg(&out)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit());
-        if let Some(pose) = pose_topic {
-            command.args(["--pose-topic", pose]);
-        }
-        command.args(extra);
-        let mut child = crate::watchdog::spawn(&mut command);
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().unwrap())
-            .read_line(&mut line)
-            .unwrap();
-        assert_eq!(line.trim(), "ready", "the peer did not start");
-        Peer { child, out }
-    }
-
-    /// Ends it cleanly (SIGTERM) and returns what it received.
-    fn finish(mut self) -> Vec<Received> {
-        self.signal(libc::SIGTERM);
-        crate::watchdog::watch(
-            &self.child,
-            "the Cyclone DDS peer after SIGTERM",
-            crate::watchdog::AFTER_SIGNAL,
-        );
-        let status = crate::watchdog::wait(&mut self.child);
-        assert!(status.success(), "the peer failed: {status}");
+    /// What it has received so far.
+    fn received(&self) -> Vec<Received> {
         received(&self.out)
     }
 
-    fn signal(&self, signal: libc::c_int) {
-        // SAFETY: kill(2) on our own child's pid.
-        unsafe { libc::kill(self.child.id() as libc::pid_t, signal) };
-    }
-}
-
-impl Drop for Peer {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+    /// Ends it cleanly (SIGTERM) and returns what it received.
+    fn finish(self) -> Vec<Received> {
+        self.run.signal(libc::SIGTERM);
+        let (status, _, stderr) = self.run.finish();
+        assert!(status.success(), "the peer failed: {status}\n{stderr}");
+        received(&self.out)
     }
 }
 
@@ -217,27 +265,6 @@ fn expected_bits(command: &ArmCommand, message: &str) -> Vec<u64> {
     }
 }
 
-/// The core's commands, from a recording.
-fn recorded_commands(dir: &Path) -> Vec<ArmCommand> {
-    let recording = Recording::open(dir).unwrap();
-    let mut decoder = recording.commands().unwrap();
-    let mut commands = Vec::new();
-    while let Some(item) = decoder.next_item().unwrap() {
-        match item {
-            CommandItem::Command(c) => commands.push(c),
-            CommandItem::Lost(n) => panic!("{n} commands lost before the recording"),
-        }
-    }
-    commands
-}
-
-/// Writes a config with these `[arm]` / `[arm.ros2]` lines.
-fn config(dir: &Path, arm: &str, ros2: &str) -> PathBuf {
-    let path = dir.join("config.toml");
-    std::fs::write(&path, format!("[arm]\n{arm}\n[arm.ros2]\n{ros2}\n")).unwrap();
-    path
-}
-
 /// sipnpuff's end.
 struct Outcome {
     status: std::process::ExitStatus,
@@ -248,54 +275,26 @@ struct Outcome {
     exited_ns: i64,
 }
 
-/// Starts `sipnpuff run` with `args` (as a user would: real-time
-/// priority where the machine grants it).
-fn spawn_run(args: &[&str]) -> Child {
-    let mut command = crate::common::sipnpuff();
-    command
-        .arg("run")
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped());
-    crate::watchdog::spawn(&mut command)
-}
-
-fn finish_run(child: Child) -> Outcome {
-    let output = crate::watchdog::wait_with_output(child);
+fn finish_run(run: Running) -> Outcome {
+    let (status, lines, stderr) = run.finish();
     let exited_ns = monotonic_ns();
-    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
-    crate::common::witness(&stdout);
-    let report = stdout
-        .lines()
+    let report = lines
+        .iter()
         .rev()
         .find_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
         .filter(|v| v.get("arm_commands").is_some());
     Outcome {
-        status: output.status,
-        stdout,
-        stderr: String::from_utf8_lossy(&output.stderr).into_owned(),
+        status,
+        stdout: lines.join("\n"),
+        stderr,
         report,
         exited_ns,
     }
 }
 
-/// A topic no other test uses.
-fn topic(name: &str) -> String {
-    format!("/sipnpuff_test_{name}_{}/cmd", std::process::id())
-}
-
-/// Mean rate and the inter-arrival figures (ms) of `messages`.
-fn timing(messages: &[Received]) -> (f64, f64, f64) {
-    let gaps: Vec<f64> = messages
-        .windows(2)
-        .map(|w| (w[1].t_ns - w[0].t_ns) as f64 / 1e6)
-        .collect();
-    let span_s = (messages.last().unwrap().t_ns - messages[0].t_ns) as f64 / 1e9;
-    let rate = gaps.len() as f64 / span_s;
-    let mean = gaps.iter().sum::<f64>() / gaps.len() as f64;
-    let sd = (gaps.iter().map(|g| (g - mean).powi(2)).sum::<f64>() / gaps.len() as f64).sqrt();
-    let max = gaps.iter().copied().fold(0.0, f64::max);
-    (rate, sd, max)
+/// The timing at the peer of `messages`.
+fn timing(messages: &[Received]) -> Gaps {
+    Gaps::of(&messages.iter().map(|m| m.t_ns).collect::<Vec<_>>())
 }
 
 /// Checks a whole stream against the core's commands: every command
@@ -333,45 +332,12 @@ fn assert_stream(received: &[Received], commands: &[ArmCommand], message: &str) 
 /// stamped now in the configured frame, a zero at the end, nothing after.
 #[test]
 fn a_twist_stream_reaches_cyclone_dds_whole_at_100_hz() {
-    crate::common::real_time(|| {
-        if !ready("a_twist_stream_reaches_cyclone_dds_whole_at_100_hz") {
-            return;
-        }
-        let dir = scratch("rate");
-        let topic = topic("rate");
-        let (messages, outcome, dir) = in_private_network(move || {
-            let peer = Peer::start(&dir, &topic, "twist_stamped", None);
-            let config = config(
-                &dir,
-                "connect_timeout_ms = 10000",
-                "frame_id = \"tool_base\"",
-            );
-            let rec = dir.join("rec");
-            let run = spawn_run(&[
-                "--config",
-                config.to_str().unwrap(),
-                "--arm",
-                &format!("ros2:{topic}"),
-                "--seconds",
-                "10",
-                "--json",
-                "--record",
-                rec.to_str().unwrap(),
-            ]);
-            let outcome = finish_run(run);
-            // Anything after the end would arrive now.
-            std::thread::sleep(Duration::from_millis(500));
-            (peer.finish(), outcome, dir)
-        });
-        assert!(
-            outcome.status.success(),
-            "{}\n{}",
-            outcome.stdout,
-            outcome.stderr
-        );
+    ros2_test(|| {
+        let setup = Setup::new("connect_timeout_ms = 10000", "frame_id = \"tool_base\"");
+        let (messages, outcome, commands) =
+            setup.recorded_stream("twist_stamped", "10", Duration::from_millis(500));
         let report = outcome.report.expect("a JSON report");
         assert_eq!(report["stream_ended_with_zero"], true, "{report}");
-        let commands = recorded_commands(&dir.join("rec"));
         assert_eq!(report["arm_commands"].as_u64(), Some(commands.len() as u64));
         assert!(
             commands.iter().any(|c| !c.is_zero()),
@@ -390,54 +356,37 @@ fn a_twist_stream_reaches_cyclone_dds_whole_at_100_hz() {
         assert!(now_ns - first > 9_000_000_000 && now_ns - first < 60_000_000_000);
         assert!(stream.windows(2).all(|w| w[1].stamp_ns >= w[0].stamp_ns));
         // Rate at the peer over the commands (the final zero follows at once).
-        let (rate, sd, max) = timing(&stream[..stream.len() - 1]);
+        let gaps = timing(&stream[..stream.len() - 1]);
         eprintln!(
-            "ros2 → Cyclone DDS (TwistStamped): {} commands + final zero, 0 lost; rate {rate:.2} Hz, inter-arrival sd {sd:.3} ms, max {max:.2} ms",
-            commands.len()
+            "ros2 → Cyclone DDS (TwistStamped): {} commands + final zero, 0 lost; rate {:.2} Hz, inter-arrival sd {:.3} ms, max {:.2} ms",
+            commands.len(),
+            gaps.rate_hz(),
+            gaps.sd_ms(),
+            gaps.quantile(1.0)
         );
-        assert_rate(rate, &report);
+        assert_rate(gaps.rate_hz(), &report);
     });
 }
 
 /// (2) The JACO2 ports' messages: float32, the three fingers equal.
 #[test]
 fn the_kinova_messages_arrive_as_float32() {
-    crate::common::real_time(|| {
-        if !ready("the_kinova_messages_arrive_as_float32") {
-            return;
-        }
+    ros2_test(|| {
         for (message, seconds) in [
             ("pose_velocity_with_finger_velocity", "9"),
             ("pose_velocity", "2"),
         ] {
-            let dir = scratch(message);
-            let topic = topic(message);
-            let (messages, outcome, dir) = in_private_network(move || {
-                let peer = Peer::start(&dir, &topic, message, None);
-                let config = config(&dir, "", &format!("message = \"{message}\""));
-                let rec = dir.join("rec");
-                let run = spawn_run(&[
-                    "--config",
-                    config.to_str().unwrap(),
-                    "--arm",
-                    &format!("ros2:{topic}"),
-                    "--seconds",
-                    seconds,
-                    "--json",
-                    "--record",
-                    rec.to_str().unwrap(),
-                ]);
-                let outcome = finish_run(run);
-                std::thread::sleep(Duration::from_millis(300));
-                (peer.finish(), outcome, dir)
-            });
-            assert!(outcome.status.success(), "{message}: {}", outcome.stderr);
-            let commands = recorded_commands(&dir.join("rec"));
+            let setup = Setup::new("", &format!("message = \"{message}\""));
+            let (messages, _, commands) =
+                setup.recorded_stream(message, seconds, Duration::from_millis(300));
             let stream = assert_stream(&messages, &commands, message);
-            let (rate, sd, max) = timing(&stream[..stream.len() - 1]);
+            let gaps = timing(&stream[..stream.len() - 1]);
             eprintln!(
-                "ros2 → Cyclone DDS ({message}): {} commands, 0 lost; rate {rate:.2} Hz, sd {sd:.3} ms, max {max:.2} ms",
-                commands.len()
+                "ros2 → Cyclone DDS ({message}): {} commands, 0 lost; rate {:.2} Hz, sd {:.3} ms, max {:.2} ms",
+                commands.len(),
+                gaps.rate_hz(),
+                gaps.sd_ms(),
+                gaps.quantile(1.0)
             );
         }
     });
@@ -448,33 +397,20 @@ fn the_kinova_messages_arrive_as_float32() {
 /// unmatch tells). The run ends with a fault naming the receiver.
 #[test]
 fn a_receiver_killed_mid_run_is_a_fault() {
-    crate::common::real_time(|| {
-        if !ready("a_receiver_killed_mid_run_is_a_fault") {
-            return;
-        }
+    ros2_test(|| {
         for (signal, name) in [(libc::SIGKILL, "SIGKILL"), (libc::SIGTERM, "SIGTERM")] {
-            let dir = scratch(name);
-            let topic = topic(name);
-            let wanted = topic.clone();
-            let (killed_ns, got, outcome) = in_private_network(move || {
-                let peer = Peer::start(&dir, &topic, "twist_stamped", None);
-                let run = spawn_run(&[
-                    "--arm",
-                    &format!("ros2:{topic}"),
-                    "--seconds",
-                    "30",
-                    "--json",
-                ]);
+            let setup = Setup::new("", "");
+            let (killed_ns, got, outcome) = in_private_network(|| {
+                let peer = setup.peer("twist_stamped", None);
+                let run = setup.run(&["--seconds", "30", "--json"]);
                 // Killed once the stream has run a while.
-                let deadline = Instant::now() + Duration::from_secs(20);
-                while received(&peer.out).len() < 200 && Instant::now() < deadline {
-                    std::thread::sleep(Duration::from_millis(20));
-                }
+                poll_until(Duration::from_secs(20), Duration::from_millis(20), || {
+                    peer.received().len() >= 200
+                });
                 let killed_ns = monotonic_ns();
-                peer.signal(signal);
+                peer.run.signal(signal);
                 let outcome = finish_run(run);
-                let got = received(&peer.out);
-                (killed_ns, got, outcome)
+                (killed_ns, peer.received(), outcome)
             });
             assert!(got.len() >= 200, "{name}: the stream ran");
             let detected_s = (outcome.exited_ns - killed_ns) as f64 / 1e9;
@@ -485,7 +421,7 @@ fn a_receiver_killed_mid_run_is_a_fault() {
             );
             assert!(!outcome.status.success(), "{name}: the run fails");
             assert!(
-                errors.contains("the receiver of ROS 2 topic") && errors.contains(&wanted),
+                errors.contains("the receiver of ROS 2 topic") && errors.contains(&setup.topic),
                 "{name}: {report}"
             );
             assert!(
@@ -496,32 +432,30 @@ fn a_receiver_killed_mid_run_is_a_fault() {
     });
 }
 
+/// Runs the built-in user for `seconds` against a peer that publishes a
+/// pose, with these `options` (`--follow`, …); returns sipnpuff's outcome
+/// and the arm-fault reasons it printed.
+fn run_with_pose(options: &[&str], seconds: &str) -> (Outcome, Vec<String>) {
+    let setup = Setup::new("", &pose_topic_line());
+    let outcome = in_private_network(|| {
+        let _peer = setup.peer("twist_stamped", Some(options));
+        finish_run(setup.run(&["--seconds", seconds, "--json"]))
+    });
+    let faults = outcome
+        .stdout
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| v["event"] == "arm_fault")
+        .map(|v| v["reason"].as_str().unwrap().to_string())
+        .collect();
+    (outcome, faults)
+}
+
 /// (4) A pose published by the peer is the report's measured arm pose.
 #[test]
 fn a_pose_from_the_peer_is_the_measured_pose() {
-    crate::common::real_time(|| {
-        if !ready("a_pose_from_the_peer_is_the_measured_pose") {
-            return;
-        }
-        let dir = scratch("pose");
-        let topic = topic("pose");
-        let pose_topic = format!("/sipnpuff_test_pose_{}/tool_pose", std::process::id());
-        let outcome = in_private_network(move || {
-            let peer = Peer::start(&dir, &topic, "twist_stamped", Some(&pose_topic));
-            let config = config(&dir, "", &format!("pose_topic = \"{pose_topic}\""));
-            let run = spawn_run(&[
-                "--config",
-                config.to_str().unwrap(),
-                "--arm",
-                &format!("ros2:{topic}"),
-                "--seconds",
-                "2",
-                "--json",
-            ]);
-            let outcome = finish_run(run);
-            drop(peer);
-            outcome
-        });
+    ros2_test(|| {
+        let (outcome, _) = run_with_pose(&[], "2");
         let report = outcome.report.expect("a JSON report");
         let arm = &report["arm"];
         let position: Vec<f64> = arm["position_m"]
@@ -542,24 +476,11 @@ fn a_pose_from_the_peer_is_the_measured_pose() {
 /// (5) Nobody subscribed: a clear error within the timeout, status non-zero.
 #[test]
 fn no_subscriber_is_a_clear_error_within_the_timeout() {
-    crate::common::real_time(|| {
-        if !ready("no_subscriber_is_a_clear_error_within_the_timeout") {
-            return;
-        }
-        let dir = scratch("none");
-        let topic = topic("none");
-        let (outcome, started_ns) = in_private_network(move || {
-            let config = config(&dir, "connect_timeout_ms = 1500", "domain_id = 7");
+    ros2_test(|| {
+        let setup = Setup::new("connect_timeout_ms = 1500", "domain_id = 7");
+        let (outcome, started_ns) = in_private_network(|| {
             let started_ns = monotonic_ns();
-            let run = spawn_run(&[
-                "--config",
-                config.to_str().unwrap(),
-                "--arm",
-                &format!("ros2:{topic}"),
-                "--seconds",
-                "5",
-            ]);
-            (finish_run(run), started_ns)
+            (finish_run(setup.run(&["--seconds", "5"])), started_ns)
         });
         assert!(!outcome.status.success());
         let took = (outcome.exited_ns - started_ns) as f64 / 1e9;
@@ -570,7 +491,7 @@ fn no_subscriber_is_a_clear_error_within_the_timeout() {
         for part in [
             "no subscriber matched ROS 2 topic",
             "geometry_msgs::msg::dds_::TwistStamped_",
-            "rt/sipnpuff_test_none_",
+            &format!("rt{}", setup.topic),
             "domain 7",
             "ROS_DOMAIN_ID",
             "within 1500 ms",
@@ -584,31 +505,18 @@ fn no_subscriber_is_a_clear_error_within_the_timeout() {
 /// message at the peer, and how long after the signal they came.
 #[test]
 fn a_stop_request_ends_the_stream_with_a_zero_at_the_peer() {
-    crate::common::real_time(|| {
-        if !ready("a_stop_request_ends_the_stream_with_a_zero_at_the_peer") {
-            return;
-        }
-        let dir = scratch("sigint");
-        let topic = topic("sigint");
-        let (messages, signalled_ns, outcome) = in_private_network(move || {
-            let peer = Peer::start(&dir, &topic, "twist_stamped", None);
-            let run = spawn_run(&[
-                "--arm",
-                &format!("ros2:{topic}"),
-                "--seconds",
-                "30",
-                "--json",
-            ]);
+    ros2_test(|| {
+        let setup = Setup::new("", "");
+        let (messages, signalled_ns, outcome) = in_private_network(|| {
+            let peer = setup.peer("twist_stamped", None);
+            let run = setup.run(&["--seconds", "30", "--json"]);
             // Mid-motion: once the arm moves.
-            let deadline = Instant::now() + Duration::from_secs(25);
-            while !received(&peer.out).iter().any(|m| !m.is_zero()) && Instant::now() < deadline {
-                std::thread::sleep(Duration::from_millis(10));
-            }
+            poll_until(Duration::from_secs(25), Duration::from_millis(10), || {
+                peer.received().iter().any(|m| !m.is_zero())
+            });
             std::thread::sleep(Duration::from_millis(200));
             let signalled_ns = monotonic_ns();
-            crate::watchdog::watch(&run, "sipnpuff after SIGINT", crate::watchdog::AFTER_SIGNAL);
-            // SAFETY: kill(2) on our own child's pid.
-            unsafe { libc::kill(run.id() as libc::pid_t, libc::SIGINT) };
+            run.signal(libc::SIGINT);
             let outcome = finish_run(run);
             std::thread::sleep(Duration::from_millis(300));
             (peer.finish(), signalled_ns, outcome)
@@ -636,40 +544,9 @@ fn a_stop_request_ends_the_stream_with_a_zero_at_the_peer() {
 /// pose of an arm executing the commands it receives (`--follow`), with
 /// `extra` peer options; returns sipnpuff's outcome and the arm-fault
 /// reasons it printed.
-fn closed_loop(
-    name: &str,
-    seconds: &'static str,
-    extra: &'static [&'static str],
-) -> (Outcome, Vec<String>) {
-    let dir = scratch(name);
-    let topic = topic(name);
-    let pose_topic = format!("/sipnpuff_test_{name}_{}/tool_pose", std::process::id());
-    let outcome = in_private_network(move || {
-        let mut options = vec!["--follow"];
-        options.extend(extra);
-        let peer = Peer::start_with(&dir, &topic, "twist_stamped", Some(&pose_topic), &options);
-        let config = config(&dir, "", &format!("pose_topic = \"{pose_topic}\""));
-        let run = spawn_run(&[
-            "--config",
-            config.to_str().unwrap(),
-            "--arm",
-            &format!("ros2:{topic}"),
-            "--seconds",
-            seconds,
-            "--json",
-        ]);
-        let outcome = finish_run(run);
-        drop(peer);
-        outcome
-    });
-    let faults = outcome
-        .stdout
-        .lines()
-        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
-        .filter(|v| v["event"] == "arm_fault")
-        .map(|v| v["reason"].as_str().unwrap().to_string())
-        .collect();
-    (outcome, faults)
+fn closed_loop(seconds: &str, extra: &[&str]) -> (Outcome, Vec<String>) {
+    let options = [&["--follow"], extra].concat();
+    run_with_pose(&options, seconds)
 }
 
 /// One arm fault whose reason contains `reason`; the run braked to zero,
@@ -697,11 +574,8 @@ fn assert_one_braked_arm_fault(
 /// whole session without a fault.
 #[test]
 fn the_loop_closes_on_the_peers_pose() {
-    crate::common::real_time(|| {
-        if !ready("the_loop_closes_on_the_peers_pose") {
-            return;
-        }
-        let (outcome, faults) = closed_loop("follow", "12", &[]);
+    ros2_test(|| {
+        let (outcome, faults) = closed_loop("12", &[]);
         assert!(
             outcome.status.success(),
             "{}\n{}",
@@ -729,11 +603,8 @@ fn the_loop_closes_on_the_peers_pose() {
 /// clear report, exit status 1.
 #[test]
 fn a_silent_pose_topic_is_a_fault_with_a_brake() {
-    crate::common::real_time(|| {
-        if !ready("a_silent_pose_topic_is_a_fault_with_a_brake") {
-            return;
-        }
-        let (outcome, faults) = closed_loop("silent", "20", &["--pose-silent-after", "8"]);
+    ros2_test(|| {
+        let (outcome, faults) = closed_loop("20", &["--pose-silent-after", "8"]);
         let report = assert_one_braked_arm_fault(&outcome, &faults, "no measured arm pose for ");
         let errors = report["errors"].to_string();
         assert!(errors.contains("arm: no measured arm pose"), "{errors}");
@@ -744,11 +615,8 @@ fn a_silent_pose_topic_is_a_fault_with_a_brake() {
 /// was measured and what was expected, a brake, exit status 1.
 #[test]
 fn a_pose_far_from_the_commanded_one_is_a_fault_with_a_brake() {
-    crate::common::real_time(|| {
-        if !ready("a_pose_far_from_the_commanded_one_is_a_fault_with_a_brake") {
-            return;
-        }
-        let (outcome, faults) = closed_loop("pushed", "20", &["--pose-jump-after", "8", "0.1"]);
+    ros2_test(|| {
+        let (outcome, faults) = closed_loop("20", &["--pose-jump-after", "8", "0.1"]);
         let report = assert_one_braked_arm_fault(
             &outcome,
             &faults,

@@ -3,11 +3,13 @@
 //! that fails mid-run stops the arm and says where, and the `--json`
 //! outputs carry every field of their structs.
 
-use std::process::{Output, Stdio};
+use std::path::PathBuf;
+use std::process::{ExitStatus, Output, Stdio};
 
 use sipnpuff::config::Config;
 
-use crate::common::{Running, fixture};
+use crate::common::{ENDED_WITH_ZERO, Running, STOPPED_AT_REST, fixture};
+use crate::scratch::Scratch;
 
 fn sipnpuff(args: &[&str]) -> Output {
     let mut command = crate::common::sipnpuff();
@@ -28,11 +30,29 @@ fn refused(args: &[&str]) -> String {
     stderr
 }
 
-/// A scratch directory for one test.
-fn scratch(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("sipnpuff-cli-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// The command ended with exit status `code` without panicking (`what`
+/// it was, for the message).
+fn assert_exit(status: ExitStatus, stderr: &str, code: i32, what: &str) {
+    assert_eq!(status.code(), Some(code), "{what}: {status}\n{stderr}");
+    assert!(!stderr.contains("panicked"), "{what}: {stderr}");
+}
+
+/// A file named `name` holding `contents`, in a new scratch folder.
+fn scratch_file(name: &str, contents: &str) -> (Scratch, PathBuf) {
+    let dir = Scratch::new();
+    let path = dir.join(name);
+    std::fs::write(&path, contents).unwrap();
+    (dir, path)
+}
+
+/// The demo user's signal (`generate --demo`: replay has events to
+/// print), in a new scratch folder.
+fn demo_signal() -> (Scratch, PathBuf) {
+    let dir = Scratch::new();
+    let signal = dir.join("s.csv");
+    let generated = sipnpuff(&["generate", "--out", signal.to_str().unwrap(), "--demo"]);
+    assert!(generated.status.success());
+    (dir, signal)
 }
 
 #[test]
@@ -76,21 +96,19 @@ fn numbers_out_of_range_are_refused_before_the_run() {
 
 #[test]
 fn an_unwritable_histogram_dir_is_refused_before_the_run() {
-    let dir = scratch("hgrm");
-    let file = dir.join("a-file");
-    std::fs::write(&file, "").unwrap();
+    let (_dir, file) = scratch_file("a-file", "");
     let inside_a_file = file.join("histograms");
     let e = refused(&["run", "--histogram-dir", inside_a_file.to_str().unwrap()]);
     assert!(e.contains("--histogram-dir"), "{e}");
     assert!(e.contains("cannot create it"), "{e}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
 fn a_bad_config_names_the_file_line_and_column() {
-    let dir = scratch("config");
-    let path = dir.join("bad.toml");
-    std::fs::write(&path, "[detector]\nmin_burst_ms = 40\nmin_burst_ms = 50\n").unwrap();
+    let (_dir, path) = scratch_file(
+        "bad.toml",
+        "[detector]\nmin_burst_ms = 40\nmin_burst_ms = 50\n",
+    );
     let e = refused(&["config", "--config", path.to_str().unwrap()]);
     let expected = format!(
         "{}: 1 problem in the configuration:\n  - line 3, column 1: not valid TOML: duplicate key",
@@ -112,7 +130,6 @@ fn a_bad_config_names_the_file_line_and_column() {
         e.contains("line 4, column 1: command.typo: unknown key"),
         "{e}"
     );
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -156,14 +173,12 @@ fn a_missing_recording_says_what_to_check() {
 /// safely, the report names the file and line, and the exit is a failure.
 #[test]
 fn a_bad_row_mid_run_stops_safely_and_names_its_line() {
-    let dir = scratch("badrow");
-    let path = dir.join("cut.csv");
     let mut text = String::from("tick,volts\n");
     for t in 0..500 {
         text += &format!("{t},2.5\n");
     }
     text += "500,two point five\n";
-    std::fs::write(&path, text).unwrap();
+    let (_dir, path) = scratch_file("cut.csv", &text);
     let sensor = format!("csv:{}", path.display());
     let out = sipnpuff(&["run", "--sensor", &sensor, "--priority", "0", "--no-mlock"]);
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -174,11 +189,7 @@ fn a_bad_row_mid_run_stops_safely_and_names_its_line() {
     );
     assert!(stdout.contains(&expected), "{stdout}");
     assert!(stdout.contains("stopped by: sensor ended"), "{stdout}");
-    assert!(
-        stdout.contains("stream ended with a zero command and the arm stopped: true"),
-        "{stdout}"
-    );
-    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(stdout.contains(ENDED_WITH_ZERO), "{stdout}");
 }
 
 #[test]
@@ -318,33 +329,22 @@ fn signal_mid_motion(signal: libc::c_int, name: &str) {
     assert_braked_to_zero(&report);
 }
 
-#[test]
-fn sighup_mid_motion_brakes_reports_and_exits_129() {
-    crate::common::real_time(|| {
-        signal_mid_motion(libc::SIGHUP, "SIGHUP");
-    });
+/// One test a signal: [`signal_mid_motion`].
+macro_rules! signal_mid_motion_tests {
+    ($($test:ident: $signal:ident),* $(,)?) => {$(
+        #[test]
+        fn $test() {
+            crate::common::real_time(|| signal_mid_motion(libc::$signal, stringify!($signal)));
+        }
+    )*};
 }
 
-#[test]
-fn sigint_mid_motion_brakes_reports_and_exits_130() {
-    crate::common::real_time(|| {
-        signal_mid_motion(libc::SIGINT, "SIGINT");
-    });
-}
-
-#[test]
-fn sigquit_mid_motion_brakes_reports_and_exits_131() {
-    crate::common::real_time(|| {
-        signal_mid_motion(libc::SIGQUIT, "SIGQUIT");
-    });
-}
-
-#[test]
-fn sigterm_mid_motion_brakes_reports_and_exits_143() {
-    crate::common::real_time(|| {
-        signal_mid_motion(libc::SIGTERM, "SIGTERM");
-    });
-}
+signal_mid_motion_tests!(
+    sighup_mid_motion_brakes_reports_and_exits_129: SIGHUP,
+    sigint_mid_motion_brakes_reports_and_exits_130: SIGINT,
+    sigquit_mid_motion_brakes_reports_and_exits_131: SIGQUIT,
+    sigterm_mid_motion_brakes_reports_and_exits_143: SIGTERM,
+);
 
 /// A second signal (a closed SSH session can send SIGHUP twice: from the
 /// kernel and from the shell) does not cut the safe stop short.
@@ -382,22 +382,15 @@ fn run_piped_into_head_stops_safely_and_reports_on_stderr() {
         // Close our end of the pipe, as `head -3` exits.
         let (status, mut seen, stderr) = run.close_stdout();
         seen.truncate(3);
-        assert_eq!(status.code(), Some(141), "{status}\n{stderr}");
-        assert!(!stderr.contains("panicked"), "{stderr}");
+        assert_exit(status, &stderr, 141, "run");
         assert!(
             stderr.contains("stdout failed") && stderr.contains("the report follows on stderr"),
             "{stderr}"
         );
         assert!(stderr.contains("== sipnpuff run report"), "{stderr}");
         assert!(stderr.contains("stopped by: output failed"), "{stderr}");
-        assert!(
-        stderr.contains("final commanded velocity: linear (0, 0, 0) m/s, angular (0, 0, 0) rad/s, fingers 0 units/s; last arm command zero: true"),
-        "{stderr}"
-    );
-        assert!(
-            stderr.contains("stream ended with a zero command and the arm stopped: true"),
-            "{stderr}"
-        );
+        assert!(stderr.contains(STOPPED_AT_REST), "{stderr}");
+        assert!(stderr.contains(ENDED_WITH_ZERO), "{stderr}");
     });
 }
 
@@ -410,8 +403,7 @@ fn stdout_closed_mid_motion_brakes_and_reports_on_stderr() {
         let mut run = start(&["--json"]);
         run.wait_until_moving();
         let (status, _, stderr) = run.close_stdout();
-        assert_eq!(status.code(), Some(141), "{status}\n{stderr}");
-        assert!(!stderr.contains("panicked"), "{stderr}");
+        assert_exit(status, &stderr, 141, "run");
         let report = json_report(&stderr);
         assert_eq!(report["stop_reason"], "output failed", "{report}");
         assert!(
@@ -440,14 +432,10 @@ fn run_onto_a_full_disk_stops_safely_and_fails() {
             .stderr(Stdio::piped()),
     ));
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{}\n{stderr}", out.status);
-    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_exit(out.status, &stderr, 1, "run");
     assert!(stderr.contains("No space left on device"), "{stderr}");
     assert!(stderr.contains("stopped by: output failed"), "{stderr}");
-    assert!(
-        stderr.contains("stream ended with a zero command and the arm stopped: true"),
-        "{stderr}"
-    );
+    assert!(stderr.contains(ENDED_WITH_ZERO), "{stderr}");
 }
 
 /// Runs `args` with stdout (or stderr) a pipe whose reader has already
@@ -481,11 +469,7 @@ fn config_into_a_closed_pipe_exits_141_without_panicking() {
 
 #[test]
 fn reports_into_a_closed_pipe_exit_141_without_panicking() {
-    let dir = scratch("closed");
-    let signal = dir.join("s.csv");
-    // The demo user: replay has events to print.
-    let generated = sipnpuff(&["generate", "--out", signal.to_str().unwrap(), "--demo"]);
-    assert!(generated.status.success());
+    let (_dir, signal) = demo_signal();
     for args in [
         vec!["replay", signal.to_str().unwrap()],
         vec!["bench", "tick", "--seconds", "1"],
@@ -503,21 +487,14 @@ fn reports_into_a_closed_pipe_exit_141_without_panicking() {
     ] {
         let out = with_closed(&args, false);
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(
-            out.status.code(),
-            Some(141),
-            "{args:?}: {}\n{stderr}",
-            out.status
-        );
-        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert_exit(out.status, &stderr, 141, &format!("{args:?}"));
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// A closed stderr (progress and summaries go there) is no reason to fail.
 #[test]
 fn a_closed_stderr_does_not_fail_a_command() {
-    let dir = scratch("closed-stderr");
+    let dir = Scratch::new();
     let signal = dir.join("s.csv");
     let out = with_closed(
         &[
@@ -531,42 +508,26 @@ fn a_closed_stderr_does_not_fail_a_command() {
     );
     assert_eq!(out.status.code(), Some(0), "{}", out.status);
     assert!(signal.exists());
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// A full disk under `replay --events`/`--trace`: an error naming it, exit
 /// 1, no panic.
 #[test]
 fn replay_onto_a_full_disk_fails_cleanly() {
-    let dir = scratch("replay-full");
-    let signal = dir.join("s.csv");
-    assert!(
-        sipnpuff(&["generate", "--out", signal.to_str().unwrap(), "--demo"])
-            .status
-            .success()
-    );
+    let (_dir, signal) = demo_signal();
     for output in ["--events", "--trace"] {
         let out = sipnpuff(&["replay", signal.to_str().unwrap(), output, "/dev/full"]);
         let stderr = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(
-            out.status.code(),
-            Some(1),
-            "{output}: {}\n{stderr}",
-            out.status
-        );
+        assert_exit(out.status, &stderr, 1, output);
         assert!(stderr.contains("No space left on device"), "{stderr}");
-        assert!(!stderr.contains("panicked"), "{stderr}");
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// Exit status 2: the command line or the configuration is invalid,
 /// nothing was started (clap's own refusals are 2 as well).
 #[test]
 fn an_invalid_command_line_or_config_exits_2() {
-    let dir = scratch("exit2");
-    let bad = dir.join("bad.toml");
-    std::fs::write(&bad, "[detector]\nmin_burst_ms = -4\n").unwrap();
+    let (_dir, bad) = scratch_file("bad.toml", "[detector]\nmin_burst_ms = -4\n");
     for args in [
         vec!["run", "--interface", "scan"],
         vec!["config", "--config", bad.to_str().unwrap()],
@@ -586,5 +547,4 @@ fn an_invalid_command_line_or_config_exits_2() {
     // A recording that cannot be opened is a failed start, not a usage error.
     let out = sipnpuff(&["run", "--sensor", "csv:/no/such/recording.csv"]);
     assert_eq!(out.status.code(), Some(1), "{}", out.status);
-    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -90,7 +90,7 @@ pub fn assert_session(
 }
 
 /// A sip of `ms` for a script.
-pub fn sip(ms: u32) -> Step {
+pub const fn sip(ms: u32) -> Step {
     Step::Breath {
         breath: Breath::Sip,
         ms,
@@ -98,7 +98,7 @@ pub fn sip(ms: u32) -> Step {
 }
 
 /// A puff of `ms` for a script.
-pub fn puff(ms: u32) -> Step {
+pub const fn puff(ms: u32) -> Step {
     Step::Breath {
         breath: Breath::Puff,
         ms,
@@ -106,9 +106,18 @@ pub fn puff(ms: u32) -> Step {
 }
 
 /// `ms` at rest for a script.
-pub fn rest(ms: u32) -> Step {
+pub const fn rest(ms: u32) -> Step {
     Step::Rest { ms }
 }
+
+/// The text report's line after a safe stop: the arm commanded to rest.
+pub const STOPPED_AT_REST: &str = "final commanded velocity: linear (0, 0, 0) m/s, angular (0, 0, 0) rad/s, fingers 0 units/s; last arm command zero: true";
+
+/// The text report's line after a safe stop: the arm got the zero command.
+pub const ENDED_WITH_ZERO: &str = "stream ended with a zero command and the arm stopped: true";
+
+/// The text report's line of a control loop that allocated nothing.
+pub const NO_ALLOCATIONS: &str = "control thread heap allocations after start: 0";
 
 /// A port free now on 127.0.0.1 (for a peer or a server the test starts).
 pub fn free_port() -> u16 {
@@ -138,7 +147,9 @@ pub fn sipnpuff() -> std::process::Command {
     command
 }
 
-/// The real binary, its stdout lines arriving on a channel (stderr piped).
+/// A process a test runs (sipnpuff or a peer): its stdout lines arrive on
+/// a channel, its stderr is collected (neither pipe can fill and stall
+/// it); killed if still running when dropped.
 pub struct Running {
     /// The process.
     pub child: std::process::Child,
@@ -146,6 +157,10 @@ pub struct Running {
     pub lines: std::sync::mpsc::Receiver<String>,
     /// The lines read so far.
     pub seen: Vec<String>,
+    /// Its whole stderr, once it closes.
+    stderr: Option<std::thread::JoinHandle<String>>,
+    /// Its command line, for the watchdog's reports.
+    what: String,
 }
 
 impl Running {
@@ -156,9 +171,10 @@ impl Running {
         Running::start(command)
     }
 
-    /// Starts `command` (a `sipnpuff` set up by the test), stdout and
-    /// stderr piped.
+    /// Starts `command` (a `sipnpuff` or a peer set up by the test), stdout
+    /// and stderr piped, bounded by the watchdog.
     pub fn start(mut command: std::process::Command) -> Running {
+        let what = crate::watchdog::command_line(&command);
         let mut child = crate::watchdog::spawn(
             command
                 .stdout(std::process::Stdio::piped())
@@ -176,20 +192,31 @@ impl Running {
                 }
             }
         });
+        let mut stderr = child.stderr.take().unwrap();
+        let stderr = std::thread::spawn(move || {
+            let mut text = String::new();
+            let _ = std::io::Read::read_to_string(&mut stderr, &mut text);
+            text
+        });
         Running {
             child,
             lines,
             seen: Vec::new(),
+            stderr: Some(stderr),
+            what,
         }
     }
 
     /// Reads stdout until a line contains `text`.
     pub fn wait_for(&mut self, text: &str) {
         loop {
-            let line = self
-                .lines
-                .recv()
-                .unwrap_or_else(|_| panic!("stdout ended before {text:?}:\n{}", self.text()));
+            let line = self.lines.recv().unwrap_or_else(|_| {
+                panic!(
+                    "`{}`: stdout ended before {text:?}:\n{}",
+                    self.what,
+                    self.text()
+                )
+            });
             let found = line.contains(text);
             self.seen.push(line);
             if found {
@@ -220,7 +247,7 @@ impl Running {
         {
             crate::watchdog::watch(
                 &self.child,
-                &format!("sipnpuff after signal {signal}"),
+                &format!("`{}` after signal {signal}", self.what),
                 crate::watchdog::AFTER_SIGNAL,
             );
         }
@@ -229,11 +256,17 @@ impl Running {
         assert_eq!(rc, 0);
     }
 
+    /// Stops the process for `pause` (SIGSTOP, as a debugger or a paused
+    /// VM would), then lets it continue.
+    pub fn pause(&self, pause: std::time::Duration) {
+        self.signal(libc::SIGSTOP);
+        std::thread::sleep(pause);
+        self.signal(libc::SIGCONT);
+    }
+
     /// Waits for the exit; returns (status, stdout lines, stderr).
     pub fn finish(mut self) -> (std::process::ExitStatus, Vec<String>, String) {
-        let mut stderr = String::new();
-        std::io::Read::read_to_string(self.child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
-        let status = crate::watchdog::wait(&mut self.child);
+        let (status, stderr) = self.exit();
         let mut seen = std::mem::take(&mut self.seen);
         seen.extend(self.lines.iter());
         (status, seen, stderr)
@@ -245,12 +278,19 @@ impl Running {
         // Our receiver gone, the reader thread's next send fails and it
         // drops the pipe's read end.
         self.lines = std::sync::mpsc::channel().1;
-        let mut stderr = String::new();
-        std::io::Read::read_to_string(self.child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
-        let status = crate::watchdog::wait(&mut self.child);
+        let (status, stderr) = self.exit();
         (status, std::mem::take(&mut self.seen), stderr)
     }
 
+    /// Its exit status and whole stderr, once it has exited.
+    fn exit(&mut self) -> (std::process::ExitStatus, String) {
+        let stderr = self.stderr.take().map_or_else(String::new, |reader| {
+            reader.join().expect("stderr's reader")
+        });
+        (crate::watchdog::wait(&mut self.child), stderr)
+    }
+
+    /// The stdout lines read so far.
     pub fn text(&self) -> String {
         self.seen.join("\n")
     }
@@ -264,6 +304,25 @@ impl Drop for Running {
             let _ = self.child.kill();
             let _ = self.child.wait();
         }
+    }
+}
+
+/// Checks `done` every `every` until it holds or `limit` has passed;
+/// whether it held. For waiting on a peer, never for timing a test.
+pub fn poll_until(
+    limit: std::time::Duration,
+    every: std::time::Duration,
+    mut done: impl FnMut() -> bool,
+) -> bool {
+    let deadline = std::time::Instant::now() + limit;
+    loop {
+        if done() {
+            return true;
+        }
+        if std::time::Instant::now() >= deadline {
+            return false;
+        }
+        std::thread::sleep(every);
     }
 }
 
@@ -372,14 +431,14 @@ pub fn cpu_heavy() -> std::sync::RwLockWriteGuard<'static, ()> {
     CPU.write().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Whether the peer a test needs is here (`missing` says what is not):
-/// without it the test prints why and passes, unless
+/// Whether the peer the running test needs is here (`missing` says what
+/// is not): without it the test prints why and passes, unless
 /// `SIPNPUFF_REQUIRE_PEERS=1` (CI), where a missing peer fails it.
-pub fn have_peer(test: &str, missing: Option<String>) -> bool {
+pub fn have_peer(missing: Option<String>) -> bool {
     let Some(why) = missing else {
         return true;
     };
-    let notice = format!("SKIPPED {test}: {why}");
+    let notice = format!("SKIPPED {}: {why}", crate::scratch::test_name());
     assert!(
         std::env::var("SIPNPUFF_REQUIRE_PEERS").as_deref() != Ok("1"),
         "{notice} (SIPNPUFF_REQUIRE_PEERS=1)"

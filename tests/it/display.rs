@@ -93,22 +93,25 @@ fn names(frame: &Frame) -> Vec<String> {
         .collect()
 }
 
+/// The breaths of the paper's example: a short sip, a long sip (<1, 2>),
+/// the wait, a puff.
+const PAPER_SESSION: [Step; 7] = [
+    rest(500),
+    sip(150),
+    rest(300),
+    sip(700),
+    rest(1500),
+    puff(800),
+    rest(2500),
+];
+
 /// The paper's example: S1 = <1, 2, −1> (translate_x), S2 = <1, 2>
 /// (translate_y), S3 = <2, 1> (translate_z). After <1, 2> the matcher
 /// waits 1000 ms for a −1 before selecting S2: the page shows the wait.
 #[test]
 fn asp_shows_the_sequence_the_sequences_still_possible_and_the_wait_on_a_prefix() {
     let config = common::paper_config();
-    let script = [
-        rest(500),
-        sip(150),
-        rest(300),
-        sip(700),
-        rest(1500),
-        puff(800),
-        rest(2500),
-    ];
-    let mut s = Session::new(&config, &script);
+    let mut s = Session::new(&config, &PAPER_SESSION);
 
     // Nothing breathed: every sequence is possible, nothing waits.
     let start = s.frame_at(100);
@@ -260,16 +263,7 @@ fn the_terminal_view_shows_the_sequence_the_wait_and_the_motion() {
     }
 
     let config = common::paper_config();
-    let script = [
-        rest(500),
-        sip(150),
-        rest(300),
-        sip(700),
-        rest(1500),
-        puff(800),
-        rest(2500),
-    ];
-    let mut s = Session::new(&config, &script);
+    let mut s = Session::new(&config, &PAPER_SESSION);
     let mut terminal = Terminal::new(TestBackend::new(100, 30)).unwrap();
     let setup = s.screen.setup().clone();
 

@@ -10,33 +10,30 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
 use sipnpuff::config::Config;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step, write_csv};
 
-use crate::common::{self, Running, free_port, puff, rest, sip};
+use crate::common::{self, Running, free_port, poll_until, puff, rest, sip};
+use crate::scratch::Scratch;
 
 const CHROMIUM: &str = "/usr/bin/chromium";
 const CHROMEDRIVER: &str = "/usr/bin/chromedriver";
 
-/// Chromium and ChromeDriver are installed (tests/peers/browser/install.sh).
-fn have_browser(test: &str) -> bool {
+/// Runs a real-time test (see [`common::real_time`]) if Chromium and
+/// ChromeDriver are installed (tests/peers/browser/install.sh); says why
+/// not otherwise (or fails, when peers are required).
+fn browser_test(test: impl Fn()) {
     let missing = [CHROMIUM, CHROMEDRIVER]
         .iter()
         .find(|p| !Path::new(p).exists())
         .map(|p| format!("{p} is missing (bash tests/peers/browser/install.sh)"));
-    common::have_peer(test, missing)
-}
-
-/// A scratch directory for one test.
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    if common::have_peer(missing) {
+        common::real_time(test);
+    }
 }
 
 /// Where the screenshots go (CI keeps the directory).
@@ -46,22 +43,60 @@ fn screenshots() -> PathBuf {
     dir
 }
 
-/// Writes `config` and the recording of `script` under `dir`.
-fn session_files(dir: &Path, config_toml: &str, script: &[Step]) -> (PathBuf, PathBuf) {
-    let config = Config::from_toml_str(config_toml).expect("the test's config");
-    let params = SignalParams::clean(config.core().detector(), 7);
-    let csv = dir.join("session.csv");
-    let mut out = std::io::BufWriter::new(std::fs::File::create(&csv).unwrap());
-    write_csv(&mut out, SignalGenerator::new(params, script)).unwrap();
-    out.flush().unwrap();
-    let toml = dir.join("config.toml");
-    std::fs::write(&toml, config_toml).unwrap();
-    (toml, csv)
+/// A scripted session in a real browser: its config and recording in a
+/// scratch folder, the browser, and `sipnpuff run` on them with the
+/// display, its page served.
+struct Session {
+    config: PathBuf,
+    csv: PathBuf,
+    browser: Browser,
+    port: u16,
+    run: Running,
+    /// Held until the test ends (the quiet run reads it again).
+    _dir: Scratch,
+}
+
+impl Session {
+    /// Writes `config_toml` and the recording of `script`, starts the
+    /// browser and then the run (the browser first: its start-up, seconds
+    /// on a loaded machine, must not eat into the rest before the first
+    /// breath) and waits until the page is served.
+    fn start(config_toml: &str, script: &[Step]) -> Session {
+        let dir = Scratch::new();
+        let config = Config::from_toml_str(config_toml).expect("the test's config");
+        let params = SignalParams::clean(config.core().detector(), 7);
+        let csv = dir.join("session.csv");
+        let mut out = std::io::BufWriter::new(std::fs::File::create(&csv).unwrap());
+        write_csv(&mut out, SignalGenerator::new(params, script)).unwrap();
+        out.flush().unwrap();
+        let config = dir.join("config.toml");
+        std::fs::write(&config, config_toml).unwrap();
+        let browser = Browser::start();
+        let port = free_port();
+        let run = run(&config, &csv, Some(port));
+        assert!(
+            poll_until(Duration::from_secs(30), Duration::from_millis(20), || {
+                ureq::get(format!("http://127.0.0.1:{port}/state"))
+                    .call()
+                    .is_ok()
+            }),
+            "no page served"
+        );
+        Session {
+            config,
+            csv,
+            browser,
+            port,
+            run,
+            _dir: dir,
+        }
+    }
 }
 
 /// A WebDriver session in headless Chromium.
 struct Browser {
-    driver: Child,
+    /// Ended (dropped) after its session is deleted.
+    _driver: Running,
     base: String,
     session: String,
 }
@@ -69,21 +104,16 @@ struct Browser {
 impl Browser {
     fn start() -> Browser {
         let port = free_port();
-        let driver = crate::watchdog::spawn(
-            Command::new(CHROMEDRIVER)
-                .arg(format!("--port={port}"))
-                .stdout(Stdio::null())
-                .stderr(Stdio::null()),
-        );
+        let mut command = Command::new(CHROMEDRIVER);
+        command.arg(format!("--port={port}"));
+        let driver = Running::start(command);
         let base = format!("http://127.0.0.1:{port}");
-        let started = Instant::now();
-        while ureq::get(format!("{base}/status")).call().is_err() {
-            assert!(
-                started.elapsed() < Duration::from_secs(30),
-                "chromedriver did not answer on {base}"
-            );
-            std::thread::sleep(Duration::from_millis(100));
-        }
+        assert!(
+            poll_until(Duration::from_secs(30), Duration::from_millis(100), || {
+                ureq::get(format!("{base}/status")).call().is_ok()
+            }),
+            "chromedriver did not answer on {base}"
+        );
         let capabilities = json!({"capabilities": {"alwaysMatch": {
             "browserName": "chrome",
             "goog:chromeOptions": {
@@ -102,7 +132,7 @@ impl Browser {
             .unwrap();
         let session = reply["value"]["sessionId"].as_str().unwrap().to_string();
         Browser {
-            driver,
+            _driver: driver,
             base,
             session,
         }
@@ -171,8 +201,6 @@ impl Browser {
 impl Drop for Browser {
     fn drop(&mut self) {
         let _ = ureq::delete(format!("{}/session/{}", self.base, self.session)).call();
-        let _ = self.driver.kill();
-        let _ = self.driver.wait();
     }
 }
 
@@ -241,7 +269,8 @@ fn run(config: &Path, csv: &Path, port: Option<u16>) -> Running {
     Running::start(command)
 }
 
-/// A TCP connection to the page's server with a 1 KiB receive buffer.
+/// A client of the page's event stream with a 1 KiB receive buffer that
+/// never reads.
 fn stalled_client(port: u16) -> std::net::TcpStream {
     use std::os::fd::FromRawFd;
     // SAFETY: plain socket calls on a descriptor this function owns; the
@@ -271,22 +300,11 @@ fn stalled_client(port: u16) -> std::net::TcpStream {
             std::mem::size_of::<libc::sockaddr_in>() as libc::socklen_t,
         );
         assert_eq!(rc, 0, "connect to the page's server");
-        std::net::TcpStream::from_raw_fd(fd)
-    }
-}
-
-/// Waits until the page is served.
-fn wait_served(port: u16) {
-    let started = Instant::now();
-    while ureq::get(format!("http://127.0.0.1:{port}/state"))
-        .call()
-        .is_err()
-    {
-        assert!(
-            started.elapsed() < Duration::from_secs(30),
-            "no page served"
-        );
-        std::thread::sleep(Duration::from_millis(20));
+        let mut stream = std::net::TcpStream::from_raw_fd(fd);
+        stream
+            .write_all(b"GET /events HTTP/1.1\r\nHost: x\r\n\r\n")
+            .unwrap();
+        stream
     }
 }
 
@@ -357,11 +375,7 @@ mode = "translate_z"
 /// sensor drops out.
 #[test]
 fn asp_in_a_real_browser_shows_sequences_waits_modes_directions_and_faults() {
-    if !have_browser("asp_in_a_real_browser") {
-        return;
-    }
-    common::real_time(|| {
-        let dir = scratch("display-browser-asp");
+    browser_test(|| {
         let script = [
             rest(2500),
             sip(150),
@@ -373,20 +387,18 @@ fn asp_in_a_real_browser_shows_sequences_waits_modes_directions_and_faults() {
             Step::Dropout { ms: 1500 },
             rest(1500),
         ];
-        let (config, csv) = session_files(&dir, ASP_CONFIG, &script);
-        // The browser first: its start-up (seconds on a loaded machine)
-        // must not eat into the rest before the first breath.
-        let browser = Browser::start();
-        let port = free_port();
-        let mut run = run(&config, &csv, Some(port));
-        wait_served(port);
+        let Session {
+            config,
+            csv,
+            browser,
+            port,
+            mut run,
+            _dir,
+        } = Session::start(ASP_CONFIG, &script);
         // A client that connects to the stream and never reads it (a
         // receive buffer of 1 KiB): the run must not notice it, and must
         // end with it still connected.
-        let mut stalled = stalled_client(port);
-        stalled
-            .write_all(b"GET /events HTTP/1.1\r\nHost: x\r\n\r\n")
-            .unwrap();
+        let stalled = stalled_client(port);
         browser.open(&format!("http://127.0.0.1:{port}/"));
         let start = browser.until("the modes", |s| s["state"] == "selecting");
         assert_eq!(start["interface"], "asp");
@@ -511,20 +523,17 @@ fn asp_in_a_real_browser_shows_sequences_waits_modes_directions_and_faults() {
 /// highlighted mode.
 #[test]
 fn bsp_in_a_real_browser_moves_the_highlight_with_the_scan() {
-    if !have_browser("bsp_in_a_real_browser") {
-        return;
-    }
-    common::real_time(|| {
-        let dir = scratch("display-browser-bsp");
-        let config = "[interface]\nkind = \"bsp\"\n";
+    browser_test(|| {
         // Scan: translate_x for 3 s, then translate_y for 1.5 s; the puff
         // begins under translate_y.
         let script = [rest(3600), puff(200), rest(1500), puff(1500), rest(1000)];
-        let (config, csv) = session_files(&dir, config, &script);
-        let browser = Browser::start(); // first, as in the ASP test
-        let port = free_port();
-        let mut run = run(&config, &csv, Some(port));
-        wait_served(port);
+        let Session {
+            browser,
+            port,
+            mut run,
+            _dir,
+            ..
+        } = Session::start("[interface]\nkind = \"bsp\"\n", &script);
         browser.open(&format!("http://127.0.0.1:{port}/"));
         let first = browser.until("the scan", |s| {
             s["interface"] == "bsp" && !strings(&s["highlight"]).is_empty()
@@ -566,10 +575,7 @@ fn a_page_that_stops_reading_skips_frames_and_holds_up_nothing() {
     let listener = DisplayServer::bind("127.0.0.1:0".parse().unwrap()).unwrap();
     let server = DisplayServer::serve(listener, hub.feed()).unwrap();
     let port = server.address().port();
-    let mut stalled = stalled_client(port);
-    stalled
-        .write_all(b"GET /events HTTP/1.1\r\nHost: x\r\n\r\n")
-        .unwrap();
+    let stalled = stalled_client(port);
     let feed = hub.feed();
     let started = Instant::now();
     while feed

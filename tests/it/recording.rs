@@ -28,6 +28,7 @@ use sipnpuff::tools::recording::writer::RecordOptions;
 
 use crate::common::TickByTick;
 use crate::common::{Running, fixture};
+use crate::scratch::Scratch;
 
 fn sipnpuff(args: &[&str]) -> Output {
     let mut command = crate::common::sipnpuff();
@@ -35,14 +36,6 @@ fn sipnpuff(args: &[&str]) -> Output {
     let output = crate::watchdog::output(&mut command);
     crate::common::witness(&text(&output.stdout));
     output
-}
-
-/// A fresh scratch directory (the recording goes in `rec` inside it).
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("sipnpuff-rec-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 fn shared_machine() -> String {
@@ -65,6 +58,15 @@ fn replay(dir: &Path) -> (i32, String, String) {
         text(&out.stdout),
         text(&out.stderr),
     )
+}
+
+/// `replay DIR` fails (exit 1) saying each of `parts`.
+fn assert_replay_fails(dir: &Path, parts: &[&str]) {
+    let (code, _, stderr) = replay(dir);
+    assert_eq!(code, 1, "{stderr}");
+    for part in parts {
+        assert!(stderr.contains(part), "{part}: {stderr}");
+    }
 }
 
 /// What every complete recording of a run must show: its report and
@@ -140,7 +142,7 @@ fn next_tick_after(dir: &Path, tick: u64) -> u64 {
 #[test]
 fn a_recorded_run_of_the_built_in_user_replays_bit_for_bit() {
     crate::common::real_time(|| {
-        let scratch = scratch("user");
+        let scratch = Scratch::new();
         let dir = scratch.join("rec");
         let run = Running::spawn(&[
             "run",
@@ -167,23 +169,18 @@ fn a_recorded_run_of_the_built_in_user_replays_bit_for_bit() {
 
         // 0.2 → 0.19 m/s: the first move's commands differ from the 767th on.
         let changed = scratch.join("changed");
-        std::fs::create_dir_all(&changed).unwrap();
-        for entry in std::fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
-            std::fs::copy(&path, changed.join(path.file_name().unwrap())).unwrap();
-        }
+        copy_recording(&dir, &changed);
         let config = std::fs::read_to_string(changed.join("config.toml")).unwrap();
         assert!(config.contains("\nlinear_speed_mps = 0.2\n"));
         let config = config.replace("\nlinear_speed_mps = 0.2\n", "\nlinear_speed_mps = 0.19\n");
         std::fs::write(changed.join("config.toml"), config).unwrap();
-        let (code, _, stderr) = replay(&changed);
-        assert_eq!(code, 1, "{stderr}");
-        assert!(
-            stderr.contains("DIFFERENT from the recording: first difference: arm command ")
-                && stderr.contains("linear x: recorded "),
-            "{stderr}"
+        assert_replay_fails(
+            &changed,
+            &[
+                "DIFFERENT from the recording: first difference: arm command ",
+                "linear x: recorded ",
+            ],
         );
-        std::fs::remove_dir_all(&scratch).unwrap();
     });
 }
 
@@ -193,7 +190,7 @@ fn a_recorded_run_of_the_built_in_user_replays_bit_for_bit() {
 #[test]
 fn a_recorded_csv_run_with_a_stall_replays_bit_for_bit() {
     crate::common::real_time(|| {
-        let scratch = scratch("csv");
+        let scratch = Scratch::new();
         let dir = scratch.join("rec");
         let sensor = format!("csv:{}", fixture("demo.csv").display());
         let mut run = Running::spawn(&[
@@ -209,9 +206,7 @@ fn a_recorded_csv_run_with_a_stall_replays_bit_for_bit() {
             dir.to_str().unwrap(),
         ]);
         run.wait_for("\"event\":\"match\"");
-        run.signal(libc::SIGSTOP);
-        std::thread::sleep(Duration::from_millis(1200));
-        run.signal(libc::SIGCONT);
+        run.pause(Duration::from_millis(1200));
         let (status, stdout, stderr) = run.finish();
         assert!(status.success(), "{status}\n{stderr}");
         assert!(
@@ -224,7 +219,6 @@ fn a_recorded_csv_run_with_a_stall_replays_bit_for_bit() {
         // The gap is in the recording: more ticks spanned than stepped.
         let span = meta["last_tick"].as_u64().unwrap() - meta["first_tick"].as_u64().unwrap() + 1;
         assert!(span >= meta["ticks"].as_u64().unwrap() + 1100, "{meta}");
-        std::fs::remove_dir_all(&scratch).unwrap();
     });
 }
 
@@ -239,7 +233,7 @@ fn a_recorded_serial_device_that_is_unplugged_replays_bit_for_bit() {
         use crate::sensors::{Pty, stream};
         const BREATHS: [(f64, u64); 5] =
             [(2.6, 3000), (4.0, 800), (2.6, 400), (1.5, 150), (2.6, 500)];
-        let scratch = scratch("serial");
+        let scratch = Scratch::new();
         let dir = scratch.join("rec");
         let pty = Pty::open();
         let sensor = format!("serial:{}", pty.path);
@@ -283,7 +277,6 @@ fn a_recorded_serial_device_that_is_unplugged_replays_bit_for_bit() {
             }
         }
         assert!(gone > 0, "no tick with the device gone: {meta}");
-        std::fs::remove_dir_all(&scratch).unwrap();
     });
 }
 
@@ -293,7 +286,7 @@ fn a_recorded_serial_device_that_is_unplugged_replays_bit_for_bit() {
 #[test]
 fn a_recording_past_its_size_cap_is_incomplete_and_replay_says_so() {
     crate::common::real_time(|| {
-        let scratch = scratch("cap");
+        let scratch = Scratch::new();
         let dir = scratch.join("rec");
         let out = sipnpuff(&[
             "run",
@@ -321,14 +314,13 @@ fn a_recording_past_its_size_cap_is_incomplete_and_replay_says_so() {
         assert!(meta["bytes"].as_u64().unwrap() <= 5000, "{meta}");
         assert!(meta["lost"]["ticks"].as_u64().unwrap() > 0, "{meta}");
         assert!(meta["problems"][0].as_str().unwrap().contains("size cap"));
-        let (code, _, stderr) = replay(&dir);
-        assert_eq!(code, 1, "{stderr}");
-        assert!(
-            stderr.contains("NOT VERIFIED: the recording is incomplete (the size cap")
-                && stderr.contains("identical so far"),
-            "{stderr}"
+        assert_replay_fails(
+            &dir,
+            &[
+                "NOT VERIFIED: the recording is incomplete (the size cap",
+                "identical so far",
+            ],
         );
-        std::fs::remove_dir_all(&scratch).unwrap();
     });
 }
 
@@ -338,7 +330,7 @@ fn a_recording_past_its_size_cap_is_incomplete_and_replay_says_so() {
 #[test]
 fn a_full_disk_fails_the_recording_not_the_run() {
     crate::common::real_time(|| {
-        let scratch = scratch("full");
+        let scratch = Scratch::new();
         let dir = scratch.join("rec");
         std::fs::create_dir_all(&dir).unwrap();
         std::os::unix::fs::symlink("/dev/full", dir.join("commands.bin")).unwrap();
@@ -364,7 +356,6 @@ fn a_full_disk_fails_the_recording_not_the_run() {
                 && stdout.contains("commands.bin: No space left on device"),
             "{stdout}"
         );
-        std::fs::remove_dir_all(&scratch).unwrap();
     });
 }
 
@@ -374,7 +365,7 @@ fn a_full_disk_fails_the_recording_not_the_run() {
 /// and `finish` gives up after the stall timeout instead of waiting.
 #[test]
 fn a_stalled_writer_drops_and_counts_and_never_holds_up_the_loop() {
-    let scratch = scratch("stalled");
+    let scratch = Scratch::new();
     let dir = scratch.join("rec");
     std::fs::create_dir_all(&dir).unwrap();
     let fifo = std::ffi::CString::new(dir.join("samples.bin").to_str().unwrap()).unwrap();
@@ -431,7 +422,7 @@ fn a_stalled_writer_drops_and_counts_and_never_holds_up_the_loop() {
         "{stderr}"
     );
     // Let the writer out of its `open` (it then fails on the closed pipe
-    // and ends), and clean up.
+    // and ends).
     // SAFETY: a valid NUL-terminated path; the descriptor is closed at once.
     unsafe {
         let fd = libc::open(fifo.as_ptr(), libc::O_RDONLY | libc::O_NONBLOCK);
@@ -439,7 +430,6 @@ fn a_stalled_writer_drops_and_counts_and_never_holds_up_the_loop() {
             libc::close(fd);
         }
     }
-    let _ = std::fs::remove_dir_all(&scratch);
 }
 
 /// A queue of 16 items fed a whole session in a tight loop (faster than
@@ -456,7 +446,7 @@ fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() 
         use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams};
         use sipnpuff::tools::recording::read::Recording;
 
-        let scratch = scratch("dropped");
+        let scratch = Scratch::new();
         let dir = scratch.join("rec");
         let config = Config::default();
         let options = RecordOptions {
@@ -524,15 +514,10 @@ fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() 
             verdict.compared_through < verdict.last_tick,
             "compared only up to the first loss: {verdict:?}"
         );
-        let (code, _, stderr) = replay(&dir);
-        assert_eq!(code, 1);
-        assert!(
-            stderr.contains(
-                "NOT VERIFIED: the recording is incomplete (the recorder's queue was full"
-            ),
-            "{stderr}"
+        assert_replay_fails(
+            &dir,
+            &["NOT VERIFIED: the recording is incomplete (the recorder's queue was full"],
         );
-        std::fs::remove_dir_all(&scratch).unwrap();
     });
 }
 
@@ -541,7 +526,7 @@ fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() 
 fn short_recording() -> &'static Path {
     static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = scratch("short").join("rec");
+        let dir = Scratch::new().until_exit().join("rec");
         let out = sipnpuff(&[
             "run",
             "--seconds",
@@ -556,26 +541,32 @@ fn short_recording() -> &'static Path {
     })
 }
 
-/// A copy of the short recording, in `rec` in a fresh scratch directory.
-fn copy_of_short_recording(name: &str) -> PathBuf {
-    let dir = scratch(name).join("rec");
-    std::fs::create_dir_all(&dir).unwrap();
-    for entry in std::fs::read_dir(short_recording()).unwrap() {
+/// A copy of the short recording, in `rec` in a fresh scratch directory
+/// (removed when the copy is dropped).
+fn copy_of_short_recording() -> (Scratch, PathBuf) {
+    let scratch = Scratch::new();
+    let dir = scratch.join("rec");
+    copy_recording(short_recording(), &dir);
+    (scratch, dir)
+}
+
+/// A copy of the recording in `from`, in `to`.
+fn copy_recording(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
         let path = entry.unwrap().path();
-        std::fs::copy(&path, dir.join(path.file_name().unwrap())).unwrap();
+        std::fs::copy(&path, to.join(path.file_name().unwrap())).unwrap();
     }
-    dir
 }
 
 /// A copy of the short recording, `damage` done to it, replayed: the
 /// error.
 fn damaged(name: &str, damage: impl FnOnce(&Path)) -> String {
-    let dir = copy_of_short_recording(&format!("damaged-{name}"));
+    let (_copy, dir) = copy_of_short_recording();
     damage(&dir);
     let (code, events, stderr) = replay(&dir);
     assert_eq!(code, 1, "{name}: {stderr}");
     assert!(events.is_empty(), "{name}: replayed before the check");
-    std::fs::remove_dir_all(dir.parent().unwrap()).unwrap();
     stderr
 }
 
@@ -692,7 +683,7 @@ fn bench_replay_times_the_replay_against_the_core_alone() {
         "{table}"
     );
 
-    let damaged = copy_of_short_recording("bench-damaged");
+    let (_copy, damaged) = copy_of_short_recording();
     edit_bytes(&damaged.join("samples.bin"), |b| b.truncate(b.len() / 2));
     let out = sipnpuff(&["bench", "replay", damaged.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(1));
@@ -702,14 +693,13 @@ fn bench_replay_times_the_replay_against_the_core_alone() {
         "{e}"
     );
     assert!(out.stdout.is_empty());
-    std::fs::remove_dir_all(damaged.parent().unwrap()).unwrap();
 }
 
 /// `--events` and `--trace` work for a recording as for a CSV signal:
 /// the events are the recorded lines, the trace has a row per tick.
 #[test]
 fn a_recording_replays_to_events_and_trace_files() {
-    let scratch = scratch("files");
+    let scratch = Scratch::new();
     let (events, trace) = (scratch.join("events.jsonl"), scratch.join("trace.csv"));
     let dir = short_recording();
     let out = sipnpuff(&[
@@ -747,12 +737,11 @@ fn a_recording_replays_to_events_and_trace_files() {
         "{}",
         text(&out.stderr)
     );
-    std::fs::remove_dir_all(&scratch).unwrap();
 }
 
 #[test]
 fn a_recorded_event_that_differs_is_named_with_its_line() {
-    let dir = copy_of_short_recording("event-differs");
+    let (_copy, dir) = copy_of_short_recording();
     let events = std::fs::read_to_string(dir.join("events.jsonl")).unwrap();
     let first = events
         .lines()
@@ -773,7 +762,6 @@ fn a_recorded_event_that_differs_is_named_with_its_line() {
         )),
         "{stderr}"
     );
-    std::fs::remove_dir_all(dir.parent().unwrap()).unwrap();
 }
 
 /// A core input: a sample (any bits: NaN payloads, -0.0, the rails, a few
@@ -942,7 +930,7 @@ impl sipnpuff::arm::Arm for FastMeasuringArm {
 #[test]
 fn a_run_with_a_measuring_arm_replays_bit_for_bit() {
     crate::common::real_time(|| {
-        let dir = scratch("measuring-arm");
+        let dir = Scratch::new();
         let config = Config::default();
         let mut recorder = Recorder::create(&dir, &config, RecordOptions::default()).unwrap();
         let run_options = RunOptions {

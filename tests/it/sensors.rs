@@ -9,6 +9,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crate::common::{Running, fixture};
+use crate::scratch::Scratch;
 
 /// A pseudo-terminal pair; the slave is in raw mode, as a real serial port
 /// is opened by sipnpuff.
@@ -232,8 +233,7 @@ fn the_flipmouse_dialect_is_started_and_its_rate_is_said() {
             [(2.5, 4000), (4.0, 900), (2.5, 600), (1.5, 300), (2.5, 2000)];
         let pty = Pty::open();
         let path = format!("serial:{}", pty.path);
-        let dir = std::env::temp_dir().join(format!("sipnpuff-flip-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = Scratch::new();
         let cfg = dir.join("flip.toml");
         std::fs::write(
             &cfg,
@@ -255,7 +255,6 @@ fn the_flipmouse_dialect_is_started_and_its_rate_is_said() {
         });
         let (_, lines, stderr) = run.finish();
         feeder.join().unwrap();
-        std::fs::remove_dir_all(&dir).ok();
         assert!(stderr.contains("every 50 ms (20 per second)"), "{stderr}");
         assert!(stderr.contains("a 40 ms burst cannot be timed"), "{stderr}");
         assert_eq!(

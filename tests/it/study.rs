@@ -5,7 +5,6 @@
 
 use crate::common::TickByTick;
 use sipnpuff::config::Config;
-use sipnpuff::control::action::Breath;
 use sipnpuff::control::event::Event;
 use sipnpuff::control::mode::{Mode, ModeState};
 use sipnpuff::control::pipeline::Pipeline;
@@ -13,6 +12,8 @@ use sipnpuff::control::selection::Interface;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 use sipnpuff::sim::study::{StudyOptions, StudyReport, run_study};
 use sipnpuff::sim::user::{RUN_STEPS, scripted_session};
+
+use crate::common::{puff, rest, sip};
 
 fn bsp() -> Config {
     Config::default().with_interface(Interface::Bsp).unwrap()
@@ -45,7 +46,7 @@ fn highlights(events: &[(u64, Event)]) -> Vec<(u64, Mode)> {
 fn the_scan_highlights_each_mode_on_time() {
     // At rest: 3 s on translate_x, then 1.5 s on each next mode, round.
     let config = bsp();
-    let seen = highlights(&events(&config, &[Step::Rest { ms: 20_000 }]));
+    let seen = highlights(&events(&config, &[rest(20_000)]));
     let expected: Vec<(u64, Mode)> = [(0, Mode::TranslateX)]
         .into_iter()
         .chain((1..9).map(|k| (3000 + (k as u64 - 1) * 1500, Mode::ALL[k])))
@@ -60,19 +61,7 @@ fn a_puff_enters_the_highlighted_mode_and_inactivity_restarts_the_scan() {
     let config = bsp();
     // translate_z is highlighted 4500–5999: puff in the middle of it, then
     // sip 1 s (down), then rest past the inactivity timeout.
-    let script = [
-        Step::Rest { ms: 5000 },
-        Step::Breath {
-            breath: Breath::Puff,
-            ms: 150,
-        },
-        Step::Rest { ms: 500 },
-        Step::Breath {
-            breath: Breath::Sip,
-            ms: 1000,
-        },
-        Step::Rest { ms: 6000 },
-    ];
+    let script = [rest(5000), puff(150), rest(500), sip(1000), rest(6000)];
     let all = events(&config, &script);
     let matches: Vec<(u64, Mode)> = all
         .iter()
@@ -116,19 +105,7 @@ fn a_puff_enters_the_highlighted_mode_and_inactivity_restarts_the_scan() {
 #[test]
 fn sips_select_nothing_while_scanning() {
     let config = bsp();
-    let script = [
-        Step::Rest { ms: 1000 },
-        Step::Breath {
-            breath: Breath::Sip,
-            ms: 150,
-        },
-        Step::Rest { ms: 1000 },
-        Step::Breath {
-            breath: Breath::Sip,
-            ms: 800,
-        },
-        Step::Rest { ms: 3000 },
-    ];
+    let script = [rest(1000), sip(150), rest(1000), sip(800), rest(3000)];
     let all = events(&config, &script);
     assert!(!all.iter().any(|(_, e)| matches!(e, Event::Match { .. })));
 }
@@ -159,14 +136,19 @@ fn the_run_users_session_selects_every_mode_of_its_plan() {
     );
 }
 
+/// A study of `users` simulated users from `seed`.
+fn study_options(users: usize, seed: u64) -> StudyOptions {
+    StudyOptions {
+        users,
+        seed,
+        ..StudyOptions::default()
+    }
+}
+
 #[test]
 fn the_study_is_deterministic_for_a_seed() {
     let config = Config::default();
-    let options = StudyOptions {
-        users: 3,
-        seed: 42,
-        ..StudyOptions::default()
-    };
+    let options = study_options(3, 42);
     let report = |options: &StudyOptions| {
         let results = run_study(&config, options, |_, _| {}).unwrap();
         serde_json::to_value(StudyReport::of(&results, options)).unwrap()
@@ -186,11 +168,7 @@ fn selection_is_the_only_difference() {
     // users' hold variability (10 % SD per hold), completion times differ
     // by the scan. Every run finishes.
     let config = Config::default();
-    let options = StudyOptions {
-        users: 4,
-        seed: 5,
-        ..StudyOptions::default()
-    };
+    let options = study_options(4, 5);
     for r in run_study(&config, &options, |_, _| {}).unwrap() {
         let s = r.summary();
         assert_eq!(s.timed_out, 0);

@@ -110,7 +110,7 @@ pub fn output(command: &mut Command) -> Output {
 
 /// A command as a person would type it: the program's name and its
 /// arguments.
-fn command_line(command: &Command) -> String {
+pub fn command_line(command: &Command) -> String {
     let program = std::path::Path::new(command.get_program());
     std::iter::once(program.file_name().unwrap_or(program.as_os_str()))
         .chain(command.get_args())

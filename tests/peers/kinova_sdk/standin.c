@@ -281,40 +281,21 @@ EXPORT int API(RefresDevicesList)(void) {
     return NO_ERROR_KINOVA;
 }
 
-EXPORT int API(StartControlAPI)(void) {
+/* A call that needs InitAPI first and then sets the state `flag` points to
+ * (if any) to `value`: records its return code and returns it. */
+static int state_call(const char *name, int *flag, int value) {
     pthread_mutex_lock(&lock);
     int code = initialized ? NO_ERROR_KINOVA : ERROR_API_NOT_INITIALIZED;
-    if (initialized) controlling = 1;
-    record(__func__, "returns=%d", code);
+    if (initialized && flag) *flag = value;
+    record(name, "returns=%d", code);
     pthread_mutex_unlock(&lock);
     return code;
 }
 
-EXPORT int API(StopControlAPI)(void) {
-    pthread_mutex_lock(&lock);
-    int code = initialized ? NO_ERROR_KINOVA : ERROR_API_NOT_INITIALIZED;
-    controlling = 0;
-    record(__func__, "returns=%d", code);
-    pthread_mutex_unlock(&lock);
-    return code;
-}
-
-EXPORT int API(SetCartesianControl)(void) {
-    pthread_mutex_lock(&lock);
-    int code = initialized ? NO_ERROR_KINOVA : ERROR_API_NOT_INITIALIZED;
-    if (initialized) cartesian = 1;
-    record(__func__, "returns=%d", code);
-    pthread_mutex_unlock(&lock);
-    return code;
-}
-
-EXPORT int API(EraseAllTrajectories)(void) {
-    pthread_mutex_lock(&lock);
-    int code = initialized ? NO_ERROR_KINOVA : ERROR_API_NOT_INITIALIZED;
-    record(__func__, "returns=%d", code);
-    pthread_mutex_unlock(&lock);
-    return code;
-}
+EXPORT int API(StartControlAPI)(void) { return state_call(__func__, &controlling, 1); }
+EXPORT int API(StopControlAPI)(void) { return state_call(__func__, &controlling, 0); }
+EXPORT int API(SetCartesianControl)(void) { return state_call(__func__, &cartesian, 1); }
+EXPORT int API(EraseAllTrajectories)(void) { return state_call(__func__, NULL, 0); }
 
 #ifndef STANDIN_OMIT_SEND
 EXPORT int API(SendAdvanceTrajectory)(TrajectoryPoint point) {

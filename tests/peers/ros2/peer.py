@@ -26,6 +26,7 @@ import struct
 import sys
 import threading
 import time
+import types
 from dataclasses import dataclass
 
 from cyclonedds.core import Listener, Qos, Policy
@@ -39,99 +40,36 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 
-@dataclass
-@annotate.final
-class Time_(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
-    sec: int32
-    nanosec: uint32
+def msg(package, name, **fields):
+    """The DDS type of ROS 2's `package/msg/name`: a final IDL struct with
+    `fields` (name: IDL type) in order."""
+    typename = f"{package}::msg::dds_::{name}_"
+    cls = types.new_class(
+        f"{name}_", (IdlStruct,), {"typename": typename}, lambda ns: ns.update(__annotations__=fields)
+    )
+    return dataclass(annotate.final(cls))
 
 
-@dataclass
-@annotate.final
-class Header_(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    stamp: Time_
-    frame_id: str
+XYZ = {"x": float64, "y": float64, "z": float64}
+# kinova_msgs' velocities: float32 fields, linear then angular.
+TWIST_FIELDS = [f"twist_{part}_{axis}" for part in ("linear", "angular") for axis in "xyz"]
+FINGER_FIELDS = ["finger1", "finger2", "finger3"]
 
-
-@dataclass
-@annotate.final
-class Vector3_(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
-    x: float64
-    y: float64
-    z: float64
-
-
-@dataclass
-@annotate.final
-class Twist_(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
-    linear: Vector3_
-    angular: Vector3_
-
-
-@dataclass
-@annotate.final
-class TwistStamped_(IdlStruct, typename="geometry_msgs::msg::dds_::TwistStamped_"):
-    header: Header_
-    twist: Twist_
-
-
-@dataclass
-@annotate.final
-class PoseVelocity_(IdlStruct, typename="kinova_msgs::msg::dds_::PoseVelocity_"):
-    twist_linear_x: float32
-    twist_linear_y: float32
-    twist_linear_z: float32
-    twist_angular_x: float32
-    twist_angular_y: float32
-    twist_angular_z: float32
-
-
-@dataclass
-@annotate.final
-class PoseVelocityWithFingerVelocity_(
-    IdlStruct, typename="kinova_msgs::msg::dds_::PoseVelocityWithFingerVelocity_"
-):
-    twist_linear_x: float32
-    twist_linear_y: float32
-    twist_linear_z: float32
-    twist_angular_x: float32
-    twist_angular_y: float32
-    twist_angular_z: float32
-    finger1: float32
-    finger2: float32
-    finger3: float32
-
-
-@dataclass
-@annotate.final
-class Point_(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
-    x: float64
-    y: float64
-    z: float64
-
-
-@dataclass
-@annotate.final
-class Quaternion_(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
-    x: float64
-    y: float64
-    z: float64
-    w: float64
-
-
-@dataclass
-@annotate.final
-class Pose_(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
-    position: Point_
-    orientation: Quaternion_
-
-
-@dataclass
-@annotate.final
-class PoseStamped_(IdlStruct, typename="geometry_msgs::msg::dds_::PoseStamped_"):
-    header: Header_
-    pose: Pose_
-
+Time_ = msg("builtin_interfaces", "Time", sec=int32, nanosec=uint32)
+Header_ = msg("std_msgs", "Header", stamp=Time_, frame_id=str)
+Vector3_ = msg("geometry_msgs", "Vector3", **XYZ)
+Twist_ = msg("geometry_msgs", "Twist", linear=Vector3_, angular=Vector3_)
+TwistStamped_ = msg("geometry_msgs", "TwistStamped", header=Header_, twist=Twist_)
+PoseVelocity_ = msg("kinova_msgs", "PoseVelocity", **dict.fromkeys(TWIST_FIELDS, float32))
+PoseVelocityWithFingerVelocity_ = msg(
+    "kinova_msgs",
+    "PoseVelocityWithFingerVelocity",
+    **dict.fromkeys(TWIST_FIELDS + FINGER_FIELDS, float32),
+)
+Point_ = msg("geometry_msgs", "Point", **XYZ)
+Quaternion_ = msg("geometry_msgs", "Quaternion", **XYZ, w=float64)
+Pose_ = msg("geometry_msgs", "Pose", position=Point_, orientation=Quaternion_)
+PoseStamped_ = msg("geometry_msgs", "PoseStamped", header=Header_, pose=Pose_)
 
 TYPES = {
     "twist_stamped": TwistStamped_,
@@ -160,16 +98,9 @@ def record(sample, kind):
             "values": values,
             "bits": [f64_bits(v) for v in values],
         }
-    names = [
-        "twist_linear_x",
-        "twist_linear_y",
-        "twist_linear_z",
-        "twist_angular_x",
-        "twist_angular_y",
-        "twist_angular_z",
-    ]
+    names = TWIST_FIELDS
     if kind == "pose_velocity_with_finger_velocity":
-        names += ["finger1", "finger2", "finger3"]
+        names = TWIST_FIELDS + FINGER_FIELDS
     values = [getattr(sample, n) for n in names]
     return {"values": values, "bits": [f32_bits(v) for v in values]}
 

@@ -464,3 +464,109 @@ static inline long parse_long(const char *s, const char *what, long lo, long hi)
         die("%s must be an integer in %ld..%ld, got \"%s\"", what, lo, hi, s);
     return v;
 }
+
+/* What every feeder's command line gives: the pattern, the log of breath
+ * ends, the device's opener to wait for, the period (at least
+ * `min_period_us`) and the real-time set-up; with `usb`, also the
+ * gadget's --udc-file and --keep-going. The flags set the globals above. */
+struct feed_options {
+    const char *pattern_path, *ends_path, *when_open;
+    long period_us, min_period_us;
+    int prio, cpu, usb;
+};
+
+/* Takes argv[*i] and its value (moving *i past it) if it is a valued
+ * option every feeder takes; 0 if it is not. */
+static inline int feed_value_option(int argc, char **argv, int *i, struct feed_options *o)
+{
+    const char *a = argv[*i];
+    if (*i + 1 >= argc)
+        return 0;
+    const char *value = argv[*i + 1];
+    if (!strcmp(a, "--period-us"))
+        o->period_us = parse_long(value, a, o->min_period_us, 10000000);
+    else if (!strcmp(a, "--udc-file") && o->usb)
+        udc_file = value;
+    else if (!strcmp(a, "--ends"))
+        o->ends_path = value;
+    else if (!strcmp(a, "--fifo"))
+        o->prio = (int)parse_long(value, a, 0, 99);
+    else if (!strcmp(a, "--cpu"))
+        o->cpu = (int)parse_long(value, a, 0, 1023);
+    else if (!strcmp(a, "--start-when-open"))
+        o->when_open = value;
+    else
+        return 0;
+    (*i)++;
+    return 1;
+}
+
+/* Takes argv[*i] if it is an option every feeder takes (with its value,
+ * moving *i past it) or the pattern; 0 if it is not. */
+static inline int feed_option(int argc, char **argv, int *i, struct feed_options *o)
+{
+    const char *a = argv[*i];
+    if (!strcmp(a, "--linger"))
+        linger = 1;
+    else if (!strcmp(a, "--sync-rt"))
+        sync_rt = 1;
+    else if (!strcmp(a, "--keep-going") && o->usb)
+        keep_going = 1;
+    else if (a[0] != '-' && !o->pattern_path)
+        o->pattern_path = a;
+    else
+        return feed_value_option(argc, argv, i, o);
+    return 1;
+}
+
+/* One of a feeder's own options: a flag sets `*flag` to 1; an option with
+ * a value points `*value` at it. A table of them ends with {0}. */
+struct own_option {
+    const char *name;
+    const char **value;
+    int *flag;
+};
+
+/* Parses the command line: the options every feeder takes into `o`, the
+ * feeder's own by the table `own`; anything else is an error. */
+static inline void parse_options(int argc, char **argv, struct feed_options *o,
+                                 const struct own_option *own)
+{
+    for (int i = 1; i < argc; i++) {
+        if (feed_option(argc, argv, &i, o))
+            continue;
+        const struct own_option *opt = own;
+        while (opt->name && strcmp(opt->name, argv[i]))
+            opt++;
+        if (!opt->name || (opt->value && i + 1 >= argc))
+            die("unknown or incomplete option \"%s\" (see the comment at the top of %s.c)", argv[i],
+                prog);
+        if (opt->flag)
+            *opt->flag = 1;
+        else
+            *opt->value = argv[++i];
+    }
+}
+
+/* The level `--prime` gives: volts 0..5. */
+static inline double prime_volts(const char *text)
+{
+    char *end;
+    double v = strtod(text, &end);
+    if (*end || end == text || !(v >= 0 && v <= 5))
+        die("--prime takes volts 0..5, got \"%s\"", text);
+    return v;
+}
+
+/* Loads the pattern the options name into `p`, opens the log of breath
+ * ends (NULL without one), catches SIGTERM/SIGINT and goes real-time. */
+static inline FILE *begin_feed(const struct feed_options *o, struct pattern *p)
+{
+    if (!o->pattern_path)
+        die("no pattern given");
+    load_pattern(o->pattern_path, p);
+    FILE *ends = open_log(o->ends_path);
+    catch_stop_signals();
+    realtime(o->prio, o->cpu);
+    return ends;
+}

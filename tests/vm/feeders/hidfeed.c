@@ -72,66 +72,31 @@ static int emit(double volts, void *ctx)
 int main(int argc, char **argv)
 {
     prog = "hidfeed";
-    const char *dev = "/dev/hidg0", *ends_path = NULL, *pattern_path = NULL, *prime = NULL;
-    const char *when_open = NULL;
-    long period_us = 1000;
-    int buttons = 0, prio = 0, cpu = -1;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int more = i + 1 < argc;
-        if (!strcmp(a, "--buttons"))
-            buttons = 1;
-        else if (!strcmp(a, "--period-us") && more)
-            period_us = parse_long(argv[++i], "--period-us", 100, 10000000);
-        else if (!strcmp(a, "--linger"))
-            linger = 1;
-        else if (!strcmp(a, "--sync-rt"))
-            sync_rt = 1;
-        else if (!strcmp(a, "--udc-file") && more)
-            udc_file = argv[++i];
-        else if (!strcmp(a, "--keep-going"))
-            keep_going = 1;
-        else if (!strcmp(a, "--ends") && more)
-            ends_path = argv[++i];
-        else if (!strcmp(a, "--fifo") && more)
-            prio = (int)parse_long(argv[++i], "--fifo", 0, 99);
-        else if (!strcmp(a, "--cpu") && more)
-            cpu = (int)parse_long(argv[++i], "--cpu", 0, 1023);
-        else if (!strcmp(a, "--dev") && more)
-            dev = argv[++i];
-        else if (!strcmp(a, "--start-when-open") && more)
-            when_open = argv[++i];
-        else if (!strcmp(a, "--prime") && more)
-            prime = argv[++i];
-        else if (a[0] != '-' && !pattern_path)
-            pattern_path = a;
-        else
-            die("unknown or incomplete option \"%s\" (see the comment at the top of hidfeed.c)", a);
-    }
+    const char *dev = "/dev/hidg0", *prime = NULL;
+    int buttons = 0;
+    struct feed_options o = {.period_us = 1000, .min_period_us = 100, .cpu = -1, .usb = 1};
+    const struct own_option own[] = {
+        {"--buttons", NULL, &buttons},
+        {"--dev", &dev, NULL},
+        {"--prime", &prime, NULL},
+        {0},
+    };
+    parse_options(argc, argv, &o, own);
     int fd = open(dev, O_WRONLY);
     if (fd < 0)
         die("cannot open %s: %s", dev, strerror(errno));
     if (prime) {
-        char *end;
-        double v = strtod(prime, &end);
-        if (*end || end == prime || !(v >= 0 && v <= 5))
-            die("--prime takes volts 0..5, got \"%s\"", prime);
-        if (write_report(fd, axis(v), 0, 0) != 0)
+        if (write_report(fd, axis(prime_volts(prime)), 0, 0) != 0)
             die("write %s: %s", dev, strerror(errno));
         return 0;
     }
-    if (!pattern_path)
-        die("no pattern given");
     static struct pattern p;
-    load_pattern(pattern_path, &p);
-    FILE *ends = open_log(ends_path);
-    catch_stop_signals();
-    realtime(prio, cpu);
-    if (when_open)
-        wait_open(when_open, 60);
+    FILE *ends = begin_feed(&o, &p);
+    if (o.when_open)
+        wait_open(o.when_open, 60);
     struct hid h = {.fd = fd, .buttons = buttons, .neutral = p.neutral};
-    struct play_stats st = play(&p, period_us, emit, &h, ends);
-    print_stats(buttons ? "button reports" : "axis reports", &st, period_us);
+    struct play_stats st = play(&p, o.period_us, emit, &h, ends);
+    print_stats(buttons ? "button reports" : "axis reports", &st, o.period_us);
     if (ends)
         fclose(ends);
     return st.stopped_by_error ? 1 : 0;

@@ -69,43 +69,20 @@ static double read_scale(const char *path)
 int main(int argc, char **argv)
 {
     prog = "i2cfeed";
-    const char *bus = "/dev/i2c-0", *scale_path = NULL, *ends_path = NULL, *pattern_path = NULL;
-    const char *prime = NULL, *when_open = NULL;
-    long addr = 0x48, period_us = 1000;
-    int prio = 0, cpu = -1;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int more = i + 1 < argc;
-        if (!strcmp(a, "--scale-file") && more)
-            scale_path = argv[++i];
-        else if (!strcmp(a, "--period-us") && more)
-            period_us = parse_long(argv[++i], "--period-us", 1, 10000000);
-        else if (!strcmp(a, "--bus") && more)
-            bus = argv[++i];
-        else if (!strcmp(a, "--addr") && more) {
-            char *end;
-            addr = strtol(argv[++i], &end, 0);
-            if (*end || addr < 0x03 || addr > 0x77)
-                die("--addr must be a 7-bit address, got \"%s\"", argv[i]);
-        } else if (!strcmp(a, "--linger"))
-            linger = 1;
-        else if (!strcmp(a, "--sync-rt"))
-            sync_rt = 1;
-        else if (!strcmp(a, "--ends") && more)
-            ends_path = argv[++i];
-        else if (!strcmp(a, "--fifo") && more)
-            prio = (int)parse_long(argv[++i], "--fifo", 0, 99);
-        else if (!strcmp(a, "--cpu") && more)
-            cpu = (int)parse_long(argv[++i], "--cpu", 0, 1023);
-        else if (!strcmp(a, "--prime") && more)
-            prime = argv[++i];
-        else if (!strcmp(a, "--start-when-open") && more)
-            when_open = argv[++i];
-        else if (a[0] != '-' && !pattern_path)
-            pattern_path = a;
-        else
-            die("unknown or incomplete option \"%s\" (see the comment at the top of i2cfeed.c)", a);
-    }
+    const char *bus = "/dev/i2c-0", *scale_path = NULL, *prime = NULL, *addr_text = "0x48";
+    struct feed_options o = {.period_us = 1000, .min_period_us = 1, .cpu = -1};
+    const struct own_option own[] = {
+        {"--scale-file", &scale_path, NULL},
+        {"--bus", &bus, NULL},
+        {"--addr", &addr_text, NULL},
+        {"--prime", &prime, NULL},
+        {0},
+    };
+    parse_options(argc, argv, &o, own);
+    char *end;
+    long addr = strtol(addr_text, &end, 0);
+    if (*end || end == addr_text || addr < 0x03 || addr > 0x77)
+        die("--addr must be a 7-bit address, got \"%s\"", addr_text);
     if (!scale_path)
         die("--scale-file is required (the channel's in_voltageN_scale)");
     struct adc adc = {.volts_per_lsb = read_scale(scale_path)};
@@ -116,27 +93,19 @@ int main(int argc, char **argv)
     if (ioctl(adc.fd, I2C_SLAVE_FORCE, addr) < 0)
         die("I2C_SLAVE_FORCE 0x%02lx on %s: %s", addr, bus, strerror(errno));
     if (prime) {
-        char *end;
-        double v = strtod(prime, &end);
-        if (*end || end == prime || !(v >= 0 && v <= 5))
-            die("--prime takes volts 0..5, got \"%s\"", prime);
+        double v = prime_volts(prime);
         if (emit(v, &adc) != 0)
             die("SMBus word write to 0x%02lx: %s", addr, strerror(errno));
         printf("%s: wrote %.3f V as raw %ld (%.6f V per LSB)\n", prog, v, lround(v / adc.volts_per_lsb),
                adc.volts_per_lsb);
         return 0;
     }
-    if (!pattern_path)
-        die("no pattern given");
     static struct pattern p;
-    load_pattern(pattern_path, &p);
-    FILE *ends = open_log(ends_path);
-    catch_stop_signals();
-    realtime(prio, cpu);
-    if (when_open)
-        wait_open(when_open, 60);
-    struct play_stats st = play(&p, period_us, emit, &adc, ends);
-    print_stats("register writes", &st, period_us);
+    FILE *ends = begin_feed(&o, &p);
+    if (o.when_open)
+        wait_open(o.when_open, 60);
+    struct play_stats st = play(&p, o.period_us, emit, &adc, ends);
+    print_stats("register writes", &st, o.period_us);
     if (ends)
         fclose(ends);
     return st.stopped_by_error ? 1 : 0;

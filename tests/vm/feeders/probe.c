@@ -21,6 +21,20 @@
 #include <sys/ioctl.h>
 #include <termios.h>
 
+/* Waits until `fd` is readable (1) or the moment `end` (CLOCK_MONOTONIC,
+ * ns) has come (0). */
+static int readable_before(int fd, int64_t end)
+{
+    for (;;) {
+        int left = (int)((end - mono_ns()) / 1000000);
+        if (left <= 0)
+            return 0;
+        struct pollfd pfd = {.fd = fd, .events = POLLIN};
+        if (poll(&pfd, 1, left) > 0)
+            return 1;
+    }
+}
+
 static int probe_evdev(const char *dev, double seconds)
 {
     int fd = open(dev, O_RDONLY | O_NONBLOCK);
@@ -33,13 +47,7 @@ static int probe_evdev(const char *dev, double seconds)
     int has_x = ioctl(fd, EVIOCGABS(ABS_X), &abs) == 0;
     long x_events = 0, syn = 0, trig = 0, thumb = 0, xmin = 1L << 30, xmax = -(1L << 30);
     int64_t end = mono_ns() + (int64_t)(seconds * 1e9);
-    for (;;) {
-        int left = (int)((end - mono_ns()) / 1000000);
-        if (left <= 0)
-            break;
-        struct pollfd pfd = {.fd = fd, .events = POLLIN};
-        if (poll(&pfd, 1, left) <= 0)
-            continue;
+    while (readable_before(fd, end)) {
         struct input_event ev[64];
         ssize_t n = read(fd, ev, sizeof ev);
         for (ssize_t i = 0; n > 0 && i < n / (ssize_t)sizeof ev[0]; i++) {
@@ -79,13 +87,7 @@ static int probe_lines(const char *dev, double seconds)
     char first[128] = "", last[128] = "", cur[128];
     size_t cur_len = 0;
     int64_t start = mono_ns(), end = start + (int64_t)(seconds * 1e9), first_at = 0, last_at = 0;
-    for (;;) {
-        int left = (int)((end - mono_ns()) / 1000000);
-        if (left <= 0)
-            break;
-        struct pollfd pfd = {.fd = fd, .events = POLLIN};
-        if (poll(&pfd, 1, left) <= 0)
-            continue;
+    while (readable_before(fd, end)) {
         char buf[4096];
         ssize_t n = read(fd, buf, sizeof buf);
         for (ssize_t i = 0; i < n; i++) {

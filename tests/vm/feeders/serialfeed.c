@@ -140,58 +140,27 @@ static void wait_command(struct ser *s, const char *command, double timeout_s)
 int main(int argc, char **argv)
 {
     prog = "serialfeed";
-    const char *dev = "/dev/ttyGS0", *ends_path = NULL, *pattern_path = NULL, *when_open = NULL;
+    const char *dev = "/dev/ttyGS0", *format_name = "volts", *wait_text = "60";
+    struct feed_options o = {.min_period_us = 100, .cpu = -1, .usb = 1};
+    const struct own_option own[] = {
+        {"--format", &format_name, NULL},
+        {"--dev", &dev, NULL},
+        {"--wait-s", &wait_text, NULL},
+        {0},
+    };
+    parse_options(argc, argv, &o, own);
     enum format format = VOLTS;
-    long period_us = 0;
-    int prio = 0, cpu = -1;
-    double wait_s = 60;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int more = i + 1 < argc;
-        if (!strcmp(a, "--format") && more) {
-            const char *f = argv[++i];
-            if (!strcmp(f, "volts"))
-                format = VOLTS;
-            else if (!strcmp(f, "flipmouse"))
-                format = FLIPMOUSE;
-            else if (!strcmp(f, "lipsync"))
-                format = LIPSYNC;
-            else
-                die("--format: choose volts, flipmouse or lipsync, got \"%s\"", f);
-        } else if (!strcmp(a, "--period-us") && more)
-            period_us = parse_long(argv[++i], "--period-us", 100, 10000000);
-        else if (!strcmp(a, "--linger"))
-            linger = 1;
-        else if (!strcmp(a, "--sync-rt"))
-            sync_rt = 1;
-        else if (!strcmp(a, "--keep-going"))
-            keep_going = 1;
-        else if (!strcmp(a, "--udc-file") && more)
-            udc_file = argv[++i];
-        else if (!strcmp(a, "--ends") && more)
-            ends_path = argv[++i];
-        else if (!strcmp(a, "--fifo") && more)
-            prio = (int)parse_long(argv[++i], "--fifo", 0, 99);
-        else if (!strcmp(a, "--cpu") && more)
-            cpu = (int)parse_long(argv[++i], "--cpu", 0, 1023);
-        else if (!strcmp(a, "--dev") && more)
-            dev = argv[++i];
-        else if (!strcmp(a, "--start-when-open") && more)
-            when_open = argv[++i];
-        else if (!strcmp(a, "--wait-s") && more)
-            wait_s = (double)parse_long(argv[++i], "--wait-s", 1, 3600);
-        else if (a[0] != '-' && !pattern_path)
-            pattern_path = a;
-        else
-            die("unknown or incomplete option \"%s\" (see the comment at the top of serialfeed.c)", a);
-    }
-    if (!pattern_path)
-        die("no pattern given");
-    if (period_us == 0)
-        period_us = format == VOLTS ? 1000 : format == FLIPMOUSE ? 50000 : 100000;
+    if (!strcmp(format_name, "flipmouse"))
+        format = FLIPMOUSE;
+    else if (!strcmp(format_name, "lipsync"))
+        format = LIPSYNC;
+    else if (strcmp(format_name, "volts"))
+        die("--format: choose volts, flipmouse or lipsync, got \"%s\"", format_name);
+    double wait_s = (double)parse_long(wait_text, "--wait-s", 1, 3600);
+    if (o.period_us == 0)
+        o.period_us = format == VOLTS ? 1000 : format == FLIPMOUSE ? 50000 : 100000;
     static struct pattern p;
-    load_pattern(pattern_path, &p);
-    FILE *ends = open_log(ends_path);
+    FILE *ends = begin_feed(&o, &p);
 
     int fd = open(dev, O_RDWR | O_NOCTTY);
     if (fd < 0)
@@ -206,18 +175,16 @@ int main(int argc, char **argv)
         die("tcsetattr %s: %s", dev, strerror(errno));
     tcflush(fd, TCIOFLUSH);
 
-    catch_stop_signals();
-    realtime(prio, cpu);
     struct ser s = {.fd = fd, .format = format};
     if (format == FLIPMOUSE)
         wait_command(&s, "AT SR\r", wait_s);
     else if (format == LIPSYNC)
         wait_command(&s, "DM,1:2", wait_s);
-    if (when_open)
-        wait_open(when_open, wait_s);
-    struct play_stats st = play(&p, period_us, emit, &s, ends);
+    if (o.when_open)
+        wait_open(o.when_open, wait_s);
+    struct play_stats st = play(&p, o.period_us, emit, &s, ends);
     print_stats(format == VOLTS ? "volts lines" : format == FLIPMOUSE ? "VALUES lines" : "DEBUG lines",
-                &st, period_us);
+                &st, o.period_us);
     if (s.heard_len) {
         fprintf(stderr, "%s: heard while streaming: \"", prog);
         for (size_t i = 0; i < s.heard_len; i++) {
