@@ -330,7 +330,11 @@ pub fn replay(
     let meta = &recording.meta;
     if meta.status == "finished" {
         let held = (contents.ticks, contents.arm_commands, contents.events);
-        let said = (meta.ticks, meta.arm_commands, meta.events);
+        let said = (
+            meta.summary.ticks,
+            meta.summary.arm_commands,
+            meta.summary.events,
+        );
         if held != said {
             return Err(RecordingError {
                 path: recording.path(META),
@@ -343,8 +347,8 @@ pub fn replay(
             .into());
         }
     }
-    let complete = meta.complete && meta.status == "finished" && contents.losses == 0;
-    let mut problems = meta.problems.clone();
+    let complete = meta.summary.complete && meta.status == "finished" && contents.losses == 0;
+    let mut problems = meta.summary.problems.clone();
     if meta.status != "finished" {
         problems.insert(
             0,
