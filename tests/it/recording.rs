@@ -510,7 +510,7 @@ fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() 
         let contents = recording.check().unwrap();
         assert_eq!(contents.ticks, summary.ticks);
         assert!(contents.losses > 0, "{contents:?}");
-        let verdict = sipnpuff::tools::recording::replay::replay(
+        let verdict = sipnpuff::tools::recording::recording_replay::replay(
             &recording,
             &recording.config,
             true,
