@@ -175,9 +175,9 @@ mod tests {
         assert!(Lost::between(&after, &after).is_empty());
     }
 
-    #[test]
-    fn the_report_line_says_complete_or_why_not() {
-        let mut r = RecordingReport {
+    /// The report of a complete recording of 10 ticks.
+    fn report() -> RecordingReport {
+        RecordingReport {
             dir: "rec".into(),
             summary: RecordingSummary {
                 complete: true,
@@ -191,7 +191,20 @@ mod tests {
                 problems: Vec::new(),
             },
             error: None,
-        };
+        }
+    }
+
+    #[test]
+    fn the_report_keeps_the_summary_at_its_top_level() {
+        assert_eq!(
+            serde_json::to_string(&report()).unwrap(),
+            r#"{"dir":"rec","complete":true,"ticks":10,"arm_commands":1,"events":2,"stop_tick":9,"bytes":1500,"max_bytes":200000000,"lost":{"ticks":0,"arm_commands":0,"events":0},"problems":[],"error":null}"#
+        );
+    }
+
+    #[test]
+    fn the_report_line_says_complete_or_why_not() {
+        let mut r = report();
         assert_eq!(
             r.to_line(),
             "recording: rec: complete: 10 ticks, 1 arm commands, 2 events, 1.5 kB (cap 200 MB)\n"

@@ -405,6 +405,23 @@ mod tests {
     }
 
     #[test]
+    fn percentiles_read_alike_in_text_and_json() {
+        let p = Percentiles {
+            count: 7,
+            values: [1_000, 2_000, 3_000, 4_500, 5_000, 60_000],
+        };
+        assert_eq!(
+            p.line("compute"),
+            "  compute                p50       1.0 p90       2.0 p99       3.0 p99.9       4.5 p99.99       5.0 max      60.0"
+        );
+        assert_eq!(
+            serde_json::to_string(&p).unwrap(),
+            r#"{"count":7,"p50":1000,"p90":2000,"p99":3000,"p999":4500,"p9999":5000,"max":60000}"#
+        );
+        assert_eq!(p.median(), 1_000);
+    }
+
+    #[test]
     fn records_land_in_their_histograms() {
         let mut l = Latencies::default();
         l.record(&TickRecord {

@@ -96,6 +96,7 @@ pub fn utc(unix_ms: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rt::recorder::Lost;
 
     #[test]
     fn utc_dates() {
@@ -113,5 +114,50 @@ mod tests {
         assert!(text.contains("\"status\": \"recording\""), "{text}");
         let back: Meta = serde_json::from_str(&text).unwrap();
         assert_eq!(back, meta);
+    }
+
+    /// A `meta.json` as recordings hold it (`complete` after `status`)
+    /// reads, its counts in the summary.
+    #[test]
+    fn a_recordings_meta_reads_with_its_counts_in_the_summary() {
+        let text = r#"{
+  "format": "sipnpuff recording",
+  "format_version": 2,
+  "sipnpuff_version": "0.1.0",
+  "status": "finished",
+  "complete": true,
+  "start_time": "2026-12-03T09:49:31.626Z",
+  "sensor": "synthetic",
+  "arm": "sim",
+  "first_tick": 0,
+  "last_tick": 22729,
+  "ticks": 22694,
+  "arm_commands": 2269,
+  "events": 24,
+  "stop_tick": 22710,
+  "bytes": 212214,
+  "max_bytes": 200000000,
+  "lost": { "ticks": 0, "arm_commands": 0, "events": 0 },
+  "problems": []
+}"#;
+        let meta: Meta = serde_json::from_str(text).unwrap();
+        assert_eq!(
+            (meta.status.as_str(), meta.last_tick),
+            ("finished", Some(22729))
+        );
+        assert_eq!(
+            meta.summary,
+            RecordingSummary {
+                complete: true,
+                ticks: 22694,
+                arm_commands: 2269,
+                events: 24,
+                stop_tick: Some(22710),
+                bytes: 212_214,
+                max_bytes: 200_000_000,
+                lost: Lost::default(),
+                problems: Vec::new(),
+            }
+        );
     }
 }
