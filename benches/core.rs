@@ -37,7 +37,7 @@ use sipnpuff::control::selection::matcher::SequenceMatcher;
 use sipnpuff::sensor::csv::CsvSignal;
 use sipnpuff::sim::script::random_session;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, write_csv};
-use sipnpuff::tools::replay::replay;
+use sipnpuff::tools::csv_replay::replay;
 
 fn noisy_signal(config: &Config) -> Vec<f64> {
     let params = SignalParams::clean(config.core().detector(), 5)

@@ -17,7 +17,7 @@ use crate::tools::bench_replay::bench_replay;
 use crate::tools::bench_tick::bench_tick;
 use crate::tools::latency::{LatencyReport, bench_latency};
 use crate::tools::recording::read::Recording;
-use crate::tools::recording::replay::ReplayError;
+use crate::tools::replay::ReplayError;
 
 /// What to measure.
 #[derive(clap::Subcommand, Debug)]
@@ -191,10 +191,10 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<u8> {
             let opened = Recording::open(&recording)?;
             let report = match bench_replay(&opened, rounds) {
                 Ok(bench) => bench.report(),
-                Err(ReplayError::Recording(e)) => return Err(e.into()),
                 Err(ReplayError::Write(e)) => {
                     return Err(anyhow::Error::new(e).context(recording.display().to_string()));
                 }
+                Err(e) => return Err(e.into()),
             };
             if json {
                 output::stdout_line(&serde_json::to_string(&report)?)

@@ -9,11 +9,10 @@ use std::time::Instant;
 use crate::cli::args::{ConfigArg, InterfaceArg, create, with_interface};
 use crate::cli::output;
 use crate::sensor::csv::CsvSignal;
+use crate::tools::csv_replay;
 use crate::tools::recording::read::Recording;
-use crate::tools::recording::replay::{
-    ReplayError as RecordingReplayError, Verdict, replay as replay_session,
-};
-use crate::tools::replay::{ReplayError, ReplaySummary, replay as replay_signal};
+use crate::tools::recording::recording_replay::{self, Verdict};
+use crate::tools::replay::{ReplayError, ReplaySummary};
 
 /// `replay`'s options.
 #[derive(clap::Args, Debug)]
@@ -52,7 +51,7 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<u8> {
     };
     let mut trace_file = args.trace.as_deref().map(create).transpose()?;
     let started = Instant::now();
-    let result = replay_signal(
+    let result = csv_replay::replay(
         config.core(),
         &mut input,
         &mut out,
@@ -112,7 +111,7 @@ fn replay_recording(args: &ReplayArgs) -> anyhow::Result<u8> {
     };
     let mut trace_file = args.trace.as_deref().map(create).transpose()?;
     let started = Instant::now();
-    let result = replay_session(
+    let result = recording_replay::replay(
         &recording,
         &config,
         other.is_none(),
@@ -123,10 +122,10 @@ fn replay_recording(args: &ReplayArgs) -> anyhow::Result<u8> {
     let dir = args.signal.display();
     let verdict = match result {
         Ok(verdict) => verdict,
-        Err(RecordingReplayError::Write(e)) => {
+        Err(ReplayError::Write(e)) => {
             return Err(anyhow::Error::new(e).context(format!("{dir}: cannot write the output")));
         }
-        Err(RecordingReplayError::Recording(e)) => return Err(e.into()),
+        Err(e) => return Err(e.into()),
     };
     let meta = &recording.meta;
     let span = match (verdict.first_tick, verdict.last_tick) {

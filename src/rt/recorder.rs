@@ -80,15 +80,15 @@ impl Lost {
     }
 }
 
-/// What a run's recording holds, in its report (and its `report.json`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RecordingReport {
-    /// The recording's directory.
-    pub dir: String,
+/// What a recording holds and whether it is whole: the counts its
+/// `meta.json` and its run's report both give (each embeds this, its
+/// fields at the top level of the JSON).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct RecordingSummary {
     /// Every tick, arm command and event is in it and its files were
     /// ended properly: replay can verify the run bit for bit.
     pub complete: bool,
-    /// Ticks written.
+    /// Ticks written (the core's steps).
     pub ticks: u64,
     /// Arm commands written.
     pub arm_commands: u64,
@@ -105,6 +105,16 @@ pub struct RecordingReport {
     /// Why it is incomplete, in words (empty when complete; a failure is
     /// among them).
     pub problems: Vec<String>,
+}
+
+/// What a run's recording holds, in its report (and its `report.json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RecordingReport {
+    /// The recording's directory.
+    pub dir: String,
+    /// What it holds.
+    #[serde(flatten)]
+    pub summary: RecordingSummary,
     /// The recording failed: a write error, or a writer that never
     /// finished (a stalled disk). The run's exit status is then 1.
     pub error: Option<String>,
@@ -113,24 +123,25 @@ pub struct RecordingReport {
 impl RecordingReport {
     /// One line for the run report.
     pub fn to_line(&self) -> String {
+        let s = &self.summary;
         let counts = format!(
             "{} ticks, {} arm commands, {} events, {:.1} kB (cap {} MB)",
-            self.ticks,
-            self.arm_commands,
-            self.events,
-            self.bytes as f64 / 1e3,
-            self.max_bytes as f64 / 1e6
+            s.ticks,
+            s.arm_commands,
+            s.events,
+            s.bytes as f64 / 1e3,
+            s.max_bytes as f64 / 1e6
         );
-        if self.complete {
+        if s.complete {
             format!("recording: {}: complete: {counts}\n", self.dir)
         } else {
-            let why = match (self.problems.is_empty(), &self.error) {
+            let why = match (s.problems.is_empty(), &self.error) {
                 (true, Some(error)) => error.clone(),
-                _ => self.problems.join("; "),
+                _ => s.problems.join("; "),
             };
             format!(
                 "recording: {}: INCOMPLETE ({why}): {counts}; lost {} ticks, {} arm commands, {} events; replay will not claim equality\n",
-                self.dir, self.lost.ticks, self.lost.arm_commands, self.lost.events
+                self.dir, s.lost.ticks, s.lost.arm_commands, s.lost.events
             )
         }
     }
@@ -165,28 +176,43 @@ mod tests {
         assert!(Lost::between(&after, &after).is_empty());
     }
 
+    /// The report of a complete recording of 10 ticks.
+    fn report() -> RecordingReport {
+        RecordingReport {
+            dir: "rec".into(),
+            summary: RecordingSummary {
+                complete: true,
+                ticks: 10,
+                arm_commands: 1,
+                events: 2,
+                stop_tick: Some(9),
+                bytes: 1500,
+                max_bytes: 200_000_000,
+                lost: Lost::default(),
+                problems: Vec::new(),
+            },
+            error: None,
+        }
+    }
+
+    #[test]
+    fn the_report_keeps_the_summary_at_its_top_level() {
+        assert_eq!(
+            serde_json::to_string(&report()).unwrap(),
+            r#"{"dir":"rec","complete":true,"ticks":10,"arm_commands":1,"events":2,"stop_tick":9,"bytes":1500,"max_bytes":200000000,"lost":{"ticks":0,"arm_commands":0,"events":0},"problems":[],"error":null}"#
+        );
+    }
+
     #[test]
     fn the_report_line_says_complete_or_why_not() {
-        let mut r = RecordingReport {
-            dir: "rec".into(),
-            complete: true,
-            ticks: 10,
-            arm_commands: 1,
-            events: 2,
-            stop_tick: Some(9),
-            bytes: 1500,
-            max_bytes: 200_000_000,
-            lost: Lost::default(),
-            problems: Vec::new(),
-            error: None,
-        };
+        let mut r = report();
         assert_eq!(
             r.to_line(),
             "recording: rec: complete: 10 ticks, 1 arm commands, 2 events, 1.5 kB (cap 200 MB)\n"
         );
-        r.complete = false;
-        r.lost.ticks = 4;
-        r.problems.push("the size cap was reached".into());
+        r.summary.complete = false;
+        r.summary.lost.ticks = 4;
+        r.summary.problems.push("the size cap was reached".into());
         let line = r.to_line();
         assert!(
             line.starts_with("recording: rec: INCOMPLETE (the size cap was reached): 10 ticks"),

@@ -12,7 +12,7 @@ use crate::rt::control_loop::StopReason;
 use crate::rt::recorder::RecordingReport;
 use crate::rt::scheduler::SchedulerStats;
 use crate::rt::setup::Setting;
-use crate::rt::telemetry::{Drops, Latencies, at, percentile_line, write_hgrm};
+use crate::rt::telemetry::{Drops, Latencies, Percentiles, at, write_hgrm};
 
 /// What a run did.
 #[derive(Debug, Clone, Serialize)]
@@ -131,9 +131,9 @@ impl RunReport {
             self.stop_reason
         );
         s += "per tick, µs:\n";
-        s += &(percentile_line("wake-up latency", &self.full.wake) + "\n");
-        s += &(percentile_line("compute", &self.full.compute) + "\n");
-        s += &(percentile_line("period", &self.full.period) + "\n");
+        s += &(Percentiles::of(&self.full.wake).line("wake-up latency") + "\n");
+        s += &(Percentiles::of(&self.full.compute).line("compute") + "\n");
+        s += &(Percentiles::of(&self.full.period).line("period") + "\n");
         let d = &self.drops;
         s += &format!(
             "rings: dropped {} samples, {} arm commands, {} tick records, {} events\n",

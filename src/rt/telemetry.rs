@@ -7,6 +7,7 @@
 use std::io::Write;
 
 use hdrhistogram::Histogram;
+use serde::ser::SerializeStruct;
 use serde::{Serialize, Serializer};
 
 use crate::control::Tick;
@@ -88,13 +89,16 @@ pub fn histogram() -> Histogram<u64> {
 
 /// Histograms of one arm of a run (ns). Not RT-safe: telemetry side.
 /// Serialized as their percentiles.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize)]
 pub struct Latencies {
     /// Wake-up latency.
+    #[serde(rename = "wake_latency_ns", serialize_with = "as_percentiles")]
     pub wake: Histogram<u64>,
     /// Compute time.
+    #[serde(rename = "compute_ns", serialize_with = "as_percentiles")]
     pub compute: Histogram<u64>,
     /// Wake-to-wake period.
+    #[serde(rename = "period_ns", serialize_with = "as_percentiles")]
     pub period: Histogram<u64>,
 }
 
@@ -119,14 +123,19 @@ impl Latencies {
     }
 }
 
-/// Percentiles reported everywhere, as (label, quantile).
-pub const PERCENTILES: [(&str, f64); 6] = [
-    ("p50", 0.50),
-    ("p90", 0.90),
-    ("p99", 0.99),
-    ("p99.9", 0.999),
-    ("p99.99", 0.9999),
-    ("max", 1.0),
+fn as_percentiles<S: Serializer>(h: &Histogram<u64>, serializer: S) -> Result<S::Ok, S::Error> {
+    Percentiles::of(h).serialize(serializer)
+}
+
+/// The percentiles every report gives, in order: (key in JSON, label in
+/// text, quantile; `1.0` is the maximum).
+pub const PERCENTILES: [(&str, &str, f64); 6] = [
+    ("p50", "p50", 0.50),
+    ("p90", "p90", 0.90),
+    ("p99", "p99", 0.99),
+    ("p999", "p99.9", 0.999),
+    ("p9999", "p99.99", 0.9999),
+    ("max", "max", 1.0),
 ];
 
 /// A percentile of a histogram (`1.0` is the maximum).
@@ -140,24 +149,14 @@ pub fn at(h: &Histogram<u64>, quantile: f64) -> u64 {
     }
 }
 
-/// A histogram's count and percentiles, in its unit: what the reports
-/// show (`p999` is 99.9 %, `p9999` 99.99 %).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+/// A histogram's count and [`PERCENTILES`], in its unit: what the reports
+/// show. Serialized as `count` then each percentile under its key.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Percentiles {
     /// Values recorded.
     pub count: u64,
-    /// Median.
-    pub p50: u64,
-    /// 90th percentile.
-    pub p90: u64,
-    /// 99th percentile.
-    pub p99: u64,
-    /// 99.9th percentile.
-    pub p999: u64,
-    /// 99.99th percentile.
-    pub p9999: u64,
-    /// Largest.
-    pub max: u64,
+    /// The values at [`PERCENTILES`], in that order.
+    pub values: [u64; PERCENTILES.len()],
 }
 
 impl Percentiles {
@@ -165,52 +164,34 @@ impl Percentiles {
     pub fn of(h: &Histogram<u64>) -> Percentiles {
         Percentiles {
             count: h.len(),
-            p50: at(h, 0.5),
-            p90: at(h, 0.9),
-            p99: at(h, 0.99),
-            p999: at(h, 0.999),
-            p9999: at(h, 0.9999),
-            max: at(h, 1.0),
+            values: PERCENTILES.map(|(_, _, quantile)| at(h, quantile)),
         }
     }
 
-    /// In the order of [`PERCENTILES`].
-    pub fn values(&self) -> [u64; 6] {
-        [
-            self.p50, self.p90, self.p99, self.p999, self.p9999, self.max,
-        ]
+    /// The median (the first of [`PERCENTILES`]).
+    pub fn median(&self) -> u64 {
+        self.values[0]
+    }
+
+    /// One line of text: `name`, then each percentile (ns) in µs.
+    pub fn line(&self, name: &str) -> String {
+        let mut s = format!("  {name:<22}");
+        for ((_, label, _), value) in PERCENTILES.iter().zip(self.values) {
+            s += &format!(" {label} {:>9.1}", value as f64 / 1000.0);
+        }
+        s
     }
 }
 
-impl Serialize for Latencies {
+impl Serialize for Percentiles {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        #[derive(Serialize)]
-        struct Fields {
-            wake_latency_ns: Percentiles,
-            compute_ns: Percentiles,
-            period_ns: Percentiles,
+        let mut s = serializer.serialize_struct("Percentiles", 1 + PERCENTILES.len())?;
+        s.serialize_field("count", &self.count)?;
+        for ((key, _, _), value) in PERCENTILES.iter().zip(&self.values) {
+            s.serialize_field(key, value)?;
         }
-        Fields {
-            wake_latency_ns: Percentiles::of(&self.wake),
-            compute_ns: Percentiles::of(&self.compute),
-            period_ns: Percentiles::of(&self.period),
-        }
-        .serialize(serializer)
+        s.end()
     }
-}
-
-/// One line of percentiles in µs.
-pub fn percentile_line(name: &str, h: &Histogram<u64>) -> String {
-    percentiles_line(name, &Percentiles::of(h))
-}
-
-/// One line of percentiles (ns) in µs.
-pub fn percentiles_line(name: &str, p: &Percentiles) -> String {
-    let mut s = format!("  {name:<22}");
-    for ((label, _), value) in PERCENTILES.iter().zip(p.values()) {
-        s += &format!(" {label} {:>9.1}", value as f64 / 1000.0);
-    }
-    s
 }
 
 /// Writes a histogram in HdrHistogram's percentile-distribution text format
@@ -306,6 +287,23 @@ mod tests {
         assert_eq!(std::mem::size_of::<CoreInput>(), 104);
         assert_eq!(std::mem::size_of::<CoreView>(), 80);
         assert_eq!(std::mem::size_of::<TickRecord>(), 272);
+    }
+
+    #[test]
+    fn percentiles_read_alike_in_text_and_json() {
+        let p = Percentiles {
+            count: 7,
+            values: [1_000, 2_000, 3_000, 4_500, 5_000, 60_000],
+        };
+        assert_eq!(
+            p.line("compute"),
+            "  compute                p50       1.0 p90       2.0 p99       3.0 p99.9       4.5 p99.99       5.0 max      60.0"
+        );
+        assert_eq!(
+            serde_json::to_string(&p).unwrap(),
+            r#"{"count":7,"p50":1000,"p90":2000,"p99":3000,"p999":4500,"p9999":5000,"max":60000}"#
+        );
+        assert_eq!(p.median(), 1_000);
     }
 
     #[test]

@@ -26,8 +26,9 @@ use crate::control::pipeline::{Pipeline, TickOutput};
 use crate::tools::recording::format::commands::CommandItem;
 use crate::tools::recording::format::samples::SampleItem;
 use crate::tools::recording::read::{Recording, RecordingError};
-use crate::tools::recording::replay::{ReplayError, give_to_core, replay};
+use crate::tools::recording::recording_replay::{give_to_core, replay};
 use crate::tools::recording::{COMMANDS, SAMPLES};
+use crate::tools::replay::ReplayError;
 
 /// Inputs decoded between two timed stretches of the core-alone round.
 const BLOCK: usize = 1 << 15;

@@ -133,7 +133,7 @@ impl TickBenchReport {
             "{} ticks of the demo user (core + simulated arm), ns per tick:\n{:<28}",
             self.ticks, ""
         );
-        for (label, _) in PERCENTILES {
+        for (_, label, _) in PERCENTILES {
             s += &format!("{label:>9}");
         }
         s += "\n";
@@ -144,14 +144,14 @@ impl TickBenchReport {
             ("  new target (Ruckig)", &self.new_target_tick_ns),
         ] {
             s += &format!("{:<28}", format!("{name} [{}]", p.count));
-            for value in p.values() {
+            for value in p.values {
                 s += &format!("{value:>9}");
             }
             s += "\n";
         }
         s += &format!(
             "full tick p50 / reference p50 = {:.1}; allocations during the run: {}\n",
-            self.tick_ns.p50 as f64 / (self.reference_ns.p50 as f64).max(1.0),
+            self.tick_ns.median() as f64 / (self.reference_ns.median() as f64).max(1.0),
             self.allocations
         );
         s

@@ -13,7 +13,7 @@ use crate::control::event::TimedEvent;
 use crate::rt::control_loop::{StopReason, TickOutcome, TickWork, WorkSummary};
 use crate::rt::report::RunReport;
 use crate::rt::scheduler::Wake;
-use crate::rt::telemetry::{Drops, Percentiles, percentiles_line};
+use crate::rt::telemetry::{Drops, Percentiles};
 use crate::rt::threads::{RunError, RunOptions, Watchers, run_with};
 use crate::sensor::Sensor;
 
@@ -226,9 +226,9 @@ impl LatencyReport {
             self.seconds
         );
         s += "wake-up latency, µs:\n";
-        s += &(percentiles_line("reference", &self.reference.wake_latency_ns) + "\n");
-        s += &(percentiles_line("full tick", &self.full.wake_latency_ns) + "\n");
-        s += &(percentiles_line("full tick compute", &self.full.compute_ns) + "\n");
+        s += &(self.reference.wake_latency_ns.line("reference") + "\n");
+        s += &(self.full.wake_latency_ns.line("full tick") + "\n");
+        s += &(self.full.compute_ns.line("full tick compute") + "\n");
         s += &format!(
             "ratio full/reference: p50 {:.2}, p99 {:.2}, p99.9 {:.2}\n",
             self.ratio.p50, self.ratio.p99, self.ratio.p999

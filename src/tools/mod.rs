@@ -1,14 +1,18 @@
-//! Tools built on the core: `replay` (recordings through the pipeline and
-//! the simulated arm), session recordings (`run --record`, and their
-//! replay), the benches (`bench tick`, `bench latency`, `bench replay`), and the accuracy
-//! scorer (`bench accuracy`, the stress tests). Neither the core nor the
-//! runtime imports them.
+//! Tools built on the core: `replay` (a CSV of samples, [`csv_replay`], or
+//! a session recording, [`recording::recording_replay`], through the
+//! pipeline and the simulated arm; [`replay`] and [`trace`] are what both
+//! share), session recordings (`run --record`), the benches (`bench tick`,
+//! `bench latency`, `bench replay`), and the accuracy scorer (`bench
+//! accuracy`, the stress tests). Neither the core nor the runtime imports
+//! them.
 
 pub mod accuracy;
 pub mod bench_replay;
 pub mod bench_tick;
+pub mod csv_replay;
 pub mod float_text;
 pub mod latency;
 pub mod recording;
 pub mod replay;
 pub mod safety;
+pub mod trace;

@@ -10,7 +10,7 @@ use sipnpuff::control::mode::Mode;
 use sipnpuff::sensor::csv::CsvSignal;
 use sipnpuff::sim::script::{demo_script, parse_sequences, sequences_script};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step, write_csv};
-use sipnpuff::tools::replay::replay;
+use sipnpuff::tools::csv_replay::replay;
 
 fn replay_events(csv: &str, config: &Config) -> Vec<Value> {
     let mut input = CsvSignal::open(&fixture(csv)).unwrap();

@@ -399,7 +399,7 @@ fn a_stalled_writer_drops_and_counts_and_never_holds_up_the_loop() {
     assert_eq!(report.control_thread_allocations, 0);
     assert_eq!(report.drops.records, 0);
     assert!(report.last_arm_command.is_zero());
-    assert!(!recording.complete);
+    assert!(!recording.summary.complete);
     assert!(
         recording
             .error
@@ -410,8 +410,8 @@ fn a_stalled_writer_drops_and_counts_and_never_holds_up_the_loop() {
     );
     // Everything beyond the queue's 64 items was dropped and counted; the
     // rest is lost in the unfinished files.
-    assert!(recording.problems[0].contains("the recorder's queue was full"));
-    assert_eq!(recording.lost.ticks, ticks, "{recording:?}");
+    assert!(recording.summary.problems[0].contains("the recorder's queue was full"));
+    assert_eq!(recording.summary.lost.ticks, ticks, "{recording:?}");
     assert_eq!(report.recording.as_ref(), Some(&recording));
     assert!(report.to_text().contains("INCOMPLETE ("));
     // A FIFO is not read (it would block): the file is named.
@@ -490,8 +490,9 @@ fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() 
             &mut |_: &_| {},
         )
         .unwrap();
-        let summary = recorder.finish(&mut report);
-        assert!(summary.error.is_none(), "{summary:?}");
+        let finished = recorder.finish(&mut report);
+        assert!(finished.error.is_none(), "{finished:?}");
+        let summary = finished.summary;
         assert!(!summary.complete);
         assert!(summary.lost.ticks > 0, "{summary:?}");
         assert_eq!(summary.ticks + summary.lost.ticks, ticks, "{summary:?}");
@@ -501,7 +502,7 @@ fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() 
         let contents = recording.check().unwrap();
         assert_eq!(contents.ticks, summary.ticks);
         assert!(contents.losses > 0, "{contents:?}");
-        let verdict = sipnpuff::tools::recording::replay::replay(
+        let verdict = sipnpuff::tools::recording::recording_replay::replay(
             &recording,
             &recording.config,
             true,
@@ -960,7 +961,7 @@ fn a_run_with_a_measuring_arm_replays_bit_for_bit() {
         )
         .unwrap();
         let recording = recorder.finish(&mut report);
-        assert!(recording.complete, "{recording:?}");
+        assert!(recording.summary.complete, "{recording:?}");
         assert!(report.arm_measured && report.measured_poses > 1000);
         // The arm's 3 % is corrected a little at every measurement (each far
         // below the 2 mm that is logged as an event).

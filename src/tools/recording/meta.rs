@@ -7,7 +7,7 @@ use std::time::{SystemTime, UNIX_EPOCH};
 use serde::{Deserialize, Serialize};
 
 use crate::control::Tick;
-use crate::rt::recorder::Lost;
+use crate::rt::recorder::RecordingSummary;
 
 /// What `format` holds in every `meta.json`.
 pub const FORMAT_NAME: &str = "sipnpuff recording";
@@ -24,34 +24,19 @@ pub struct Meta {
     /// `"recording"` while the run goes on (or if it never finished),
     /// `"finished"` once every file was ended.
     pub status: String,
-    /// Every tick, arm command and event is in it: replay can verify.
-    pub complete: bool,
     /// The start of the run, UTC, ISO 8601.
     pub start_time: String,
     /// The sensor, as it describes itself.
     pub sensor: String,
     /// The arm, as it describes itself.
     pub arm: String,
-    /// The first and last tick recorded.
+    /// The first tick recorded.
     pub first_tick: Option<Tick>,
     /// The last tick recorded.
     pub last_tick: Option<Tick>,
-    /// Ticks recorded (the core's steps).
-    pub ticks: u64,
-    /// Arm commands recorded.
-    pub arm_commands: u64,
-    /// Events recorded.
-    pub events: u64,
-    /// The tick on which the safe stop began.
-    pub stop_tick: Option<Tick>,
-    /// Bytes of samples, commands and events.
-    pub bytes: u64,
-    /// The cap on them.
-    pub max_bytes: u64,
-    /// What is missing.
-    pub lost: Lost,
-    /// Why it is incomplete, in words.
-    pub problems: Vec<String>,
+    /// What it holds and whether it is whole.
+    #[serde(flatten)]
+    pub summary: RecordingSummary,
 }
 
 impl Meta {
@@ -62,20 +47,16 @@ impl Meta {
             format_version: super::format::FORMAT_VERSION,
             sipnpuff_version: env!("CARGO_PKG_VERSION").into(),
             status: "recording".into(),
-            complete: false,
             start_time: utc_now(),
             sensor: sensor.into(),
             arm: arm.into(),
             first_tick: None,
             last_tick: None,
-            ticks: 0,
-            arm_commands: 0,
-            events: 0,
-            stop_tick: None,
-            bytes: 0,
-            max_bytes,
-            lost: Lost::default(),
-            problems: vec!["the run has not finished".into()],
+            summary: RecordingSummary {
+                max_bytes,
+                problems: vec!["the run has not finished".into()],
+                ..RecordingSummary::default()
+            },
         }
     }
 }
@@ -115,6 +96,7 @@ pub fn utc(unix_ms: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rt::recorder::Lost;
 
     #[test]
     fn utc_dates() {
@@ -132,5 +114,50 @@ mod tests {
         assert!(text.contains("\"status\": \"recording\""), "{text}");
         let back: Meta = serde_json::from_str(&text).unwrap();
         assert_eq!(back, meta);
+    }
+
+    /// A `meta.json` as recordings hold it (`complete` after `status`)
+    /// reads, its counts in the summary.
+    #[test]
+    fn a_recordings_meta_reads_with_its_counts_in_the_summary() {
+        let text = r#"{
+  "format": "sipnpuff recording",
+  "format_version": 2,
+  "sipnpuff_version": "0.1.0",
+  "status": "finished",
+  "complete": true,
+  "start_time": "2026-12-03T09:49:31.626Z",
+  "sensor": "synthetic",
+  "arm": "sim",
+  "first_tick": 0,
+  "last_tick": 22729,
+  "ticks": 22694,
+  "arm_commands": 2269,
+  "events": 24,
+  "stop_tick": 22710,
+  "bytes": 212214,
+  "max_bytes": 200000000,
+  "lost": { "ticks": 0, "arm_commands": 0, "events": 0 },
+  "problems": []
+}"#;
+        let meta: Meta = serde_json::from_str(text).unwrap();
+        assert_eq!(
+            (meta.status.as_str(), meta.last_tick),
+            ("finished", Some(22729))
+        );
+        assert_eq!(
+            meta.summary,
+            RecordingSummary {
+                complete: true,
+                ticks: 22694,
+                arm_commands: 2269,
+                events: 24,
+                stop_tick: Some(22710),
+                bytes: 212_214,
+                max_bytes: 200_000_000,
+                lost: Lost::default(),
+                problems: Vec::new(),
+            }
+        );
     }
 }

@@ -14,14 +14,14 @@
 //! | `report.json` | the run's report, as `run --json` prints it, with the recording's summary |
 //!
 //! [`recorder`] (the telemetry thread's side) and [`writer`] (its own
-//! thread) write one; [`read`] opens and checks one; [`replay`] runs it
-//! through the core and compares.
+//! thread) write one; [`read`] opens and checks one; [`recording_replay`]
+//! runs it through the core and compares.
 
 pub mod format;
 pub mod meta;
 pub mod read;
 pub mod recorder;
-pub mod replay;
+pub mod recording_replay;
 pub mod writer;
 
 /// `meta.json`.

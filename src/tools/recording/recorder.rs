@@ -14,7 +14,7 @@ use crate::config::Config;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
 use crate::rt::core_input::CoreInput;
-use crate::rt::recorder::{Lost, RecordingReport, SessionRecorder};
+use crate::rt::recorder::{Lost, RecordingReport, RecordingSummary, SessionRecorder};
 use crate::rt::report::RunReport;
 use crate::tools::recording::writer::{Finish, Item, RecordOptions, Writer, one, problems};
 use crate::tools::recording::{CONFIG, META};
@@ -203,15 +203,12 @@ impl Recorder {
         problems.push(error.clone());
         RecordingReport {
             dir: self.dir.display().to_string(),
-            complete: false,
-            ticks: 0,
-            arm_commands: 0,
-            events: 0,
-            stop_tick: None,
-            bytes: 0,
-            max_bytes: self.options.max_bytes,
-            lost: self.ring_lost.plus(self.queue_dropped).plus(self.sent),
-            problems,
+            summary: RecordingSummary {
+                max_bytes: self.options.max_bytes,
+                lost: self.ring_lost.plus(self.queue_dropped).plus(self.sent),
+                problems,
+                ..RecordingSummary::default()
+            },
             error: Some(error),
         }
     }
@@ -359,7 +356,7 @@ mod tests {
         let dir = scratch("exists");
         let recorder = Recorder::create(&dir, &config, RecordOptions::default()).unwrap();
         let mut report = report();
-        assert!(recorder.finish(&mut report).complete);
+        assert!(recorder.finish(&mut report).summary.complete);
         assert_eq!(
             std::fs::read_to_string(dir.join(CONFIG)).unwrap(),
             text,
@@ -395,9 +392,10 @@ mod tests {
             thread::sleep(Duration::from_millis(300));
         }
         let mut report = report();
-        let summary = recorder.finish(&mut report);
+        let recording = recorder.finish(&mut report);
+        assert!(recording.error.is_none(), "{recording:?}");
+        let summary = recording.summary;
         assert!(!summary.complete);
-        assert!(summary.error.is_none(), "{summary:?}");
         assert_eq!(summary.ticks + summary.lost.ticks, 300, "{summary:?}");
         assert!(summary.bytes <= 2000, "{summary:?}");
         assert!(
@@ -426,7 +424,7 @@ mod tests {
         let meta: Meta =
             serde_json::from_str(&std::fs::read_to_string(dir.join(META)).unwrap()).unwrap();
         assert_eq!(
-            (meta.ticks, meta.lost, meta.complete),
+            (meta.summary.ticks, meta.summary.lost, meta.summary.complete),
             (summary.ticks, summary.lost, false)
         );
         std::fs::remove_dir_all(&dir).unwrap();

@@ -17,7 +17,7 @@ use crate::control::Tick;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
 use crate::rt::core_input::CoreInput;
-use crate::rt::recorder::{Lost, RecordingReport};
+use crate::rt::recorder::{Lost, RecordingReport, RecordingSummary};
 use crate::rt::report::RunReport;
 use crate::tools::recording::format::commands::CommandEncoder;
 use crate::tools::recording::format::samples::SampleEncoder;
@@ -248,7 +248,7 @@ impl Writer {
                 Err(RecvTimeoutError::Disconnected) => {
                     self.end_streams(Lost::default());
                     if self.given.ticks > 0 {
-                        self.meta.problems = vec!["the run did not finish".into()];
+                        self.meta.summary.problems = vec!["the run did not finish".into()];
                         self.write_meta();
                     }
                     return;
@@ -408,12 +408,10 @@ impl Writer {
             reply,
         } = finish;
         self.end_streams(pending);
-        let summary = self.summary(ring_lost, queue_dropped);
+        let recording = self.summary(ring_lost, queue_dropped);
         self.meta.status = "finished".into();
-        self.meta.complete = summary.complete;
-        self.meta.lost = summary.lost;
-        self.meta.problems.clone_from(&summary.problems);
-        report.recording = Some(summary);
+        self.meta.summary.clone_from(&recording.summary);
+        report.recording = Some(recording);
         match serde_json::to_string_pretty(&report) {
             Ok(text) => {
                 if let Err(e) = std::fs::write(self.dir.join(REPORT), text + "\n") {
@@ -443,18 +441,20 @@ impl Writer {
 
         RecordingReport {
             dir: self.dir.display().to_string(),
-            complete: problems.is_empty(),
-            ticks: self.written.ticks,
-            arm_commands: self.written.arm_commands,
-            events: self.written.events,
-            stop_tick: self.written.stop_tick,
-            bytes: self.bytes(),
-            max_bytes: self.options.max_bytes,
-            lost: ring_lost
-                .plus(queue_dropped)
-                .plus(cap_lost)
-                .plus(self.error_lost),
-            problems,
+            summary: RecordingSummary {
+                complete: problems.is_empty(),
+                ticks: self.written.ticks,
+                arm_commands: self.written.arm_commands,
+                events: self.written.events,
+                stop_tick: self.written.stop_tick,
+                bytes: self.bytes(),
+                max_bytes: self.options.max_bytes,
+                lost: ring_lost
+                    .plus(queue_dropped)
+                    .plus(cap_lost)
+                    .plus(self.error_lost),
+                problems,
+            },
             error: self.error.clone(),
         }
     }
@@ -463,10 +463,11 @@ impl Writer {
         let w = self.written;
         let bytes = self.bytes();
         let meta = &mut self.meta;
-        (meta.first_tick, meta.last_tick, meta.stop_tick) =
-            (w.first_tick, w.last_tick, w.stop_tick);
-        (meta.ticks, meta.arm_commands, meta.events) = (w.ticks, w.arm_commands, w.events);
-        meta.bytes = bytes;
+        (meta.first_tick, meta.last_tick) = (w.first_tick, w.last_tick);
+        let s = &mut meta.summary;
+        (s.ticks, s.arm_commands, s.events, s.stop_tick) =
+            (w.ticks, w.arm_commands, w.events, w.stop_tick);
+        s.bytes = bytes;
         let written = serde_json::to_string_pretty(&self.meta)
             .map_err(std::io::Error::from)
             .and_then(|text| std::fs::write(self.dir.join(META), text + "\n"));

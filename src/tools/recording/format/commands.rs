@@ -5,7 +5,7 @@ use std::io::Read;
 
 use crate::control::Tick;
 use crate::control::motion::stream::ArmCommand;
-use crate::tools::recording::format::{Bytes, END, FormatError, Stream, op};
+use crate::tools::recording::format::{Bytes, FormatError, Stream, op};
 
 const SEQ: u8 = 0x80;
 const LOST_COMMANDS: u8 = 0x81;
@@ -117,18 +117,10 @@ impl<R: Read> CommandDecoder<R> {
                     return Ok(Some(CommandItem::Command(command)));
                 }
                 SEQ => self.next_seq = self.bytes.varint()?,
-                LOST_COMMANDS => {
-                    return Ok(Some(CommandItem::Lost(self.bytes.count("a loss")?)));
-                }
-                END => {
-                    self.bytes.end()?;
-                    self.ended = true;
-                    return Ok(None);
-                }
-                other => {
-                    return Err(self
-                        .bytes
-                        .error(format!("unknown op 0x{other:02x} (the file is corrupted)")));
+                _ => {
+                    let lost = self.bytes.loss_or_end(tag, LOST_COMMANDS)?;
+                    self.ended = lost.is_none();
+                    return Ok(lost.map(CommandItem::Lost));
                 }
             }
         }

@@ -386,6 +386,17 @@ impl<R: Read> Bytes<R> {
         Ok(())
     }
 
+    /// The ops both streams share, after their own: `lost`, the stream's
+    /// loss mark, gives its count; the end marker is checked and gives
+    /// `None`; any other tag is an error.
+    pub(super) fn loss_or_end(&mut self, tag: u8, lost: u8) -> Result<Option<u64>, FormatError> {
+        match tag {
+            END => self.end().map(|()| None),
+            _ if tag == lost => self.count("a loss").map(Some),
+            other => Err(self.error(format!("unknown op 0x{other:02x} (the file is corrupted)"))),
+        }
+    }
+
     /// The tag of the next op; `None` at the end of the file, which is an
     /// error: a finished stream ends with its marker.
     pub(super) fn tag(&mut self) -> Result<u8, FormatError> {

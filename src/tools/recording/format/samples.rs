@@ -7,7 +7,7 @@ use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use crate::control::Tick;
 use crate::control::sample::Sample;
 use crate::rt::core_input::{ArmInput, ArmPose, CoreInput};
-use crate::tools::recording::format::{Bytes, END, FormatError, Stream, op};
+use crate::tools::recording::format::{Bytes, FormatError, Stream, op};
 
 const VALUE: u8 = 0x01;
 const REPEAT: u8 = 0x02;
@@ -249,18 +249,10 @@ impl<R: Read> SampleDecoder<R> {
                 }
                 LINK_LOST => self.arm.link_lost = true,
                 STOP => return Ok(Some(SampleItem::BeginStop)),
-                LOST_TICKS => {
-                    return Ok(Some(SampleItem::Lost(self.bytes.count("a loss")?)));
-                }
-                END => {
-                    self.bytes.end()?;
-                    self.ended = true;
-                    return Ok(None);
-                }
-                other => {
-                    return Err(self
-                        .bytes
-                        .error(format!("unknown op 0x{other:02x} (the file is corrupted)")));
+                _ => {
+                    let lost = self.bytes.loss_or_end(tag, LOST_TICKS)?;
+                    self.ended = lost.is_none();
+                    return Ok(lost.map(SampleItem::Lost));
                 }
             }
         }

@@ -1,9 +1,9 @@
-//! Replaying a recording: a fresh core is given exactly the recorded
-//! calls (each tick's step at its recorded tick, with its sample or none;
-//! `begin_stop` where the safe stop began), and its events and arm
-//! commands are compared with the recorded ones as they come: events as
-//! their JSON lines (`serde_json` writes the shortest text that reads back
-//! to the same bits), arm commands field by field, bit for bit.
+//! Replaying a recording (`replay DIR`): a fresh core is given exactly
+//! the recorded calls (each tick's step at its recorded tick, with its
+//! sample or none; `begin_stop` where the safe stop began), and its events
+//! and arm commands are compared with the recorded ones as they come:
+//! events as their JSON lines (`serde_json` writes the shortest text that
+//! reads back to the same bits), arm commands field by field, bit for bit.
 
 use std::fmt;
 use std::io::Write;
@@ -19,39 +19,8 @@ use crate::tools::recording::format::commands::{CommandDecoder, CommandItem};
 use crate::tools::recording::format::samples::SampleItem;
 use crate::tools::recording::read::{EventLines, Recording, RecordingError};
 use crate::tools::recording::{COMMANDS, META, SAMPLES};
-use crate::tools::replay::{ReplaySummary, TRACE_HEADER, TraceRows};
-
-/// Why a replay of a recording stopped.
-#[derive(Debug)]
-pub enum ReplayError {
-    /// The recording is damaged (its file and offset or line named).
-    Recording(RecordingError),
-    /// The events or the trace could not be written.
-    Write(std::io::Error),
-}
-
-impl fmt::Display for ReplayError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ReplayError::Recording(e) => write!(f, "{e}"),
-            ReplayError::Write(e) => write!(f, "cannot write the output: {e}"),
-        }
-    }
-}
-
-impl std::error::Error for ReplayError {}
-
-impl From<RecordingError> for ReplayError {
-    fn from(e: RecordingError) -> Self {
-        ReplayError::Recording(e)
-    }
-}
-
-impl From<std::io::Error> for ReplayError {
-    fn from(e: std::io::Error) -> Self {
-        ReplayError::Write(e)
-    }
-}
+use crate::tools::replay::{ReplayError, ReplaySummary};
+use crate::tools::trace::{TRACE_HEADER, TraceRows};
 
 /// The first place where the replay and the recording part.
 #[derive(Debug, Clone, PartialEq)]
@@ -330,7 +299,11 @@ pub fn replay(
     let meta = &recording.meta;
     if meta.status == "finished" {
         let held = (contents.ticks, contents.arm_commands, contents.events);
-        let said = (meta.ticks, meta.arm_commands, meta.events);
+        let said = (
+            meta.summary.ticks,
+            meta.summary.arm_commands,
+            meta.summary.events,
+        );
         if held != said {
             return Err(RecordingError {
                 path: recording.path(META),
@@ -343,8 +316,8 @@ pub fn replay(
             .into());
         }
     }
-    let complete = meta.complete && meta.status == "finished" && contents.losses == 0;
-    let mut problems = meta.problems.clone();
+    let complete = meta.summary.complete && meta.status == "finished" && contents.losses == 0;
+    let mut problems = meta.summary.problems.clone();
     if meta.status != "finished" {
         problems.insert(
             0,
@@ -435,10 +408,7 @@ pub fn replay(
     if let Some(trace) = trace {
         trace.flush()?;
     }
-    let state = arm.state();
     v.summary.samples = v.ticks;
-    v.summary.final_position = state.pose.translation.vector.into();
-    v.summary.final_rotation_vector = state.pose.rotation.scaled_axis().into();
-    v.summary.final_fingers = arm.fingers();
+    v.summary.set_arm_end(&arm);
     Ok(v)
 }
