@@ -10,9 +10,10 @@ use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 
 use crate::arm::{Arm, ArmError, ArmState};
 use crate::control::core_config::CoreConfig;
-use crate::control::motion::still::{StillStep, all_zero, pose_bits, velocity_bits};
+use crate::control::motion::rest::{all_zero, pose_bits, velocity_bits};
 use crate::control::motion::stream::{ARM_STREAM_PERIOD_TICKS, ArmCommand};
 use crate::control::motion::workspace::{self, WorkspaceConfig};
+use crate::control::skip_count::SkipCount;
 
 /// The simulation, stepped 1 ms at a time ([`SimulatedJaco::advance_ms`]).
 #[derive(Debug, Clone)]
@@ -23,18 +24,15 @@ pub struct SimulatedJaco {
     /// Milliseconds the current command has left.
     remaining_ms: u32,
     workspace: WorkspaceConfig,
-    /// The zero-velocity millisecond (velocities and pose) known to
-    /// leave the pose as it is.
-    still_step: StillStep,
-    /// The current command's step was found in `still_step` at the
-    /// current pose, and neither has changed since: the next millisecond
-    /// is skipped without comparing them again.
+    /// A millisecond at the current command's velocity (zero) left the
+    /// pose exactly as it was, and neither has changed since: the next
+    /// would too, so it is skipped.
     still: bool,
     /// Milliseconds skipped standing still.
-    skipped_ms: u64,
-    /// Step every millisecond, standing still too (the reference the
-    /// skipped steps are proven against).
-    full_path: bool,
+    skipped_ms: SkipCount,
+    /// Step every millisecond, standing still too: the reference path the
+    /// skipped steps are proven against.
+    reference_path: bool,
     /// [`SimulatedJaco::inside_workspace`] as of the last change of the
     /// pose or the fingers (it depends on nothing else): `replay` asks
     /// every millisecond, and the arm mostly stands still.
@@ -50,26 +48,25 @@ impl SimulatedJaco {
             current: ArmCommand::default(),
             remaining_ms: 0,
             workspace: *config.workspace(),
-            still_step: StillStep::default(),
             still: false,
-            skipped_ms: 0,
-            full_path: false,
+            skipped_ms: SkipCount::default(),
+            reference_path: false,
             inside: false,
         };
         arm.inside = arm.find_inside();
         arm
     }
 
-    /// Steps every millisecond, standing still too: the reference path
-    /// of the equivalence tests. Not for production.
-    #[doc(hidden)]
-    pub fn full_path(&mut self) {
-        self.full_path = true;
+    /// Steps every millisecond, standing still too.
+    #[cfg(any(test, feature = "testing"))]
+    pub fn use_reference_path(&mut self) {
+        self.reference_path = true;
     }
 
     /// Takes a command for the next 10 ms cycle.
     pub fn command(&mut self, command: &ArmCommand) {
-        self.still = false;
+        // The same velocity, bit for bit, steps the same way.
+        self.still &= velocity_bits(&velocity(command)) == velocity_bits(&velocity(&self.current));
         self.current = *command;
         self.remaining_ms = ARM_STREAM_PERIOD_TICKS;
     }
@@ -96,35 +93,22 @@ impl SimulatedJaco {
         }
         self.remaining_ms -= 1;
         if self.still {
-            self.skipped_ms += 1;
+            self.skipped_ms.add();
             return;
         }
-        let c = &self.current;
-        let [vx, vy, vz] = c.linear;
-        let [wx, wy, wz] = c.angular;
-        let velocity = [vx, vy, vz, wx, wy, wz, c.fingers];
-        if !all_zero(&velocity) || self.full_path {
+        if self.reference_path || !all_zero(&velocity(&self.current)) {
             self.step_ms();
             return;
         }
-        // Standing still: skipped where it is known to change nothing.
-        let velocity = velocity_bits(&velocity);
         let before = pose_bits(&self.pose, self.fingers);
-        if self.still_step.known(&velocity, &before) {
-            self.still = true;
-            self.skipped_ms += 1;
-            return;
-        }
         self.step_ms();
-        let after = pose_bits(&self.pose, self.fingers);
-        self.still_step.observe(&velocity, &before, &after);
+        self.still = pose_bits(&self.pose, self.fingers) == before;
     }
 
-    /// Milliseconds skipped standing still (the equivalence tests show
-    /// they ran).
-    #[doc(hidden)]
+    /// Milliseconds skipped standing still.
+    #[cfg(any(test, feature = "testing"))]
     pub fn skipped_ms(&self) -> u64 {
-        self.skipped_ms
+        self.skipped_ms.get()
     }
 
     fn step_ms(&mut self) {
@@ -168,7 +152,7 @@ impl SimulatedJaco {
 
     /// Whether the tool is inside the workspace and the fingers in range.
     pub fn inside_workspace(&self) -> bool {
-        if self.full_path {
+        if self.reference_path {
             return self.find_inside();
         }
         self.inside
@@ -180,6 +164,13 @@ impl SimulatedJaco {
             && self.fingers >= 0.0
             && self.fingers <= w.finger_closed
     }
+}
+
+/// A command's seven velocities (linear, angular, fingers).
+fn velocity(command: &ArmCommand) -> [f64; 7] {
+    let [vx, vy, vz] = command.linear;
+    let [wx, wy, wz] = command.angular;
+    [vx, vy, vz, wx, wy, wz, command.fingers]
 }
 
 /// The simulated JACO as the runtime's arm: each command is executed over

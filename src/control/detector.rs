@@ -31,6 +31,7 @@ use crate::control::Tick;
 use crate::control::action::{Action, Breath};
 use crate::control::mode::Held;
 use crate::control::sample::Sample;
+use crate::control::skip_count::SkipCount;
 
 /// Burst detector settings (`[detector]` in the config file).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -394,11 +395,11 @@ pub struct BurstDetector {
     strength: f64,
     /// After a stuck fault: is the stuck level steady?
     steady: Steadiness,
-    /// Every sample takes the whole step (the reference path of
-    /// [`BurstDetector::full_path`]).
-    full_path: bool,
+    /// Every sample takes the whole step: the reference path the rest
+    /// step is proven against.
+    reference_path: bool,
     /// Samples that took [`BurstDetector::rest_step`].
-    rest_steps: u64,
+    rest_steps: SkipCount,
 }
 
 impl BurstDetector {
@@ -430,20 +431,21 @@ impl BurstDetector {
             candidate: None,
             strength: 0.0,
             steady: Steadiness::new(),
-            full_path: false,
-            rest_steps: 0,
+            reference_path: false,
+            rest_steps: SkipCount::default(),
         }
     }
 
-    /// Every sample takes the whole step, never [`BurstDetector::rest_step`]:
-    /// the reference the tests compare the fast path with.
-    pub fn full_path(&mut self) {
-        self.full_path = true;
+    /// Every sample takes the whole step, never the rest step.
+    #[cfg(any(test, feature = "testing"))]
+    pub fn use_reference_path(&mut self) {
+        self.reference_path = true;
     }
 
-    /// Samples that took the rest step (the whole step's effects at rest).
+    /// Samples that took the rest step.
+    #[cfg(any(test, feature = "testing"))]
     pub fn rest_steps(&self) -> u64 {
-        self.rest_steps
+        self.rest_steps.get()
     }
 
     /// A gap between ticks longer than this (ms) is a stall: the runtime
@@ -475,7 +477,6 @@ impl BurstDetector {
     /// A missing sample changes nothing until `stale_ms` have passed since
     /// the last one (or since start); a device gone is a fault at once.
     /// RT-safe.
-    #[inline]
     pub fn step(&mut self, now: Tick, sample: Sample) -> DetectorOutput {
         match sample {
             Sample::Volts(volts) if self.rest_step(now, volts) => DetectorOutput::default(),
@@ -513,9 +514,8 @@ impl BurstDetector {
         self.output(event)
     }
 
-    /// [`BurstDetector::step`], every stage. (Not inlined: the rest step
-    /// then saves none of its registers.)
-    #[inline(never)]
+    /// A sample through every stage: the time check, the range check,
+    /// then recovery, or detection and the hold check.
     fn whole_step(&mut self, now: Tick, volts: f64) -> DetectorOutput {
         if let Err(reason) = self.advance_to(now) {
             let event = self.fault(reason);
@@ -539,19 +539,17 @@ impl BurstDetector {
         self.output(event)
     }
 
-    /// [`BurstDetector::step`] on most of a day's samples, reduced to its
-    /// effects: at rest, no crossing pending, the sample on a tick that
-    /// follows the last one within `stale_ms`, valid and in the rest zone
-    /// (the whole step's own `check` and `zone`). The step would then find no fault, the rest zone, nothing to confirm
-    /// and nothing held: it only records the tick and tracks the neutral,
-    /// and its output is the default one. Returns whether it took the step.
-    #[inline(always)]
+    /// The whole step on most of a day's samples, reduced to its effects
+    /// and taken where it gives the same result: at rest, nothing pending,
+    /// on the tick after the last, a valid sample between the thresholds.
+    /// It records the tick and tracks the neutral; the output is the
+    /// default one. Returns whether it took the step.
     fn rest_step(&mut self, now: Tick, volts: f64) -> bool {
         let next_tick = self
             .last_tick
             .is_some_and(|last| now > last && now - last <= self.stale);
         let at_rest = matches!(self.state, State::Rest) && self.candidate.is_none();
-        if self.full_path || !at_rest || !next_tick {
+        if self.reference_path || !at_rest || !next_tick {
             return false;
         }
         let valid = Self::check(volts, self.low_limit, self.high_limit).is_ok();
@@ -560,7 +558,7 @@ impl BurstDetector {
         }
         self.last_tick = Some(now);
         self.last_sample = Some(now);
-        self.rest_steps += 1;
+        self.rest_steps.add();
         self.track_neutral(now, volts);
         true
     }
@@ -836,15 +834,15 @@ mod tests {
     /// Everything a detector holds but the rest step's switch and count.
     fn state(d: &BurstDetector) -> String {
         let mut d = d.clone();
-        d.full_path = false;
-        d.rest_steps = 0;
+        d.reference_path = false;
+        d.rest_steps = SkipCount::default();
         format!("{d:?}")
     }
 
     /// A detector that takes the rest step and one that never does.
     fn fast_and_whole(config: &DetectorConfig) -> (BurstDetector, BurstDetector) {
         let mut whole = BurstDetector::new(config);
-        whole.full_path();
+        whole.use_reference_path();
         (BurstDetector::new(config), whole)
     }
 

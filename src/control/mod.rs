@@ -40,6 +40,7 @@ pub mod motion;
 pub mod pipeline;
 pub mod sample;
 pub mod selection;
+pub mod skip_count;
 pub mod view;
 
 /// Time in the core: one tick is one millisecond, one sensor sample at 1 kHz.

@@ -80,11 +80,6 @@ pub struct Pipeline {
     arm_fault: Option<ArmFault>,
     /// The direction commanded on the last tick (for [`Pipeline::view`]).
     direction: Direction,
-    /// Every stage runs on every tick (the reference path:
-    /// [`Pipeline::always_update`]).
-    full_path: bool,
-    /// Ticks on which the selector and the mode machine were skipped.
-    skipped_stages: u64,
 }
 
 /// How a mode is selected in detection mode.
@@ -136,8 +131,6 @@ impl Pipeline {
             link_lost: false,
             arm_fault: None,
             direction: Direction::Still,
-            full_path: false,
-            skipped_stages: 0,
         }
     }
 
@@ -183,32 +176,13 @@ impl Pipeline {
         &self.motion
     }
 
-    /// Runs every stage, Ruckig update and pose step, at rest too: the
-    /// reference path the skipped work is proven against
-    /// (`tests/it/fast_paths.rs`). Not for production.
-    #[doc(hidden)]
-    pub fn always_update(&mut self) {
-        self.full_path = true;
-        self.detector.full_path();
-        self.motion.always_update();
-    }
-
-    /// Ticks on which the selector and the mode machine were skipped
-    /// ([`Pipeline::quiet`]).
-    #[doc(hidden)]
-    pub fn skipped_stages(&self) -> u64 {
-        self.skipped_stages
-    }
-
-    /// Nothing detected on this tick (`event`), in detection mode, with
-    /// no sequence begun: the matcher's tick returns nothing (its timeout
-    /// runs only for a sequence begun) and the mode machine stays in
-    /// detection mode with no direction, so neither changes anything.
-    fn quiet(&self, event: Option<DetectorEvent>, in_detection: bool) -> bool {
-        event.is_none()
-            && in_detection
-            && !self.full_path
-            && matches!(&self.selector, Selector::Sequences(matcher) if matcher.current().is_empty())
+    /// Skips nothing at rest, in the detector, the motion layer and its
+    /// channels: the reference path the skipped work is proven against
+    /// (`tests/it/fast_paths.rs`).
+    #[cfg(any(test, feature = "testing"))]
+    pub fn use_reference_path(&mut self) {
+        self.detector.use_reference_path();
+        self.motion.use_reference_path();
     }
 
     /// Where the user is, as the display shows it. RT-safe.
@@ -283,27 +257,6 @@ impl Pipeline {
             }
         }
         let in_detection = self.modes.state() == ModeState::Detection;
-        if self.quiet(detected.event, in_detection) {
-            self.skipped_stages += 1;
-            self.direction = Direction::Still;
-            // (`out.command` is the detection mode's still command.)
-            self.step_motion(now, out);
-            return;
-        }
-        self.select_and_move(now, detected, in_detection, out);
-    }
-
-    /// The rest of [`Pipeline::process`] on a tick that is not quiet:
-    /// the selector, the mode machine, the motion layer. (Not inlined:
-    /// the quiet path then saves none of its registers.)
-    #[inline(never)]
-    fn select_and_move(
-        &mut self,
-        now: Tick,
-        detected: DetectorOutput,
-        in_detection: bool,
-        out: &mut TickOutput,
-    ) {
         let mut decision = None;
         let mut scan_burst = None;
         match detected.event {
@@ -383,17 +336,9 @@ impl Pipeline {
             out.log(Event::Detection { reason });
         }
         // (An arm fault's stop takes effect through the mode machine.)
-        self.step_motion(now, out);
-    }
-
-    /// The motion layer's tick, on `out.command`, its events logged.
-    fn step_motion(&mut self, now: Tick, out: &mut TickOutput) {
-        self.motion.step_into(now, &out.command, &mut out.motion);
-        // (They fill from the first slot: most ticks have none.)
-        if out.motion.events[0].is_some() {
-            for event in out.motion.events.into_iter().flatten() {
-                out.log(Event::Motion(event));
-            }
+        self.motion.step(now, &out.command, &mut out.motion);
+        for event in out.motion.events.into_iter().flatten() {
+            out.log(Event::Motion(event));
         }
     }
 }

@@ -4,7 +4,7 @@
 use std::io::Write;
 
 use crate::arm::sim::SimulatedJaco;
-use crate::control::motion::still::{PoseBits, VelocityBits, pose_bits, velocity_bits};
+use crate::control::motion::rest::{PoseBits, VelocityBits, pose_bits, velocity_bits};
 use crate::control::pipeline::TickOutput;
 use crate::tools::float_text::push_f64;
 

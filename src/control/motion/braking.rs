@@ -20,32 +20,6 @@ pub fn room_to_brake_next_cycle(v: f64, a: f64, a_max: f64, j_max: f64, dt: f64)
         )
 }
 
-/// The last [`room_to_brake_next_cycle`] asked of one channel, with its
-/// answer: cruising, a channel asks the very same question (speed,
-/// acceleration, limits, bit for bit) every tick. The function is pure
-/// arithmetic on its arguments, so a repeated question gets the answer it
-/// got, bit for bit. `Copy`, RT-safe.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct BrakeRoomMemo {
-    last: Option<([u64; 5], f64)>,
-}
-
-impl BrakeRoomMemo {
-    /// [`room_to_brake_next_cycle`], and whether the answer was the last
-    /// one given again.
-    pub fn room(&mut self, v: f64, a: f64, a_max: f64, j_max: f64, dt: f64) -> (f64, bool) {
-        let question = [v, a, a_max, j_max, dt].map(f64::to_bits);
-        if let Some((asked, answer)) = self.last
-            && asked == question
-        {
-            return (answer, true);
-        }
-        let answer = room_to_brake_next_cycle(v, a, a_max, j_max, dt);
-        self.last = Some((question, answer));
-        (answer, false)
-    }
-}
-
 /// The state one cycle of `dt` later when braking as hard as the limits
 /// allow: the planner's fallback (if it ever fails, the arm still brakes
 /// jerk-limited along the time-optimal profile). At rest: `(0, 0)`.
@@ -227,33 +201,6 @@ mod tests {
         }
         // a → 0 (0.3/12.8), then the usual stop from the peak speed.
         assert!((300..400).contains(&ticks), "{ticks}");
-    }
-
-    #[test]
-    fn a_repeated_question_gets_the_same_answer_bit_for_bit() {
-        let mut memo = BrakeRoomMemo::default();
-        let questions = [
-            (0.2, 0.0, 0.64, 3.2),
-            (0.2, 0.0, 0.64, 3.2),
-            (0.2, -0.0, 0.64, 3.2),
-            (0.2, 0.0, 0.64, 12.8),
-            (f64::NAN, 0.0, 0.64, 3.2),
-            (f64::NAN, 0.0, 0.64, 3.2),
-            (0.05, 0.3, 0.64, 3.2),
-        ];
-        let mut repeats = 0;
-        for (v, a, a_max, j_max) in questions {
-            let direct = room_to_brake_next_cycle(v, a, a_max, j_max, 0.001);
-            let (answer, repeated) = memo.room(v, a, a_max, j_max, 0.001);
-            assert_eq!(
-                answer.to_bits(),
-                direct.to_bits(),
-                "{v} {a} {a_max} {j_max}"
-            );
-            repeats += usize::from(repeated);
-        }
-        // The second 0.2 and the second NaN only: −0 is another question.
-        assert_eq!(repeats, 2);
     }
 
     #[test]

@@ -1,54 +1,43 @@
 //! Go to the saved point: from rest, a straight line and a turn about one
-//! fixed axis, with Ruckig's position interface on the distance and the
-//! angle (both arrive together); and the way back to the velocity plan.
+//! fixed axis, on the arm channel's position interface (the distance and
+//! the angle arrive together); released or blocked, it brakes along the
+//! same line in the velocity plan.
 
-use rsruckig::prelude::*;
-
+use crate::control::motion::boundaries::ROUNDING_GUARD;
 use crate::control::motion::workspace::Boundary;
-use crate::control::motion::{
-    ANGULAR, AT_POINT, LINEAR, Motion, MotionEvent, Plan, ROUNDING_GUARD, get, set_all,
-};
+use crate::control::motion::{ANGULAR, AT_POINT, Goto, LINEAR, Motion, MotionEvent, Plan};
 
 impl Motion {
-    /// With `goto_point` held: says there is nothing saved, brakes what
-    /// still moves, or — from rest — starts moving to the saved pose.
-    /// Starting only from rest keeps the plan inside the limits (no state
-    /// Ruckig could refuse) and the path on one line.
+    /// With `goto_point` held: says there is nothing saved, waits for what
+    /// still moves to brake, or — from rest — starts moving to the saved
+    /// pose. Starting only from rest keeps the plan inside the limits (no
+    /// state Ruckig could refuse) and the path on one line.
     pub(super) fn try_start_goto(&mut self) -> Option<MotionEvent> {
         let Some(goal) = self.saved else {
-            self.goto_pending = false;
-            self.goto_done = true;
+            self.goto = Goto::Done;
             return Some(MotionEvent::NoSavedPoint);
         };
-        if !self.at_rest() {
+        if !(self.arm.at_rest(LINEAR) && self.arm.at_rest(ANGULAR)) {
             return None; // the velocity plan's zero targets brake it first
         }
-        self.goto_pending = false;
         let start = self.pose;
         let delta_p = goal.translation.vector - start.translation.vector;
         // Base-frame rotation from here to the goal.
         let delta_r = (goal.rotation * start.rotation.inverse()).scaled_axis();
         let (distance, angle) = (delta_p.norm(), delta_r.norm());
         if distance < AT_POINT.0 && angle < AT_POINT.1 {
-            self.goto_done = true;
+            self.goto = Goto::Done;
             return Some(MotionEvent::AlreadyAtSavedPoint);
         }
+        self.goto = Goto::Idle;
+        let [linear_axis, angular_axis] = &mut self.axes;
         if distance > 0.0 {
-            self.linear_axis = delta_p / distance;
+            *linear_axis = delta_p / distance;
         }
         if angle > 0.0 {
-            self.angular_axis = delta_r / angle;
+            *angular_axis = delta_r / angle;
         }
-        self.arm_rest = false;
-        let input = &mut self.input;
-        input.current_position.fill(0.0);
-        input.current_velocity.fill(0.0);
-        input.current_acceleration.fill(0.0);
-        set_all(&mut input.target_position, [distance, angle]);
-        input.target_velocity.fill(0.0);
-        input.target_acceleration.fill(0.0);
-        input.control_interface = ControlInterface::Position;
-        input.synchronization = Synchronization::Time;
+        self.arm.go_to([distance, angle]);
         self.plan = Plan::Goto;
         Some(MotionEvent::GotoStarted {
             distance_m: distance,
@@ -59,40 +48,28 @@ impl Motion {
     /// Whether going on towards the saved pose would cross a boundary or
     /// an orientation limit before reaching it (the straight line may pass
     /// near the base; the turn may leave the tilt cone).
-    pub(super) fn goto_blocked(&mut self) -> Option<Boundary> {
-        let input = &self.input;
-        let remaining = [LINEAR, ANGULAR].map(|dof| {
-            get(&input.target_position, dof) - get(&input.current_position, dof) + ROUNDING_GUARD
-        });
-        let (linear_axis, angular_axis) = (self.linear_axis, self.angular_axis);
-        let (room, _) = self.linear_room(&linear_axis);
-        if room < remaining[LINEAR]
-            && let Some(boundary) = self.linear_must_brake(&linear_axis, 1.0)
+    pub(super) fn goto_blocked(&self) -> Option<Boundary> {
+        let [linear_axis, angular_axis] = self.axes;
+        let remaining = |dof| self.arm.remaining(dof) + ROUNDING_GUARD;
+        let (room, _) = self.bounds.linear_room(&self.pose, &linear_axis);
+        if room < remaining(LINEAR)
+            && let Some(boundary) = self.must_brake(LINEAR, &linear_axis, 1.0)
         {
             return Some(boundary);
         }
-        let (room, _) = self.angular_room(&angular_axis);
-        if room < remaining[ANGULAR]
-            && let Some(boundary) = self.angular_must_brake(&angular_axis, 1.0)
+        let (room, _) = self.bounds.angular_room(&self.pose, &angular_axis);
+        if room < remaining(ANGULAR)
+            && let Some(boundary) = self.must_brake(ANGULAR, &angular_axis, 1.0)
         {
             return Some(boundary);
         }
         None
     }
 
-    /// Leaves the goto: brake to rest along the line.
+    /// Leaves the go-to: the speeds along the line and about the axis
+    /// carry over into the velocity plan, which brakes them to rest.
     pub(super) fn brake_goto(&mut self) {
-        self.switch_to_velocity_plan();
-        self.input.target_velocity.fill(0.0);
-        self.input.target_acceleration.fill(0.0);
-    }
-
-    /// Switches Ruckig to the velocity interface; the speeds along the
-    /// line and about the axis carry over as they are.
-    pub(super) fn switch_to_velocity_plan(&mut self) {
-        self.arm_rest = false;
-        self.plan = Plan::Velocity;
-        self.input.control_interface = ControlInterface::Velocity;
-        self.input.synchronization = Synchronization::None;
+        self.use_velocity_plan();
+        self.arm.ask_velocities([0.0; 2]);
     }
 }

@@ -5,15 +5,17 @@
 //!   mode's axis (translations in the base frame, rotations about the tool's
 //!   axes, fingers in JACO2 finger units); release gives zero. Optionally
 //!   the speed scales with the pressure.
-//! * **One line at a time.** The linear velocity is a scalar speed along
-//!   one unit axis, the angular velocity a scalar rate about one unit axis
-//!   (both in the base frame). `rsruckig` shapes the two scalars (velocity
-//!   interface, 1 ms cycle, `Synchronization::None`), so the limits on the
-//!   speed, acceleration and jerk hold for the *vectors*, exactly. An axis
-//!   changes only from rest: a new direction asked for while the tool still
-//!   moves another way first brakes it to rest, then starts. Targets are
-//!   clamped to the speed limits (the velocity interface ignores
-//!   `max_velocity`). Fingers have their own one-axis Ruckig.
+//! * **Two channels, one line at a time.** The linear velocity is a
+//!   scalar speed along one unit axis, the angular velocity a scalar rate
+//!   about one unit axis (both in the base frame): the arm's
+//!   [`Channel`](channel) of two degrees of freedom, which `rsruckig`
+//!   shapes (velocity interface, 1 ms cycle, `Synchronization::None`), so
+//!   the limits on the speed, acceleration and jerk hold for the
+//!   *vectors*, exactly. An axis changes only from rest: a new direction
+//!   asked for while the tool still moves another way first brakes it to
+//!   rest, then starts. Targets are clamped to the speed limits (the
+//!   velocity interface ignores `max_velocity`). The fingers are a channel
+//!   of their own.
 //! * **Save and go to point.** A puff in `save_point` stores the pose; a
 //!   puff held in `goto_point` first brakes whatever still moves, then,
 //!   from rest, moves there along a straight line and about one fixed axis
@@ -32,252 +34,129 @@
 //!   If Ruckig itself ever failed, the arm would brake on the same
 //!   time-optimal jerk-limited profile computed here
 //!   ([`braking::brake_step`]) until still.
+//! * **At rest** nothing changes, and the work that would find so is
+//!   skipped ([`rest`]).
 
 mod boundaries;
 pub mod braking;
+pub mod channel;
 pub mod feedback;
 mod goto;
 pub mod home;
 pub mod limits;
 pub mod orientation;
-pub mod still;
+mod output;
+pub mod rest;
 pub mod stream;
-mod targets;
 pub mod workspace;
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
-use rsruckig::prelude::*;
-use serde::{Serialize, Serializer};
 
 use crate::control::Tick;
 use crate::control::mode::{Direction, Mode, ModeState};
 use crate::control::modes::ModeOutput;
+use boundaries::{Bounds, Braking};
+use channel::{Channel, Update};
 use feedback::{ArmFault, FeedbackConfig, Measurement, PoseTracker};
 use home::HomeConfig;
 use limits::MotionConfig;
-use orientation::{OrientationLimits, RoomGeometry};
-use stream::{ArmCommand, Decimator};
+use orientation::OrientationLimits;
+use rest::RestTicks;
+use stream::Decimator;
 use workspace::{Boundary, WorkspaceConfig};
 
-/// The control cycle, s.
-pub const CYCLE_S: f64 = 0.001;
-/// Finger travel kept at each end, units.
-pub const FINGER_MARGIN: f64 = 10.0;
+pub use boundaries::{FINGER_MARGIN, ROUNDING_GUARD};
+pub use channel::CYCLE_S;
+pub use output::{LOGGED_CORRECTION_M, MotionEvent, MotionOutput};
+
 /// From rest, the tool does not start towards a boundary with less room
 /// than this past the stop margin, m (no creeping by fractions of a mm).
 pub const MIN_START_M: f64 = 0.002;
 /// From rest, the tool does not start turning towards an orientation limit
 /// with less room than this, rad.
 pub const MIN_START_RAD: f64 = 0.002;
-/// Kept inside the stop margin and the orientation limits for rounding
-/// (the pose is integrated tick by tick), m or rad.
-pub const ROUNDING_GUARD: f64 = 1e-6;
 /// Closer than this to the saved point (m and rad) counts as there.
 pub const AT_POINT: (f64, f64) = (1e-4, 1e-3);
 
-/// Ruckig's degree of freedom for the speed along the linear axis.
+/// The arm channel's degree of freedom for the speed along the line.
 const LINEAR: usize = 0;
-/// Ruckig's degree of freedom for the rate about the angular axis.
+/// The arm channel's degree of freedom for the rate about the axis.
 const ANGULAR: usize = 1;
+/// Directions this close to parallel are the same line.
+const SAME_LINE: f64 = 1.0 - 1e-9;
 
-/// Something the motion layer reports. Serialized as an event-log entry
-/// (`{"event":"saved",…}`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-#[serde(tag = "event", rename_all = "snake_case")]
-pub enum MotionEvent {
-    /// The pose was saved.
-    Saved {
-        /// Saved position, m.
-        position: [f64; 3],
-    },
-    /// Moving to the saved pose.
-    GotoStarted {
-        /// Straight-line distance, m.
-        distance_m: f64,
-        /// Rotation, rad.
-        angle_rad: f64,
-    },
-    /// The saved pose was reached.
-    GotoReached,
-    /// `goto_point` with nothing saved: nothing moves.
-    #[serde(serialize_with = "no_saved_point")]
-    NoSavedPoint,
-    /// `goto_point` while already at the saved pose.
-    #[serde(rename = "at_saved_point")]
-    AlreadyAtSavedPoint,
-    /// Motion stopped at a boundary.
-    WorkspaceLimit {
-        /// Which one.
-        boundary: Boundary,
-    },
-    /// The trajectory generator failed (unreachable with a validated
-    /// config): the arm brakes on the fallback profile until still.
-    #[serde(serialize_with = "trajectory_error")]
-    TrajectoryError,
-    /// The measured pose moved the estimate by at least
-    /// [`LOGGED_CORRECTION_M`]: the limits now see where the arm really is.
-    PoseCorrected {
-        /// The translation added to the estimate, m.
-        by_m: [f64; 3],
-        /// The corrected position, m, base frame.
-        position_m: [f64; 3],
-    },
-}
-
-/// Corrections from the measured pose this large are logged, m (smaller
-/// ones are the arm's noise and lag).
-pub const LOGGED_CORRECTION_M: f64 = 0.002;
-
-/// The event log says why nothing moves.
-fn no_saved_point<S: Serializer>(serializer: S) -> Result<S::Ok, S::Error> {
-    Reason {
-        reason: "goto_point: no pose has been saved",
-    }
-    .serialize(serializer)
-}
-
-/// The event log says what the arm does instead.
-fn trajectory_error<S: Serializer>(serializer: S) -> Result<S::Ok, S::Error> {
-    Reason {
-        reason: "trajectory generator failed; braking jerk-limited until still",
-    }
-    .serialize(serializer)
-}
-
-/// A constant explanation beside an event's name.
-#[derive(Serialize)]
-struct Reason {
-    reason: &'static str,
-}
-
-impl MotionOutput {
-    /// The commanded velocity as `[vx, vy, vz, wx, wy, wz, fingers]`.
-    pub fn velocity(&self) -> [f64; 7] {
-        let [vx, vy, vz] = self.linear;
-        let [wx, wy, wz] = self.angular;
-        [vx, vy, vz, wx, wy, wz, self.fingers_velocity]
-    }
-
-    /// Nothing is commanded to move.
-    pub fn is_still(&self) -> bool {
-        self.velocity() == [0.0; 7]
-    }
-}
-
-/// The motion layer's output for one tick. `Copy`.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct MotionOutput {
-    /// Commanded linear velocity, m/s, base frame.
-    pub linear: [f64; 3],
-    /// Commanded angular velocity, rad/s, base frame.
-    pub angular: [f64; 3],
-    /// Commanded finger velocity, units/s (positive closes).
-    pub fingers_velocity: f64,
-    /// The pose the commands lead to (integrated), base frame.
-    pub pose: Isometry3<f64>,
-    /// The finger position the commands lead to, units.
-    pub fingers: f64,
-    /// A command for the arm, every 10 ticks.
-    pub arm_command: Option<ArmCommand>,
-    /// Ruckig computed a new trajectory on this tick (a new target).
-    pub recalculated: bool,
-    /// At most two events per tick.
-    pub events: [Option<MotionEvent>; 2],
-}
-
-/// What Ruckig's two degrees of freedom are doing.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// What the arm channel's two degrees of freedom are doing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Plan {
     /// Velocity interface: speeds along the axes.
     Velocity,
     /// Position interface: distance along the line and angle about the
-    /// axis, from the goto's start.
+    /// axis, from the go-to's start.
     Goto,
+    /// The planner failed: every channel brakes on the fallback profile
+    /// ([`braking::brake_step`]) until still, then the velocity plan
+    /// resumes.
+    Fallback,
 }
 
-type Otg<const N: usize> = Ruckig<N, ThrowErrorHandler>;
+/// Where the current `goto_point` puff stands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Goto {
+    /// No go-to asked, or one under way (the plan says which).
+    Idle,
+    /// Held: waits for the tool to come to rest, then starts.
+    Waiting,
+    /// This puff's go-to is over: reached, blocked, or nothing to go to.
+    Done,
+}
+
+impl Goto {
+    /// The puff was released: a go-to not yet started is not wanted.
+    pub fn released(self) -> Goto {
+        match self {
+            Goto::Waiting => Goto::Idle,
+            other => other,
+        }
+    }
+
+    /// After a halt: a go-to waiting or under way (`in_goto`) starts
+    /// again from rest if its puff is still held.
+    pub fn after_halt(self, in_goto: bool) -> Goto {
+        match self {
+            Goto::Idle if in_goto => Goto::Waiting,
+            other => other,
+        }
+    }
+}
 
 /// The motion layer. Construct at start-up; [`Motion::step`] is RT-safe
 /// (no allocation, no panic, no clock).
 pub struct Motion {
     limits: MotionConfig,
-    workspace: WorkspaceConfig,
-    orientation: OrientationLimits,
-    /// What the angular room takes from `orientation`, worked out once.
-    orientation_room: RoomGeometry,
-    otg: Otg<2>,
-    input: InputParameter<2>,
-    output: OutputParameter<2>,
-    finger_otg: Otg<1>,
-    finger_input: InputParameter<1>,
-    finger_output: OutputParameter<1>,
+    bounds: Bounds,
     plan: Plan,
-    /// The line the linear speed is along (unit, base frame).
-    linear_axis: Vector3<f64>,
-    /// The axis the angular rate is about (unit, base frame).
-    angular_axis: Vector3<f64>,
-    /// Ruckig failed: braking on the fallback profile until still.
-    fallback: bool,
+    /// The tool's trajectory: [`LINEAR`] along `axes[LINEAR]`,
+    /// [`ANGULAR`] about `axes[ANGULAR]`.
+    arm: Channel<2>,
+    fingers: Channel<1>,
+    /// The line the linear speed is along and the axis the angular rate
+    /// is about (unit, base frame).
+    axes: [Vector3<f64>; 2],
+    /// The pose the commands lead to (integrated), base frame.
     pose: Isometry3<f64>,
-    fingers: f64,
+    /// The finger position the commands lead to, units.
+    finger_position: f64,
     /// Last tick's commanded velocity `[v (3), ω (3), fingers]`.
     last: [f64; 7],
     saved: Option<Isometry3<f64>>,
-    /// A requested linear direction held off by a boundary.
-    linear_blocked: Option<Vector3<f64>>,
-    /// A requested turning direction held off by an orientation limit.
-    angular_blocked: Option<Vector3<f64>>,
-    /// A requested finger direction held off by an end.
-    finger_blocked: Option<f64>,
-    /// `goto_point` is held and waits for the tool to come to rest.
-    goto_pending: bool,
-    /// The current goto puff is done with (reached, blocked, nothing saved).
-    goto_done: bool,
+    goto: Goto,
+    /// The command's direction on the last tick (a puff's start saves the
+    /// point or asks for the go-to).
     previous_direction: Direction,
     decimator: Decimator,
     /// The measured pose, when the arm reports one.
     tracker: PoseTracker,
-    /// The arm's trajectory (linear and angular) is at rest and its last
-    /// update changed nothing (every velocity and acceleration, now and
-    /// asked, zero; Ruckig's own state the same). Until its next update,
-    /// nothing changes its Ruckig's state but the targets — what would
-    /// ([`Motion::halt`], the switch of plans, a start from rest towards a
-    /// new direction) clears this — so while its targets stay zero an
-    /// update would compute nothing again and give back the same still
-    /// state: it is skipped, whatever the fingers do
-    /// (`tests/it/fast_paths.rs` runs both paths side by side; debug
-    /// builds check every skip against Ruckig's own comparison). Off with
-    /// [`Motion::always_update`].
-    arm_rest: bool,
-    /// The same for the fingers' trajectory, whatever the arm does.
-    finger_rest: bool,
-    /// The inputs of the updates that found each trajectory at rest
-    /// (debug builds: every skip is checked against them).
-    #[cfg(debug_assertions)]
-    rest_inputs: (InputParameter<2>, InputParameter<1>),
-    /// Never skip an update or a pose step (the reference path of the
-    /// equivalence tests).
-    always_update: bool,
-    /// Ticks whose updates were skipped at rest.
-    skipped_updates: u64,
-    /// Updates of one trajectory skipped at rest while the other ran.
-    skipped_single_updates: u64,
-    /// Rest ticks that repeated the last one ([`Motion::still_rest`]).
-    still_repeats: u64,
-    /// The zero-velocity step (velocities and pose) known to leave the
-    /// pose as it is.
-    still_step: still::StillStep,
-    /// The last tick rested ([`Motion::rest_into`]) with every velocity a
-    /// zero (of either sign) at a pose a step at those very velocities is
-    /// known to leave as it is; nothing has changed since (every other
-    /// change of the pose or the velocities clears it). The next rest
-    /// tick is then the same tick again.
-    still_rest: bool,
-    /// Each channel's last question of braking (linear, angular,
-    /// fingers): cruising, the same one comes every tick.
-    brake_rooms: [braking::BrakeRoomMemo; 3],
-    /// Questions of braking answered again ([`Motion::brake_room`]).
-    brake_room_repeats: u64,
+    rest: RestTicks,
 }
 
 impl std::fmt::Debug for Motion {
@@ -285,7 +164,7 @@ impl std::fmt::Debug for Motion {
         f.debug_struct("Motion")
             .field("plan", &self.plan)
             .field("pose", &self.pose)
-            .field("fingers", &self.fingers)
+            .field("fingers", &self.finger_position)
             .finish_non_exhaustive()
     }
 }
@@ -293,115 +172,34 @@ impl std::fmt::Debug for Motion {
 impl Motion {
     /// At the configured home pose, at rest. Not RT-safe (call at start-up).
     pub fn new(limits: &MotionConfig, workspace: &WorkspaceConfig, home: &HomeConfig) -> Self {
-        let limits = *limits;
-        let mut input = InputParameter::new(None);
-        input.control_interface = ControlInterface::Velocity;
-        input.synchronization = Synchronization::None;
-        set_all(
-            &mut input.max_velocity,
-            [limits.linear_speed_mps, limits.angular_speed_radps],
-        );
-        set_all(
-            &mut input.max_acceleration,
-            [
-                limits.linear_acceleration_mps2,
-                limits.angular_acceleration_radps2,
-            ],
-        );
-        set_all(
-            &mut input.max_jerk,
-            [limits.linear_jerk_mps3, limits.angular_jerk_radps3],
-        );
-        let mut finger_input = InputParameter::new(None);
-        finger_input.control_interface = ControlInterface::Velocity;
-        finger_input.synchronization = Synchronization::None;
-        finger_input.max_velocity.fill(limits.finger_speed);
-        finger_input
-            .max_acceleration
-            .fill(limits.finger_acceleration);
-        finger_input.max_jerk.fill(limits.finger_jerk);
+        let l = *limits;
         let pose = home.pose();
         let orientation = OrientationLimits {
             home: pose.rotation,
             max_tilt_rad: workspace.max_tilt_rad,
             max_twist_rad: workspace.max_twist_rad,
         };
-        #[cfg(debug_assertions)]
-        let rest_inputs = (input.clone(), finger_input.clone());
         Motion {
-            limits,
-            workspace: *workspace,
-            orientation,
-            orientation_room: RoomGeometry::new(&orientation),
-            otg: Otg::new(None, CYCLE_S),
-            input,
-            output: OutputParameter::new(None),
-            finger_otg: Otg::new(None, CYCLE_S),
-            finger_input,
-            finger_output: OutputParameter::new(None),
+            limits: l,
+            bounds: Bounds::new(workspace, orientation),
             plan: Plan::Velocity,
-            linear_axis: Vector3::x(),
-            angular_axis: Vector3::x(),
-            fallback: false,
+            arm: Channel::new(
+                [l.linear_speed_mps, l.angular_speed_radps],
+                [l.linear_acceleration_mps2, l.angular_acceleration_radps2],
+                [l.linear_jerk_mps3, l.angular_jerk_radps3],
+            ),
+            fingers: Channel::new([l.finger_speed], [l.finger_acceleration], [l.finger_jerk]),
+            axes: [Vector3::x(); 2],
             pose,
-            fingers: home.home_fingers,
+            finger_position: home.home_fingers,
             last: [0.0; 7],
             saved: None,
-            linear_blocked: None,
-            angular_blocked: None,
-            finger_blocked: None,
-            goto_pending: false,
-            goto_done: false,
+            goto: Goto::Idle,
             previous_direction: Direction::Still,
             decimator: Decimator::default(),
             tracker: PoseTracker::new(FeedbackConfig::default()),
-            arm_rest: false,
-            finger_rest: false,
-            #[cfg(debug_assertions)]
-            rest_inputs,
-            always_update: false,
-            skipped_updates: 0,
-            skipped_single_updates: 0,
-            still_repeats: 0,
-            still_step: still::StillStep::default(),
-            still_rest: false,
-            brake_rooms: Default::default(),
-            brake_room_repeats: 0,
+            rest: RestTicks::default(),
         }
-    }
-
-    /// Ticks on which the Ruckig updates were skipped at rest.
-    pub fn skipped_updates(&self) -> u64 {
-        self.skipped_updates
-    }
-
-    /// Updates of one trajectory skipped at rest while the other ran
-    /// (the arm's while the fingers move, or the fingers' while the arm
-    /// does): the equivalence tests show they ran.
-    #[doc(hidden)]
-    pub fn skipped_single_updates(&self) -> u64 {
-        self.skipped_single_updates
-    }
-
-    /// Rest ticks that repeated the last one (no twist, mean or pose
-    /// step): the equivalence tests show they ran.
-    #[doc(hidden)]
-    pub fn still_repeats(&self) -> u64 {
-        self.still_repeats
-    }
-
-    /// Questions of braking answered again, not computed (the
-    /// equivalence tests show they ran).
-    #[doc(hidden)]
-    pub fn brake_room_repeats(&self) -> u64 {
-        self.brake_room_repeats
-    }
-
-    /// Runs every Ruckig update and every pose step, at rest too: the
-    /// reference the skipped work is proven against. Not for production.
-    #[doc(hidden)]
-    pub fn always_update(&mut self) {
-        self.always_update = true;
     }
 
     /// The same motion layer checking measured poses with `config`. Not
@@ -411,12 +209,32 @@ impl Motion {
         self
     }
 
+    /// Runs every Ruckig update and every step of a tick at rest: the
+    /// reference the skipped work is proven against.
+    #[cfg(any(test, feature = "testing"))]
+    pub fn use_reference_path(&mut self) {
+        self.arm.use_reference_path();
+        self.fingers.use_reference_path();
+        self.rest.use_reference_path();
+    }
+
+    /// Work skipped so far: the arm's and the fingers' updates, and rest
+    /// ticks that repeated the last one.
+    #[cfg(any(test, feature = "testing"))]
+    pub fn skipped(&self) -> [u64; 3] {
+        [
+            self.arm.skipped().get(),
+            self.fingers.skipped().get(),
+            self.rest.repeats().get(),
+        ]
+    }
+
     /// The arm reports its pose, measured: the first measurement, `pose`,
     /// is where the motion starts (instead of the configured home), and
     /// from now on measurements are expected ([`Motion::measure`]); their
     /// silence is a fault. Call before the first tick. RT-safe.
     pub fn start_measured(&mut self, pose: Isometry3<f64>) {
-        self.still_rest = false;
+        self.rest.touched();
         self.pose = pose;
         self.tracker.start();
     }
@@ -435,7 +253,7 @@ impl Motion {
         now: Tick,
         measured: &Isometry3<f64>,
     ) -> Result<Option<MotionEvent>, ArmFault> {
-        self.still_rest = false;
+        self.rest.touched();
         match self.tracker.measure(now, measured, &mut self.pose) {
             Some(Measurement::Fault(fault)) => Err(fault),
             Some(Measurement::Corrected { by, .. })
@@ -456,18 +274,12 @@ impl Motion {
         self.tracker.check_silence(now)
     }
 
-    /// An output with no motion at the current pose (a placeholder before
-    /// [`Motion::step`] fills the real one).
+    /// An output with no motion at the current pose.
     pub fn idle_output(&self) -> MotionOutput {
         MotionOutput {
-            linear: [0.0; 3],
-            angular: [0.0; 3],
-            fingers_velocity: 0.0,
             pose: self.pose,
-            fingers: self.fingers,
-            arm_command: None,
-            recalculated: false,
-            events: [None; 2],
+            fingers: self.finger_position,
+            ..MotionOutput::default()
         }
     }
 
@@ -488,7 +300,7 @@ impl Motion {
 
     /// The orientation limits and the home orientation they start from.
     pub fn orientation_limits(&self) -> &OrientationLimits {
-        &self.orientation
+        self.bounds.orientation()
     }
 
     /// The arm has stopped on its own (no command reached it for longer
@@ -497,52 +309,55 @@ impl Motion {
     /// from zero. A go-to under way starts again from rest if its puff is
     /// still held. RT-safe.
     pub fn halt(&mut self) {
-        self.still_rest = false;
-        self.arm_rest = false;
-        self.finger_rest = false;
-        self.goto_pending = !self.goto_done && (self.plan == Plan::Goto || self.goto_pending);
-        self.switch_to_velocity_plan();
-        self.fallback = false;
-        for input in [
-            &mut self.input.current_velocity,
-            &mut self.input.current_acceleration,
-        ] {
-            input.fill(0.0);
-        }
-        self.input.target_velocity.fill(0.0);
-        self.finger_input.current_velocity.fill(0.0);
-        self.finger_input.current_acceleration.fill(0.0);
-        self.finger_input.target_velocity.fill(0.0);
+        self.rest.touched();
+        self.goto = self.goto.after_halt(self.plan == Plan::Goto);
+        self.use_velocity_plan();
+        self.arm.halt();
+        self.fingers.halt();
         self.last = [0.0; 7];
     }
 
-    /// One tick. RT-safe.
-    pub fn step(&mut self, now: Tick, command: &ModeOutput) -> MotionOutput {
-        let mut out = self.idle_output();
-        self.step_into(now, command, &mut out);
-        out
-    }
-
-    /// [`Motion::step`], writing the output in place (the pipeline's
-    /// tick output holds it: no copy of it a tick). RT-safe.
-    #[inline]
-    pub fn step_into(&mut self, now: Tick, command: &ModeOutput, out: &mut MotionOutput) {
-        if command.direction == Direction::Still && self.resting() {
-            if self.still_rest {
-                self.still_into(now, out);
-            } else {
-                self.rest_into(now, out);
-            }
+    /// One tick on the mode machine's `command`, written into `out`.
+    /// RT-safe.
+    pub fn step(&mut self, now: Tick, command: &ModeOutput, out: &mut MotionOutput) {
+        let at_rest = self.plan == Plan::Velocity && self.arm.resting() && self.fingers.resting();
+        if command.direction == Direction::Still && at_rest {
+            self.rest_tick(now, out);
         } else {
-            self.move_into(now, command, out);
+            self.move_tick(now, command, out);
         }
     }
 
-    /// [`Motion::step_into`] on any other tick: every stage. (Not
-    /// inlined: the rest path then saves none of its registers.)
-    #[inline(never)]
-    fn move_into(&mut self, now: Tick, command: &ModeOutput, out: &mut MotionOutput) {
-        self.still_rest = false;
+    /// A tick asking for no motion with both channels resting, reduced to
+    /// its effects ([`rest`]): whatever the mode, nothing is requested,
+    /// the updates are skipped and the tick ends as every tick does.
+    fn rest_tick(&mut self, now: Tick, out: &mut MotionOutput) {
+        if self.rest.repeats_last() {
+            self.arm.skip();
+            self.fingers.skip();
+            self.tracker.record(now, &self.pose, true);
+            self.write_output(now, self.last, self.last, [None; 2], out);
+            return;
+        }
+        self.previous_direction = Direction::Still;
+        self.goto = self.goto.released();
+        self.arm.block(LINEAR, None);
+        self.arm.block(ANGULAR, None);
+        self.fingers.block(0, None);
+        self.arm.ask_velocities([0.0; 2]);
+        self.fingers.ask_velocities([0.0]);
+        self.arm.skip();
+        self.fingers.skip();
+        let before = rest::pose_bits(&self.pose, self.finger_position);
+        let mean = self.finish_tick(now, false, [None; 2], out);
+        let after = rest::pose_bits(&self.pose, self.finger_position);
+        self.rest.rested(&self.last, &mean, before == after);
+    }
+
+    /// Any other tick: the request becomes targets, the channels update,
+    /// the pose moves.
+    fn move_tick(&mut self, now: Tick, command: &ModeOutput, out: &mut MotionOutput) {
+        self.rest.touched();
         let mut events = [None; 2];
         let mut emit = |e: MotionEvent| {
             if let Some(slot) = events.iter_mut().find(|s| s.is_none()) {
@@ -591,8 +406,7 @@ impl Motion {
             }
             (Some(Mode::GotoPoint), _) => {
                 if pressed {
-                    self.goto_done = false;
-                    self.goto_pending = true;
+                    self.goto = Goto::Waiting;
                 }
             }
         }
@@ -602,13 +416,13 @@ impl Motion {
 
         let goto_held = mode == Some(Mode::GotoPoint) && command.direction == Direction::Positive;
         if !goto_held {
-            self.goto_pending = false;
+            self.goto = self.goto.released();
             if self.plan == Plan::Goto {
                 self.brake_goto(); // released: brake along the line
             }
         }
-        if self.goto_pending
-            && !self.fallback
+        if self.goto == Goto::Waiting
+            && self.plan != Plan::Fallback
             && let Some(event) = self.try_start_goto()
         {
             emit(event);
@@ -617,138 +431,50 @@ impl Motion {
             && let Some(boundary) = self.goto_blocked()
         {
             self.brake_goto();
-            self.goto_done = true;
+            self.goto = Goto::Done;
             emit(MotionEvent::WorkspaceLimit { boundary });
         }
 
-        // Zero targets in the velocity plan: Ruckig is asked for nothing.
+        // Zero targets outside a go-to: Ruckig is asked for nothing.
         let mut arm_asked_nothing = false;
-        if self.plan == Plan::Velocity {
-            let (speed, boundary) = self.linear_target(linear);
+        if self.plan != Plan::Goto {
+            let (speed, boundary) = self.arm_target(LINEAR, linear);
             if let Some(boundary) = boundary {
                 emit(MotionEvent::WorkspaceLimit { boundary });
             }
-            let (rate, boundary) = self.angular_target(angular);
+            let (rate, boundary) = self.arm_target(ANGULAR, angular);
             if let Some(boundary) = boundary {
                 emit(MotionEvent::WorkspaceLimit { boundary });
             }
-            set_all(&mut self.input.target_velocity, [speed, rate]);
-            self.input.target_acceleration.fill(0.0);
+            self.arm.ask_velocities([speed, rate]);
             arm_asked_nothing = speed == 0.0 && rate == 0.0;
         }
         if let Some(boundary) = self.hold_fingers_at_end(&mut fingers) {
             emit(MotionEvent::WorkspaceLimit { boundary });
         }
         let finger_target = finite_or_zero(fingers).clamp(-l.finger_speed, l.finger_speed);
-        self.finger_input.target_velocity.fill(finger_target);
-        let fingers_asked_nothing = finger_target == 0.0;
+        self.fingers.ask_velocities([finger_target]);
 
-        if let Some(event) = self.update_trajectories(arm_asked_nothing, fingers_asked_nothing) {
+        if let Some(event) = self.update_channels(arm_asked_nothing, finger_target == 0.0) {
             emit(event);
         }
-        let reached = self.plan == Plan::Goto && self.goto_done;
+        let reached = self.plan == Plan::Goto && self.goto == Goto::Done;
         if reached {
             emit(MotionEvent::GotoReached);
         }
         self.finish_tick(now, reached, events, out);
     }
 
-    /// Both trajectories rest untouched since the update that found them
-    /// still ([`Motion::at_rest`]), in the velocity plan, not braking on
-    /// the fallback: a tick that asks for no motion then changes nothing
-    /// but what [`Motion::rest_into`] does.
-    fn resting(&self) -> bool {
-        self.arm_rest && self.finger_rest && !self.fallback && self.plan == Plan::Velocity
-    }
-
-    /// [`Motion::rest_into`] after a [`Motion::still_rest`] tick, reduced
-    /// to its effects: that tick was a rest tick and nothing since cleared
-    /// `still_rest` (every other way to the requests does), so what it
-    /// cleared is still clear and needs no writing again.
-    #[inline(always)]
-    fn still_into(&mut self, now: Tick, out: &mut MotionOutput) {
-        debug_assert!(self.requests_cleared(), "a still rest tick found a request");
-        self.skip_update_at_rest();
-        self.finish_still_tick(now, out);
-    }
-
-    /// Nothing requested, as [`Motion::rest_into`] leaves it: no press,
-    /// nothing held off, no go-to pending, zero targets (`+0`).
-    fn requests_cleared(&self) -> bool {
-        let zeros = |values: &[f64]| values.iter().all(|v| v.to_bits() == 0);
-        self.previous_direction == Direction::Still
-            && !self.goto_pending
-            && self.linear_blocked.is_none()
-            && self.angular_blocked.is_none()
-            && self.finger_blocked.is_none()
-            && zeros(&self.input.target_velocity)
-            && zeros(&self.input.target_acceleration)
-            && zeros(&self.finger_input.target_velocity)
-    }
-
-    /// [`Motion::step_into`] for a command with no direction while
-    /// [`Motion::resting`], reduced to its effects: whatever the mode,
-    /// nothing is requested (no press, nothing held off, no go-to pending
-    /// or under way, zero targets), so the updates are skipped and the
-    /// tick ends as every tick does. `tests/it/fast_paths.rs` runs it side
-    /// by side with the full step, which never takes it. (Not inlined:
-    /// the still path then saves none of its registers.)
-    #[inline(never)]
-    fn rest_into(&mut self, now: Tick, out: &mut MotionOutput) {
-        self.previous_direction = Direction::Still;
-        self.goto_pending = false;
-        self.linear_blocked = None;
-        self.angular_blocked = None;
-        self.finger_blocked = None;
-        // (As many writes as channels: no `memset` a tick.)
-        set_all(&mut self.input.target_velocity, [0.0, 0.0]);
-        set_all(&mut self.input.target_acceleration, [0.0, 0.0]);
-        set_all(&mut self.finger_input.target_velocity, [0.0]);
-        self.skip_update_at_rest();
-        self.finish_tick(now, false, [None; 2], out);
-        // The next rest tick's twist is this one (nothing changes the
-        // velocities or their axes on the way), and so is its mean: the
-        // mean of two equal zeros is that zero, sign and all.
-        self.still_rest = !self.always_update
-            && still::all_zero(&self.last)
-            && self.still_step.known(
-                &still::velocity_bits(&self.last),
-                &still::pose_bits(&self.pose, self.fingers),
-            );
-    }
-
-    /// [`Motion::finish_tick`] on a tick after a [`Motion::still_rest`]
-    /// one, reduced to its effects: the twist is the last one, zeros (the
-    /// same velocities, the same signs), so is the mean, the pose step at
-    /// it is known to change nothing, and nothing is reached or logged.
-    fn finish_still_tick(&mut self, now: Tick, out: &mut MotionOutput) {
-        let twist = self.last;
-        debug_assert!(
-            still::velocity_bits(&self.twist()) == still::velocity_bits(&twist)
-                && still::all_zero(&twist)
-                && self.still_step.known(
-                    &still::velocity_bits(&twist),
-                    &still::pose_bits(&self.pose, self.fingers)
-                ),
-            "a still rest tick would have moved"
-        );
-        self.tracker.record(now, &self.pose, true);
-        self.still_repeats += 1;
-        self.write_output(now, twist, twist, [None; 2], out);
-    }
-
     /// The end of every tick: the commanded twist integrated into the
     /// pose, the tracker and the arm's stream fed, the output written.
-    /// (Inlined into both callers: the rest path's constants then write
-    /// less.)
-    #[inline(always)]
+    /// Returns the tick's mean velocity.
     fn finish_tick(
         &mut self,
         now: Tick,
         reached: bool,
         events: [Option<MotionEvent>; 2],
         out: &mut MotionOutput,
-    ) {
+    ) -> [f64; 7] {
         let twist = self.twist();
         let mut mean = [0.0; 7];
         for ((m, last), now) in mean.iter_mut().zip(self.last).zip(twist) {
@@ -759,15 +485,14 @@ impl Motion {
         let still = twist == [0.0; 7] && mean == [0.0; 7];
         self.tracker.record(now, &self.pose, still);
         if reached {
-            self.switch_to_velocity_plan();
+            self.use_velocity_plan();
         }
         self.write_output(now, twist, mean, events, out);
+        mean
     }
 
     /// The tick's output: its twist, the pose, the arm's stream fed with
-    /// the tick's mean velocity. (Inlined: a still tick's constants then
-    /// write less.)
-    #[inline(always)]
+    /// the tick's mean velocity.
     fn write_output(
         &mut self,
         now: Tick,
@@ -776,285 +501,224 @@ impl Motion {
         events: [Option<MotionEvent>; 2],
         out: &mut MotionOutput,
     ) {
-        out.linear = [twist[0], twist[1], twist[2]];
-        out.angular = [twist[3], twist[4], twist[5]];
-        out.fingers_velocity = twist[6];
+        let [vx, vy, vz, wx, wy, wz, fingers] = twist;
+        out.linear = [vx, vy, vz];
+        out.angular = [wx, wy, wz];
+        out.fingers_velocity = fingers;
         out.pose = self.pose;
-        out.fingers = self.fingers;
+        out.fingers = self.finger_position;
         out.arm_command = self.decimator.push(now, mean);
-        out.recalculated = self.output.new_calculation || self.finger_output.new_calculation;
+        out.recalculated = self.arm.recalculated() || self.fingers.recalculated();
         out.events = events;
     }
 
-    /// Both still at rest (no update ran since the one that found each,
-    /// and nothing else changed Ruckig's state: see `arm_rest`), nothing
-    /// asked: both updates would return `Finished` with this very state
-    /// and no new calculation, so they are skipped.
-    #[inline]
-    fn skip_update_at_rest(&mut self) {
-        self.check_arm_skip();
-        self.check_finger_skip();
-        self.skipped_updates += 1;
-    }
-
-    /// Debug builds: the arm's update skipped at rest would have seen the
-    /// inputs of the update that found it still (Ruckig's own comparison).
-    #[inline]
-    fn check_arm_skip(&self) {
-        #[cfg(debug_assertions)]
-        debug_assert!(
-            self.input == self.rest_inputs.0,
-            "an arm update skipped at rest would have seen new inputs"
-        );
-    }
-
-    /// [`Motion::check_arm_skip`] for the fingers' update.
-    #[inline]
-    fn check_finger_skip(&self) {
-        #[cfg(debug_assertions)]
-        debug_assert!(
-            self.finger_input == self.rest_inputs.1,
-            "a finger update skipped at rest would have seen new inputs"
-        );
-    }
-
-    /// Runs both Ruckig instances one cycle and feeds their output back
-    /// (either skipped where it rests and is asked nothing: see
-    /// `arm_rest`); if either fails, brakes on the fallback profile until
-    /// still.
-    fn update_trajectories(
+    /// Runs both channels one cycle (each skipped where it rests and is
+    /// asked nothing); if either fails, brakes on the fallback profile
+    /// until still.
+    fn update_channels(
         &mut self,
         arm_asked_nothing: bool,
         fingers_asked_nothing: bool,
     ) -> Option<MotionEvent> {
-        let skip_arm = self.arm_rest && arm_asked_nothing;
-        let skip_fingers = self.finger_rest && fingers_asked_nothing;
-        if skip_arm && skip_fingers && !self.fallback {
-            self.skip_update_at_rest();
-            return None;
-        }
-        let was_falling_back = self.fallback;
-        let (mut arm_finished, mut fingers_finished) = (true, true);
-        if !self.fallback {
-            if skip_arm {
-                self.check_arm_skip();
-                self.skipped_single_updates += 1;
-            } else {
-                self.arm_rest = false;
-                match update_trajectory(&mut self.otg, &mut self.input, &mut self.output) {
-                    Some(finished) => {
-                        arm_finished = finished;
-                        if finished && self.plan == Plan::Goto {
-                            self.goto_done = true;
-                        }
-                    }
-                    None => self.fallback = true,
-                }
+        let was_falling_back = self.plan == Plan::Fallback;
+        if !was_falling_back {
+            let arm = self.arm.update(arm_asked_nothing);
+            if arm == Update::Finished && self.plan == Plan::Goto {
+                self.goto = Goto::Done;
+            }
+            let failed = arm == Update::Failed
+                || self.fingers.update(fingers_asked_nothing) == Update::Failed;
+            if !failed {
+                return None;
             }
         }
-        if !self.fallback {
-            if skip_fingers {
-                self.check_finger_skip();
-                self.skipped_single_updates += 1;
-            } else {
-                self.finger_rest = false;
-                match update_trajectory(
-                    &mut self.finger_otg,
-                    &mut self.finger_input,
-                    &mut self.finger_output,
-                ) {
-                    Some(finished) => fingers_finished = finished,
-                    None => self.fallback = true,
-                }
-            }
-        }
-        if self.fallback {
-            self.arm_rest = false;
-            self.finger_rest = false;
-            self.fallback_brake();
-        } else if !self.always_update {
-            if !self.arm_rest
-                && arm_finished
-                && self.plan == Plan::Velocity
-                && !self.output.new_calculation
-                && is_still(&self.input)
-                && comes_out_still(&self.output)
-            {
-                #[cfg(debug_assertions)]
-                self.rest_inputs.0.copy_from(&self.input);
-                self.arm_rest = true;
-            }
-            if !self.finger_rest
-                && fingers_finished
-                && !self.finger_output.new_calculation
-                && is_still(&self.finger_input)
-                && comes_out_still(&self.finger_output)
-            {
-                #[cfg(debug_assertions)]
-                self.rest_inputs.1.copy_from(&self.finger_input);
-                self.finger_rest = true;
-            }
-        }
-        (self.fallback && !was_falling_back).then_some(MotionEvent::TrajectoryError)
+        self.brake_without_planner();
+        (!was_falling_back).then_some(MotionEvent::TrajectoryError)
     }
 
     /// One cycle of braking every channel on the time-optimal jerk-limited
     /// profile with the full limits (the planner failed). Braking is
     /// always inside the workspace: each tick's checks kept room for it.
-    fn fallback_brake(&mut self) {
-        self.switch_to_velocity_plan();
-        self.goto_pending = false;
+    fn brake_without_planner(&mut self) {
+        self.use_velocity_plan();
+        self.plan = Plan::Fallback;
+        self.goto = self.goto.released();
         let l = self.limits;
-        for (dof, a_max, j_max) in [
-            (LINEAR, l.linear_acceleration_mps2, l.linear_jerk_mps3),
-            (
-                ANGULAR,
-                l.angular_acceleration_radps2,
-                l.angular_jerk_radps3,
-            ),
-        ] {
-            let input = &mut self.input;
-            let (v, a) = (
-                get(&input.current_velocity, dof),
-                get(&input.current_acceleration, dof),
-            );
-            let (v, a) = braking::brake_step(v, a, a_max, j_max, CYCLE_S);
-            put(&mut input.current_velocity, dof, v);
-            put(&mut input.current_acceleration, dof, a);
-        }
-        let (v, a) = braking::brake_step(
-            get(&self.finger_input.current_velocity, 0),
-            get(&self.finger_input.current_acceleration, 0),
-            l.finger_acceleration,
-            l.finger_jerk,
-            CYCLE_S,
+        let arm_still = self.arm.brake_without_planner(
+            [l.linear_acceleration_mps2, l.angular_acceleration_radps2],
+            [l.linear_jerk_mps3, l.angular_jerk_radps3],
         );
-        put(&mut self.finger_input.current_velocity, 0, v);
-        put(&mut self.finger_input.current_acceleration, 0, a);
-        self.input.target_velocity.fill(0.0);
-        self.finger_input.target_velocity.fill(0.0);
-        let still = self.input.current_velocity.iter().all(|v| *v == 0.0)
-            && self.input.current_acceleration.iter().all(|a| *a == 0.0)
-            && (v, a) == (0.0, 0.0);
-        if still {
-            self.fallback = false; // Ruckig starts again from rest
+        let fingers_still = self
+            .fingers
+            .brake_without_planner([l.finger_acceleration], [l.finger_jerk]);
+        if arm_still && fingers_still {
+            self.plan = Plan::Velocity; // Ruckig starts again from rest
         }
+    }
+
+    /// The arm channel back to the velocity plan.
+    fn use_velocity_plan(&mut self) {
+        self.plan = Plan::Velocity;
+        self.arm.use_velocity_interface();
     }
 
     /// This tick's commanded velocity: `[v (3), ω (3), fingers]`, base frame.
     fn twist(&self) -> [f64; 7] {
-        let v = self.linear_axis * get(&self.input.current_velocity, LINEAR);
-        let w = self.angular_axis * get(&self.input.current_velocity, ANGULAR);
-        [
-            v.x,
-            v.y,
-            v.z,
-            w.x,
-            w.y,
-            w.z,
-            get(&self.finger_input.current_velocity, 0),
-        ]
+        let [linear_axis, angular_axis] = self.axes;
+        let v = linear_axis * self.arm.velocity(LINEAR);
+        let w = angular_axis * self.arm.velocity(ANGULAR);
+        [v.x, v.y, v.z, w.x, w.y, w.z, self.fingers.velocity(0)]
     }
 
     /// Integrates the tick's mean velocity into the pose estimate.
     fn integrate(&mut self, mean: &[f64; 7]) {
-        if !still::all_zero(mean) || self.always_update {
-            self.integrate_step(mean);
-            return;
-        }
-        // At rest: the step is skipped where it is known to change nothing.
-        let velocity = still::velocity_bits(mean);
-        let before = still::pose_bits(&self.pose, self.fingers);
-        if self.still_step.known(&velocity, &before) {
-            return;
-        }
-        self.integrate_step(mean);
-        let after = still::pose_bits(&self.pose, self.fingers);
-        self.still_step.observe(&velocity, &before, &after);
-    }
-
-    fn integrate_step(&mut self, mean: &[f64; 7]) {
-        let v = Vector3::new(mean[0], mean[1], mean[2]);
-        let w = Vector3::new(mean[3], mean[4], mean[5]);
+        let [vx, vy, vz, wx, wy, wz, fingers] = *mean;
+        let (v, w) = (Vector3::new(vx, vy, vz), Vector3::new(wx, wy, wz));
         self.pose.translation.vector += v * CYCLE_S;
         self.pose.rotation = UnitQuaternion::from_scaled_axis(w * CYCLE_S) * self.pose.rotation;
-        self.fingers += mean[6] * CYCLE_S;
+        self.finger_position += fingers * CYCLE_S;
     }
-}
 
-/// A finished trajectory is at its target: drop the last ulps of rounding
-/// so that "stopped" means exactly zero velocity.
-/// No velocity or acceleration, now or asked.
-fn is_still<const N: usize>(input: &InputParameter<N>) -> bool {
-    [
-        &input.current_velocity,
-        &input.current_acceleration,
-        &input.target_velocity,
-        &input.target_acceleration,
-    ]
-    .iter()
-    .all(|values| values.iter().all(|v| *v == 0.0))
-}
-
-/// Ruckig's own state after the update is still, as ours is: had
-/// [`settle`] zeroed a leftover velocity or acceleration, Ruckig would
-/// recalculate on the next update.
-fn comes_out_still<const N: usize>(output: &OutputParameter<N>) -> bool {
-    [&output.new_velocity, &output.new_acceleration]
-        .iter()
-        .all(|values| values.iter().all(|v| v.to_bits() == 0))
-}
-
-/// One cycle of one Ruckig instance, its output fed back into `input`
-/// (settled once finished): whether it finished; `None` if it failed.
-fn update_trajectory<const N: usize>(
-    otg: &mut Otg<N>,
-    input: &mut InputParameter<N>,
-    output: &mut OutputParameter<N>,
-) -> Option<bool> {
-    match otg.update(input, output) {
-        Ok(RuckigResult::Working) => {
-            output.pass_to_input(input);
-            Some(false)
+    /// The fraction of full speed for a breath `strength_volts` past its
+    /// threshold (proportional control), else 1.
+    fn speed_scale(&self, strength_volts: f64) -> f64 {
+        let l = &self.limits;
+        if !l.proportional_speed {
+            return 1.0;
         }
-        Ok(RuckigResult::Finished) => {
-            output.pass_to_input(input);
-            settle(input);
-            Some(true)
+        let fraction = (strength_volts / l.proportional_full_scale_volts).clamp(0.0, 1.0);
+        l.proportional_min_fraction + (1.0 - l.proportional_min_fraction) * fraction
+    }
+
+    /// The arm channel's target on `dof` for a request (signed unit
+    /// direction, speed): the speed along the current axis or — only from
+    /// rest — a new one, clamped to the limit; zero while braking before
+    /// a new direction, or where a boundary is too close (said once).
+    fn arm_target(
+        &mut self,
+        dof: usize,
+        request: Option<(Vector3<f64>, f64)>,
+    ) -> (f64, Option<Boundary>) {
+        let Some((wanted, speed)) = request else {
+            self.arm.block(dof, None);
+            return (0.0, None);
+        };
+        if let Some(blocked) = self.arm.blocked(dof) {
+            if blocked.dot(&wanted) > SAME_LINE {
+                return (0.0, None); // still held off: said once
+            }
+            self.arm.block(dof, None);
         }
-        _ => None,
-    }
-}
-
-fn settle<const N: usize>(input: &mut InputParameter<N>) {
-    let copy = |to: &mut [f64], from: &[f64]| {
-        for (t, f) in to.iter_mut().zip(from) {
-            *t = *f;
+        let max = if dof == LINEAR {
+            self.limits.linear_speed_mps
+        } else {
+            self.limits.angular_speed_radps
+        };
+        let Some(target) = self.line_target(dof, wanted, speed, max) else {
+            return (0.0, None); // braking to rest before the new direction
+        };
+        if target == 0.0 {
+            return (0.0, None);
         }
-    };
-    if let ControlInterface::Position = input.control_interface {
-        copy(&mut input.current_position, &input.target_position);
+        let sign = target.signum();
+        let boundary = self.must_brake(dof, &(self.axis(dof) * sign), sign);
+        if boundary.is_some() {
+            self.arm.block(dof, Some(wanted));
+            return (0.0, boundary);
+        }
+        (target, None)
     }
-    copy(&mut input.current_velocity, &input.target_velocity);
-    copy(&mut input.current_acceleration, &input.target_acceleration);
-}
 
-/// Fills `slots` with `values` (as many as both have).
-fn set_all<const N: usize>(slots: &mut [f64], values: [f64; N]) {
-    for (slot, value) in slots.iter_mut().zip(values) {
-        *slot = value;
+    /// The signed target speed along the channel's axis for `wanted`:
+    /// along the axis if `wanted` is on its line; else, from rest, the
+    /// axis becomes `wanted`; else `None` (brake first).
+    fn line_target(
+        &mut self,
+        dof: usize,
+        wanted: Vector3<f64>,
+        speed: f64,
+        max: f64,
+    ) -> Option<f64> {
+        let speed = finite_or_zero(speed).clamp(0.0, max);
+        if !wanted.iter().all(|x| x.is_finite()) || wanted.norm() < 0.5 {
+            return Some(0.0);
+        }
+        let along = wanted.dot(&self.axis(dof));
+        if along.abs() > SAME_LINE {
+            return Some(speed * along.signum());
+        }
+        if self.arm.at_rest(dof) {
+            if let Some(axis) = self.axes.get_mut(dof) {
+                *axis = wanted;
+            }
+            self.arm.restart_from_rest(dof);
+            return Some(speed);
+        }
+        None
     }
-}
 
-/// The value at `i` (0 past the end).
-fn get(values: &[f64], i: usize) -> f64 {
-    values.get(i).copied().unwrap_or(0.0)
-}
+    /// The arm channel's axis for `dof`.
+    fn axis(&self, dof: usize) -> Vector3<f64> {
+        self.axes.get(dof).copied().unwrap_or_else(Vector3::x)
+    }
 
-/// Sets the value at `i` (nothing past the end).
-fn put(values: &mut [f64], i: usize, value: f64) {
-    if let Some(slot) = values.get_mut(i) {
-        *slot = value;
+    /// Whether the arm channel, about to be driven along the unit `u` (its
+    /// axis for `dof` times `sign`), must brake now to stop inside the
+    /// margin or the orientation limits, and at which limit.
+    fn must_brake(&self, dof: usize, u: &Vector3<f64>, sign: f64) -> Option<Boundary> {
+        let l = &self.limits;
+        let ((room, boundary), braking) = if dof == LINEAR {
+            let braking = Braking {
+                max_acceleration: l.linear_acceleration_mps2,
+                max_jerk: l.linear_jerk_mps3,
+                min_start: MIN_START_M,
+            };
+            (self.bounds.linear_room(&self.pose, u), braking)
+        } else {
+            let braking = Braking {
+                max_acceleration: l.angular_acceleration_radps2,
+                max_jerk: l.angular_jerk_radps3,
+                min_start: MIN_START_RAD,
+            };
+            (self.bounds.angular_room(&self.pose, u), braking)
+        };
+        let (v, a) = (
+            self.arm.velocity(dof) * sign,
+            self.arm.acceleration(dof) * sign,
+        );
+        braking.must_brake(v, a, room).then_some(boundary).flatten()
+    }
+
+    /// Zeroes a finger request that would run past an end.
+    fn hold_fingers_at_end(&mut self, fingers: &mut f64) -> Option<Boundary> {
+        let request = *fingers;
+        if request == 0.0 {
+            self.fingers.block(0, None);
+            return None;
+        }
+        let wanted = request.signum();
+        let direction = Vector3::x() * wanted;
+        if self.fingers.blocked(0) == Some(direction) {
+            *fingers = 0.0;
+            return None;
+        }
+        self.fingers.block(0, None);
+        let (v, a) = (
+            self.fingers.velocity(0) * wanted,
+            self.fingers.acceleration(0) * wanted,
+        );
+        let (room, boundary) = self.bounds.finger_room(self.finger_position, wanted);
+        let braking = Braking {
+            max_acceleration: self.limits.finger_acceleration,
+            max_jerk: self.limits.finger_jerk,
+            min_start: 1.0, // do not start with less than one unit of room
+        };
+        if !braking.must_brake(v, a, room) {
+            return None;
+        }
+        *fingers = 0.0;
+        self.fingers.block(0, Some(direction));
+        Some(boundary)
     }
 }
 
@@ -1080,7 +744,9 @@ mod tests {
         (0..ticks)
             .map(|_| {
                 *tick += 1;
-                m.step(*tick, &c)
+                let mut out = MotionOutput::default();
+                m.step(*tick, &c, &mut out);
+                out
             })
             .collect()
     }
@@ -1184,6 +850,21 @@ mod tests {
         // Puff opens from there.
         let out = run(&mut m, &mut t, command(Mode::Fingers, PUFF), 500);
         assert!(out[499].fingers < closed - 500.0);
+    }
+
+    #[test]
+    fn a_resting_channel_skips_its_update_while_the_other_moves() {
+        let mut m = motion();
+        let mut t = 0;
+        run(&mut m, &mut t, command(Mode::Fingers, STILL), 10);
+        let arm_before = m.arm.skipped().get();
+        run(&mut m, &mut t, command(Mode::Fingers, SIP), 300);
+        assert_eq!(m.arm.skipped().get() - arm_before, 300, "the arm rests");
+        run(&mut m, &mut t, command(Mode::Fingers, STILL), 500);
+        let fingers_before = m.fingers.skipped().get();
+        let out = run(&mut m, &mut t, command(Mode::TranslateX, PUFF), 300);
+        assert!(out[299].linear[0] > 0.0);
+        assert_eq!(m.fingers.skipped().get() - fingers_before, 300);
     }
 
     #[test]
@@ -1385,7 +1066,7 @@ mod tests {
         let mut t = 0;
         run(&mut m, &mut t, command(Mode::TranslateX, SIP), 1000);
         let l = *m.limits();
-        m.input.max_jerk.fill(f64::NAN); // the planner fails from now on
+        m.arm.break_planner(); // the planner fails from now on
         let out = run(&mut m, &mut t, command(Mode::TranslateX, STILL), 1000);
         assert!(events(&out).contains(&MotionEvent::TrajectoryError));
         let v: Vec<f64> = out.iter().map(|o| o.linear[0]).collect();
