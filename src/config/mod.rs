@@ -1,4 +1,4 @@
-//! Configuration: TOML read once, key by key, into validated types.
+//! Configuration: TOML read once, through serde, into validated types.
 //!
 //! Every problem is collected with its key (and its line in the file) and
 //! reported at once, so a clinician fitting the interface fixes a file in
@@ -6,16 +6,21 @@
 //! ignored). The key names are a contract: keys are added, never renamed.
 //! Nothing here runs on the control thread: it may allocate.
 //!
-//! * [`read`]: TOML → typed sections, with defaults for missing keys;
+//! * `file`: the file's layout, whose serde field names are the keys;
+//! * `read`: TOML → that layout, every problem found, defaults for
+//!   missing keys; `names`: values given by name or action code;
 //! * [`validate`]: the checks, on typed values;
 //! * [`defaults`]: the built-in configuration;
-//! * [`print`]: the effective configuration back as TOML.
+//! * [`print`]: the effective configuration back as TOML, through the
+//!   same layout.
 
 pub mod defaults;
 pub mod error;
+mod file;
 mod lines;
+mod names;
 pub mod print;
-pub mod read;
+mod read;
 pub mod validate;
 
 use std::path::Path;
@@ -57,32 +62,24 @@ impl Config {
     /// defaults; a `[[sequence]]` list, if present, replaces the built-in
     /// library entirely.
     pub fn from_toml_str(text: &str) -> Result<Config, ConfigErrors> {
-        let mut root: Table = text
+        let root: Table = text
             .parse()
             .map_err(|e: toml::de::Error| ConfigErrors(vec![lines::syntax_error(text, &e)]))?;
+        let sections: Vec<String> = root.keys().cloned().collect();
         let mut problems = Problems::default();
-        let defaults = Config::default();
-        // Before the core's sections, which report what is left as unknown.
-        let sensor = read::sensor(&mut root, &defaults.sensor, &mut problems);
-        let arm = read::arm(&mut root, &defaults.arm, &mut problems);
-        let core = read::core(&mut root, defaults.core(), &mut problems);
+        let config = Config::from(read::file(root, &mut problems));
+        validate::config(&mut problems, &config);
         if problems.errors.is_empty() {
-            Ok(Config { core, sensor, arm })
+            Ok(config)
         } else {
-            let lines = lines::KeyLines::of(text);
-            for error in &mut problems.errors {
-                (error.line, error.column) = lines.find(&error.key).unzip();
-            }
-            Err(ConfigErrors(problems.errors))
+            Err(lines::in_file_order(text, &sections, problems.errors))
         }
     }
 
     /// Validates settings built in code.
     fn into_validated(self) -> Result<Config, ConfigErrors> {
         let mut problems = Problems::default();
-        validate::core(&mut problems, &self.core);
-        validate::sensor(&mut problems, &self.sensor);
-        validate::arm(&mut problems, &self.arm);
+        validate::config(&mut problems, &self);
         if problems.errors.is_empty() {
             Ok(self)
         } else {
@@ -215,20 +212,21 @@ mod tests {
             .iter()
             .map(|e| (e.key.as_str(), e.message.as_str()))
             .collect();
+        // In file order: by line within a section.
         assert_eq!(
             found,
             [
                 ("interface.kind", "\"scan\" is not `asp` or `bsp`"),
-                (
-                    "scanning.speed",
-                    "unknown key (known: dwell_ms, first_dwell_ms, order)"
-                ),
                 ("scanning.dwell_ms", "must be greater than 0 ms"),
                 (
                     "scanning.order",
                     "\"fly\" is not a mode (known: translate_x, translate_y, translate_z, rotate_x, rotate_y, rotate_z, fingers, save_point, goto_point)"
                 ),
                 ("scanning.order", "\"fingers\" appears twice"),
+                (
+                    "scanning.speed",
+                    "unknown key (known: dwell_ms, first_dwell_ms, order)"
+                ),
             ]
         );
     }

@@ -32,7 +32,8 @@ use crate::control::action::{Action, Breath};
 use crate::control::mode::Held;
 
 /// Burst detector settings (`[detector]` in the config file).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct DetectorConfig {
     /// Sensor output at rest, in volts. The detector starts from it and then
     /// tracks slow drift.

@@ -24,7 +24,8 @@ use crate::control::selection::SequenceEntry;
 use crate::control::selection::index::{Lookup, SequenceIndex, TrieIndex};
 
 /// Sequence matcher settings (`[matcher]` in the config file).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct MatcherConfig {
     /// How long the matcher waits for the next burst of a sequence that is a
     /// prefix of a longer one, counted from the end of the last burst.
