@@ -21,7 +21,7 @@ use crate::sensor::settings::SensorSettings;
 
 /// The whole file, section by section, in the order `sipnpuff config`
 /// prints them. A missing section or key takes the built-in value.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub(super) struct File {
     detector: DetectorConfig,
@@ -40,7 +40,7 @@ pub(super) struct File {
 
 /// `[arm]`: the arm at power-up, the checks on a measured pose (its
 /// `feedback` table) and the backends' settings, in one table.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 struct ArmSection {
     #[serde(flatten)]

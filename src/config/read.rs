@@ -91,8 +91,7 @@ impl Reader<'_> {
         }
         // serde names only the table when the key is in a part flattened
         // into it (`[arm]`'s backends).
-        let file = self.file.clone();
-        let path = self.culprit(&file, path, &stop);
+        let path = self.culprit(&self.file, path, &stop);
         match path.split_last() {
             Some((Step::Key(key), parent)) if !self.known(parent, key) => {
                 self.unknown(parent, key);
@@ -137,25 +136,21 @@ impl Reader<'_> {
             path.pop();
             return !path.is_empty() && self.replace(path);
         }
-        let found = get(&self.file, &path).map_or("nothing", Value::type_str);
-        let is_table = |value: &Value| value.is_table();
-        let problem = match (get(&self.file, &path), self.sample_at(&path)) {
-            (Some(value), Some(Value::Table(_))) if !value.is_table() => {
-                format!("must be a table, found {found}")
-            }
-            (Some(value), Some(Value::Array(items)))
-                if !value.is_array() && items.first().is_some_and(is_table) =>
-            {
-                let name = match path.last() {
-                    Some(Step::Key(key)) => key.as_str(),
-                    _ => "",
-                };
-                format!("must be an array of tables ([[{name}]]), found {found}")
-            }
-            _ if is_type_error(message) => format!("wrong type ({found}): {message}"),
-            _ => message.to_string(),
+        let key = self.key(&path);
+        let value = get(&self.file, &path);
+        let found = value.map_or("nothing", Value::type_str);
+        let problem = if self.sample_at(&path).is_some_and(Value::is_table)
+            && !value.is_some_and(Value::is_table)
+        {
+            format!("must be a table, found {found}")
+        } else if self.is_table_list(&path) && !value.is_some_and(Value::is_array) {
+            format!("must be an array of tables ([[{key}]]), found {found}")
+        } else if is_type_error(message) {
+            format!("wrong type ({found}): {message}")
+        } else {
+            message.to_string()
         };
-        self.problems.add(self.key(&path), problem);
+        self.problems.add(key, problem);
         self.replace(path)
     }
 
@@ -378,5 +373,38 @@ mod tests {
             problems("sequence = 3\n"),
             ["sequence: must be an array of tables ([[sequence]]), found integer"]
         );
+    }
+
+    #[test]
+    fn every_printed_key_is_read_and_named_when_wrong() {
+        // Each key `sipnpuff config` prints, given a table instead of its
+        // value, is the one problem, named in full.
+        let printed = Config::default().to_toml().unwrap();
+        let lines: Vec<&str> = printed.lines().collect();
+        let (mut table, mut entries) = (String::new(), 0);
+        for (at, line) in lines.iter().enumerate() {
+            if let Some(header) = line.strip_prefix("[[") {
+                entries += 1;
+                table = format!("{} #{entries}", &header[..header.find("]]").unwrap()]);
+                continue;
+            }
+            if let Some(header) = line.strip_prefix('[') {
+                table = header.trim_end_matches(']').to_string();
+                continue;
+            }
+            let Some((key, _)) = line.split_once(" = ") else {
+                continue;
+            };
+            let mut wrong = lines.clone();
+            let replaced = format!("{key} = {{ wrong = 1 }}");
+            wrong[at] = &replaced;
+            let found = problems(&wrong.join("\n"));
+            assert_eq!(found.len(), 1, "{table}.{key}: {found:?}");
+            assert!(
+                found[0].starts_with(&format!("{table}.{key}: wrong type (table): ")),
+                "{table}.{key}: {found:?}"
+            );
+        }
+        assert_eq!(entries, 9);
     }
 }
