@@ -6,7 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::arm::settings::ArmSettings;
-use crate::config::Config;
+use crate::config::defaults;
 use crate::control::core_config::{CoreConfig, InterfaceSection};
 use crate::control::detector::DetectorConfig;
 use crate::control::modes::CommandConfig;
@@ -52,13 +52,17 @@ struct ArmSection {
 
 impl Default for File {
     fn default() -> Self {
-        File::from(Config::default())
+        File::new(
+            defaults::core(),
+            SensorSettings::default(),
+            ArmSettings::default(),
+        )
     }
 }
 
-impl From<Config> for File {
-    fn from(config: Config) -> Self {
-        let Config { core, sensor, arm } = config;
+impl File {
+    /// The file that holds these settings.
+    pub(super) fn new(core: CoreConfig, sensor: SensorSettings, arm: ArmSettings) -> File {
         File {
             detector: core.detector,
             matcher: core.matcher,
@@ -76,31 +80,24 @@ impl From<Config> for File {
             sensor,
         }
     }
-}
 
-impl From<File> for Config {
-    /// The settings as read, not yet validated.
-    fn from(file: File) -> Self {
-        Config {
-            core: CoreConfig {
-                detector: file.detector,
-                matcher: file.matcher,
-                command: file.command,
-                motion: file.motion,
-                workspace: file.workspace,
-                home: file.arm.home,
-                feedback: file.arm.feedback,
-                interface: file.interface,
-                scanning: file.scanning,
-                sequences: file.sequences,
-            },
-            sensor: file.sensor,
-            arm: file.arm.backends,
-        }
+    /// The settings the file holds, not yet validated.
+    pub(super) fn into_parts(self) -> (CoreConfig, SensorSettings, ArmSettings) {
+        let core = CoreConfig {
+            detector: self.detector,
+            matcher: self.matcher,
+            command: self.command,
+            motion: self.motion,
+            workspace: self.workspace,
+            home: self.arm.home,
+            feedback: self.arm.feedback,
+            interface: self.interface,
+            scanning: self.scanning,
+            sequences: self.sequences,
+        };
+        (core, self.sensor, self.arm.backends)
     }
-}
 
-impl File {
     /// The built-in configuration as a TOML tree: what a file's key is
     /// checked against (is it known, what replaces a wrong value).
     pub(super) fn sample() -> toml::Value {

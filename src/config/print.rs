@@ -11,7 +11,8 @@ impl Config {
     /// The complete configuration as TOML that [`Config::from_toml_str`]
     /// reads back to an equal `Config`.
     pub fn to_toml(&self) -> Result<String, toml::ser::Error> {
-        let text = toml::to_string(&File::from(self.clone()))?;
+        let file = File::new(self.core.clone(), self.sensor.clone(), self.arm.clone());
+        let text = toml::to_string(&file)?;
         let mut entries = self.core().sequences().iter();
         let mut out = String::from(
             "# sipnpuff configuration: every setting in effect (defaults filled in).\n\n",

@@ -9,8 +9,8 @@
 use serde_path_to_error::Segment;
 use toml::{Table, Value};
 
+use crate::config::error::Problems;
 use crate::config::file::File;
-use crate::config::validate::Problems;
 
 /// One step into a TOML tree: a key of a table or an index in an array.
 #[derive(Debug, Clone, PartialEq)]
@@ -309,102 +309,5 @@ fn remove(value: &mut Value, path: &[Step]) -> bool {
             true
         }
         _ => false,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use crate::config::Config;
-
-    /// Each problem of `text` as `key: message`, in the order reported.
-    fn problems(text: &str) -> Vec<String> {
-        Config::from_toml_str(text)
-            .unwrap_err()
-            .0
-            .iter()
-            .map(|e| format!("{}: {}", e.key, e.message))
-            .collect()
-    }
-
-    #[test]
-    fn a_problem_inside_the_arm_table_names_its_own_key() {
-        // `[arm]` holds the keys of three types; serde names only the table.
-        let text = "[arm]\nhome_fingers = \"open\"\ncolour = 1\n[arm.ros2]\nmessage = \"twist\"\ndomian_id = 1\n";
-        assert_eq!(
-            problems(text),
-            [
-                "arm.home_fingers: wrong type (string): invalid type: string \"open\", expected f64",
-                "arm.colour: unknown key (known: home_position_m, home_rotation_vector_rad, home_fingers, feedback, connect_timeout_ms, ros2, ros1, kinova_sdk)",
-                "arm.ros2.message: \"twist\" is not a message (known: twist_stamped, pose_velocity, pose_velocity_with_finger_velocity)",
-                "arm.ros2.domian_id: unknown key (known: message, frame_id, pose_topic, domain_id)",
-            ]
-        );
-    }
-
-    #[test]
-    fn every_missing_key_of_an_entry_is_named_and_a_wrong_entry_is_not_compared() {
-        // Entry 2's actions are wrong and entry 3 has none: the built-in
-        // actions standing in for them ([-1, -1], as entry 1's) are not
-        // reported as listed twice.
-        let text = "[[sequence]]\nactions = [-1, -1]\nmode = \"fingers\"\n[[sequence]]\nactions = [9]\nmode = \"rotate_x\"\n[[sequence]]\nspeed = 1\n";
-        assert_eq!(
-            problems(text),
-            [
-                "sequence #2.actions: 9 not an action (1 = short sip, 2 = long sip, -1 = short puff, -2 = long puff)",
-                "sequence #3.actions: missing",
-                "sequence #3.mode: missing",
-                "sequence #3.speed: unknown key (known: actions, mode)",
-            ]
-        );
-    }
-
-    #[test]
-    fn a_value_of_the_wrong_kind_says_what_was_expected() {
-        let text = "detector = 3\nsequence = [1, { actions = [1], mode = \"fingers\" }]\n[scanning]\norder = [\"fingers\", 2]\n";
-        assert_eq!(
-            problems(text),
-            [
-                "detector: must be a table, found integer",
-                "sequence #1: must be a table, found integer",
-                "scanning.order: wrong type (array): invalid type: integer `2`, expected a string",
-            ]
-        );
-        assert_eq!(
-            problems("sequence = 3\n"),
-            ["sequence: must be an array of tables ([[sequence]]), found integer"]
-        );
-    }
-
-    #[test]
-    fn every_printed_key_is_read_and_named_when_wrong() {
-        // Each key `sipnpuff config` prints, given a table instead of its
-        // value, is the one problem, named in full.
-        let printed = Config::default().to_toml().unwrap();
-        let lines: Vec<&str> = printed.lines().collect();
-        let (mut table, mut entries) = (String::new(), 0);
-        for (at, line) in lines.iter().enumerate() {
-            if let Some(header) = line.strip_prefix("[[") {
-                entries += 1;
-                table = format!("{} #{entries}", &header[..header.find("]]").unwrap()]);
-                continue;
-            }
-            if let Some(header) = line.strip_prefix('[') {
-                table = header.trim_end_matches(']').to_string();
-                continue;
-            }
-            let Some((key, _)) = line.split_once(" = ") else {
-                continue;
-            };
-            let mut wrong = lines.clone();
-            let replaced = format!("{key} = {{ wrong = 1 }}");
-            wrong[at] = &replaced;
-            let found = problems(&wrong.join("\n"));
-            assert_eq!(found.len(), 1, "{table}.{key}: {found:?}");
-            assert!(
-                found[0].starts_with(&format!("{table}.{key}: wrong type (table): ")),
-                "{table}.{key}: {found:?}"
-            );
-        }
-        assert_eq!(entries, 9);
     }
 }

@@ -1,8 +1,8 @@
 //! `[arm]`: the power-up pose inside the workspace, the checks on a
 //! measured pose (`[arm.feedback]`) and the backends' settings.
 
-use super::Problems;
 use crate::arm::settings::ArmSettings;
+use crate::config::error::Problems;
 use crate::control::motion::feedback::{FeedbackConfig, MAX_WINDOW_MS};
 use crate::control::motion::home::HomeConfig;
 use crate::control::motion::workspace::WorkspaceConfig;

@@ -1,7 +1,7 @@
 //! `[detector]`: every level inside 0–5 V and on the right side of the
 //! neutral, the hysteresis inside the band, timers positive and ordered.
 
-use super::Problems;
+use crate::config::error::Problems;
 use crate::control::detector::{DetectorConfig, REZERO_WINDOW_MS};
 
 /// Checks `[detector]`.

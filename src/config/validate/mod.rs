@@ -15,38 +15,19 @@ mod motion;
 mod selection;
 mod sensor;
 
-use crate::config::Config;
-use crate::config::error::ConfigError;
+use crate::arm::settings::ArmSettings;
+use crate::config::error::Problems;
+use crate::control::core_config::CoreConfig;
+use crate::sensor::settings::SensorSettings;
 
-/// Largest library the matcher accepts.
-pub const MAX_SEQUENCES: usize = 256;
+pub use selection::MAX_SEQUENCES;
 
 /// Upper bound for every timer, to catch unit mistakes (seconds typed as
 /// milliseconds ×1000) and keep tick arithmetic far from overflow.
 pub const MAX_TIMER_MS: u32 = 600_000;
 
-/// The problems found so far, in the order found.
-#[derive(Debug, Default)]
-pub(super) struct Problems {
-    pub(super) errors: Vec<ConfigError>,
-}
-
+/// The checks' common forms.
 impl Problems {
-    /// Records a problem with `key`.
-    pub(super) fn add(&mut self, key: impl Into<String>, message: impl Into<String>) {
-        self.errors.push(ConfigError {
-            key: key.into(),
-            line: None,
-            column: None,
-            message: message.into(),
-        });
-    }
-
-    /// Whether a problem with `key` is recorded already.
-    fn has(&self, key: &str) -> bool {
-        self.errors.iter().any(|e| e.key == key)
-    }
-
     /// Checks `low < value ≤ high` (or `low ≤ value` when `low_inclusive`).
     fn range(
         &mut self,
@@ -86,8 +67,12 @@ impl Problems {
 
 /// Every check, section by section in the order `sipnpuff config` prints
 /// them.
-pub(super) fn config(p: &mut Problems, c: &Config) {
-    let core = c.core();
+pub(super) fn config(
+    p: &mut Problems,
+    core: &CoreConfig,
+    sensor: &SensorSettings,
+    arm: &ArmSettings,
+) {
     detector::detector(p, core.detector());
     selection::matcher(p, core.matcher());
     selection::command(p, core.command());
@@ -95,8 +80,8 @@ pub(super) fn config(p: &mut Problems, c: &Config) {
     motion::workspace(p, core.workspace());
     arm::home(p, core.home(), core.workspace());
     arm::feedback(p, core.feedback());
-    arm::backends(p, c.arm());
+    arm::backends(p, arm);
     selection::scanning(p, core.scanning());
     selection::library(p, core.sequences());
-    sensor::sensor(p, c.sensor());
+    sensor::sensor(p, sensor);
 }

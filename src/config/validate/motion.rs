@@ -1,7 +1,7 @@
 //! `[motion]` and `[workspace]`: limits within the JACO2's caps, jerks
 //! high enough for hold-to-run, a workspace inside the arm's reach.
 
-use super::Problems;
+use crate::config::error::Problems;
 use crate::control::motion::limits::{self, MotionConfig, caps};
 use crate::control::motion::workspace::WorkspaceConfig;
 

@@ -3,11 +3,14 @@
 
 use std::collections::HashSet;
 
-use super::{MAX_SEQUENCES, Problems};
+use crate::config::error::Problems;
 use crate::control::modes::CommandConfig;
 use crate::control::selection::SequenceEntry;
 use crate::control::selection::matcher::MatcherConfig;
 use crate::control::selection::scanning::ScanningConfig;
+
+/// Largest library the matcher accepts.
+pub const MAX_SEQUENCES: usize = 256;
 
 /// `[matcher]`.
 pub(super) fn matcher(p: &mut Problems, c: &MatcherConfig) {

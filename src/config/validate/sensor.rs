@@ -1,7 +1,7 @@
 //! `[sensor]`: timers positive, the re-zero shift inside the band between
 //! the thresholds, mappings finite and not flat, key and axis names real.
 
-use super::Problems;
+use crate::config::error::Problems;
 use crate::sensor::settings::{EvdevInput, SensorSettings};
 
 /// Checks `[sensor]` and its `evdev`, `serial` and `iio` tables.
