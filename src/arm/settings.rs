@@ -4,10 +4,11 @@
 //! backend is opened (never on the control thread). The measured-pose
 //! checks the core makes live with the core (`[arm.feedback]`).
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// The backends' settings.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ArmSettings {
     /// Give up connecting (no receiver matched, no master, no arm) after
     /// this long, ms: an error at start, before anything moves.
@@ -69,7 +70,8 @@ impl Ros2Message {
 }
 
 /// `[arm.ros2]`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Ros2Settings {
     /// What the command topic carries.
     pub message: Ros2Message,
@@ -95,7 +97,8 @@ impl Default for Ros2Settings {
 }
 
 /// `[arm.ros1]`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Ros1Settings {
     /// Publish `PoseVelocityWithFingerVelocity` on
     /// `<ns>/in/cartesian_velocity_with_finger_velocity` (the fingers move
@@ -119,7 +122,8 @@ impl Default for Ros1Settings {
 }
 
 /// `[arm.kinova_sdk]`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct KinovaSdkSettings {
     /// The folder holding Kinova's `Kinova.API.USBCommandLayerUbuntu.so`
     /// and `Kinova.API.EthCommandLayerUbuntu.so` (or kinova-ros's

@@ -3,66 +3,54 @@
 //! [`DEFAULT_LIBRARY`](crate::control::selection::DEFAULT_LIBRARY)).
 //! A file's missing keys take these values.
 
-use crate::config::Config;
 use crate::control::action::ActionSeq;
 use crate::control::core_config::CoreConfig;
 use crate::control::selection::{DEFAULT_LIBRARY, SequenceEntry};
 
-impl Default for Config {
-    fn default() -> Self {
-        let sequences = DEFAULT_LIBRARY
-            .iter()
-            .filter_map(|&(actions, mode)| {
-                Some(SequenceEntry {
-                    actions: ActionSeq::from_slice(actions)?,
-                    mode,
-                })
+/// The built-in settings of the core: each stage's defaults and the
+/// built-in library.
+pub(super) fn core() -> CoreConfig {
+    let sequences = DEFAULT_LIBRARY
+        .iter()
+        .filter_map(|&(actions, mode)| {
+            Some(SequenceEntry {
+                actions: ActionSeq::from_slice(actions)?,
+                mode,
             })
-            .collect();
-        Config {
-            core: CoreConfig {
-                detector: Default::default(),
-                matcher: Default::default(),
-                command: Default::default(),
-                motion: Default::default(),
-                workspace: Default::default(),
-                home: Default::default(),
-                feedback: Default::default(),
-                interface: Default::default(),
-                scanning: Default::default(),
-                sequences,
-            },
-            sensor: Default::default(),
-            arm: Default::default(),
-        }
+        })
+        .collect();
+    CoreConfig {
+        detector: Default::default(),
+        matcher: Default::default(),
+        command: Default::default(),
+        motion: Default::default(),
+        workspace: Default::default(),
+        home: Default::default(),
+        feedback: Default::default(),
+        interface: Default::default(),
+        scanning: Default::default(),
+        sequences,
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use crate::config::Config;
+    use super::core;
     use crate::control::mode::Mode;
 
     #[test]
     fn the_default_library_is_prefix_free_and_covers_every_mode() {
-        let c = Config::default();
-        let library = c.core().sequences();
+        let library = core().sequences;
         assert_eq!(library.len(), 9);
         for mode in Mode::ALL {
             assert!(library.iter().any(|s| s.mode == mode), "{mode:?}");
         }
-        for a in library {
-            for b in library {
+        for a in &library {
+            for b in &library {
                 if a != b {
                     assert!(!b.actions.as_slice().starts_with(a.actions.as_slice()));
                 }
             }
         }
-    }
-
-    #[test]
-    fn the_defaults_pass_validation() {
-        let c = Config::default();
-        assert_eq!(c.clone().with_sequence_timeout_ms(1000), Ok(c));
     }
 }

@@ -56,6 +56,30 @@ impl fmt::Display for ConfigErrors {
 
 impl std::error::Error for ConfigErrors {}
 
+/// The problems found so far in a configuration, in the order found:
+/// the reader and the checks add to it.
+#[derive(Debug, Default)]
+pub(super) struct Problems {
+    pub(super) errors: Vec<ConfigError>,
+}
+
+impl Problems {
+    /// Records a problem with `key`.
+    pub(super) fn add(&mut self, key: impl Into<String>, message: impl Into<String>) {
+        self.errors.push(ConfigError {
+            key: key.into(),
+            line: None,
+            column: None,
+            message: message.into(),
+        });
+    }
+
+    /// Whether a problem with `key` is recorded already.
+    pub(super) fn has(&self, key: &str) -> bool {
+        self.errors.iter().any(|e| e.key == key)
+    }
+}
+
 /// A configuration file that cannot be used: unreadable, or with problems.
 #[derive(Debug)]
 pub enum ConfigFileError {

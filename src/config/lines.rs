@@ -1,12 +1,12 @@
 //! Where things are in the file: the line and column of each key (and of
 //! each `[[sequence]]`), and of a syntax error, so every message can point
-//! at the line to fix.
+//! at the line to fix, and the problems can be listed in file order.
 
 use std::collections::HashMap;
 
 use toml::de::{DeTable, DeValue};
 
-use crate::config::error::ConfigError;
+use crate::config::error::{ConfigError, ConfigErrors};
 
 /// 1-based line and column of each dotted key in a file, keyed as the
 /// errors name them (`detector.min_burst_ms`, `sequence #2`,
@@ -57,6 +57,36 @@ fn index(
             _ => {}
         }
     }
+}
+
+/// The problems of a file, each with its line and column, in file order:
+/// section by section as `sections` (the file's) lists them, a section's
+/// problems by line. A key missing from a `[[sequence]]` entry goes with
+/// its entry; the others not in the file (left at their defaults) go
+/// after the section's others, in the order found.
+pub(super) fn in_file_order(
+    text: &str,
+    sections: &[String],
+    mut errors: Vec<ConfigError>,
+) -> ConfigErrors {
+    let lines = KeyLines::of(text);
+    for error in &mut errors {
+        (error.line, error.column) = lines.find(&error.key).unzip();
+    }
+    errors.sort_by_key(|error| {
+        let section = error.key.split(['.', ' ']).next().unwrap_or_default();
+        let rank = sections.iter().position(|s| s == section);
+        let entry = error
+            .key
+            .split_once('.')
+            .map(|(entry, _)| entry)
+            .filter(|entry| entry.contains(" #"));
+        let line = error
+            .line
+            .or_else(|| entry.and_then(|e| lines.find(e)).map(|(line, _)| line));
+        (rank.unwrap_or(usize::MAX), line.unwrap_or(usize::MAX))
+    });
+    ConfigErrors(errors)
 }
 
 /// A syntax error, with its line and column.

@@ -1,4 +1,4 @@
-//! Configuration: TOML read once, key by key, into validated types.
+//! Configuration: TOML read once, through serde, into validated types.
 //!
 //! Every problem is collected with its key (and its line in the file) and
 //! reported at once, so a clinician fitting the interface fixes a file in
@@ -6,16 +6,21 @@
 //! ignored). The key names are a contract: keys are added, never renamed.
 //! Nothing here runs on the control thread: it may allocate.
 //!
-//! * [`read`]: TOML → typed sections, with defaults for missing keys;
+//! * `file`: the file's layout, whose serde field names are the keys;
+//! * `read`: TOML → that layout, every problem found, defaults for
+//!   missing keys; `names`: values given by name or action code;
 //! * [`validate`]: the checks, on typed values;
-//! * [`defaults`]: the built-in configuration;
-//! * [`print`]: the effective configuration back as TOML.
+//! * `defaults`: the built-in configuration;
+//! * [`print`]: the effective configuration back as TOML, through the
+//!   same layout.
 
-pub mod defaults;
+mod defaults;
 pub mod error;
+mod file;
 mod lines;
+mod names;
 pub mod print;
-pub mod read;
+mod read;
 pub mod validate;
 
 use std::path::Path;
@@ -27,8 +32,9 @@ use crate::control::core_config::{CoreConfig, InterfaceSection};
 use crate::control::selection::scanning::ScanningConfig;
 use crate::control::selection::{Interface, SequenceEntry};
 use crate::sensor::settings::SensorSettings;
+use error::Problems;
 pub use error::{ConfigError, ConfigErrors, ConfigFileError};
-use validate::Problems;
+use file::File;
 
 /// The whole validated configuration. Only [`Config::default`],
 /// [`Config::from_toml_str`] (and [`Config::from_file`]) and the `with_*`
@@ -38,6 +44,14 @@ pub struct Config {
     core: CoreConfig,
     sensor: SensorSettings,
     arm: ArmSettings,
+}
+
+/// The built-in configuration (see `defaults`).
+impl Default for Config {
+    fn default() -> Self {
+        let (core, sensor, arm) = File::default().into_parts();
+        Config { core, sensor, arm }
+    }
 }
 
 impl Config {
@@ -57,32 +71,24 @@ impl Config {
     /// defaults; a `[[sequence]]` list, if present, replaces the built-in
     /// library entirely.
     pub fn from_toml_str(text: &str) -> Result<Config, ConfigErrors> {
-        let mut root: Table = text
+        let root: Table = text
             .parse()
             .map_err(|e: toml::de::Error| ConfigErrors(vec![lines::syntax_error(text, &e)]))?;
+        let sections: Vec<String> = root.keys().cloned().collect();
         let mut problems = Problems::default();
-        let defaults = Config::default();
-        // Before the core's sections, which report what is left as unknown.
-        let sensor = read::sensor(&mut root, &defaults.sensor, &mut problems);
-        let arm = read::arm(&mut root, &defaults.arm, &mut problems);
-        let core = read::core(&mut root, defaults.core(), &mut problems);
+        let (core, sensor, arm) = read::file(root, &mut problems).into_parts();
+        validate::config(&mut problems, &core, &sensor, &arm);
         if problems.errors.is_empty() {
             Ok(Config { core, sensor, arm })
         } else {
-            let lines = lines::KeyLines::of(text);
-            for error in &mut problems.errors {
-                (error.line, error.column) = lines.find(&error.key).unzip();
-            }
-            Err(ConfigErrors(problems.errors))
+            Err(lines::in_file_order(text, &sections, problems.errors))
         }
     }
 
     /// Validates settings built in code.
     fn into_validated(self) -> Result<Config, ConfigErrors> {
         let mut problems = Problems::default();
-        validate::core(&mut problems, &self.core);
-        validate::sensor(&mut problems, &self.sensor);
-        validate::arm(&mut problems, &self.arm);
+        validate::config(&mut problems, &self.core, &self.sensor, &self.arm);
         if problems.errors.is_empty() {
             Ok(self)
         } else {
@@ -215,20 +221,21 @@ mod tests {
             .iter()
             .map(|e| (e.key.as_str(), e.message.as_str()))
             .collect();
+        // In file order: by line within a section.
         assert_eq!(
             found,
             [
                 ("interface.kind", "\"scan\" is not `asp` or `bsp`"),
-                (
-                    "scanning.speed",
-                    "unknown key (known: dwell_ms, first_dwell_ms, order)"
-                ),
                 ("scanning.dwell_ms", "must be greater than 0 ms"),
                 (
                     "scanning.order",
                     "\"fly\" is not a mode (known: translate_x, translate_y, translate_z, rotate_x, rotate_y, rotate_z, fingers, save_point, goto_point)"
                 ),
                 ("scanning.order", "\"fingers\" appears twice"),
+                (
+                    "scanning.speed",
+                    "unknown key (known: dwell_ms, first_dwell_ms, order)"
+                ),
             ]
         );
     }
@@ -618,5 +625,103 @@ gain = 0
         )
         .unwrap();
         assert_eq!(c.core().sequences().len(), 2);
+    }
+
+    #[test]
+    fn the_defaults_pass_validation() {
+        let c = Config::default();
+        assert_eq!(c.clone().with_sequence_timeout_ms(1000), Ok(c));
+    }
+
+    /// Each problem of `text` as `key: message`, in the order reported.
+    fn problems(text: &str) -> Vec<String> {
+        Config::from_toml_str(text)
+            .unwrap_err()
+            .0
+            .iter()
+            .map(|e| format!("{}: {}", e.key, e.message))
+            .collect()
+    }
+
+    #[test]
+    fn a_problem_inside_the_arm_table_names_its_own_key() {
+        // `[arm]` holds the keys of three types; serde names only the table.
+        let text = "[arm]\nhome_fingers = \"open\"\ncolour = 1\n[arm.ros2]\nmessage = \"twist\"\ndomian_id = 1\n";
+        assert_eq!(
+            problems(text),
+            [
+                "arm.home_fingers: wrong type (string): invalid type: string \"open\", expected f64",
+                "arm.colour: unknown key (known: home_position_m, home_rotation_vector_rad, home_fingers, feedback, connect_timeout_ms, ros2, ros1, kinova_sdk)",
+                "arm.ros2.message: \"twist\" is not a message (known: twist_stamped, pose_velocity, pose_velocity_with_finger_velocity)",
+                "arm.ros2.domian_id: unknown key (known: message, frame_id, pose_topic, domain_id)",
+            ]
+        );
+    }
+
+    #[test]
+    fn every_missing_key_of_an_entry_is_named_and_a_wrong_entry_is_not_compared() {
+        // Entry 2's actions are wrong and entry 3 has none: the built-in
+        // actions standing in for them ([-1, -1], as entry 1's) are not
+        // reported as listed twice.
+        let text = "[[sequence]]\nactions = [-1, -1]\nmode = \"fingers\"\n[[sequence]]\nactions = [9]\nmode = \"rotate_x\"\n[[sequence]]\nspeed = 1\n";
+        assert_eq!(
+            problems(text),
+            [
+                "sequence #2.actions: 9 not an action (1 = short sip, 2 = long sip, -1 = short puff, -2 = long puff)",
+                "sequence #3.actions: missing",
+                "sequence #3.mode: missing",
+                "sequence #3.speed: unknown key (known: actions, mode)",
+            ]
+        );
+    }
+
+    #[test]
+    fn a_value_of_the_wrong_kind_says_what_was_expected() {
+        let text = "detector = 3\nsequence = [1, { actions = [1], mode = \"fingers\" }]\n[scanning]\norder = [\"fingers\", 2]\n";
+        assert_eq!(
+            problems(text),
+            [
+                "detector: must be a table, found integer",
+                "sequence #1: must be a table, found integer",
+                "scanning.order: wrong type (array): invalid type: integer `2`, expected a string",
+            ]
+        );
+        assert_eq!(
+            problems("sequence = 3\n"),
+            ["sequence: must be an array of tables ([[sequence]]), found integer"]
+        );
+    }
+
+    #[test]
+    fn every_printed_key_is_read_and_named_when_wrong() {
+        // Each key `sipnpuff config` prints, given a table instead of its
+        // value, is the one problem, named in full.
+        let printed = Config::default().to_toml().unwrap();
+        let lines: Vec<&str> = printed.lines().collect();
+        let (mut table, mut entries) = (String::new(), 0);
+        for (at, line) in lines.iter().enumerate() {
+            if let Some(header) = line.strip_prefix("[[") {
+                entries += 1;
+                table = format!("{} #{entries}", &header[..header.find("]]").unwrap()]);
+                continue;
+            }
+            if let Some(header) = line.strip_prefix('[') {
+                table = header.trim_end_matches(']').to_string();
+                continue;
+            }
+            let Some((key, _)) = line.split_once(" = ") else {
+                continue;
+            };
+            let mut wrong = lines.clone();
+            let replaced = format!("{key} = {{ wrong = 1 }}");
+            wrong[at] = &replaced;
+            let found = problems(&wrong.join("\n"));
+            assert_eq!(found.len(), 1, "{table}.{key}: {found:?}");
+            assert!(
+                found[0].starts_with(&format!("{table}.{key}: wrong type (table): ")),
+                "{table}.{key}: {found:?}"
+            );
+        }
+        assert_eq!(entries, 9);
     }
 }

@@ -1,33 +1,18 @@
-//! The effective configuration as TOML: every section and key, derived from
-//! the typed settings through serde (so nothing can be left out), with the
-//! sequence table as comments. `--config` reads it back to the same
-//! configuration.
+//! The effective configuration as TOML: every section and key, written
+//! through the file's serde layout ([`File`]) that reading uses too (so
+//! nothing can be left out or named twice), with the sequence table as
+//! comments. `--config` reads it back to the same configuration.
 
 use crate::config::Config;
+use crate::config::file::File;
 use crate::control::selection::SequenceEntry;
 
 impl Config {
     /// The complete configuration as TOML that [`Config::from_toml_str`]
     /// reads back to an equal `Config`.
     pub fn to_toml(&self) -> Result<String, toml::ser::Error> {
-        /// `[sensor]` as a table of its own, after the core's sections.
-        #[derive(serde::Serialize)]
-        struct SensorSection<'a> {
-            sensor: &'a crate::sensor::settings::SensorSettings,
-        }
-        // The backends' settings go into the core's `[arm]` table.
-        let mut core = toml::Table::try_from(self.core())?;
-        let backends = toml::Table::try_from(self.arm())?;
-        let feedback = toml::Value::try_from(self.core().feedback())?;
-        if let Some(toml::Value::Table(arm)) = core.get_mut("arm") {
-            arm.insert("feedback".into(), feedback);
-            arm.extend(backends);
-        }
-        let mut text = toml::to_string(&core)?;
-        text += "\n";
-        text += &toml::to_string(&SensorSection {
-            sensor: self.sensor(),
-        })?;
+        let file = File::new(self.core.clone(), self.sensor.clone(), self.arm.clone());
+        let text = toml::to_string(&file)?;
         let mut entries = self.core().sequences().iter();
         let mut out = String::from(
             "# sipnpuff configuration: every setting in effect (defaults filled in).\n\n",

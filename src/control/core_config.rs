@@ -18,28 +18,26 @@ use crate::control::selection::matcher::MatcherConfig;
 use crate::control::selection::scanning::ScanningConfig;
 use crate::control::selection::{Interface, SequenceEntry};
 
-/// The validated settings of the whole core. Serialized with the config
-/// file's section and key names.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// The validated settings of the whole core (`config::file` lays them out
+/// as the file's sections).
+#[derive(Debug, Clone, PartialEq)]
 pub struct CoreConfig {
     pub(crate) detector: DetectorConfig,
     pub(crate) matcher: MatcherConfig,
     pub(crate) command: CommandConfig,
     pub(crate) motion: MotionConfig,
     pub(crate) workspace: WorkspaceConfig,
-    #[serde(rename = "arm")]
     pub(crate) home: HomeConfig,
-    /// `[arm.feedback]` (printed into `[arm]` by `config::print`).
-    #[serde(skip)]
+    /// `[arm.feedback]`.
     pub(crate) feedback: FeedbackConfig,
     pub(crate) interface: InterfaceSection,
     pub(crate) scanning: ScanningConfig,
-    #[serde(rename = "sequence")]
     pub(crate) sequences: Vec<SequenceEntry>,
 }
 
 /// The `[interface]` section.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub(crate) struct InterfaceSection {
     pub(crate) kind: Interface,
 }

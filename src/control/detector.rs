@@ -34,7 +34,8 @@ use crate::control::sample::Sample;
 use crate::control::skip_count::SkipCount;
 
 /// Burst detector settings (`[detector]` in the config file).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct DetectorConfig {
     /// Sensor output at rest, in volts. The detector starts from it and then
     /// tracks slow drift.

@@ -13,7 +13,8 @@ use crate::control::action::Breath;
 use crate::control::mode::{Direction, Held, Mode, ModeState};
 
 /// Command mode settings (`[command]` in the config file).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct CommandConfig {
     /// No breath for this long (from the match or the end of the last breath)
     /// returns to detection mode.

@@ -3,10 +3,11 @@
 //! validated by `config/` like every other section; used only when opening
 //! a device (never on the control thread).
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// `[sensor]` and its backend sub-tables.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SensorSettings {
     /// Measure the neutral from the sensor at rest before anything can
     /// move (analog devices; switches and recordings have no neutral).
@@ -60,6 +61,9 @@ pub enum EvdevInput {
 }
 
 impl EvdevInput {
+    /// Both kinds, for messages.
+    pub const ALL: [EvdevInput; 2] = [EvdevInput::Axis, EvdevInput::Switches];
+
     /// The config name.
     pub fn name(self) -> &'static str {
         match self {
@@ -70,7 +74,8 @@ impl EvdevInput {
 }
 
 /// `[sensor.evdev]`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct EvdevSettings {
     /// `axis` or `switches`.
     pub input: EvdevInput,
@@ -146,7 +151,8 @@ impl SerialFormat {
 }
 
 /// `[sensor.serial]`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SerialSettings {
     /// Line speed (`serial:PATH,baud=N` overrides it).
     pub baud: u32,
@@ -179,7 +185,8 @@ impl Default for SerialSettings {
 }
 
 /// `[sensor.iio]`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct IioSettings {
     /// Volts = raw × scale (mV) / 1000 × `gain` + `offset_volts`: e.g. a
     /// 3.3 V ADC behind a 5 V → 3.3 V divider has gain 5 / 3.3.

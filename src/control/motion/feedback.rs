@@ -46,7 +46,8 @@ const CORRECTIONS: usize = 128;
 
 /// `[arm.feedback]`: how a measured pose is checked. Used only when the
 /// arm backend measures the pose.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct FeedbackConfig {
     /// No measured pose for this long is a fault, ms.
     pub timeout_ms: u32,

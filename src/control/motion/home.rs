@@ -4,7 +4,8 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::Serialize;
 
 /// The arm at power-up (`[arm]` in the config file).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct HomeConfig {
     /// Tool position at power-up, m, base frame.
     pub home_position_m: [f64; 3],

@@ -36,7 +36,8 @@ pub mod caps {
 
 /// Motion settings (`[motion]` in the config file); the config validates
 /// them against [`caps`].
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct MotionConfig {
     /// Speed of a translation mode, m/s.
     pub linear_speed_mps: f64,

@@ -8,7 +8,8 @@ use crate::control::motion::limits::caps;
 
 /// Where the tool may go (`[workspace]` in the config file), in the base
 /// frame.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct WorkspaceConfig {
     /// Largest distance from the base, m.
     pub reach_m: f64,

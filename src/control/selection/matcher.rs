@@ -23,7 +23,8 @@ use crate::control::mode::Mode;
 use crate::control::selection::SequenceEntry;
 
 /// Sequence matcher settings (`[matcher]` in the config file).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct MatcherConfig {
     /// How long the matcher waits for the next burst of a sequence that is a
     /// prefix of a longer one, counted from the end of the last burst.

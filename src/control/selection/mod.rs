@@ -15,7 +15,8 @@ use crate::control::action::{Action, ActionSeq};
 use crate::control::mode::Mode;
 
 /// One user-defined sequence and the mode it selects.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct SequenceEntry {
     /// The actions, non-empty, at most
     /// [`MAX_SEQUENCE_LEN`](crate::control::action::MAX_SEQUENCE_LEN).

@@ -8,7 +8,7 @@
 //! The highlight is a pure function of the tick the scan (re)started, so
 //! the user and the replay see the same scan. RT-safe: no allocation.
 
-use serde::{Serialize, Serializer};
+use serde::Serialize;
 
 use crate::control::Tick;
 use crate::control::action::Breath;
@@ -16,7 +16,8 @@ use crate::control::detector::Burst;
 use crate::control::mode::Mode;
 
 /// The scanning interface's settings (`[scanning]` in the config file).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(into = "ScanningFields", from = "ScanningFields")]
 pub struct ScanningConfig {
     /// How long each mode stays highlighted.
     pub dwell_ms: u32,
@@ -48,21 +49,44 @@ impl Default for ScanningConfig {
     }
 }
 
-/// Written as the config file has it: `order` is the list of mode names.
-impl Serialize for ScanningConfig {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        #[derive(Serialize)]
-        struct Fields<'a> {
-            dwell_ms: u32,
-            first_dwell_ms: u32,
-            order: &'a [Mode],
+/// `[scanning]` as the config file has it: `order` is the list of mode
+/// names (more than nine is left to the config's checks).
+#[derive(Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct ScanningFields {
+    dwell_ms: u32,
+    first_dwell_ms: u32,
+    order: Vec<Mode>,
+}
+
+impl Default for ScanningFields {
+    fn default() -> Self {
+        ScanningConfig::default().into()
+    }
+}
+
+impl From<ScanningConfig> for ScanningFields {
+    fn from(c: ScanningConfig) -> Self {
+        ScanningFields {
+            dwell_ms: c.dwell_ms,
+            first_dwell_ms: c.first_dwell_ms,
+            order: c.modes().to_vec(),
         }
-        Fields {
-            dwell_ms: self.dwell_ms,
-            first_dwell_ms: self.first_dwell_ms,
-            order: self.modes(),
+    }
+}
+
+impl From<ScanningFields> for ScanningConfig {
+    fn from(f: ScanningFields) -> Self {
+        let mut order = Mode::ALL;
+        for (slot, mode) in order.iter_mut().zip(&f.order) {
+            *slot = *mode;
         }
-        .serialize(serializer)
+        ScanningConfig {
+            dwell_ms: f.dwell_ms,
+            first_dwell_ms: f.first_dwell_ms,
+            order,
+            order_len: f.order.len(),
+        }
     }
 }
 

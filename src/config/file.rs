@@ -1,0 +1,107 @@
+//! The configuration file's layout: each section and key is a serde field
+//! of these types or of the settings they hold, so reading
+//! ([`super::read`]) and printing ([`super::print`]) share one name for
+//! every key.
+
+use serde::{Deserialize, Serialize};
+
+use crate::arm::settings::ArmSettings;
+use crate::config::defaults;
+use crate::control::core_config::{CoreConfig, InterfaceSection};
+use crate::control::detector::DetectorConfig;
+use crate::control::modes::CommandConfig;
+use crate::control::motion::feedback::FeedbackConfig;
+use crate::control::motion::home::HomeConfig;
+use crate::control::motion::limits::MotionConfig;
+use crate::control::motion::workspace::WorkspaceConfig;
+use crate::control::selection::SequenceEntry;
+use crate::control::selection::matcher::MatcherConfig;
+use crate::control::selection::scanning::ScanningConfig;
+use crate::sensor::settings::SensorSettings;
+
+/// The whole file, section by section, in the order `sipnpuff config`
+/// prints them. A missing section or key takes the built-in value.
+#[derive(Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub(super) struct File {
+    detector: DetectorConfig,
+    matcher: MatcherConfig,
+    command: CommandConfig,
+    motion: MotionConfig,
+    workspace: WorkspaceConfig,
+    arm: ArmSection,
+    interface: InterfaceSection,
+    scanning: ScanningConfig,
+    /// `[[sequence]]`: the library, replacing the built-in one whole.
+    #[serde(rename = "sequence")]
+    sequences: Vec<SequenceEntry>,
+    sensor: SensorSettings,
+}
+
+/// `[arm]`: the arm at power-up, the checks on a measured pose (its
+/// `feedback` table) and the backends' settings, in one table.
+#[derive(Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct ArmSection {
+    #[serde(flatten)]
+    home: HomeConfig,
+    feedback: FeedbackConfig,
+    #[serde(flatten)]
+    backends: ArmSettings,
+}
+
+impl Default for File {
+    fn default() -> Self {
+        File::new(
+            defaults::core(),
+            SensorSettings::default(),
+            ArmSettings::default(),
+        )
+    }
+}
+
+impl File {
+    /// The file that holds these settings.
+    pub(super) fn new(core: CoreConfig, sensor: SensorSettings, arm: ArmSettings) -> File {
+        File {
+            detector: core.detector,
+            matcher: core.matcher,
+            command: core.command,
+            motion: core.motion,
+            workspace: core.workspace,
+            arm: ArmSection {
+                home: core.home,
+                feedback: core.feedback,
+                backends: arm,
+            },
+            interface: core.interface,
+            scanning: core.scanning,
+            sequences: core.sequences,
+            sensor,
+        }
+    }
+
+    /// The settings the file holds, not yet validated.
+    pub(super) fn into_parts(self) -> (CoreConfig, SensorSettings, ArmSettings) {
+        let core = CoreConfig {
+            detector: self.detector,
+            matcher: self.matcher,
+            command: self.command,
+            motion: self.motion,
+            workspace: self.workspace,
+            home: self.arm.home,
+            feedback: self.arm.feedback,
+            interface: self.interface,
+            scanning: self.scanning,
+            sequences: self.sequences,
+        };
+        (core, self.sensor, self.arm.backends)
+    }
+
+    /// The built-in configuration as a TOML tree: what a file's key is
+    /// checked against (is it known, what replaces a wrong value).
+    pub(super) fn sample() -> toml::Value {
+        toml::Value::try_from(File::default())
+            .unwrap_or_else(|_| toml::Value::Table(toml::Table::new()))
+    }
+}

@@ -1,0 +1,81 @@
+//! Selecting a mode: `[matcher]`, `[command]`, `[scanning]` and the
+//! `[[sequence]]` library.
+
+use std::collections::HashSet;
+
+use crate::config::error::Problems;
+use crate::control::modes::CommandConfig;
+use crate::control::selection::SequenceEntry;
+use crate::control::selection::matcher::MatcherConfig;
+use crate::control::selection::scanning::ScanningConfig;
+
+/// Largest library the matcher accepts.
+pub const MAX_SEQUENCES: usize = 256;
+
+/// `[matcher]`.
+pub(super) fn matcher(p: &mut Problems, c: &MatcherConfig) {
+    p.positive_ms("matcher.sequence_timeout_ms", c.sequence_timeout_ms);
+}
+
+/// `[command]`: `motion_onset_ms` is 0 (off) or a timer.
+pub(super) fn command(p: &mut Problems, c: &CommandConfig) {
+    p.positive_ms("command.inactivity_timeout_ms", c.inactivity_timeout_ms);
+    if c.motion_onset_ms > 0 {
+        p.positive_ms("command.motion_onset_ms", c.motion_onset_ms);
+    }
+}
+
+/// `[scanning]`: positive dwell times, each mode at most once, at least one.
+pub(super) fn scanning(p: &mut Problems, c: &ScanningConfig) {
+    p.positive_ms("scanning.dwell_ms", c.dwell_ms);
+    p.positive_ms("scanning.first_dwell_ms", c.first_dwell_ms);
+    if c.order_len > c.order.len() {
+        p.add(
+            "scanning.order",
+            format!(
+                "{} modes, at most {} (each mode once)",
+                c.order_len,
+                c.order.len()
+            ),
+        );
+        return;
+    }
+    let mut seen = HashSet::new();
+    for mode in c.modes() {
+        if !seen.insert(mode) {
+            p.add("scanning.order", format!("{:?} appears twice", mode.name()));
+        }
+    }
+    if c.modes().is_empty() {
+        p.add("scanning.order", "must list at least one mode");
+    }
+}
+
+/// `[[sequence]]`: how many, none empty, none listed twice. An entry
+/// whose `actions` (or the entry itself) the reader found wrong holds the
+/// built-in value in its place and is not compared.
+pub(super) fn library(p: &mut Problems, entries: &[SequenceEntry]) {
+    let count = entries.len();
+    if count == 0 {
+        p.add("sequence", "the library has no sequence");
+    }
+    if count > MAX_SEQUENCES {
+        p.add(
+            "sequence",
+            format!("{count} sequences, at most {MAX_SEQUENCES} allowed"),
+        );
+    }
+    let mut seen = HashSet::new();
+    for (i, entry) in entries.iter().enumerate() {
+        let entry_key = format!("sequence #{}", i + 1);
+        let key = format!("{entry_key}.actions");
+        if p.has(&entry_key) || p.has(&key) {
+            continue;
+        }
+        if entry.actions.is_empty() {
+            p.add(&key, "must hold at least one action");
+        } else if !seen.insert(entry.actions) {
+            p.add(&key, format!("{:?} is listed twice", entry.actions));
+        }
+    }
+}
