@@ -5,22 +5,40 @@
 //! The folders show the architecture:
 //!
 //! * [`control`]: the pure, deterministic core (detector → selection →
-//!   modes → motion), one step per 1 ms tick, no clock, no I/O, no
+//!   modes → motion), one [`control::pipeline::Pipeline::step`] per 1 ms
+//!   tick on one [`control::sample::Sample`]; no clock, no I/O, no
 //!   allocation after start-up;
-//! * [`config`]: TOML into a validated [`config::Config`];
-//! * [`sensor`]: the [`sensor::Sensor`] seam and its backends (the
-//!   synthetic scripted user, CSV recordings);
-//! * [`arm`]: the [`arm::Arm`] seam and its backends (the simulated JACO);
-//! * [`rt`]: the 1 kHz runtime around the core (scheduler, RT set-up,
-//!   threads, telemetry, the run report);
+//! * [`config`]: TOML into a validated [`config::Config`], every problem
+//!   named with its key and line;
+//! * [`sensor`]: the [`sensor::Sensor`] seam and its backends: the
+//!   synthetic scripted user, CSV recordings, and the devices — evdev (USB
+//!   HID sip-and-puff devices), serial (LipSync, FLipMouse, plain volts)
+//!   and IIO (an ADC through the kernel);
+//! * [`arm`]: the [`arm::Arm`] seam and its backends: the simulated JACO,
+//!   ROS 2 (DDS), ROS 1 (a rosmaster) and Kinova's SDK;
+//! * [`rt`]: the 1 kHz runtime around the core: the scheduler, real-time
+//!   set-up, the threads and rings, telemetry and the run report;
+//! * [`display`]: what the user sees and hears, served to a browser or
+//!   drawn in a terminal, fed from the telemetry side;
 //! * [`sim`]: the sensor model, simulated users and the paper's study;
-//! * [`tools`]: replay, session recordings, benchmarks and the accuracy
-//!   scorer;
+//! * [`tools`]: replay, session recordings, benchmarks, the accuracy
+//!   scorer and the safety monitor;
 //! * [`cli`]: the `sipnpuff` command line, one file per command.
+//!
+//! One sample's way from a serial sensor to a ROS 2 arm:
+//! `sensor/serial.rs` parses a line, `sensor/device.rs` and
+//! `sensor/held.rs` hand the newest value to the control thread as a
+//! [`sensor::Reading`]; `rt/control_loop.rs` gives it to the core through
+//! `rt/core_input.rs`; `control/pipeline.rs` runs the detector, the
+//! matcher (`control/selection/matcher.rs`), the mode machine
+//! (`control/modes.rs`) and the motion layer (`control/motion/`), whose
+//! decimator (`control/motion/stream.rs`) makes the 100 Hz
+//! [`control::motion::stream::ArmCommand`]; `rt/arm_thread.rs` sends it
+//! through the [`arm::Arm`] seam to `arm/ros2/mod.rs`.
 //!
 //! Import rules (checked by `tests/it/architecture.rs`): `control` imports
 //! nothing else of the crate; `rt` imports `control` and the sensor and
-//! arm traits only; concrete backends are chosen in `cli`; no import cycle
+//! arm seams only; concrete backends are chosen in `cli`; no import cycle
 //! between files.
 //!
 //! ```
