@@ -18,10 +18,12 @@ use crate::cli::display::{Display, DisplayArgs};
 use crate::cli::output::{self, StdoutEvents, invalid};
 use crate::config::Config;
 use crate::rt::control_loop::StopReason;
+use crate::rt::recorder::SessionRecorder;
 use crate::rt::report::RunReport;
 use crate::rt::signals;
 use crate::rt::stop::StopRequest;
-use crate::rt::threads::{RunOptions, Watchers, run_watched};
+use crate::rt::telemetry_thread::Watchers;
+use crate::rt::threads::{self, LoopSettings, RunOptions};
 use crate::sensor::csv::CsvSensor;
 use crate::sensor::evdev::EvdevSensor;
 use crate::sensor::iio::IioSensor;
@@ -133,7 +135,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         },
     });
     let record = record.as_ref();
-    let options = RunOptions {
+    let loop_settings = LoopSettings {
         seconds: args.seconds,
         rt: args.rt.options()?,
         spin_margin_ns: args.rt.spin_margin_ns(),
@@ -156,7 +158,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             &config,
             SyntheticSensor::built_in_user(&config),
             arm,
-            &options,
+            &loop_settings,
             &mut events,
             record,
             display,
@@ -165,7 +167,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             &config,
             CsvSensor::open(path)?,
             arm,
-            &options,
+            &loop_settings,
             &mut events,
             record,
             display,
@@ -174,7 +176,15 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             let sensor = EvdevSensor::open(target, &settings.evdev, neutral, settings.reconnect)?;
             let analog = sensor.is_analog();
             let (config, sensor) = prepare_device(&config, sensor, analog)?;
-            start(&config, sensor, arm, &options, &mut events, record, display)?
+            start(
+                &config,
+                sensor,
+                arm,
+                &loop_settings,
+                &mut events,
+                record,
+                display,
+            )?
         }
         SensorSpec::Serial { path, baud } => {
             let sensor =
@@ -184,12 +194,28 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
                 note!("sipnpuff: {note}");
             }
             let (config, sensor) = prepare_device(&config, sensor, true)?;
-            start(&config, sensor, arm, &options, &mut events, record, display)?
+            start(
+                &config,
+                sensor,
+                arm,
+                &loop_settings,
+                &mut events,
+                record,
+                display,
+            )?
         }
         SensorSpec::Iio(path) => {
             let sensor = IioSensor::open(path, &settings.iio, settings.reconnect)?;
             let (config, sensor) = prepare_device(&config, sensor, true)?;
-            start(&config, sensor, arm, &options, &mut events, record, display)?
+            start(
+                &config,
+                sensor,
+                arm,
+                &loop_settings,
+                &mut events,
+                record,
+                display,
+            )?
         }
     };
     let text = if args.json {
@@ -257,7 +283,7 @@ fn start<S: Sensor>(
     config: &Config,
     sensor: S,
     arm: Box<dyn Arm>,
-    options: &RunOptions,
+    settings: &LoopSettings,
     events: &mut StdoutEvents,
     record: Option<&Record<'_>>,
     display: &Display,
@@ -270,13 +296,15 @@ fn start<S: Sensor>(
         None => None,
     };
     let mut showing = display.start(config.core(), &arm.describe())?;
-    let watchers = Watchers {
-        recorder: recorder
-            .as_mut()
-            .map(|r| r as &mut dyn crate::rt::recorder::SessionRecorder),
-        observer: showing.observer(),
+    let options = RunOptions {
+        watchers: Watchers {
+            events: Some(events),
+            recorder: recorder.as_mut().map(|r| r as &mut dyn SessionRecorder),
+            observer: showing.observer(),
+        },
+        ..RunOptions::new(sensor, arm, settings.clone())
     };
-    let mut result = run_watched(config.core(), sensor, arm, options, events, watchers);
+    let mut result = threads::run(config.core(), options);
     showing.finish(result.as_mut().ok());
     let mut report = result?;
     if let Some(recorder) = recorder {
@@ -395,20 +423,20 @@ mod tests {
     use super::*;
 
     use crate::arm::sim::SimArm;
-    use crate::rt::threads::RunOptions;
+    use crate::rt::setup::RtOptions;
 
     /// A real report of a short run, to vary.
     fn report() -> RunReport {
         let config = Config::default();
-        let options = RunOptions {
+        let settings = LoopSettings {
             seconds: Some(0.05),
-            rt: crate::rt::setup::RtOptions::NONE,
+            rt: RtOptions::NONE,
             spin_margin_ns: None,
             stop: StopRequest::new(),
         };
         let sensor = SyntheticSensor::built_in_user(&config);
         let arm = Box::new(SimArm::new(config.core()));
-        crate::rt::threads::run(config.core(), sensor, arm, &options, &mut |_: &_| {}).unwrap()
+        threads::run(config.core(), RunOptions::new(sensor, arm, settings)).unwrap()
     }
 
     #[test]
