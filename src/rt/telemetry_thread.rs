@@ -192,3 +192,168 @@ impl<'a> Telemetry<'a> {
         self.stop.output_failed();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use rtrb::RingBuffer;
+
+    use super::*;
+    use crate::control::event::Event;
+    use crate::control::modes::DetectionReason;
+    use crate::rt::core_input::CoreInput;
+    use crate::rt::stop::StopReason;
+
+    /// The control thread's ends of a telemetry's rings.
+    struct ControlEnds {
+        records: rtrb::Producer<TickRecord>,
+        events: rtrb::Producer<TimedEvent>,
+        commands: rtrb::Producer<ArmCommand>,
+    }
+
+    fn rings() -> (ControlEnds, TelemetryRings) {
+        let (records, records_rx) = RingBuffer::new(16);
+        let (events, events_rx) = RingBuffer::new(16);
+        let (commands, commands_rx) = RingBuffer::new(16);
+        let rings = TelemetryRings {
+            records: records_rx,
+            events: events_rx,
+            recorded_commands: Some(commands_rx),
+        };
+        (
+            ControlEnds {
+                records,
+                events,
+                commands,
+            },
+            rings,
+        )
+    }
+
+    fn event(tick: u64) -> TimedEvent {
+        TimedEvent {
+            tick,
+            event: Event::Detection {
+                reason: DetectionReason::Inactivity,
+            },
+        }
+    }
+
+    fn record(tick: u64, reference: bool, dropped_records: u64) -> TickRecord {
+        TickRecord {
+            tick,
+            wake_latency_ns: 20_000,
+            compute_ns: 500,
+            reference,
+            drops: Drops {
+                records: dropped_records,
+                ..Drops::default()
+            },
+            input: CoreInput {
+                tick,
+                ..CoreInput::default()
+            },
+            ..TickRecord::default()
+        }
+    }
+
+    /// A sink that fails from its `fails_at`-th event on.
+    struct FailingSink {
+        written: u64,
+        fails_at: u64,
+    }
+
+    impl EventSink for FailingSink {
+        fn event(&mut self, _: &TimedEvent) -> io::Result<()> {
+            self.written += 1;
+            if self.written >= self.fails_at {
+                Err(io::Error::from(io::ErrorKind::BrokenPipe))
+            } else {
+                Ok(())
+            }
+        }
+    }
+
+    /// What a recorder was handed, in order.
+    #[derive(Default)]
+    struct Log(Vec<String>);
+
+    impl SessionRecorder for Log {
+        fn start(&mut self, _: &str, _: &str) {}
+        fn input(&mut self, input: &CoreInput) {
+            self.0.push(format!("input {}", input.tick));
+        }
+        fn command(&mut self, command: &ArmCommand) {
+            self.0.push(format!("command {}", command.seq));
+        }
+        fn event(&mut self, event: &TimedEvent) {
+            self.0.push(format!("event {}", event.tick));
+        }
+        fn lost(&mut self, lost: Lost) {
+            self.0.push(format!("lost {} ticks", lost.ticks));
+        }
+    }
+
+    #[test]
+    fn a_failed_sink_stops_the_run_and_is_written_no_more() {
+        let (mut control, rings) = rings();
+        let mut sink = FailingSink {
+            written: 0,
+            fails_at: 2,
+        };
+        let stop = StopRequest::new();
+        let watchers = Watchers {
+            events: Some(&mut sink),
+            ..Watchers::default()
+        };
+        let mut telemetry = Telemetry::new(rings, watchers, stop.clone());
+        for tick in 0..4 {
+            control.events.push(event(tick)).unwrap();
+        }
+        telemetry.drain();
+        assert_eq!(stop.reason(), Some(StopReason::OutputFailed));
+        control.events.push(event(4)).unwrap();
+        telemetry.drain();
+        let report = telemetry.finish(&Drops::default());
+        assert_eq!(report.events, 5);
+        assert_eq!(report.output_error.as_deref(), Some("broken pipe"));
+        assert_eq!(sink.written, 2);
+    }
+
+    #[test]
+    fn the_recorder_gets_the_core_inputs_and_learns_of_losses_before_the_next_item() {
+        let (mut control, rings) = rings();
+        let mut log = Log::default();
+        let watchers = Watchers {
+            recorder: Some(&mut log),
+            ..Watchers::default()
+        };
+        let mut telemetry = Telemetry::new(rings, watchers, StopRequest::new());
+        control.events.push(event(0)).unwrap();
+        control.commands.push(ArmCommand::default()).unwrap();
+        control.records.push(record(0, false, 0)).unwrap();
+        control.records.push(record(1, true, 0)).unwrap();
+        // Ticks 2 and 3 were dropped on the way.
+        control.records.push(record(4, false, 2)).unwrap();
+        telemetry.drain();
+        // One more dropped after the last that arrived.
+        let report = telemetry.finish(&Drops {
+            records: 3,
+            ..Drops::default()
+        });
+        assert_eq!(
+            log.0,
+            [
+                "event 0",
+                "command 0",
+                "input 0",
+                "lost 2 ticks",
+                "input 4",
+                "lost 1 ticks"
+            ]
+        );
+        assert_eq!(
+            (report.full.wake.len(), report.reference.wake.len()),
+            (2, 1)
+        );
+    }
+}
