@@ -34,11 +34,11 @@ pub enum BenchCommand {
         /// The configuration.
         #[command(flatten)]
         config: ConfigArg,
-        /// Print one JSON object.
+        /// Print one JSON object instead of a table.
         #[arg(long)]
         json: bool,
-        /// Write the histograms in `.hgrm` format here.
-        #[arg(long)]
+        /// Write each histogram in HdrHistogram's `.hgrm` text format here.
+        #[arg(long, value_name = "DIR")]
         histogram_dir: Option<PathBuf>,
         /// Real-time settings.
         #[command(flatten)]

@@ -39,7 +39,8 @@ use crate::tools::recording::writer::{MIN_BYTES, RecordOptions};
 pub struct RunArgs {
     #[command(flatten)]
     config: ConfigArg,
-    /// Run this long, s (default: until the scripted user or recording ends).
+    /// Run this long, s (default: until the sensor ends: the scripted user
+    /// or the recording runs out, or a device is lost for good).
     #[arg(long, value_parser = parse_seconds)]
     seconds: Option<f64>,
     /// Where samples come from: `synthetic` (the built-in scripted user),
@@ -52,7 +53,6 @@ pub struct RunArgs {
     /// lists what this machine has).
     #[arg(long, default_value = "synthetic", value_parser = SensorSpec::parse)]
     sensor: SensorSpec,
-    /// The arm.
     /// The arm: `sim` (the simulated JACO2), `ros2:TOPIC` (MoveIt Servo,
     /// ros2_kortex's twist controller, a JACO2 ROS 2 port), `ros1:NAMESPACE`
     /// (kinova-ros's driver, e.g. `ros1:/j2n6s300_driver`; the master from
@@ -64,7 +64,7 @@ pub struct RunArgs {
     #[arg(long, value_enum)]
     interface: Option<InterfaceArg>,
     /// Write each histogram in HdrHistogram's `.hgrm` text format here.
-    #[arg(long)]
+    #[arg(long, value_name = "DIR")]
     histogram_dir: Option<PathBuf>,
     /// Print the final report as one JSON object (after the event lines).
     #[arg(long)]

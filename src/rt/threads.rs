@@ -51,17 +51,19 @@ const FIRST_POSE_WAIT: Duration = Duration::from_secs(2);
 /// How often the telemetry thread empties the rings.
 const DRAIN_EVERY: Duration = Duration::from_millis(5);
 
-/// How the control loop runs.
+/// How the control loop runs: how long, with which real-time settings,
+/// and what stops it.
 #[derive(Debug, Clone)]
 pub struct LoopSettings {
-    /// Run this long; `None`: until the sensor's script or file ends.
+    /// Run this long, s; `None`: until the sensor ends ([`Samples::ended`]).
     pub seconds: Option<f64>,
     /// Real-time settings to ask for.
     pub rt: RtOptions,
     /// Hybrid wait: sleep until this long before each deadline, then spin.
     pub spin_margin_ns: Option<u64>,
-    /// A safe stop requested: by a signal handler ([`signals::install`](super::signals::install)),
-    /// or by `run` itself when its output fails.
+    /// A safe stop requested: by a signal handler
+    /// ([`signals::install`](super::signals::install)), or by `run` itself
+    /// when its event sink fails.
     pub stop: StopRequest,
 }
 
