@@ -135,7 +135,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         },
     });
     let record = record.as_ref();
-    let loop_settings = LoopSettings {
+    let options = LoopSettings {
         seconds: args.seconds,
         rt: args.rt.options()?,
         spin_margin_ns: args.rt.spin_margin_ns(),
@@ -158,7 +158,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             &config,
             SyntheticSensor::built_in_user(&config),
             arm,
-            &loop_settings,
+            &options,
             &mut events,
             record,
             display,
@@ -167,7 +167,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             &config,
             CsvSensor::open(path)?,
             arm,
-            &loop_settings,
+            &options,
             &mut events,
             record,
             display,
@@ -176,15 +176,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             let sensor = EvdevSensor::open(target, &settings.evdev, neutral, settings.reconnect)?;
             let analog = sensor.is_analog();
             let (config, sensor) = prepare_device(&config, sensor, analog)?;
-            start(
-                &config,
-                sensor,
-                arm,
-                &loop_settings,
-                &mut events,
-                record,
-                display,
-            )?
+            start(&config, sensor, arm, &options, &mut events, record, display)?
         }
         SensorSpec::Serial { path, baud } => {
             let sensor =
@@ -194,28 +186,12 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
                 note!("sipnpuff: {note}");
             }
             let (config, sensor) = prepare_device(&config, sensor, true)?;
-            start(
-                &config,
-                sensor,
-                arm,
-                &loop_settings,
-                &mut events,
-                record,
-                display,
-            )?
+            start(&config, sensor, arm, &options, &mut events, record, display)?
         }
         SensorSpec::Iio(path) => {
             let sensor = IioSensor::open(path, &settings.iio, settings.reconnect)?;
             let (config, sensor) = prepare_device(&config, sensor, true)?;
-            start(
-                &config,
-                sensor,
-                arm,
-                &loop_settings,
-                &mut events,
-                record,
-                display,
-            )?
+            start(&config, sensor, arm, &options, &mut events, record, display)?
         }
     };
     let text = if args.json {

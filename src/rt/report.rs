@@ -98,7 +98,7 @@ pub struct RunFacts {
     pub arm_name: String,
     /// The arm reports a measured pose.
     pub arm_measured: bool,
-    /// The sensor's producer failed.
+    /// Why the sensor's producer failed, if it did.
     pub sensor_error: Option<SensorError>,
     /// Process CPU time over the run's wall time, %.
     pub cpu_percent: f64,

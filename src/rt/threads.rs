@@ -42,7 +42,6 @@ use crate::rt::report::{RunFacts, RunReport};
 use crate::rt::rings::{FEEDBACK_RING, Rings};
 use crate::rt::setup::RtOptions;
 use crate::rt::stop::StopRequest;
-use crate::rt::telemetry::TelemetryObserver;
 use crate::rt::telemetry_thread::{EventSink, Telemetry, Watchers};
 use crate::sensor::{Samples, Sensor, SensorError};
 
@@ -130,12 +129,6 @@ impl<'a, S, W> RunOptions<'a, S, W> {
     /// to `recorder` (`run --record`).
     pub fn recorder(mut self, recorder: &'a mut dyn SessionRecorder) -> Self {
         self.watchers.recorder = Some(recorder);
-        self
-    }
-
-    /// Shows every record and event to `observer` (the display).
-    pub fn observer(mut self, observer: &'a mut dyn TelemetryObserver) -> Self {
-        self.watchers.observer = Some(observer);
         self
     }
 }
