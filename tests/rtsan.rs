@@ -17,7 +17,7 @@ use sipnpuff::control::pipeline::{Pipeline, TickOutput};
 use sipnpuff::control::sample::Sample;
 use sipnpuff::rt::alloc_counter::CountingAllocator;
 use sipnpuff::rt::control_loop::StopReason;
-use sipnpuff::rt::threads::{run_simulated, run_simulated_measured};
+use sipnpuff::rt::simulated::{run_simulated, run_simulated_measured};
 use sipnpuff::sensor::Sensor;
 use sipnpuff::sensor::synthetic::SyntheticSensor;
 use sipnpuff::sim::script::every_path_session;

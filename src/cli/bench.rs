@@ -10,7 +10,7 @@ use crate::cli::args::{ConfigArg, RtArgs, parse_seconds, parse_volts, writable_d
 use crate::cli::output;
 use crate::cli::run::stop_request;
 use crate::rt::control_loop::StopReason;
-use crate::rt::threads::RunOptions;
+use crate::rt::threads::LoopSettings;
 use crate::sensor::synthetic::SyntheticSensor;
 use crate::tools::accuracy::{GridOptions, GridReport, accuracy_grid, grid_table};
 use crate::tools::bench_replay::bench_replay;
@@ -34,11 +34,11 @@ pub enum BenchCommand {
         /// The configuration.
         #[command(flatten)]
         config: ConfigArg,
-        /// Print one JSON object.
+        /// Print one JSON object instead of a table.
         #[arg(long)]
         json: bool,
-        /// Write the histograms in `.hgrm` format here.
-        #[arg(long)]
+        /// Write each histogram in HdrHistogram's `.hgrm` text format here.
+        #[arg(long, value_name = "DIR")]
         histogram_dir: Option<PathBuf>,
         /// Real-time settings.
         #[command(flatten)]
@@ -137,7 +137,7 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<u8> {
             if let Some(dir) = &histogram_dir {
                 writable_dir(dir)?;
             }
-            let options = RunOptions {
+            let settings = LoopSettings {
                 seconds: Some(seconds),
                 rt: rt.options()?,
                 spin_margin_ns: rt.spin_margin_ns(),
@@ -146,7 +146,7 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<u8> {
             // The built-in user, repeated, on the simulated arm.
             let sensor = SyntheticSensor::built_in_user(&config).repeating();
             let arm = Box::new(SimArm::new(config.core()));
-            let run = bench_latency(&config, sensor, arm, seconds, block, options)?;
+            let run = bench_latency(&config, sensor, arm, block, settings)?;
             let report = LatencyReport::of(&run, seconds);
             if json {
                 output::stdout_line(&serde_json::to_string(&report)?)

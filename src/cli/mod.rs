@@ -50,9 +50,9 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// The main job: run the 1 kHz control loop in real time, the built-in
-    /// scripted user on the synthetic sensor driving the simulated arm (or
-    /// a recording), printing events and a final report.
+    /// The main job: run the 1 kHz control loop in real time, a sensor
+    /// driving an arm (by default the built-in scripted user and the
+    /// simulated arm), printing events and a final report.
     Run(run::RunArgs),
     /// Run the core over a recorded signal as fast as possible; print events
     /// as JSON Lines.
@@ -103,4 +103,43 @@ pub fn main() -> ExitCode {
         }
         status
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    use super::Cli;
+
+    /// A help text that starts over after its first sentence ("The arm.
+    /// The arm: …"): two doc lines where one was meant.
+    fn starts_over(help: &str) -> bool {
+        help.split_once(". ")
+            .is_some_and(|(first, rest)| rest.starts_with(first))
+    }
+
+    #[test]
+    fn every_help_text_says_its_start_once() {
+        assert!(starts_over("The arm. The arm: `sim`"));
+        assert!(!starts_over("The arm: `sim`. Settings: `[arm]`"));
+        let mut commands = vec![Cli::command()];
+        let mut checked = 0;
+        while let Some(command) = commands.pop() {
+            let arguments = command
+                .get_arguments()
+                .flat_map(|a| a.get_help().into_iter().chain(a.get_long_help()));
+            let texts = command
+                .get_about()
+                .into_iter()
+                .chain(command.get_long_about())
+                .chain(arguments);
+            for text in texts {
+                let text = text.to_string();
+                assert!(!starts_over(&text), "{}: {text}", command.get_name());
+                checked += 1;
+            }
+            commands.extend(command.get_subcommands().cloned());
+        }
+        assert!(checked > 50, "{checked}");
+    }
 }

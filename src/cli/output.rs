@@ -20,7 +20,7 @@ use std::fmt;
 use std::io::{self, Write};
 
 use crate::control::event::TimedEvent;
-use crate::rt::threads::EventSink;
+use crate::rt::telemetry_thread::EventSink;
 
 /// Completed.
 pub const COMPLETED: u8 = 0;

@@ -18,10 +18,12 @@ use crate::cli::display::{Display, DisplayArgs};
 use crate::cli::output::{self, StdoutEvents, invalid};
 use crate::config::Config;
 use crate::rt::control_loop::StopReason;
+use crate::rt::recorder::SessionRecorder;
 use crate::rt::report::RunReport;
 use crate::rt::signals;
 use crate::rt::stop::StopRequest;
-use crate::rt::threads::{RunOptions, Watchers, run_watched};
+use crate::rt::telemetry_thread::Watchers;
+use crate::rt::threads::{self, LoopSettings, RunOptions};
 use crate::sensor::csv::CsvSensor;
 use crate::sensor::evdev::EvdevSensor;
 use crate::sensor::iio::IioSensor;
@@ -37,7 +39,8 @@ use crate::tools::recording::writer::{MIN_BYTES, RecordOptions};
 pub struct RunArgs {
     #[command(flatten)]
     config: ConfigArg,
-    /// Run this long, s (default: until the scripted user or recording ends).
+    /// Run this long, s (default: until the sensor ends: the scripted user
+    /// or the recording runs out, or a device is lost for good).
     #[arg(long, value_parser = parse_seconds)]
     seconds: Option<f64>,
     /// Where samples come from: `synthetic` (the built-in scripted user),
@@ -50,7 +53,6 @@ pub struct RunArgs {
     /// lists what this machine has).
     #[arg(long, default_value = "synthetic", value_parser = SensorSpec::parse)]
     sensor: SensorSpec,
-    /// The arm.
     /// The arm: `sim` (the simulated JACO2), `ros2:TOPIC` (MoveIt Servo,
     /// ros2_kortex's twist controller, a JACO2 ROS 2 port), `ros1:NAMESPACE`
     /// (kinova-ros's driver, e.g. `ros1:/j2n6s300_driver`; the master from
@@ -62,7 +64,7 @@ pub struct RunArgs {
     #[arg(long, value_enum)]
     interface: Option<InterfaceArg>,
     /// Write each histogram in HdrHistogram's `.hgrm` text format here.
-    #[arg(long)]
+    #[arg(long, value_name = "DIR")]
     histogram_dir: Option<PathBuf>,
     /// Print the final report as one JSON object (after the event lines).
     #[arg(long)]
@@ -133,7 +135,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         },
     });
     let record = record.as_ref();
-    let options = RunOptions {
+    let options = LoopSettings {
         seconds: args.seconds,
         rt: args.rt.options()?,
         spin_margin_ns: args.rt.spin_margin_ns(),
@@ -257,7 +259,7 @@ fn start<S: Sensor>(
     config: &Config,
     sensor: S,
     arm: Box<dyn Arm>,
-    options: &RunOptions,
+    settings: &LoopSettings,
     events: &mut StdoutEvents,
     record: Option<&Record<'_>>,
     display: &Display,
@@ -270,13 +272,15 @@ fn start<S: Sensor>(
         None => None,
     };
     let mut showing = display.start(config.core(), &arm.describe())?;
-    let watchers = Watchers {
-        recorder: recorder
-            .as_mut()
-            .map(|r| r as &mut dyn crate::rt::recorder::SessionRecorder),
-        observer: showing.observer(),
+    let options = RunOptions {
+        watchers: Watchers {
+            events: Some(events),
+            recorder: recorder.as_mut().map(|r| r as &mut dyn SessionRecorder),
+            observer: showing.observer(),
+        },
+        ..RunOptions::new(sensor, arm, settings.clone())
     };
-    let mut result = run_watched(config.core(), sensor, arm, options, events, watchers);
+    let mut result = threads::run(config.core(), options);
     showing.finish(result.as_mut().ok());
     let mut report = result?;
     if let Some(recorder) = recorder {
@@ -395,20 +399,20 @@ mod tests {
     use super::*;
 
     use crate::arm::sim::SimArm;
-    use crate::rt::threads::RunOptions;
+    use crate::rt::setup::RtOptions;
 
     /// A real report of a short run, to vary.
     fn report() -> RunReport {
         let config = Config::default();
-        let options = RunOptions {
+        let settings = LoopSettings {
             seconds: Some(0.05),
-            rt: crate::rt::setup::RtOptions::NONE,
+            rt: RtOptions::NONE,
             spin_margin_ns: None,
             stop: StopRequest::new(),
         };
         let sensor = SyntheticSensor::built_in_user(&config);
         let arm = Box::new(SimArm::new(config.core()));
-        crate::rt::threads::run(config.core(), sensor, arm, &options, &mut |_: &_| {}).unwrap()
+        threads::run(config.core(), RunOptions::new(sensor, arm, settings)).unwrap()
     }
 
     #[test]

@@ -9,7 +9,7 @@
 //! stop when asked. `bench latency` wraps the same `ControlTick` (see
 //! `tools::latency`), so the loop measured is the loop deployed, and the
 //! loop RealtimeSanitizer and the allocation tests check
-//! ([`run_simulated`](super::threads::run_simulated)) is the same code on a
+//! ([`run_simulated`](super::simulated::run_simulated)) is the same code on a
 //! simulated clock.
 
 use std::sync::Arc;

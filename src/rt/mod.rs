@@ -11,8 +11,13 @@
 //! * [`control_loop`]: the 1 kHz loop and the production tick;
 //! * [`core_input`]: the core's whole input on one tick, as recorded;
 //! * [`arm_thread`]: the 100 Hz arm stream;
-//! * [`threads`]: `run`, wiring the threads and rings;
+//! * [`threads`]: `run`, one run's options and its threads; [`rings`]:
+//!   the rings between them;
+//! * [`telemetry_thread`]: the thread that empties the rings for the
+//!   event sink, the recorder and the display;
 //! * [`telemetry`], [`report`]: histograms and the run report;
+//! * [`simulated`]: the same loop on a simulated clock, for RTSan and the
+//!   allocation checks;
 //! * [`recorder`]: the session recorder's seam (`run --record`);
 //! * [`alloc_counter`]: the counting allocator that proves the control
 //!   thread allocates nothing.
@@ -24,9 +29,12 @@ pub mod control_loop;
 pub mod core_input;
 pub mod recorder;
 pub mod report;
+pub mod rings;
 pub mod scheduler;
 pub mod setup;
 pub mod signals;
+pub mod simulated;
 pub mod stop;
 pub mod telemetry;
+pub mod telemetry_thread;
 pub mod threads;

@@ -8,11 +8,14 @@ use serde::Serialize;
 
 use crate::arm::ArmState;
 use crate::control::motion::stream::ArmCommand;
-use crate::rt::control_loop::StopReason;
+use crate::rt::arm_thread::ArmReport;
+use crate::rt::control_loop::{LoopResult, StopReason};
 use crate::rt::recorder::RecordingReport;
 use crate::rt::scheduler::SchedulerStats;
 use crate::rt::setup::Setting;
 use crate::rt::telemetry::{Drops, Latencies, Percentiles, at, write_hgrm};
+use crate::rt::telemetry_thread::TelemetryReport;
+use crate::sensor::SensorError;
 
 /// What a run did.
 #[derive(Debug, Clone, Serialize)]
@@ -86,7 +89,79 @@ pub struct RunReport {
     pub arm_fault: Option<String>,
 }
 
+/// What the run itself saw, besides its threads' figures.
+#[derive(Debug)]
+pub struct RunFacts {
+    /// The sensor, as it describes itself.
+    pub sensor: String,
+    /// The arm, as it describes itself.
+    pub arm_name: String,
+    /// The arm reports a measured pose.
+    pub arm_measured: bool,
+    /// Why the sensor's producer failed, if it did.
+    pub sensor_error: Option<SensorError>,
+    /// Process CPU time over the run's wall time, %.
+    pub cpu_percent: f64,
+}
+
 impl RunReport {
+    /// The report of a finished run, from what each part knows: the run
+    /// itself, the control loop (with its work), the telemetry thread and
+    /// the arm thread. What went wrong at the edges is gathered into
+    /// `errors`: the sensor's failure, the arm's error, or else the core's
+    /// own arm fault. No recording and no display yet: their owners add
+    /// them.
+    pub fn new(
+        run: RunFacts,
+        looped: LoopResult,
+        telemetry: TelemetryReport,
+        arm: ArmReport,
+    ) -> RunReport {
+        let work = looped.work;
+        let arm_fault = work.arm_fault.map(|f| f.to_string());
+        let mut errors = Vec::new();
+        if let Some(e) = run.sensor_error {
+            errors.push(format!("sensor: {e}"));
+        }
+        match (&arm.error, &arm_fault) {
+            (Some(e), _) => errors.push(e.to_string()),
+            (None, Some(fault)) => errors.push(format!("arm: {fault}")),
+            (None, None) => {}
+        }
+        RunReport {
+            sensor: run.sensor,
+            arm_name: run.arm_name,
+            settings: looped.settings,
+            preempt_rt: looped.preempt_rt,
+            stats: looped.stats,
+            drift_ticks: looped.drift_ticks,
+            full: telemetry.full,
+            reference: telemetry.reference,
+            drops: looped.drops,
+            control_thread_allocations: looped.allocations,
+            events: telemetry.events,
+            stop_reason: work.stop_reason,
+            arm: arm.state,
+            arm_commands: arm.commands,
+            stream_ended_with_zero: arm.ended_with_zero,
+            last_arm_command: work.last_arm_command,
+            final_velocity: work.final_velocity,
+            velocity_at_stop: work.velocity_at_stop,
+            braking_ticks: work.braking_ticks,
+            output_error: telemetry.output_error,
+            wall_seconds: looped.wall_seconds,
+            cpu_percent: run.cpu_percent,
+            errors,
+            recording: None,
+            display: None,
+            arm_measured: run.arm_measured,
+            measured_poses: work.measured_poses,
+            measured_pose_drops: arm.feedback_drops,
+            largest_correction_m: work.largest_correction_m,
+            arm_fault,
+        }
+    }
+
     /// Full-tick over reference-tick wake-up latency at `quantile` (0 with
     /// no reference ticks).
     pub fn ratio(&self, quantile: f64) -> f64 {

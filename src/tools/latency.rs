@@ -9,13 +9,13 @@ use serde::Serialize;
 
 use crate::arm::Arm;
 use crate::config::Config;
-use crate::control::event::TimedEvent;
-use crate::rt::control_loop::{StopReason, TickOutcome, TickWork, WorkSummary};
+use crate::rt::control_loop::{ControlTick, StopReason, TickOutcome, TickWork, WorkSummary};
 use crate::rt::report::RunReport;
 use crate::rt::scheduler::Wake;
 use crate::rt::telemetry::{Drops, Percentiles};
-use crate::rt::threads::{RunError, RunOptions, Watchers, run_with};
-use crate::sensor::Sensor;
+use crate::rt::telemetry_thread::Watchers;
+use crate::rt::threads::{LoopSettings, RunError, RunOptions, Work, run};
+use crate::sensor::{Samples, Sensor};
 
 /// Alternates blocks of `block` reference ticks (nothing but the wait) and
 /// `block` ticks of the wrapped work; once the work is stopping, every
@@ -62,30 +62,40 @@ impl<W: TickWork> TickWork for Interleaved<W> {
     }
 }
 
-/// Runs `seconds` of `sensor` (a sensor that does not end: the built-in
-/// user, repeated) through the production loop to `arm`, interleaved with
-/// reference ticks.
+/// The work of `bench latency`: the production tick, numbering its own
+/// ticks, in blocks of `block` ticks between blocks of reference ticks.
+#[derive(Debug, Clone, Copy)]
+pub struct Interleave {
+    /// Ticks per block.
+    pub block: u64,
+}
+
+impl<S: Samples + 'static> Work<S> for Interleave {
+    type Tick = Interleaved<ControlTick<S>>;
+
+    fn around(self, tick: ControlTick<S>) -> Self::Tick {
+        Interleaved::new(tick.with_own_tick_count(), self.block)
+    }
+}
+
+/// Runs `sensor` (a sensor that does not end: the built-in user,
+/// repeated) for `settings.seconds` through the production loop to `arm`,
+/// interleaved with reference ticks.
 pub fn bench_latency<S: Sensor>(
     config: &Config,
     sensor: S,
     arm: Box<dyn Arm>,
-    seconds: f64,
     block: u64,
-    options: RunOptions,
+    settings: LoopSettings,
 ) -> Result<RunReport, RunError> {
     let options = RunOptions {
-        seconds: Some(seconds),
-        ..options
-    };
-    run_with(
-        config.core(),
         sensor,
         arm,
-        &options,
-        &mut |_: &TimedEvent| {},
-        Watchers::default(),
-        move |tick| Interleaved::new(tick.with_own_tick_count(), block),
-    )
+        settings,
+        work: Interleave { block },
+        watchers: Watchers::default(),
+    };
+    run(config.core(), options)
 }
 
 /// `bench latency`'s figures (ns), as `--json` prints them.

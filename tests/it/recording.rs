@@ -18,7 +18,7 @@ use sipnpuff::control::sample::Sample;
 use sipnpuff::rt::core_input::CoreInput;
 use sipnpuff::rt::setup::RtOptions;
 use sipnpuff::rt::stop::StopRequest;
-use sipnpuff::rt::threads::{RunOptions, run_recorded};
+use sipnpuff::rt::threads::{LoopSettings, RunOptions, run};
 use sipnpuff::sensor::synthetic::SyntheticSensor;
 use sipnpuff::tools::recording::format::commands::{CommandDecoder, CommandEncoder, CommandItem};
 use sipnpuff::tools::recording::format::samples::{SampleDecoder, SampleEncoder, SampleItem};
@@ -378,21 +378,16 @@ fn a_stalled_writer_drops_and_counts_and_never_holds_up_the_loop() {
         ..RecordOptions::default()
     };
     let mut recorder = Recorder::create(&dir, &config, options).unwrap();
-    let run_options = RunOptions {
+    let settings = LoopSettings {
         seconds: Some(1.5),
         rt: RtOptions::NONE,
         spin_margin_ns: None,
         stop: StopRequest::new(),
     };
-    let mut report = run_recorded(
-        config.core(),
-        SyntheticSensor::built_in_user(&config),
-        Box::new(SimArm::new(config.core())),
-        &run_options,
-        &mut |_: &_| {},
-        &mut recorder,
-    )
-    .unwrap();
+    let sensor = SyntheticSensor::built_in_user(&config);
+    let arm = Box::new(SimArm::new(config.core()));
+    let options = RunOptions::new(sensor, arm, settings).recorder(&mut recorder);
+    let mut report = run(config.core(), options).unwrap();
     let recording = recorder.finish(&mut report);
     let ticks = report.stats.ticks_run;
     assert!(ticks >= 1000, "{:?}", report.stats);
@@ -477,19 +472,15 @@ fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() 
             }
             ticks += 1;
         }
-        let mut report = sipnpuff::rt::threads::run(
-            config.core(),
-            SyntheticSensor::built_in_user(&config),
-            Box::new(SimArm::new(config.core())),
-            &RunOptions {
-                seconds: Some(0.01),
-                rt: RtOptions::NONE,
-                spin_margin_ns: None,
-                stop: StopRequest::new(),
-            },
-            &mut |_: &_| {},
-        )
-        .unwrap();
+        let settings = LoopSettings {
+            seconds: Some(0.01),
+            rt: RtOptions::NONE,
+            spin_margin_ns: None,
+            stop: StopRequest::new(),
+        };
+        let sensor = SyntheticSensor::built_in_user(&config);
+        let arm = Box::new(SimArm::new(config.core()));
+        let mut report = run(config.core(), RunOptions::new(sensor, arm, settings)).unwrap();
         let finished = recorder.finish(&mut report);
         assert!(finished.error.is_none(), "{finished:?}");
         let summary = finished.summary;
@@ -934,7 +925,7 @@ fn a_run_with_a_measuring_arm_replays_bit_for_bit() {
         let dir = Scratch::new();
         let config = Config::default();
         let mut recorder = Recorder::create(&dir, &config, RecordOptions::default()).unwrap();
-        let run_options = RunOptions {
+        let settings = LoopSettings {
             // The silence (after 12 s of commands) ends the run; the limit
             // outlasts a loaded machine's skipped ticks.
             seconds: Some(60.0),
@@ -949,17 +940,14 @@ fn a_run_with_a_measuring_arm_replays_bit_for_bit() {
             silent_after: 1200,
             fresh: true,
         };
-        let mut report = run_recorded(
-            config.core(),
-            SyntheticSensor::built_in_user(&config),
-            Box::new(arm),
-            &run_options,
-            &mut |e: &sipnpuff::control::event::TimedEvent| {
-                printed.push(serde_json::to_string(e).unwrap());
-            },
-            &mut recorder,
-        )
-        .unwrap();
+        let mut print = |e: &sipnpuff::control::event::TimedEvent| {
+            printed.push(serde_json::to_string(e).unwrap());
+        };
+        let sensor = SyntheticSensor::built_in_user(&config);
+        let options = RunOptions::new(sensor, Box::new(arm), settings)
+            .events(&mut print)
+            .recorder(&mut recorder);
+        let mut report = run(config.core(), options).unwrap();
         let recording = recorder.finish(&mut report);
         assert!(recording.summary.complete, "{recording:?}");
         assert!(report.arm_measured && report.measured_poses > 1000);

@@ -20,7 +20,7 @@ use sipnpuff::rt::report::RunReport;
 use sipnpuff::rt::scheduler::Scheduler;
 use sipnpuff::rt::setup::RtOptions;
 use sipnpuff::rt::stop::StopRequest;
-use sipnpuff::rt::threads::{RunOptions, run};
+use sipnpuff::rt::threads::{LoopSettings, RunOptions, run};
 use sipnpuff::sensor::synthetic::SyntheticSensor;
 
 use crate::common::Running;
@@ -119,8 +119,8 @@ fn skipped_ticks_keep_the_cores_timers_true() {
     );
 }
 
-fn options(seconds: f64) -> RunOptions {
-    RunOptions {
+fn settings(seconds: f64) -> LoopSettings {
+    LoopSettings {
         seconds: Some(seconds),
         rt: RtOptions::default(),
         spin_margin_ns: None,
@@ -136,10 +136,7 @@ fn real_run(seconds: f64) -> RunReport {
     let arm = Box::new(SimArm::new(config.core()));
     run(
         config.core(),
-        sensor,
-        arm,
-        &options(seconds),
-        &mut |_: &_| {},
+        RunOptions::new(sensor, arm, settings(seconds)),
     )
     .unwrap()
 }
@@ -337,7 +334,7 @@ fn an_arm_that_refuses_a_command_stops_the_run_safely() {
         calls: calls.clone(),
     });
     let sensor = SyntheticSensor::built_in_user(&config);
-    let report = run(config.core(), sensor, arm, &options(60.0), &mut |_: &_| {}).unwrap();
+    let report = run(config.core(), RunOptions::new(sensor, arm, settings(60.0))).unwrap();
     assert_eq!(report.stop_reason, StopReason::ArmFault);
     assert_eq!(report.errors, ["arm refused a command: over current"]);
     assert!(report.stream_ended_with_zero);
@@ -529,18 +526,13 @@ fn measured_run(arm: Box<MeasuringArm>) -> (RunReport, Vec<String>) {
     let config = Config::default();
     let sensor = SyntheticSensor::built_in_user(&config);
     let mut faults = Vec::new();
-    let report = run(
-        config.core(),
-        sensor,
-        arm,
-        &options(30.0),
-        &mut |e: &sipnpuff::control::event::TimedEvent| {
-            if let Event::ArmFault { reason } = e.event {
-                faults.push(reason.to_string());
-            }
-        },
-    )
-    .unwrap();
+    let mut arm_faults = |e: &sipnpuff::control::event::TimedEvent| {
+        if let Event::ArmFault { reason } = e.event {
+            faults.push(reason.to_string());
+        }
+    };
+    let options = RunOptions::new(sensor, arm, settings(30.0)).events(&mut arm_faults);
+    let report = run(config.core(), options).unwrap();
     (report, faults)
 }
 

@@ -313,7 +313,7 @@ mod tests {
     use crate::control::sample::Sample;
     use crate::rt::setup::RtOptions;
     use crate::rt::stop::StopRequest;
-    use crate::rt::threads::{RunOptions, run};
+    use crate::rt::threads::{LoopSettings, RunOptions, run};
     use crate::sensor::synthetic::SyntheticSensor;
     use crate::tools::recording::format::samples::{SampleDecoder, SampleItem};
     use crate::tools::recording::meta::Meta;
@@ -330,7 +330,7 @@ mod tests {
     /// A real report of a very short run, to finish recordings with.
     fn report() -> RunReport {
         let config = Config::default();
-        let options = RunOptions {
+        let settings = LoopSettings {
             seconds: Some(0.01),
             rt: RtOptions::NONE,
             spin_margin_ns: None,
@@ -338,7 +338,7 @@ mod tests {
         };
         let sensor = SyntheticSensor::built_in_user(&config);
         let arm = Box::new(SimArm::new(config.core()));
-        run(config.core(), sensor, arm, &options, &mut |_: &_| {}).unwrap()
+        run(config.core(), RunOptions::new(sensor, arm, settings)).unwrap()
     }
 
     #[test]
