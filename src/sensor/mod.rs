@@ -7,27 +7,24 @@
 //! tick on the control thread) → **stop** ([`Producer::stop`]: the thread
 //! ends and is joined, and reports any error it met).
 //!
-//! How samples reach the control thread: a backend that reads a device or
-//! file runs a producer thread that pushes into a bounded rtrb ring
-//! ([`ring`]); the control thread takes the sample due each tick (after
-//! skipped ticks, their samples are thrown away), never waits, keeps at
-//! most two queued (a producer running ahead adds at most 2 ms), and
-//! counts what it throws away. After a stall longer than `stale_ms` (the
-//! process stopped, the machine paused) the core faults and the control
-//! thread throws away the whole backlog ([`Samples::discard_backlog`]),
-//! counted. A backend that can compute its
-//! samples without I/O (the synthetic sensor) computes them in the loop.
-//! A tick with no sample gives the core [`Sample::Missing`]: after
-//! `stale_ms` the core faults and the arm brakes.
+//! How samples reach the control thread: a backend that reads a file runs
+//! a producer thread into a bounded ring ([`ring`]), a device's reader
+//! thread holds its latest value ([`held`]), and the synthetic sensor
+//! computes its samples in the loop. The control thread takes the sample
+//! due each tick and never waits; what it throws away is counted: the
+//! samples of skipped ticks, a backlog past two (a producer running ahead
+//! adds at most 2 ms), everything queued over a stall longer than
+//! `stale_ms` ([`Samples::discard_backlog`]). A tick with no sample gives
+//! the core [`Sample::Missing`]: after `stale_ms` the core faults and the
+//! arm brakes.
 //!
 //! Backends: [`synthetic`] (the built-in scripted user), [`csv`]
 //! (recordings played in real time), and the devices: [`evdev`] (USB HID
 //! sip-and-puff devices: an analog axis or switches), [`serial`] (a
 //! microcontroller's stream, the FLipMouse and LipSync dialects) and
-//! [`iio`] (an ADC through the kernel's IIO subsystem). A device's reader
-//! thread holds its latest value for the control thread ([`held`]); its
-//! neutral is measured before anything can move ([`rezero`]); [`listing`]
-//! finds what this machine has (`sipnpuff sensors`).
+//! [`iio`] (an ADC through the kernel's IIO subsystem). A device's neutral
+//! is measured before anything can move ([`rezero`]); [`listing`] finds
+//! what this machine has (`sipnpuff sensors`).
 
 pub mod csv;
 pub mod device;

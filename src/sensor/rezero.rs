@@ -6,10 +6,10 @@
 //! The sensor is at rest when, over `rezero_ms` of samples, no sample is
 //! further from their mean than half the distance to the nearer threshold
 //! (a breath would be), and the mean is within `rezero_max_shift_fraction`
-//! of that distance from the configured neutral (a breath held steady through the whole window
-//! would not be). Until then the measurement starts again and the user is
-//! told why; after `rezero_timeout_ms` it is an error. Not RT-safe: runs
-//! before the control loop starts.
+//! of that distance from the configured neutral (a breath held steady
+//! through the whole window would not be). Until then the measurement
+//! starts again and the user is told why; after `rezero_timeout_ms` it is
+//! an error. Not RT-safe: runs before the control loop starts.
 
 use std::time::{Duration, Instant};
 

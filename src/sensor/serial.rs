@@ -121,7 +121,7 @@ impl LineFormat {
 }
 
 /// Splits a byte stream into lines (ended by CR, LF or both); a line
-/// longer than [`MAX_LINE`] is dropped whole.
+/// longer than 256 bytes is dropped whole (garbage: a wrong baud rate).
 #[derive(Debug, Default)]
 pub struct LineSplitter {
     line: Vec<u8>,

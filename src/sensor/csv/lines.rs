@@ -137,15 +137,12 @@ impl<R: Read> PlainLines<R> {
         }
     }
 
-    /// The next line if it is a tick and a value, `digits,value\n`
-    /// (ASCII digits, a comma, then what `read` reads — it returns the
-    /// value and the bytes it took, stopping at the first it does not —
-    /// followed by a `\n`, all in the buffer): the value, the line
-    /// consumed. `None` leaves the line unread. Such a line, if `read`
-    /// takes only ASCII bytes other than quotes, commas and carriage
-    /// returns, is plain, of two fields and ends in `\n`: what
-    /// [`PlainLines::next_line`] would hand out, found in one pass.
-    #[inline]
+    /// The value of the next line if it is `digits,value\n`, all in the
+    /// buffer (`read` returns the value and the bytes it took), and the
+    /// line consumed; `None` leaves the line unread. If `read` takes only
+    /// ASCII bytes other than quotes, commas and carriage returns, such a
+    /// line is the plain one of two fields [`PlainLines::next_line`] would
+    /// hand out.
     pub(super) fn next_tick_and<T>(
         &mut self,
         read: impl FnOnce(&[u8]) -> Option<(T, usize)>,

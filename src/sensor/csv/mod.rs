@@ -46,27 +46,19 @@ impl fmt::Display for CsvError {
 
 impl std::error::Error for CsvError {}
 
-/// Streams the `volts` column of a CSV recording.
-///
-/// Plain lines (nearly all: see [`lines`]) are split at their commas
-/// without the CSV parser; from the first line that is not plain (a
-/// quote, a lone `\r`, a line longer than the buffer) to the end, and for
-/// the whole file if its header is not plain, the `csv` crate reads the
-/// rest as bytes into one reused record. Either way the row is checked as
-/// UTF-8 and the field trimmed as `csv`'s `Trim::All` on a `StringRecord`
-/// would, so values and errors are what they were (the tests hold the old
-/// reading as their oracle); an error names the line an editor shows the
-/// row on (see [`breaks`]: not the `csv` crate's count); a plain decimal is
-/// parsed by [`parse_volts`]'s exact fast path. A file of `tick,volts`
-/// has its typical line, `digits,decimal\n`, read in one pass
-/// ([`PlainLines::next_tick_and`]) to the value the steps above
-/// would give.
+/// Streams the `volts` column of a CSV recording to the values and errors
+/// the `csv` crate's trimmed `StringRecord`s and std's parser give (the
+/// tests hold those as the oracle), each error on the line an editor
+/// shows. Plain lines, nearly all, are split at their commas without the
+/// parser; from the first that is not (a quote, a lone `\r`, a line
+/// longer than the buffer) to the end, the `csv` crate reads the rest.
 pub struct CsvSignal<R: Read> {
     rows: Rows<R>,
     column: usize,
     /// Fields in the header: every row must have as many.
     fields: usize,
-    /// Two fields, the volts second: a typical line is read in one pass.
+    /// Two fields, the volts second: a typical line, `digits,decimal\n`,
+    /// is read in one pass.
     tick_then_volts: bool,
 }
 
@@ -377,7 +369,6 @@ fn decimal_prefix(bytes: &[u8]) -> Option<(f64, usize)> {
 /// The digits of `bytes` from `at` on, appended to `mantissa` (wrapping
 /// past 19 digits: [`decimal_prefix`] refuses more than 15 significant
 /// ones): where they end, and the mantissa.
-#[inline(always)]
 fn append_digits(bytes: &[u8], mut at: usize, mut mantissa: u64) -> (usize, u64) {
     while let Some(&b) = bytes.get(at) {
         let digit = b.wrapping_sub(b'0');
@@ -485,9 +476,9 @@ fn error(e: &csv::Error, line_of: impl FnOnce(u64) -> u64) -> CsvError {
 mod tests {
     use super::*;
 
-    /// The reading of recordings before the fast path (the `csv` crate's
-    /// trimmed `StringRecord`s and std's parser), each error on the line
-    /// of the row's first byte, counted in the whole text: the oracle.
+    /// The oracle: recordings read by the `csv` crate's trimmed
+    /// `StringRecord`s and std's parser, each error on the line of the
+    /// row's first byte, counted in the whole text.
     struct Oracle<'a> {
         reader: csv::Reader<&'a [u8]>,
         bytes: &'a [u8],
@@ -569,7 +560,7 @@ mod tests {
     }
 
     /// Everything a reader makes of `bytes`: the samples' bits, then the
-    /// error or the end. `Some(capacity)`: today's reading, with plain
+    /// error or the end. `Some(capacity)`: [`CsvSignal`], with plain
     /// lines of at most `capacity` bytes; `None`: the oracle.
     fn outcome(bytes: &[u8], fast: Option<usize>) -> (Vec<u64>, Option<CsvError>) {
         let mut values = Vec::new();
