@@ -1,20 +1,16 @@
 //! `sipnpuff bench replay DIR`: how fast a recorded session replays, read
-//! against the floor every replay of it shares: the core stepped through
-//! the recording's inputs and nothing else.
+//! against its floor: the core stepped through the recording's inputs and
+//! nothing else. Each tick needs the last one's state, so no replay of the
+//! recording, however it does its other work (checking, decoding,
+//! comparing, the simulated arm), can be faster.
 //!
-//! A replay checks the streams, decodes them, steps the core, compares its
-//! events and arm commands with the recorded ones and drives the simulated
-//! arm. Only the core's steps cannot be taken off the critical path (each
-//! tick needs the last one's state), so the core alone bounds what any
-//! replay of this recording can reach, however its other work is done.
-//! Both are measured in this process, in alternating rounds (the machine's
-//! noise falls on both alike), after a round of each that is not counted.
-//! The core-alone rounds decode the inputs a block at a time between
-//! their timed stretches, so memory stays bounded on a day's recording.
-//! They keep the events and a fingerprint of every arm command, checked
-//! after each round against the recording's (or, where the replay was not
-//! identical to the recording, the counts against the replay's): a floor
-//! that did other work than the replay would be no floor.
+//! Whole replays and core-alone rounds alternate in this process, after
+//! one uncounted round of each, so the machine's noise falls on both
+//! alike. The core-alone rounds decode a block of inputs at a time between
+//! their timed stretches (memory stays bounded on a day's recording) and
+//! check their events and arm commands against the recording's (or the
+//! replay's counts, where the replay differs from it): a floor that did
+//! other work than the replay would be no floor.
 
 use std::time::{Duration, Instant};
 
@@ -181,10 +177,10 @@ fn first_other_event(
     Ok(None)
 }
 
-/// A fresh core given exactly the replay's calls ([`give_to_core`]), the inputs decoded a
-/// block at a time outside the timed stretches: the time of its steps,
-/// what they produced, its events (in `events`) and the fingerprint of
-/// its arm commands.
+/// A fresh core given exactly the replay's calls ([`give_to_core`]), the
+/// inputs decoded a block at a time outside the timed stretches: the time
+/// of its steps, what they produced, its events (in `events`) and the
+/// fingerprint of its arm commands.
 fn core_alone(
     recording: &Recording,
     inputs: &mut Vec<SampleItem>,

@@ -1,16 +1,9 @@
-//! `f64`s written exactly as `format!("{}", x)` writes them — the
-//! shortest digits that read back as `x`, never an exponent, `-0`, `NaN`,
-//! `inf` — but several times faster: `ryu` finds the shortest digits and
-//! they are laid out here as std lays them out. Both give the shortest
-//! digits that round-trip, the closest to `x`; they differ only on a tie
-//! (`x` exactly halfway between two shortest candidates: ryu rounds to
-//! even, std up), and a tie needs `x`'s exact decimal expansion to end one
-//! digit after the 17th at the latest — which it cannot when `x` has more
-//! than 25 binary digits after the point (`x = m·2^q`, `m` odd, `q < −25`:
-//! `m·5^−q` has more than 18 digits). Those (the speeds and positions of a
-//! trace) go through ryu; the rest through std. The `--trace` files are
-//! made of these (16 a row, 1000 rows a second of recording); the tests
-//! hold std's own formatting as the oracle.
+//! `f64`s written exactly as `format!("{}", x)` writes them (the shortest
+//! digits that read back as `x`, never an exponent; `-0`, `NaN`, `inf`),
+//! for the `--trace` files: 16 numbers a row, 1000 rows a second of
+//! recording. Where `ryu` is known to give std's digits, it finds them
+//! (faster) and they are laid out as std lays them out; the rest std
+//! writes. The tests hold std's own formatting as the oracle.
 
 /// Appends `x` to `out` as `format!("{x}")` would.
 pub fn push_f64(out: &mut Vec<u8>, x: f64) {
@@ -105,10 +98,15 @@ pub fn push_f64(out: &mut Vec<u8>, x: f64) {
     }
 }
 
-/// `x` (finite, not zero) is `m·2^q` with `m` odd and `q < −25`: its exact
-/// decimal expansion has more than 18 significant digits, so no two
-/// shortest candidates can be equally close to it.
+/// Whether `ryu` gives std's digits for `x` (finite, not zero): `x` is
+/// `m·2^q` with `m` odd and `q < −25`, as a trace's speeds and positions
+/// mostly are.
 fn past_ties(x: f64) -> bool {
+    // Both give the shortest digits that round-trip, the closest to `x`;
+    // they differ only on a tie (`x` exactly halfway between two shortest
+    // candidates: ryu rounds to even, std up). A tie needs `x`'s exact
+    // decimal expansion to end one digit after the 17th at the latest;
+    // with `q < −25` it has more than 18 significant digits (`m·5^−q`).
     let bits = x.to_bits();
     let field = ((bits >> 52) & 0x7ff) as i32;
     let fraction = bits & ((1 << 52) - 1);

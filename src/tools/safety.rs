@@ -132,7 +132,6 @@ impl SafetyMonitor {
     }
 
     fn check_motion(&mut self, o: &MotionOutput) -> Result<(), String> {
-        // (Borrowed, not copied: the fuzzer checks every tick.)
         let m = self.config.motion();
         let w = self.config.workspace();
         let p = o.pose.translation.vector;

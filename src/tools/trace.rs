@@ -11,13 +11,11 @@ use crate::tools::float_text::push_f64;
 /// Header of the `--trace` CSV.
 pub const TRACE_HEADER: &str = "tick,mode,vx,vy,vz,wx,wy,wz,fingers_vel,x,y,z,rx,ry,rz,fingers";
 
-/// Writes trace rows: the core's 1 kHz commanded twist (base frame) and
-/// the simulated arm's pose, one row a tick. The numbers are written as
-/// `format!("{}")`
-/// writes them ([`push_f64`]). One line is reused from row to row, and
-/// the twist's and the pose's columns are laid out again only when they
-/// changed: at rest, and at a steady speed, they are the previous row's,
-/// the same bits giving the same text.
+/// Writes trace rows: per tick, the core's 1 kHz commanded twist (base
+/// frame) and the simulated arm's pose, the numbers as `format!("{}")`
+/// writes them ([`push_f64`]). The twist's and the pose's text is laid
+/// out again only when their bits change: the same bits give the same
+/// text, and at rest or at a steady speed they do not change.
 #[derive(Debug, Default)]
 pub struct TraceRows {
     line: Vec<u8>,

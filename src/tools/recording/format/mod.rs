@@ -43,8 +43,7 @@ pub mod commands;
 pub mod samples;
 
 /// The version of both streams this build writes; it reads every version
-/// up to it (version 2 added the arm's ops, 0x09–0x0b; a version 1 file
-/// has none).
+/// up to it (a version 1 file has none of the arm's ops, 0x09–0x0b).
 pub const FORMAT_VERSION: u8 = 2;
 /// Every stream starts with these bytes.
 pub const MAGIC: &[u8; 8] = b"SIPNPUFF";
@@ -194,9 +193,8 @@ impl std::error::Error for FormatError {}
 /// Bytes read at a time.
 const READ_SIZE: usize = 1 << 16;
 
-/// Reads bytes, counting the offset and the CRC. Reads `READ_SIZE` bytes
-/// at a time and adds them to the CRC a buffer at a time (not a call per
-/// byte: the recording is read twice, checked then replayed).
+/// Reads bytes, counting the offset and the CRC: [`READ_SIZE`] bytes at
+/// a time, added to the CRC a buffer at a time.
 pub(super) struct Bytes<R: Read> {
     input: R,
     buf: Box<[u8]>,
@@ -241,7 +239,6 @@ impl<R: Read> Bytes<R> {
     }
 
     /// The next byte, `None` at the end of the file.
-    #[inline]
     pub(super) fn next(&mut self) -> Result<Option<u8>, FormatError> {
         if self.pos == self.len && !self.refill()? {
             return Ok(None);
@@ -278,7 +275,6 @@ impl<R: Read> Bytes<R> {
     /// the buffer (a noisy sensor's every tick: one `VALUE` op): its
     /// value, taken without a check per byte. `None` leaves everything
     /// as it was, for the op to be read the long way.
-    #[inline]
     pub(super) fn take_u64_op(&mut self, tag: u8) -> Option<u64> {
         match self.buf[self.pos..self.len].first_chunk::<9>() {
             Some(&[t, b0, b1, b2, b3, b4, b5, b6, b7]) if t == tag => {

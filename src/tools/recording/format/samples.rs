@@ -175,7 +175,6 @@ impl<R: Read> SampleDecoder<R> {
         })
     }
 
-    #[inline]
     fn tick(&mut self, sample: Sample) -> SampleItem {
         let tick = self.next_tick;
         self.next_tick = tick.wrapping_add(1);
@@ -188,7 +187,6 @@ impl<R: Read> SampleDecoder<R> {
     }
 
     /// The next item; `Ok(None)` after a valid end marker.
-    #[inline]
     pub fn next_item(&mut self) -> Result<Option<SampleItem>, FormatError> {
         if let Some((left, sample)) = self.run {
             self.run = (left > 1).then_some((left - 1, sample));
@@ -204,7 +202,6 @@ impl<R: Read> SampleDecoder<R> {
     }
 
     /// [`SampleDecoder::next_item`] from the next op, read the long way.
-    #[inline(never)]
     fn next_op(&mut self) -> Result<Option<SampleItem>, FormatError> {
         if self.ended {
             return Ok(None);
