@@ -137,7 +137,7 @@ pub struct KinovaSdkSettings {
     /// thread's check, not a timeout inside the library). The JACO2 itself
     /// stops when points stop arriving; this decides when the core is
     /// told. Long enough for a normal thread's scheduling delays on a
-    /// loaded machine (80 ms were seen here).
+    /// loaded machine (up to 80 ms measured).
     pub call_timeout_ms: u32,
     /// `kinova-sdk:eth`: this machine's address on the arm's network.
     pub local_ip: String,

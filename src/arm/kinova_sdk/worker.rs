@@ -8,7 +8,8 @@
 //! Its state for the arm thread: the newest measured state and the first
 //! failure in [`Shared`] (a mutex held only to copy them), and the call in
 //! progress with its start in two atomics, so the arm thread can tell a
-//! hanging call within [`super::KinovaSdkArm::check_link`]'s poll.
+//! hanging call within [`Arm::check_link`](crate::arm::Arm::check_link)'s
+//! poll.
 
 use std::ffi::c_int;
 use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};

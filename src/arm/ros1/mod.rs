@@ -11,18 +11,14 @@
 //! `/sipnpuff` (a second one registering the name shuts the first down:
 //! a fault there).
 //!
-//! Why not a crate (both read at their current releases): roslibrust
-//! 0.26's publisher cannot tell whether a subscriber is connected (its
-//! `has_connected_clients` counts the broadcast receiver its own accept
-//! task holds, so it is always true), says nothing when one goes away,
-//! and its `publish` only queues (a lagging connection skips messages), so
-//! neither the wait for the driver, nor the link check, nor "the zero was
-//! written" can be built on it. rosrust 0.9.12 is a process-wide
-//! singleton that takes SIGINT unless told not to, notices a closed
-//! subscriber only after a failed write in its own thread, and cannot
-//! flush. What is needed here is small: `session.rs` (connect, shut
-//! down), `node.rs` (master and slave APIs), `tcpros.rs`, `xmlrpc.rs`,
-//! `msg.rs`.
+//! Our own client because the wait for the driver, the link check and
+//! "the zero was written" need a publisher that knows its subscribers:
+//! roslibrust 0.26's always reports one connected, says nothing when one
+//! goes away and only queues on `publish`; rosrust 0.9.12 is a
+//! process-wide singleton that takes SIGINT, sees a closed subscriber only
+//! after a failed write and cannot flush. The client is small:
+//! `session.rs` (connect, shut down), `node.rs` (master and slave APIs),
+//! `tcpros.rs`, `xmlrpc.rs`, `msg.rs`.
 
 mod msg;
 mod node;

@@ -459,8 +459,8 @@ impl Drop for Ros2Arm {
 
 /// Drops `value` on a thread of its own and waits up to `limit` for the
 /// drop to finish: whether it did. A drop that hangs is left running (the
-/// process's exit ends it). If no thread can be started, the value has
-/// been dropped here, unbounded, as it always was.
+/// process's exit ends it). If no thread can be started, the value is
+/// dropped here, without a bound.
 fn drop_within<T: Send + 'static>(value: T, limit: Duration) -> bool {
     let (done_tx, done_rx) = std::sync::mpsc::channel();
     let closing = std::thread::Builder::new()
