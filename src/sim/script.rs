@@ -278,10 +278,11 @@ pub fn random_session_with(
 
 /// A noisy session of about 150 s that takes every path of the core
 /// (bursts, matches, resets on timeout and at once, mode changes, faults
-/// and recoveries, a stuck breath and two re-zeroes) and of the motion layer (every mode, save and go to
-/// point, the finger end and the reach limit, braking after a fault):
-/// a random user, the demo user twice, then faults and broken sequences.
-/// The allocation and RealtimeSanitizer checks run it.
+/// and recoveries, a stuck breath and two re-zeroes) and of the motion
+/// layer (every mode, save and go to point, the finger end and the reach
+/// limit, braking after a fault): a random user, the demo user twice, then
+/// faults and broken sequences. The allocation and RealtimeSanitizer
+/// checks run it.
 pub fn every_path_session(config: &Config) -> (SignalParams, Vec<Step>) {
     let params = SignalParams::clean(config.core().detector(), 11)
         .with_noise(0.08)

@@ -311,8 +311,8 @@ impl<'a> SignalGenerator<'a> {
                 let height = p.breath_volts * (1.0 + jitter);
                 let ramp = self.rng.random_range(p.ramp_ms.0..=p.ramp_ms.1);
                 let shape = Shape::new(p, breath, ms, height, ramp);
-                // Drawn only when used, so signals without wander stay as
-                // they were.
+                // Drawn only when used: a signal without wander draws the
+                // same numbers for a seed as if the option did not exist.
                 if p.wander_volts > 0.0 {
                     self.wander_phase = self.rng.random_range(0.0..2.0 * PI);
                 }

@@ -54,18 +54,17 @@ pub struct UserModel {
 }
 
 impl UserModel {
-    /// The population the study draws its participants from (healthy
-    /// adults after ten minutes of practice, as in the paper). Simple
-    /// visual reaction times of healthy adults are about 0.2–0.3 s; a user
-    /// who must also judge the highlight is slower, so 0.45 ± 0.12 s is
-    /// assumed. Short and long bursts sit well inside the default 40 ms
-    /// and 500 ms boundaries (150 ± 35 ms, 800 ± 120 ms: a long one falls
-    /// under 500 ms about once in 160). Error and miss rates are
-    /// assumptions: the paper reports that participants missed modes
-    /// during the auto-scroll without giving a rate. The sensitivity
-    /// sweep shows how much each matters.
+    /// The population the study draws its participants from: healthy
+    /// adults after ten minutes of practice, as in the paper. Its error and
+    /// miss rates are assumptions (the paper reports missed modes during
+    /// the auto-scroll without a rate); the sensitivity sweep shows how
+    /// much each matters.
     pub const POPULATION: UserModel = UserModel {
+        // Simple visual reaction is about 0.2–0.3 s in healthy adults; a
+        // user who must also judge the highlight is slower.
         reaction_ms: (450.0, 120.0),
+        // Well inside the default 40 ms and 500 ms boundaries: a long
+        // burst falls under 500 ms about once in 160.
         short_ms: (150.0, 35.0),
         long_ms: (800.0, 120.0),
         gap_ms: (300.0, 60.0),
@@ -251,7 +250,8 @@ impl Agent<'_> {
                         // may also slip and start the selection too early.
                         let asp = self.config.core().interface() == Interface::Asp;
                         let direct = asp && self.switches_from_command_mode(step.mode);
-                        // (No draw at a zero rate: the paper's study stays as it was.)
+                        // (No draw at a zero rate: a population that never
+                        // slips draws the same numbers as without the option.)
                         let slip = asp
                             && !direct
                             && self.user.slip_rate > 0.0

@@ -333,7 +333,8 @@ pub enum SweepParam {
 }
 
 impl SweepParam {
-    /// `bsp-dwell`, `asp-timeout`, `error-rate` or `library`.
+    /// `bsp-dwell`, `asp-timeout`, `error-rate`, `library` or
+    /// `motion-onset`.
     pub const fn name(self) -> &'static str {
         match self {
             SweepParam::BspDwell => "bsp-dwell",
