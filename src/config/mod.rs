@@ -11,8 +11,8 @@
 //!   missing keys; `names`: values given by name or action code;
 //! * [`validate`]: the checks, on typed values;
 //! * `defaults`: the built-in configuration;
-//! * [`print`]: the effective configuration back as TOML, through the
-//!   same layout.
+//! * [`print`](mod@print): the effective configuration back as TOML,
+//!   through the same layout.
 
 mod defaults;
 pub mod error;

@@ -1,5 +1,5 @@
 //! The effective configuration as TOML: every section and key, written
-//! through the file's serde layout ([`File`]) that reading uses too (so
+//! through the file's serde layout (`File`) that reading uses too (so
 //! nothing can be left out or named twice), with the sequence table as
 //! comments. `--config` reads it back to the same configuration.
 

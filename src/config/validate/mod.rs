@@ -4,10 +4,9 @@
 //! and on a configuration changed in code (`Config::with_*`), so no way
 //! of building a `Config` skips them.
 //!
-//! One file per part of the file: [`detector`], [`selection`] (matcher,
-//! command mode, scanning, the library), [`motion`] (limits and
-//! workspace), [`arm`] (power-up pose, measured-pose checks, backends) and
-//! [`sensor`].
+//! One file per part of the file: `detector`, `selection` (matcher,
+//! command mode, scanning, the library), `motion` (limits and workspace),
+//! `arm` (power-up pose, measured-pose checks, backends) and `sensor`.
 
 mod arm;
 mod detector;
