@@ -35,7 +35,8 @@ pub struct Published {
     pub seq: u64,
     /// The frame.
     pub frame: Frame,
-    /// [`Wire`] as JSON: what a page receives.
+    /// The frame on the wire as JSON (with the last event's tick and wake
+    /// time, and when it was sent): what a page receives.
     pub json: String,
 }
 

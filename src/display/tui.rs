@@ -4,7 +4,7 @@
 //! that redraws the terminal from the [`Feed`].
 //!
 //! The terminal is not put in raw mode: Ctrl-C still sends SIGINT, which
-//! stops the run safely as it always does.
+//! stops the run safely.
 
 use std::io::{self, Write};
 use std::sync::Arc;
