@@ -802,13 +802,12 @@ impl BurstDetector {
         past.max(0.0)
     }
 
-    /// Called only for samples at rest (between the thresholds, no crossing
-    /// pending): every such sample is ambient pressure. A narrower band
-    /// would let the estimate fall outside it during fast drift and stop
-    /// tracking for good.
-    ///
-    /// Samples go through a delay line; one is used once the signal has
-    /// been at rest for a whole delay before it and a whole delay after it.
+    /// Feeds the neutral tracker a sample at rest (between the thresholds):
+    /// every such sample is ambient pressure (a narrower band would let
+    /// the estimate fall outside it in fast drift and stop tracking for
+    /// good). Samples pass a delay line of [`TRACKING_DELAY_MS`]; one moves
+    /// the estimate once the signal has been at rest a whole delay before
+    /// and after it.
     fn track_neutral(&mut self, now: Tick, volts: f64) {
         let slot = (now % TRACKING_DELAY_MS as u64) as usize;
         self.quiet_ticks += 1;
@@ -848,14 +847,12 @@ mod tests {
     }
 
     proptest::proptest! {
-        /// The rest step is the whole step: over runs of samples near the
-        /// neutral (long enough for it to be tracked), breaths, the exact
-        /// thresholds and range limits, NaN and infinities, on ticks that
-        /// follow, repeat, skip and stall, with ticks of no sample and of
-        /// a device gone among them, a detector that takes it and
-        /// one that never does give the same output every tick and hold
-        /// the same state (the neutral's delay line included), floats
-        /// bit for bit (`Debug` writes `-0.0`).
+        /// The rest step is the whole step: a detector that takes it and
+        /// one that never does give the same output every tick and the
+        /// same state (by `Debug`: the delay line and `-0.0` included),
+        /// over runs of samples near the neutral, breaths, exact thresholds
+        /// and range limits, NaN and infinities, on ticks that follow,
+        /// repeat, skip and stall, with missing samples and a device gone.
         #[test]
         fn the_rest_step_is_the_whole_step(
             runs in proptest::collection::vec((

@@ -227,8 +227,7 @@ impl Pipeline {
         self.process(now, detected, out);
     }
 
-    /// One tick into `out` (built in the caller's frame: the large output
-    /// is never copied on its way out).
+    /// One tick, the detector's output taken, written into `out`.
     fn process(&mut self, now: Tick, detected: DetectorOutput, out: &mut TickOutput) {
         let gap = self.last_tick.map(|last| now.saturating_sub(last));
         self.last_tick = Some(now);

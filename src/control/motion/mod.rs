@@ -1058,8 +1058,8 @@ mod tests {
         );
     }
 
-    /// Defect a's second half: when the planner fails, the arm must still
-    /// brake within the jerk and acceleration limits until still.
+    /// When the planner fails, the arm still brakes within the jerk and
+    /// acceleration limits until still.
     #[test]
     fn a_planner_failure_brakes_within_the_limits_until_still() {
         let mut m = motion();
