@@ -8,9 +8,10 @@
 //! * `matcher_per_burst/{9,64,256}`: bursts entering every sequence of a
 //!   prefix-free library in turn (the built-in 9; all 64 sequences of 3
 //!   actions; all 256 of 4): the CS compared with the whole library.
-//! * `ruckig/*`: one `rsruckig` update, six axes, as the motion layer uses
-//!   it: velocity interface steady (same target) and on a new target every
-//!   update; position interface (go to point) on a new target.
+//! * `ruckig/*`: one `rsruckig` update of six degrees of freedom (more
+//!   than a motion channel holds): velocity interface steady (same target)
+//!   and on a new target every update; position interface (go to point) on
+//!   a new target.
 //! * `tick/*`: one full tick (detector → matcher → modes → Ruckig →
 //!   100 Hz decimation → simulated arm): at rest (no breath, the arm
 //!   still; against one sample's bare threshold test); steady, holding a

@@ -1,9 +1,9 @@
 //! Arbitrary sample streams (levels anywhere in and out of 0–5 V, NaN,
-//! infinities, missing samples, a device gone) through the whole core and motion layer,
-//! with the built-in library or the paper's (with prefixes), and process
-//! stalls (ticks that jump ahead): never a panic; matches only from the
-//! library; nothing but finite numbers reaching the arm; and the safety
-//! monitor's promises at every tick (`sipnpuff::tools::safety`: the
+//! infinities, missing samples, a device gone) through the whole core and
+//! motion layer, with the built-in library or the paper's (with prefixes),
+//! and process stalls (ticks that jump ahead): never a panic; matches only
+//! from the library; nothing but finite numbers reaching the arm; and the
+//! safety monitor's promises at every tick (`sipnpuff::tools::safety`: the
 //! workspace by the margin as a normal distance, the orientation limits,
 //! speed, acceleration and jerk vectors within the limits, still within
 //! the stopping time after every release and fault).

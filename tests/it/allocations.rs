@@ -1,10 +1,9 @@
 //! Zero heap allocation after construction, proven with a counting global
-//! allocator over a long noisy session that exercises every path of the core
-//! (bursts, matches, resets, waits, mode changes, faults, recoveries, a
-//! stuck breath and its re-zero) and
-//! of the motion layer (every mode, save and go to point, workspace and
-//! finger limits, braking after faults, the 100 Hz stream) and the
-//! simulated arm.
+//! allocator over a long noisy session that exercises every path of the
+//! core (bursts, matches, resets, waits, mode changes, faults, recoveries,
+//! a stuck breath and its re-zero), of the motion layer (every mode, save
+//! and go to point, workspace and finger limits, braking after faults, the
+//! 100 Hz stream) and of the simulated arm.
 
 use crate::common::TickByTick;
 use sipnpuff::arm::sim::SimulatedJaco;

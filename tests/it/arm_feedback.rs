@@ -1,4 +1,4 @@
-//! Measured-pose feedback through the whole pipeline (issue 13, part 2):
+//! Measured-pose feedback through the whole pipeline:
 //! scripted breaths drive the core; a model of a *real* arm executes its
 //! 100 Hz commands — perhaps faster or slower than commanded, blocked, or
 //! pushed by hand — and reports its measured pose every 10 ms, late by a

@@ -1,5 +1,5 @@
-//! Issue 11 (e, g): a breath held too long is a stuck sensor, and a stall
-//! of the process is a fault, both seen through the whole pipeline.
+//! A breath held too long is a stuck sensor, and a stall of the process
+//! is a fault, both seen through the whole pipeline.
 
 use crate::common::TickByTick;
 use sipnpuff::config::Config;

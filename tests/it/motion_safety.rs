@@ -1,9 +1,11 @@
-//! The motion-safety defects of the adversarial review (issue 11), each
-//! reproduced through the whole pipeline — scripted breaths, the detector,
-//! the matcher, the mode machine, motion and the simulated JACO — and
-//! checked tick by tick by the motion invariants (`motion::check_invariants`:
-//! limits as vectors, the stop margin as a normal distance, stopping after
-//! every release and fault).
+//! Motion-safety scenarios (a go-to or a new direction asked while the
+//! arm brakes, two axes at once, slanted approaches to the boundaries, the
+//! orientation limits, the stop after a release), each through the whole
+//! pipeline — scripted breaths, the detector, the matcher, the mode
+//! machine, motion and the simulated JACO — and checked tick by tick by
+//! the motion invariants (`motion::check_invariants`: limits as vectors,
+//! the stop margin as a normal distance, stopping after every release and
+//! fault).
 
 use nalgebra::Vector3;
 use sipnpuff::config::Config;

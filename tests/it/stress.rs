@@ -1,12 +1,12 @@
 //! Stress tests with synthetic burst signals: scripted users on the seeded
 //! generator at the edges of what the detector must handle: bursts at the
 //! length boundaries, fast trains, ten-second holds (longer than
-//! `max_hold_ms`: each one stuck fault, never a burst), noise σ = 0.1 V, 50 Hz
-//! hum of 0.2 V, a rail spike every 100 ms (inside bursts too), neutral
-//! drift of 0.5 V a minute, breaths saturating at 0 and 5 V, and NaN
-//! dropouts. More than 10 million ticks in all (the lower bounds the tests
-//! assert add up to 10.3 million), each through the whole
-//! core (detector, matcher, modes, motion). Every scripted burst must be
+//! `max_hold_ms`: each one stuck fault, never a burst), noise σ = 0.1 V,
+//! 50 Hz hum of 0.2 V, a rail spike every 100 ms (inside bursts too),
+//! neutral drift of 0.5 V a minute, breaths saturating at 0 and 5 V, and
+//! NaN dropouts. More than 10 million ticks in all (the lower bounds the
+//! tests assert add up to 10.3 million), each through the whole core
+//! (detector, matcher, modes, motion). Every scripted burst must be
 //! detected exactly once as the right action, every scripted selection
 //! matched (or reset, where the script says so), no burst invented, and
 //! `Pipeline::step` must not allocate.

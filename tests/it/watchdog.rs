@@ -5,8 +5,7 @@
 //! stack, and its user-space stacks when gdb is installed) and killed. The
 //! test's own wait ([`wait`], [`wait_with_output`], [`output`]) then
 //! returns and fails the test naming the process and where it hung,
-//! instead of the whole test run waiting for CI's limit: the CI of 4748c25
-//! sat 80 minutes in `arm_ros2`'s stop test and said nothing.
+//! instead of the whole test run waiting silently for CI's limit.
 //!
 //! One thread watches every registered child. It reports on the process's
 //! stderr directly (not through the test harness's capture, which belongs
