@@ -304,13 +304,11 @@ fn read_volts(
     })
 }
 
-/// `text` as `f64`, exactly as `str::parse::<f64>` reads it (`None`
-/// where it fails). A plain decimal — an optional sign, at most 15
-/// significant digits, at most 22 after the point, no exponent, which is
-/// how recordings write volts — takes the exact fast path: its digits `m`
-/// and `10^k` are both exact in `f64`, so the one division `m / 10^k` is
-/// correctly rounded, as std's parser is (Clinger's fast path).
-/// Anything else goes to std.
+/// `text` as `f64`, exactly as `str::parse::<f64>` reads it (`None` where
+/// it fails). A plain decimal (an optional sign, at most 15 significant
+/// digits, at most 22 after the point, no exponent: how recordings write
+/// volts) is one correctly rounded division `m / 10^k` of two values exact
+/// in `f64` (Clinger's fast path); anything else goes to std.
 pub fn parse_volts(text: &str) -> Option<f64> {
     fast_decimal(text.as_bytes()).or_else(|| text.parse().ok())
 }
