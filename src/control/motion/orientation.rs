@@ -3,14 +3,9 @@
 //! that axis (the twist of a swing–twist decomposition relative to home)
 //! within ±`max_twist_rad`. Pure geometry, RT-safe.
 //!
-//! The motion layer turns the tool about one fixed axis at a time, so the
-//! question it asks is one-dimensional: how far can the tool turn about
-//! this axis before a limit is reached? Both answers are closed forms.
-//! Tilt: the tool axis sweeps a cone about the turning axis, and its dot
-//! product with the home axis is `c + A cos φ + B sin φ`. Twist: the
-//! relative rotation is `cos(φ/2) P + sin(φ/2) Q` as a quaternion, and the
-//! twist reaches ±ψ where its (w, z) components cross the line at angle
-//! ψ/2, a linear equation in `cos(φ/2)`, `sin(φ/2)`.
+//! The motion layer turns the tool about one fixed axis at a time, so it
+//! asks how far the tool may turn about that axis before a limit is
+//! reached ([`room`]): for the tilt and for the twist, a closed form.
 
 use std::f64::consts::PI;
 
@@ -97,7 +92,9 @@ impl RoomGeometry {
     fn tilt_room(&self, rotation: &UnitQuaternion<f64>, u: &Vector3<f64>) -> f64 {
         let z0 = rotation * Vector3::z();
         let zh = self.home_axis;
-        // z(φ)·zh = c + A cos φ + B sin φ (Rodrigues' formula).
+        // The tool axis sweeps a cone about `u`; after a turn φ its dot
+        // product with the home axis is z(φ)·zh = c + A cos φ + B sin φ
+        // (Rodrigues' formula).
         let c = u.dot(&z0) * u.dot(&zh);
         let a = z0.dot(&zh) - c;
         let b = u.cross(&z0).dot(&zh);
@@ -114,6 +111,10 @@ impl RoomGeometry {
 
     /// First turn about `u` at which the twist reaches ±its limit.
     fn twist_room(&self, rotation: &UnitQuaternion<f64>, u: &Vector3<f64>) -> f64 {
+        // After a turn φ the rotation relative to home is the quaternion
+        // cos(φ/2) P + sin(φ/2) Q; the twist reaches ±ψ where its (w, z)
+        // components cross the line at angle ±ψ/2, an equation linear in
+        // cos(φ/2) and sin(φ/2).
         let p = self.to_home * rotation.quaternion();
         let q = self.to_home * Quaternion::from_imag(*u) * rotation.quaternion();
         let mut best = f64::INFINITY;
