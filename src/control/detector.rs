@@ -840,7 +840,7 @@ mod tests {
     }
 
     /// A detector that takes the rest step and one that never does.
-    fn fast_and_whole(config: &DetectorConfig) -> (BurstDetector, BurstDetector) {
+    fn with_and_without_rest_step(config: &DetectorConfig) -> (BurstDetector, BurstDetector) {
         let mut whole = BurstDetector::new(config);
         whole.use_reference_path();
         (BurstDetector::new(config), whole)
@@ -880,7 +880,7 @@ mod tests {
                 config.neutral_tracking_ms = 20;
                 config.glitch_ms = 0;
             }
-            let (mut fast, mut whole) = fast_and_whole(&config);
+            let (mut fast, mut whole) = with_and_without_rest_step(&config);
             let mut tick = 0u64;
             for (delta, volts, repeat, no_sample) in runs {
                 tick += delta;
@@ -898,7 +898,7 @@ mod tests {
 
     #[test]
     fn a_day_at_rest_takes_the_rest_step() {
-        let (mut fast, mut whole) = fast_and_whole(&DetectorConfig::default());
+        let (mut fast, mut whole) = with_and_without_rest_step(&DetectorConfig::default());
         for t in 0..10_000 {
             // Noise about the neutral, inside the thresholds.
             let volts = 2.5 + 0.2 * ((t as f64) * 0.37).sin();

@@ -29,7 +29,7 @@ use crate::rt::scheduler::Scheduler;
 pub const ARM_POLL_NS: u64 = 1_000_000;
 
 /// A connected arm whose stream must end with a zero command: done by
-/// [`ArmStream::end`], or, on any other way out (an early return, a panic),
+/// `ArmStream::end`, or, on any other way out (an early return, a panic),
 /// when it is dropped.
 pub struct ArmStream {
     arm: Box<dyn Arm>,

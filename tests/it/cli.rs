@@ -241,7 +241,7 @@ fn bench_accuracy_json_has_every_field_of_the_tally() {
 
 // ---------------------------------------------------------------- exits
 //
-// Every way `run` stops brakes and reports (issue 11 h). These spawn the
+// Every way `run` stops brakes and reports. These spawn the
 // real binary with the synthetic sensor, whose scripted user selects
 // `translate_x` and then holds a 1.5 s puff: the arm moves forward. Waits
 // are for events, never wall-clock bounds on the run.

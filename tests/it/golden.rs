@@ -77,7 +77,7 @@ fn fixtures_are_what_the_generator_makes() {
     );
 }
 
-/// `replay --trace`: the header, one row per tick, numbers that
+/// `replay --trace`: the trace's header, one row per tick, numbers that
 /// parse, the mode by name.
 #[test]
 fn trace_has_a_row_per_tick() {

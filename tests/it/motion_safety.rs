@@ -139,7 +139,7 @@ fn goto_pressed_while_braking_stays_inside_and_within_the_limits() {
     assert!(started > pressed && speed(&trace[started - 1]) == 0.0);
 }
 
-/// Defect a with a short inactivity timeout and goto_point on [1, 1]: a
+/// A short inactivity timeout and goto_point on [1, 1]: a
 /// fast selection lands while the arm brakes from full speed.
 #[test]
 fn a_fast_goto_selection_while_braking_stays_inside() {
@@ -177,7 +177,7 @@ fn a_fast_goto_selection_while_braking_stays_inside() {
     check_invariants(&config, &trace);
 }
 
-/// Defect b (and c): drive down to the table, then translate_x at full
+/// Drive down to the table, then translate_x at full
 /// speed, one NaN sample, rest for `fault_recovery_ms`, select translate_z
 /// with two 45 ms sips and hold a sip while x still brakes.
 fn new_direction_while_braking(fault_recovery_ms: u32, then: [Action; 2]) -> (Config, Vec<Record>) {
@@ -235,7 +235,7 @@ fn two_axes_at_once_stay_within_the_vector_limits() {
     check_invariants(&config, &trace);
 }
 
-/// Defect d: the stop margin is a normal distance, whatever the direction
+/// The stop margin is a normal distance, whatever the direction
 /// of travel: a slanted approach to the reach sphere, a grazing approach
 /// to the base sphere, skimming over it.
 #[test]
@@ -278,7 +278,7 @@ fn tilt_and_twist(config: &Config, r: &Record) -> (f64, f64) {
     (tilt, twist)
 }
 
-/// Defect f: rotations stop inside the orientation limits, braking, with
+/// Rotations stop inside the orientation limits, braking, with
 /// an event.
 #[test]
 fn rotations_stop_at_the_orientation_limits() {
@@ -318,7 +318,7 @@ fn rotations_stop_at_the_orientation_limits() {
     }
 }
 
-/// Defect i: after a release the speed rises by at most 10 % of the full
+/// After a release the speed rises by at most 10 % of the full
 /// speed, and a release at full speed is still within v/A + 60 ms.
 #[test]
 fn the_arm_stops_promptly_after_a_release() {

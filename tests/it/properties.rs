@@ -417,7 +417,7 @@ proptest! {
     // 24 sessions of 45–90 s: over a million ticks in all.
     #![proptest_config(ProptestConfig::with_cases(24))]
 
-    /// Issue 11's promise: any configuration the validator accepts, any
+    /// The safety promise: any configuration the validator accepts, any
     /// adversarial user (fast re-selections, long and stuck holds, offset
     /// shifts, dropouts, process stalls): at every tick the tool is inside
     /// the workspace by the margin as a normal distance and inside its

@@ -78,7 +78,7 @@ fn assert_noisy_session(
     assert_perfect(what, config, params, script, modes, bound, expect)
 }
 
-/// The worst signal the issue asks the detector to handle.
+/// The worst signal the detector is asked to handle.
 fn harsh(config: &Config, seed: u64) -> SignalParams {
     SignalParams {
         // 0.5 V amplitude, at most 0.5 V a minute: the sine's steepest

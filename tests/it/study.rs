@@ -190,7 +190,7 @@ fn selection_is_the_only_difference() {
     }
 }
 
-/// Issue 11 §2 measured: users who slip (start a selection before the
+/// Users who slip (start a selection before the
 /// return to detection mode) at 20 % of their mode changes move the arm
 /// without meaning to in the paper's design; with a motion onset longer
 /// than every burst they breathe, no slip moves it and the mode changes
