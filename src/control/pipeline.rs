@@ -10,7 +10,7 @@ use crate::control::action::ActionSeq;
 use crate::control::core_config::CoreConfig;
 use crate::control::detector::{BurstDetector, DetectorEvent, DetectorOutput};
 use crate::control::event::{Event, Events};
-use crate::control::mode::{Direction, Held, ModeState};
+use crate::control::mode::{Direction, Held, Mode, ModeState};
 use crate::control::modes::{ModeMachine, ModeOutput};
 use crate::control::motion::feedback::ArmFault;
 use crate::control::motion::stream::ARM_STOPS_AFTER_TICKS;
@@ -227,7 +227,8 @@ impl Pipeline {
         self.process(now, detected, out);
     }
 
-    /// One tick, the detector's output taken, written into `out`.
+    /// One tick into `out`: the arm's news, the selection (the paper's
+    /// Figs. 2 and 3), the mode machine (Fig. 1), the motion layer.
     fn process(&mut self, now: Tick, detected: DetectorOutput, out: &mut TickOutput) {
         let gap = self.last_tick.map(|last| now.saturating_sub(last));
         self.last_tick = Some(now);
@@ -255,6 +256,31 @@ impl Pipeline {
                 matcher.interrupt();
             }
         }
+        let matched = self.select(now, &detected, out);
+
+        let (command, left) = self
+            .modes
+            .step(now, detected.held, matched, detected.faulted);
+        out.command = command;
+        self.direction = command.direction;
+        if let Some(reason) = left {
+            out.log(Event::Detection { reason });
+        }
+        // (An arm fault's stop takes effect through the mode machine.)
+        self.motion.step(now, &out.command, &mut out.motion);
+        for event in out.motion.events.into_iter().flatten() {
+            out.log(Event::Motion(event));
+        }
+    }
+
+    /// The detector's event and the selector's decision on this tick,
+    /// logged: the mode selected, if any.
+    fn select(
+        &mut self,
+        now: Tick,
+        detected: &DetectorOutput,
+        out: &mut TickOutput,
+    ) -> Option<Mode> {
         let in_detection = self.modes.state() == ModeState::Detection;
         let mut decision = None;
         let mut scan_burst = None;
@@ -314,7 +340,7 @@ impl Pipeline {
             }
         }
 
-        let matched = match decision {
+        match decision {
             Some(MatchEvent::Match { sequence, mode }) => {
                 out.log(Event::Match { sequence, mode });
                 Some(mode)
@@ -324,20 +350,6 @@ impl Pipeline {
                 None
             }
             None => None,
-        };
-
-        let (command, left) = self
-            .modes
-            .step(now, detected.held, matched, detected.faulted);
-        out.command = command;
-        self.direction = command.direction;
-        if let Some(reason) = left {
-            out.log(Event::Detection { reason });
-        }
-        // (An arm fault's stop takes effect through the mode machine.)
-        self.motion.step(now, &out.command, &mut out.motion);
-        for event in out.motion.events.into_iter().flatten() {
-            out.log(Event::Motion(event));
         }
     }
 }
