@@ -349,9 +349,9 @@ impl Motion {
         self.arm.skip();
         self.fingers.skip();
         let before = rest::pose_bits(&self.pose, self.finger_position);
-        let mean = self.finish_tick(now, false, [None; 2], out);
+        self.finish_tick(now, false, [None; 2], out);
         let after = rest::pose_bits(&self.pose, self.finger_position);
-        self.rest.rested(&self.last, &mean, before == after);
+        self.rest.rested(&self.last, before == after);
     }
 
     /// Any other tick: the request becomes targets, the channels update,
@@ -467,14 +467,13 @@ impl Motion {
 
     /// The end of every tick: the commanded twist integrated into the
     /// pose, the tracker and the arm's stream fed, the output written.
-    /// Returns the tick's mean velocity.
     fn finish_tick(
         &mut self,
         now: Tick,
         reached: bool,
         events: [Option<MotionEvent>; 2],
         out: &mut MotionOutput,
-    ) -> [f64; 7] {
+    ) {
         let twist = self.twist();
         let mut mean = [0.0; 7];
         for ((m, last), now) in mean.iter_mut().zip(self.last).zip(twist) {
@@ -488,7 +487,6 @@ impl Motion {
             self.use_velocity_plan();
         }
         self.write_output(now, twist, mean, events, out);
-        mean
     }
 
     /// The tick's output: its twist, the pose, the arm's stream fed with

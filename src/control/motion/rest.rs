@@ -37,9 +37,8 @@ pub fn all_zero(values: &[f64]) -> bool {
 /// Whether the next rest tick repeats the last one. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct RestTicks {
-    /// The last tick rested at zero velocity, its mean equal to its twist
-    /// (zeros' signs too), its pose step changed nothing, and nothing has
-    /// touched the motion since.
+    /// The last tick rested at zero velocity, its pose step changed
+    /// nothing, and nothing has touched the motion since.
     repeat: bool,
     /// Never repeat: the reference path.
     reference_path: bool,
@@ -73,14 +72,12 @@ impl RestTicks {
         self.repeat
     }
 
-    /// A rest tick ended at `twist` with mean velocity `mean`, its pose
-    /// step `unchanged` or not: the next rest tick steps at `twist` from
-    /// the same pose, so it repeats this one if that is the step just
-    /// taken and it changed nothing.
-    pub fn rested(&mut self, twist: &[f64; 7], mean: &[f64; 7], unchanged: bool) {
-        self.repeat = !self.reference_path
-            && unchanged
-            && all_zero(twist)
-            && velocity_bits(mean) == velocity_bits(twist);
+    /// A rest tick ended at `twist`, its pose step `unchanged` or not. The
+    /// channels rest, so the next rest tick has the same twist, and its
+    /// mean velocity, the mean of two equal twists, is that twist too
+    /// (zeros' signs included): it steps the same way from the same pose,
+    /// and repeats this tick if this tick's step changed nothing.
+    pub fn rested(&mut self, twist: &[f64; 7], unchanged: bool) {
+        self.repeat = !self.reference_path && unchanged && all_zero(twist);
     }
 }
