@@ -14,7 +14,7 @@ use crate::control::Tick;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
 use crate::control::pipeline::{Pipeline, TickOutput};
-use crate::rt::core_input::ArmPose;
+use crate::rt::core_input::{ArmPose, CoreInput};
 use crate::tools::recording::format::commands::{CommandDecoder, CommandItem};
 use crate::tools::recording::format::samples::SampleItem;
 use crate::tools::recording::read::{EventLines, Recording, RecordingError};
@@ -264,15 +264,20 @@ impl Comparer<'_> {
 }
 
 /// Makes the core's calls one item of `samples.bin` stands for, as the
-/// control tick made them: the arm's news, then the step, into `out`; or
-/// `begin_stop`; nothing for lost ticks. The tick stepped, if any. The
-/// replay and `bench replay`'s core-alone rounds both give the core its
-/// input through this, so both make the same calls.
+/// control tick made them ([`CoreInput::apply`]), into `out`; the safe
+/// stop's `begin_stop` (a separate item in the file); nothing for lost
+/// ticks. The tick stepped, if any. The replay and `bench replay`'s
+/// core-alone rounds both give the core its input through this.
 pub fn give_to_core(item: SampleItem, core: &mut Pipeline, out: &mut TickOutput) -> Option<Tick> {
     match item {
         SampleItem::Input { tick, arm, sample } => {
-            arm.apply(core);
-            core.step(tick, sample, out);
+            let input = CoreInput {
+                tick,
+                arm,
+                sample,
+                began_stop: false,
+            };
+            input.apply(core, out);
             Some(tick)
         }
         SampleItem::BeginStop => {
