@@ -33,16 +33,12 @@ pub struct SimulatedJaco {
     /// Step every millisecond, standing still too: the reference path the
     /// skipped steps are proven against.
     reference_path: bool,
-    /// [`SimulatedJaco::inside_workspace`] as of the last change of the
-    /// pose or the fingers (it depends on nothing else): `replay` asks
-    /// every millisecond, and the arm mostly stands still.
-    inside: bool,
 }
 
 impl SimulatedJaco {
     /// An arm at the configured home pose.
     pub fn new(config: &CoreConfig) -> Self {
-        let mut arm = SimulatedJaco {
+        SimulatedJaco {
             pose: config.home().pose(),
             fingers: config.home().home_fingers,
             current: ArmCommand::default(),
@@ -51,10 +47,7 @@ impl SimulatedJaco {
             still: false,
             skipped_ms: SkipCount::default(),
             reference_path: false,
-            inside: false,
-        };
-        arm.inside = arm.find_inside();
-        arm
+        }
     }
 
     /// Steps every millisecond, standing still too.
@@ -119,7 +112,6 @@ impl SimulatedJaco {
         self.pose.translation.vector += v * dt;
         self.pose.rotation = UnitQuaternion::from_scaled_axis(w * dt) * self.pose.rotation;
         self.fingers += c.fingers * dt;
-        self.inside = self.find_inside();
     }
 
     /// The stream ended: stand still.
@@ -142,7 +134,6 @@ impl SimulatedJaco {
     pub fn move_to(&mut self, pose: Isometry3<f64>) {
         self.still = false;
         self.pose = pose;
-        self.inside = self.find_inside();
     }
 
     /// The finger position, JACO2 units.
@@ -152,13 +143,6 @@ impl SimulatedJaco {
 
     /// Whether the tool is inside the workspace and the fingers in range.
     pub fn inside_workspace(&self) -> bool {
-        if self.reference_path {
-            return self.find_inside();
-        }
-        self.inside
-    }
-
-    fn find_inside(&self) -> bool {
         let w = &self.workspace;
         workspace::contains(&self.pose.translation.vector, w)
             && self.fingers >= 0.0
