@@ -101,7 +101,7 @@ enum Plan {
 
 /// Where the current `goto_point` puff stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Goto {
+enum Goto {
     /// No go-to asked, or one under way (the plan says which).
     Idle,
     /// Held: waits for the tool to come to rest, then starts.
@@ -112,7 +112,7 @@ pub enum Goto {
 
 impl Goto {
     /// The puff was released: a go-to not yet started is not wanted.
-    pub fn released(self) -> Goto {
+    fn released(self) -> Goto {
         match self {
             Goto::Waiting => Goto::Idle,
             other => other,
@@ -121,7 +121,7 @@ impl Goto {
 
     /// After a halt: a go-to waiting or under way (`in_goto`) starts
     /// again from rest if its puff is still held.
-    pub fn after_halt(self, in_goto: bool) -> Goto {
+    fn after_halt(self, in_goto: bool) -> Goto {
         match self {
             Goto::Idle if in_goto => Goto::Waiting,
             other => other,
