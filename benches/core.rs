@@ -15,8 +15,10 @@
 //! * `tick/*`: one full tick (detector → matcher → modes → Ruckig →
 //!   100 Hz decimation → simulated arm): at rest (no breath, the arm
 //!   still; against one sample's bare threshold test); steady, holding a
-//!   puff in `translate_x`; and on a new target every tick (sip and puff
-//!   alternating each sample, glitch filter off).
+//!   puff in `translate_x` (after a few thousand iterations the tool
+//!   stands at the edge of its reach, the held request refused every
+//!   tick); and on a new target every tick (sip and puff alternating
+//!   each sample, glitch filter off).
 //! * `replay/*`: `sipnpuff replay` end to end on 60 s of noisy recording
 //!   (CSV parsing, core, simulated arm, JSON events to a sink) against the
 //!   core alone and the CSV reading alone on the same samples.
