@@ -399,17 +399,11 @@ mod tests {
     use super::*;
 
     use crate::arm::sim::SimArm;
-    use crate::rt::setup::RtOptions;
 
     /// A real report of a short run, to vary.
     fn report() -> RunReport {
         let config = Config::default();
-        let settings = LoopSettings {
-            seconds: Some(0.05),
-            rt: RtOptions::NONE,
-            spin_margin_ns: None,
-            stop: StopRequest::new(),
-        };
+        let settings = LoopSettings::plain(0.05);
         let sensor = SyntheticSensor::built_in_user(&config);
         let arm = Box::new(SimArm::new(config.core()));
         threads::run(config.core(), RunOptions::new(sensor, arm, settings)).unwrap()

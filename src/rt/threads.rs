@@ -66,6 +66,19 @@ pub struct LoopSettings {
     pub stop: StopRequest,
 }
 
+impl LoopSettings {
+    /// `seconds` long, asking for no real-time setting, stopped by
+    /// nothing else (tests and simulations).
+    pub fn plain(seconds: f64) -> LoopSettings {
+        LoopSettings {
+            seconds: Some(seconds),
+            rt: RtOptions::NONE,
+            spin_margin_ns: None,
+            stop: StopRequest::new(),
+        }
+    }
+}
+
 /// What the control thread runs at each deadline, made there from the
 /// production tick: the tick itself ([`Production`]), or a wrapper
 /// around it (`bench latency` interleaves reference ticks).

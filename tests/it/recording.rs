@@ -16,8 +16,6 @@ use sipnpuff::config::Config;
 use sipnpuff::control::motion::stream::ArmCommand;
 use sipnpuff::control::sample::Sample;
 use sipnpuff::rt::core_input::CoreInput;
-use sipnpuff::rt::setup::RtOptions;
-use sipnpuff::rt::stop::StopRequest;
 use sipnpuff::rt::threads::{LoopSettings, RunOptions, run};
 use sipnpuff::sensor::synthetic::SyntheticSensor;
 use sipnpuff::tools::recording::format::commands::{CommandDecoder, CommandEncoder, CommandItem};
@@ -378,12 +376,7 @@ fn a_stalled_writer_drops_and_counts_and_never_holds_up_the_loop() {
         ..RecordOptions::default()
     };
     let mut recorder = Recorder::create(&dir, &config, options).unwrap();
-    let settings = LoopSettings {
-        seconds: Some(1.5),
-        rt: RtOptions::NONE,
-        spin_margin_ns: None,
-        stop: StopRequest::new(),
-    };
+    let settings = LoopSettings::plain(1.5);
     let sensor = SyntheticSensor::built_in_user(&config);
     let arm = Box::new(SimArm::new(config.core()));
     let options = RunOptions::new(sensor, arm, settings).recorder(&mut recorder);
@@ -472,12 +465,7 @@ fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() 
             }
             ticks += 1;
         }
-        let settings = LoopSettings {
-            seconds: Some(0.01),
-            rt: RtOptions::NONE,
-            spin_margin_ns: None,
-            stop: StopRequest::new(),
-        };
+        let settings = LoopSettings::plain(0.01);
         let sensor = SyntheticSensor::built_in_user(&config);
         let arm = Box::new(SimArm::new(config.core()));
         let mut report = run(config.core(), RunOptions::new(sensor, arm, settings)).unwrap();
@@ -925,14 +913,9 @@ fn a_run_with_a_measuring_arm_replays_bit_for_bit() {
         let dir = Scratch::new();
         let config = Config::default();
         let mut recorder = Recorder::create(&dir, &config, RecordOptions::default()).unwrap();
-        let settings = LoopSettings {
-            // The silence (after 12 s of commands) ends the run; the limit
-            // outlasts a loaded machine's skipped ticks.
-            seconds: Some(60.0),
-            rt: RtOptions::NONE,
-            spin_margin_ns: None,
-            stop: StopRequest::new(),
-        };
+        // The silence (after 12 s of commands) ends the run; the limit
+        // outlasts a loaded machine's skipped ticks.
+        let settings = LoopSettings::plain(60.0);
         let mut printed = Vec::new();
         let arm = FastMeasuringArm {
             jaco: sipnpuff::arm::sim::SimulatedJaco::new(config.core()),

@@ -311,8 +311,6 @@ mod tests {
     use super::*;
     use crate::arm::sim::SimArm;
     use crate::control::sample::Sample;
-    use crate::rt::setup::RtOptions;
-    use crate::rt::stop::StopRequest;
     use crate::rt::threads::{LoopSettings, RunOptions, run};
     use crate::sensor::synthetic::SyntheticSensor;
     use crate::tools::recording::format::samples::{SampleDecoder, SampleItem};
@@ -330,12 +328,7 @@ mod tests {
     /// A real report of a very short run, to finish recordings with.
     fn report() -> RunReport {
         let config = Config::default();
-        let settings = LoopSettings {
-            seconds: Some(0.01),
-            rt: RtOptions::NONE,
-            spin_margin_ns: None,
-            stop: StopRequest::new(),
-        };
+        let settings = LoopSettings::plain(0.01);
         let sensor = SyntheticSensor::built_in_user(&config);
         let arm = Box::new(SimArm::new(config.core()));
         run(config.core(), RunOptions::new(sensor, arm, settings)).unwrap()
