@@ -87,6 +87,7 @@ pub mod config;
 pub mod control;
 #[cfg(feature = "display")]
 pub mod display;
+pub mod fit;
 pub mod rt;
 pub mod sensor;
 pub mod sim;
