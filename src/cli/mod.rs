@@ -25,6 +25,7 @@ pub mod args;
 pub mod bench;
 pub mod config;
 pub mod display;
+pub mod fit;
 pub mod generate;
 pub mod output;
 pub mod replay;
@@ -63,6 +64,10 @@ enum Command {
     Study(study::StudyArgs),
     /// Write a synthetic recording of a scripted user (seeded, repeatable).
     Generate(generate::GenerateArgs),
+    /// Fit the interface to a user: measure their breaths in a
+    /// calibration session and propose their settings, each with its
+    /// reason; write them as a profile (`--config` reads it).
+    Fit(fit::FitArgs),
     /// Measure the control path.
     Bench {
         #[command(subcommand)]
@@ -92,6 +97,7 @@ pub fn main() -> ExitCode {
         Command::Replay(args) => replay::replay(args),
         Command::Study(args) => study::study(args).map(|()| output::COMPLETED),
         Command::Generate(args) => generate::generate(args).map(|()| output::COMPLETED),
+        Command::Fit(args) => fit::fit(args),
         Command::Bench { what } => bench::bench(what),
         Command::Config(args) => config::config(args).map(|()| output::COMPLETED),
         Command::Sensors(args) => sensors::sensors(args).map(|()| output::COMPLETED),

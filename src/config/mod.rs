@@ -29,6 +29,7 @@ use toml::Table;
 
 use crate::arm::settings::ArmSettings;
 use crate::control::core_config::{CoreConfig, InterfaceSection};
+use crate::control::detector::DetectorConfig;
 use crate::control::selection::scanning::ScanningConfig;
 use crate::control::selection::{Interface, SequenceEntry};
 use crate::sensor::settings::SensorSettings;
@@ -124,6 +125,13 @@ impl Config {
     /// that puts a threshold outside 0–5 V (the device's mapping is off).
     pub fn with_neutral_volts(mut self, neutral_volts: f64) -> Result<Config, ConfigErrors> {
         self.core.detector = self.core.detector.with_neutral(neutral_volts);
+        self.into_validated()
+    }
+
+    /// The same configuration with other detector settings (a fitted
+    /// profile's), validated.
+    pub fn with_detector(mut self, detector: DetectorConfig) -> Result<Config, ConfigErrors> {
+        self.core.detector = detector;
         self.into_validated()
     }
 

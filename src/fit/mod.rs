@@ -1,6 +1,254 @@
 //! Fitting the interface to the person: a calibration session's breaths
 //! measured, and the settings that read them best proposed.
 //!
-//! * [`protocol`]: what the user is asked to breathe, in a fixed order.
+//! One session's way: [`signal`] reads it; [`breaths`] finds the rest and
+//! the breaths; [`session`] matches them to the [`protocol`]'s prompts;
+//! [`propose`] derives the settings, each with its reason; [`predict`]
+//! gives the misreadings they predict and [`check`] replays the session
+//! through the real detector; [`profile`] writes the result. Pure: no
+//! clock, no device.
 
+pub mod breaths;
+pub mod check;
+pub mod predict;
+pub mod profile;
+pub mod propose;
 pub mod protocol;
+pub mod session;
+pub mod signal;
+pub mod stats;
+pub mod summary;
+
+use crate::config::{Config, ConfigErrors};
+use crate::control::detector::DetectorConfig;
+use check::Confusion;
+use predict::Rates;
+use propose::Proposal;
+use protocol::{Ask, Protocol};
+use session::Answers;
+use signal::{FitError, Signal};
+use summary::{Class, Spread};
+
+/// A short/long confusion above this (predicted, either way, either
+/// kind) means the classes overlap: no setting reads them reliably.
+pub const MAX_CONFUSION: f64 = 0.05;
+
+/// The outcome of fitting one calibration.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    /// The protocol the session followed.
+    pub protocol: Protocol,
+    /// The rest and the breaths found.
+    pub found: breaths::Found,
+    /// The breaths matched to the prompts.
+    pub answers: Answers,
+    /// What was measured of each kind of breath.
+    pub classes: Vec<Class>,
+    /// The pauses between breaths of a block, ms.
+    pub gaps: Spread,
+    /// The proposed settings and their reasons.
+    pub proposal: Proposal,
+    /// The current settings' detector, around the measured rest level (as
+    /// a run's re-zero would set it).
+    pub current: DetectorConfig,
+    /// The configuration with the proposal: what the profile makes.
+    pub config: Config,
+    /// Predicted misreadings: current settings, then proposed.
+    pub predicted: [Rates; 2],
+    /// The session replayed through the detector: current, then proposed.
+    pub replayed: [Confusion; 2],
+    /// When the user's short and long breaths overlap: what to do, in
+    /// plain words.
+    pub overlap: Option<String>,
+    /// What the proposal predicts worse than the current settings, and
+    /// why.
+    pub worse: Vec<String>,
+}
+
+impl Fit {
+    /// Whether a profile should be written without `--force`.
+    pub fn is_reliable(&self) -> bool {
+        self.overlap.is_none()
+    }
+}
+
+/// Fits a calibration session that followed `protocol`, starting from the
+/// `current` configuration.
+pub fn fit(signal: &Signal, protocol: &Protocol, current: &Config) -> Result<Fit, FitError> {
+    let found = breaths::find(signal)?;
+    let answers = session::answers(protocol, &found)?;
+    let proposal = propose::propose(signal, &found, &answers, current);
+    let config = current
+        .clone()
+        .with_detector(proposal.detector)
+        .map_err(|e| invalid(&e))?;
+    let now = current.core().detector().with_neutral(found.rest.level);
+    let d = proposal.detector;
+    let predicted = [
+        predict::predict(signal, &found, &answers, &now),
+        predict::predict(signal, &found, &answers, &d),
+    ];
+    let asks: Vec<Ask> = protocol.blocks.iter().map(|b| b.ask).collect();
+    let replayed = [
+        check::confusion(signal, &answers, &asks, &now),
+        check::confusion(signal, &answers, &asks, &d),
+    ];
+    let overlap = overlap(&predicted[1]);
+    let worse = worse(&predicted);
+    Ok(Fit {
+        classes: summary::classes(signal, &answers, protocol, &d),
+        gaps: summary::gaps(&answers),
+        protocol: protocol.clone(),
+        found,
+        answers,
+        proposal,
+        current: now,
+        config,
+        predicted,
+        replayed,
+        overlap,
+        worse,
+    })
+}
+
+fn invalid(errors: &ConfigErrors) -> FitError {
+    FitError::new(format!(
+        "the proposed settings do not validate ({errors}): the calibration's breaths are too weak or too noisy to place thresholds; check the tube and the sensor, and record it again"
+    ))
+}
+
+/// The plain-words finding when short and long breaths overlap.
+fn overlap(proposed: &Rates) -> Option<String> {
+    let worst = proposed.worst_confusion();
+    (worst > MAX_CONFUSION).then(|| {
+        format!(
+            "your short and long breaths overlap: even the best boundary reads {:.0} % of them as the other length (more than {:.0} %). Try: a longer boundary with a slower library (fewer long breaths); a library with fewer long breaths; or practise holding long breaths longer and fit again",
+            100.0 * worst,
+            100.0 * MAX_CONFUSION
+        )
+    })
+}
+
+/// Each predicted rate the proposal makes worse than the current
+/// settings, with the likely reason.
+fn worse(predicted: &[Rates; 2]) -> Vec<String> {
+    let [now, new] = predicted;
+    let mut found = Vec::new();
+    let mut compare = |what: &str, a: f64, b: f64, why: &str| {
+        if b > a + 0.001 {
+            found.push(format!(
+                "{what}: {:.1} % → {:.1} % ({why})",
+                100.0 * a,
+                100.0 * b
+            ));
+        }
+    };
+    for (word, k0, k1) in [
+        ("puffs", &now.puff, &new.puff),
+        ("sips", &now.sip, &new.sip),
+    ] {
+        compare(
+            &format!("{word} missed"),
+            k0.missed,
+            k1.missed,
+            "the threshold moved up, away from the rest noise",
+        );
+        compare(
+            &format!("short {word} read as long"),
+            k0.short_as_long,
+            k1.short_as_long,
+            "the boundary moved down, to read more of your long breaths as long",
+        );
+        compare(
+            &format!("long {word} read as short"),
+            k0.long_as_short,
+            k1.long_as_short,
+            "the boundary moved up, to read more of your short breaths as short",
+        );
+    }
+    if new.false_per_hour > now.false_per_hour + 0.1 {
+        found.push(format!(
+            "false bursts at rest: {:.1} → {:.1} per hour (the thresholds moved closer to the rest noise, to read weaker breaths)",
+            now.false_per_hour, new.false_per_hour
+        ));
+    }
+    found
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    use super::*;
+    use crate::control::action::Action;
+    use crate::sim::sensor_model::{SignalGenerator, SignalParams, Step};
+
+    /// A user breathing the default protocol through the synthetic sensor:
+    /// short breaths of `short` ms, long of `long` (±30 %), the rest at
+    /// `level`.
+    fn session(level: f64, short: f64, long: f64, seed: u64) -> Signal {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut script = vec![Step::Rest { ms: 6000 }];
+        for block in &Protocol::default().blocks {
+            let Ask::Breath(action) = block.ask else {
+                continue;
+            };
+            let mean = if action.is_long() { long } else { short };
+            for _ in 0..block.count {
+                let ms = (mean * rng.random_range(0.7..1.3)) as u32;
+                script.push(Step::Breath {
+                    breath: action.breath(),
+                    ms,
+                });
+                script.push(Step::Rest {
+                    ms: rng.random_range(1000..2000),
+                });
+            }
+            script.push(Step::Rest { ms: 2500 });
+        }
+        let d = DetectorConfig::default().with_neutral(level);
+        let params = SignalParams::clean(&d, seed).with_noise(0.01);
+        Signal::from_volts(SignalGenerator::new(params, &script))
+    }
+
+    #[test]
+    fn a_typical_user_is_read_right_with_their_settings() {
+        let signal = session(2.37, 150.0, 800.0, 1);
+        let fit = fit(&signal, &Protocol::default(), &Config::default()).unwrap();
+        assert!(
+            (fit.found.rest.level - 2.37).abs() < 0.005,
+            "{:?}",
+            fit.found.rest
+        );
+        assert_eq!(fit.answers.answers.len(), 32, "{:?}", fit.answers.notes);
+        assert_eq!(
+            fit.replayed[1].right(),
+            (32, 32),
+            "{}",
+            crate::cli::fit::report(&fit)
+        );
+        assert!(fit.is_reliable());
+        let d = fit.proposal.detector;
+        // Midway between the rest's noise (±0.04 V) and the weakest
+        // plateaus (about 1.05 V): about 0.55 V from the rest.
+        assert!(
+            (d.puff_threshold_volts - d.neutral_volts - 0.55).abs() < 0.05,
+            "{d:?}"
+        );
+        assert!(
+            (d.neutral_volts - d.sip_threshold_volts - 0.55).abs() < 0.05,
+            "{d:?}"
+        );
+        // Short breaths of 105–195 ms, long of 560–1040 ms.
+        assert!((200..=400).contains(&d.long_burst_ms), "{d:?}");
+        let fitted = fit.config.core().detector();
+        assert_eq!(*fitted, d);
+        let short = fit
+            .classes
+            .iter()
+            .find(|c| c.ask == Ask::Breath(Action::ShortPuff))
+            .unwrap();
+        assert!((short.duration_ms.mean - 150.0).abs() < 20.0, "{short:?}");
+    }
+}

@@ -1,0 +1,137 @@
+//! A user's profile: a configuration file with only the settings that
+//! differ from the defaults, each after its reason, under a header saying
+//! who, when, how and what was measured. `run`, `replay` and `config`
+//! read it as any other configuration.
+
+use std::fmt::Write;
+
+use crate::config::Config;
+use crate::fit::Fit;
+use crate::fit::check::Confusion;
+use crate::fit::predict::Rates;
+
+/// Who and when, for the header.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Header {
+    /// The user's label (a name or a code).
+    pub label: String,
+    /// The date of the fit, `YYYY-MM-DD`.
+    pub date: String,
+    /// What was fitted (a file, or "a guided session").
+    pub source: String,
+}
+
+/// The profile's text.
+pub fn text(fit: &Fit, header: &Header) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "# sipnpuff profile for \"{}\", fitted {} by sipnpuff {} from {}",
+        header.label,
+        header.date,
+        env!("CARGO_PKG_VERSION"),
+        header.source
+    );
+    let _ = writeln!(out, "# protocol: {}", fit.protocol.describe());
+    let rest = &fit.found.rest;
+    let _ = writeln!(
+        out,
+        "# rest: {:.3} V, noise sd {:.3} V, largest excursion +{:.3} / −{:.3} V, {} spikes",
+        rest.level, rest.sd, rest.excursion_up, rest.excursion_down, rest.spikes
+    );
+    for c in &fit.classes {
+        let _ = writeln!(
+            out,
+            "# {} × {}: plateau {:.2} ± {:.2} V (weakest {:.2}), {:.0} ± {:.0} ms ({:.0}–{:.0})",
+            c.breaths,
+            c.ask.words(),
+            c.plateau_volts.mean,
+            c.plateau_volts.sd,
+            c.plateau_volts.min,
+            c.duration_ms.mean,
+            c.duration_ms.sd,
+            c.duration_ms.min,
+            c.duration_ms.max
+        );
+    }
+    let _ = writeln!(
+        out,
+        "# predicted misreadings, this profile vs the settings before: {}",
+        rates_line(&fit.predicted[1], &fit.predicted[0])
+    );
+    let _ = writeln!(
+        out,
+        "# the calibration replayed: {} vs {} breaths read right",
+        right(&fit.replayed[1]),
+        right(&fit.replayed[0])
+    );
+    for w in &fit.worse {
+        let _ = writeln!(out, "# worse than before: {w}");
+    }
+    if let Some(overlap) = &fit.overlap {
+        let _ = writeln!(out, "# WARNING: {overlap}");
+    }
+    let defaults = defaults();
+    let mut section = "";
+    for s in &fit.proposal.settings {
+        let (table, key) = s.key.split_once('.').unwrap_or(("", s.key));
+        if defaults.get(s.key).is_some_and(|d| same(d, &s.value)) {
+            continue;
+        }
+        if table != section {
+            let _ = writeln!(out, "\n[{table}]");
+            section = table;
+        }
+        let _ = writeln!(out, "# {}\n{key} = {}", s.reason, s.value);
+    }
+    out
+}
+
+/// "32/32".
+fn right(c: &Confusion) -> String {
+    let (r, a) = c.right();
+    format!("{r}/{a}")
+}
+
+/// The rates side by side, in percent.
+pub fn rates_line(new: &Rates, old: &Rates) -> String {
+    let pct = |a: f64, b: f64| format!("{:.1} vs {:.1} %", 100.0 * a, 100.0 * b);
+    format!(
+        "puffs missed {}, sips missed {}, short read as long {} (puffs) {} (sips), long read as short {} (puffs) {} (sips), false bursts {:.2} vs {:.2} per hour",
+        pct(new.puff.missed, old.puff.missed),
+        pct(new.sip.missed, old.sip.missed),
+        pct(new.puff.short_as_long, old.puff.short_as_long),
+        pct(new.sip.short_as_long, old.sip.short_as_long),
+        pct(new.puff.long_as_short, old.puff.long_as_short),
+        pct(new.sip.long_as_short, old.sip.long_as_short),
+        new.false_per_hour,
+        old.false_per_hour
+    )
+}
+
+/// The default configuration's values by dotted key.
+fn defaults() -> std::collections::BTreeMap<String, String> {
+    let mut map = std::collections::BTreeMap::new();
+    let Ok(text) = Config::default().to_toml() else {
+        return map;
+    };
+    let Ok(table) = text.parse::<toml::Table>() else {
+        return map;
+    };
+    for (section, value) in &table {
+        if let Some(inner) = value.as_table() {
+            for (key, value) in inner {
+                map.insert(format!("{section}.{key}"), value.to_string());
+            }
+        }
+    }
+    map
+}
+
+/// Whether two TOML values are the same number (or text).
+fn same(a: &str, b: &str) -> bool {
+    match (a.parse::<f64>(), b.parse::<f64>()) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => a == b,
+    }
+}
