@@ -9,10 +9,16 @@ use anyhow::Context;
 use crate::cli::args::ConfigArg;
 use crate::cli::output;
 use crate::fit::check::{COLUMNS, Confusion};
+use crate::fit::drift;
 use crate::fit::predict::{KindRates, Rates};
 use crate::fit::profile::{self, Header};
 use crate::fit::protocol::{DEFAULT_COUNT, DEFAULT_HOLDS, Protocol};
 use crate::fit::signal::Signal;
+use crate::tools::recording::read::Recording;
+
+/// The file a guided session leaves in its recording: the protocol it
+/// followed. A recording without it is ordinary use.
+pub const CALIBRATION: &str = "calibration.json";
 use crate::fit::{self as fitting, Fit};
 
 /// `fit`'s options.
@@ -51,16 +57,44 @@ pub struct FitArgs {
 /// (or `--force`). Exit 0 with a profile; 1 with the reason and nothing
 /// written.
 pub fn fit(args: FitArgs) -> anyhow::Result<u8> {
-    let current = args.config.load()?;
     let protocol = Protocol::new(args.count, if args.holds { DEFAULT_HOLDS } else { 0 });
     let signal = Signal::read(&args.from).map_err(anyhow::Error::msg)?;
-    let fit = match fitting::fit(&signal, &protocol, &current) {
+    let ordinary_use = args.from.is_dir() && !args.from.join(CALIBRATION).exists();
+    let fitted = if ordinary_use {
+        // The profile in use: `--config`, or what the session recorded.
+        let in_use = match &args.config.config {
+            Some(_) => args.config.load()?,
+            None => Recording::open(&args.from)?.config,
+        };
+        note!(
+            "{}: a session of ordinary use (no {CALIBRATION}): its breaths split into short and long as you made them",
+            args.from.display()
+        );
+        fitting::fit_use(&signal, &in_use)
+    } else {
+        fitting::fit(&signal, &protocol, &args.config.load()?)
+    };
+    let fit = match fitted {
         Ok(fit) => fit,
         Err(e) => {
             note!("error: cannot fit {}: {e}", args.from.display());
             return Ok(output::FAILED);
         }
     };
+    if let Some(path) = &args.config.config {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let then = drift::fitted(&text);
+        if then.is_empty() {
+            note!(
+                "{} has no fitted measurements in its header: no drift to report",
+                path.display()
+            );
+        }
+        for line in drift::drift(&then, &fit.classes) {
+            note!("drift: {line}");
+        }
+    }
     if args.json {
         output::stdout_line(&json(&fit)?).context("stdout")?;
     } else {
@@ -155,7 +189,7 @@ pub fn report(fit: &Fit) -> String {
     rates(&mut out, &fit.predicted[0], &fit.predicted[1]);
     let _ = writeln!(
         out,
-        "\nthe calibration replayed through the detector (rows: asked; columns: read)"
+        "\nthe session replayed through the detector (rows: asked or, in ordinary use, as you meant them; columns: read)"
     );
     for (name, c) in [
         ("current", &fit.replayed[0]),

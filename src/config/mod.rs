@@ -168,6 +168,12 @@ impl Config {
         self.into_validated()
     }
 
+    /// The same configuration with another inactivity timeout, ms.
+    pub fn with_inactivity_timeout_ms(mut self, ms: u32) -> Result<Config, ConfigErrors> {
+        self.core.command.inactivity_timeout_ms = ms;
+        self.into_validated()
+    }
+
     /// This config with another `command.motion_onset_ms` (0 = off),
     /// validated.
     pub fn with_motion_onset_ms(mut self, ms: u32) -> Result<Config, ConfigErrors> {

@@ -10,6 +10,7 @@
 
 pub mod breaths;
 pub mod check;
+pub mod drift;
 pub mod predict;
 pub mod profile;
 pub mod propose;
@@ -18,6 +19,7 @@ pub mod session;
 pub mod signal;
 pub mod stats;
 pub mod summary;
+pub mod usage;
 
 use crate::config::{Config, ConfigErrors};
 use crate::control::detector::DetectorConfig;
@@ -77,10 +79,36 @@ impl Fit {
 pub fn fit(signal: &Signal, protocol: &Protocol, current: &Config) -> Result<Fit, FitError> {
     let found = breaths::find(signal)?;
     let answers = session::answers(protocol, &found)?;
-    let proposal = propose::propose(signal, &found, &answers, current);
+    fit_answers(signal, protocol, found, answers, None, current)
+}
+
+/// Fits a session of ordinary use recorded with the settings `in_use`.
+pub fn fit_use(signal: &Signal, in_use: &Config) -> Result<Fit, FitError> {
+    let used = usage::measure(signal, in_use)?;
+    fit_answers(
+        signal,
+        &used.protocol,
+        used.found,
+        used.answers,
+        Some(&used.pauses),
+        in_use,
+    )
+}
+
+fn fit_answers(
+    signal: &Signal,
+    protocol: &Protocol,
+    found: breaths::Found,
+    answers: Answers,
+    pauses: Option<&usage::Pauses>,
+    current: &Config,
+) -> Result<Fit, FitError> {
+    let proposal = propose::propose(signal, &found, &answers, current, pauses);
     let config = current
         .clone()
         .with_detector(proposal.detector)
+        .and_then(|c| c.with_sequence_timeout_ms(proposal.sequence_timeout_ms))
+        .and_then(|c| c.with_inactivity_timeout_ms(proposal.inactivity_timeout_ms))
         .map_err(|e| invalid(&e))?;
     let now = current.core().detector().with_neutral(found.rest.level);
     let d = proposal.detector;

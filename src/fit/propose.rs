@@ -15,6 +15,7 @@ use crate::fit::predict::{durations, fitted_ms};
 use crate::fit::protocol::Ask;
 use crate::fit::session::Answers;
 use crate::fit::signal::Signal;
+use crate::fit::usage::Pauses;
 
 /// One proposed setting.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -32,6 +33,10 @@ pub struct Setting {
 pub struct Proposal {
     /// The proposed `[detector]`.
     pub detector: DetectorConfig,
+    /// The proposed `matcher.sequence_timeout_ms`.
+    pub sequence_timeout_ms: u32,
+    /// The proposed `command.inactivity_timeout_ms`.
+    pub inactivity_timeout_ms: u32,
     /// Every `[detector]`, `[matcher]` and `[command]` setting, in the
     /// file's order, with its reason.
     pub settings: Vec<Setting>,
@@ -86,7 +91,13 @@ fn ceil_to(v: f64, step: u32) -> u32 {
 
 /// Proposes settings for the user of this calibration, starting from
 /// `current`.
-pub fn propose(signal: &Signal, found: &Found, answers: &Answers, current: &Config) -> Proposal {
+pub fn propose(
+    signal: &Signal,
+    found: &Found,
+    answers: &Answers,
+    current: &Config,
+    pauses: Option<&Pauses>,
+) -> Proposal {
     let now = *current.core().detector();
     let rest = &found.rest;
     let mut settings = Vec::new();
@@ -291,17 +302,28 @@ pub fn propose(signal: &Signal, found: &Found, answers: &Answers, current: &Conf
         format!("{}", d.fault_margin_volts),
         sensor.into(),
     );
-    let paced = "kept: the calibration paces breaths by its prompts, so it does not measure your pauses in use; `fit --from` a recording of ordinary use does";
     let core = current.core();
+    let (sequence_timeout_ms, reason) = timeout(
+        pauses.map(|p| p.in_sequence.as_slice()),
+        core.matcher().sequence_timeout_ms,
+        (300, 5000, 100),
+        "between the breaths of a sequence",
+    );
     set(
         "matcher.sequence_timeout_ms",
-        format!("{}", core.matcher().sequence_timeout_ms),
-        paced.into(),
+        format!("{sequence_timeout_ms}"),
+        reason,
+    );
+    let (inactivity_timeout_ms, reason) = timeout(
+        pauses.map(|p| p.in_mode.as_slice()),
+        core.command().inactivity_timeout_ms,
+        (1000, 10_000, 500),
+        "between your breaths in a mode",
     );
     set(
         "command.inactivity_timeout_ms",
-        format!("{}", core.command().inactivity_timeout_ms),
-        paced.into(),
+        format!("{inactivity_timeout_ms}"),
+        reason,
     );
     set(
         "command.motion_onset_ms",
@@ -310,6 +332,46 @@ pub fn propose(signal: &Signal, found: &Found, answers: &Answers, current: &Conf
     );
     Proposal {
         detector: d,
+        sequence_timeout_ms,
+        inactivity_timeout_ms,
         settings,
+    }
+}
+
+/// Pauses measured in use at least this many times give a timeout.
+const MIN_PAUSES: usize = 20;
+
+/// A timeout half over the 95th percentile of the user's `pauses`, within
+/// `(lowest, highest)` and rounded up to `step` ms; kept when the session
+/// measured too few pauses (a calibration, paced by its prompts, measures
+/// none).
+fn timeout(
+    pauses: Option<&[f64]>,
+    now: u32,
+    (lowest, highest, step): (u32, u32, u32),
+    what: &str,
+) -> (u32, String) {
+    match pauses {
+        Some(p) if p.len() >= MIN_PAUSES => {
+            let mut sorted = p.to_vec();
+            sorted.sort_unstable_by(f64::total_cmp);
+            let p95 = crate::fit::stats::quantile_sorted(&sorted, 0.95);
+            let ms = ceil_to(1.5 * p95, step).clamp(lowest, highest);
+            (
+                ms,
+                format!(
+                    "half over your longest usual pause {what}, {p95:.0} ms (95th percentile of {})",
+                    p.len()
+                ),
+            )
+        }
+        Some(p) => (
+            now,
+            format!("kept: only {} pauses {what} in the session", p.len()),
+        ),
+        None => (
+            now,
+            "kept: the calibration paces breaths by its prompts, so it does not measure your pauses in use; `fit --from` a recording of ordinary use does".into(),
+        ),
     }
 }
