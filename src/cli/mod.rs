@@ -78,7 +78,8 @@ enum Command {
     /// `--sensor` line for each.
     Sensors(sensors::SensorsArgs),
     /// Check a configuration and print it, complete, as TOML that
-    /// `--config` reads back (with the sequence table as comments).
+    /// `--config` reads back (with the sequence table as comments); with
+    /// `--diff FILE`, only what FILE changes from the defaults, as a table.
     Config(config::ConfigArgs),
 }
 

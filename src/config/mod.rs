@@ -12,9 +12,12 @@
 //! * [`validate`]: the checks, on typed values;
 //! * `defaults`: the built-in configuration;
 //! * [`print`](mod@print): the effective configuration back as TOML,
-//!   through the same layout.
+//!   through the same layout;
+//! * [`diff`]: what a file changes from the built-in configuration, with
+//!   the reasons written in it, compared through that same layout.
 
 mod defaults;
+pub mod diff;
 pub mod error;
 mod file;
 mod lines;
@@ -58,14 +61,24 @@ impl Default for Config {
 impl Config {
     /// Reads and validates a configuration file.
     pub fn from_file(path: &Path) -> Result<Config, ConfigFileError> {
+        Config::from_file_with_text(path).map(|(config, _)| config)
+    }
+
+    /// Reads and validates a configuration file as [`Config::from_file`]
+    /// does (the same errors), keeping its text: its comments are the
+    /// reasons [`diff`] shows.
+    pub fn from_file_with_text(path: &Path) -> Result<(Config, String), ConfigFileError> {
         let text = std::fs::read_to_string(path).map_err(|error| ConfigFileError::Read {
             path: path.to_path_buf(),
             error,
         })?;
-        Config::from_toml_str(&text).map_err(|errors| ConfigFileError::Invalid {
-            path: path.to_path_buf(),
-            errors,
-        })
+        match Config::from_toml_str(&text) {
+            Ok(config) => Ok((config, text)),
+            Err(errors) => Err(ConfigFileError::Invalid {
+                path: path.to_path_buf(),
+                errors,
+            }),
+        }
     }
 
     /// Parses and validates TOML text. Missing keys take the built-in

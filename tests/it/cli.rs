@@ -160,6 +160,53 @@ fn config_prints_every_key_and_reads_back() {
     assert_eq!(printed, paper);
 }
 
+/// `config --diff`: the keys a profile changes, each with its default and
+/// the comment above it, as a table; a bad profile is refused as
+/// `--config` refuses it.
+#[test]
+fn config_diff_prints_each_changed_key_with_its_reason() {
+    let (_dir, path) = scratch_file(
+        "ana.toml",
+        "# sipnpuff profile: label \"ana\"\n\n[detector]\n\
+         # midway between the rest noise and your weakest short puff\n\
+         puff_threshold_volts = 2.81\n\
+         min_burst_ms = 40\n\
+         # where your short and long puffs are equally far in spreads\n\
+         long_burst_ms = 470\n\n[interface]\nkind = \"bsp\"\n",
+    );
+    let out = sipnpuff(&["config", "--diff", path.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_exit(out.status, &stderr, 0, "config --diff");
+    assert_eq!(
+        String::from_utf8(out.stdout).unwrap(),
+        format!(
+            "\
+{}: changes from default
+key                            default  this file  reason
+-----------------------------  -------  ---------  -------------------------------------------------
+detector.puff_threshold_volts  3.0 V    2.81 V     midway between the rest noise and your weakest
+                                                   short puff
+detector.long_burst_ms         500 ms   470 ms     where your short and long puffs are equally far
+                                                   in spreads
+interface.kind                 \"asp\"    \"bsp\"
+",
+            path.display()
+        )
+    );
+    std::fs::write(&path, "[matcher]\n# no wait\nsequence_timeout_ms = 0\n").unwrap();
+    let out = sipnpuff(&["config", "--diff", path.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_exit(out.status, &stderr, 2, "config --diff on a bad file");
+    assert!(out.stdout.is_empty());
+    assert!(
+        stderr.contains(&format!(
+            "{}: 1 problem in the configuration:\n  - line 3, column 1: matcher.sequence_timeout_ms: must be greater than 0 ms\n",
+            path.display()
+        )),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn a_missing_recording_says_what_to_check() {
     let e = refused(&["run", "--sensor", "csv:/no/such/recording.csv"]);
