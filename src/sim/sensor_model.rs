@@ -53,7 +53,7 @@ pub enum Step {
 
 /// Where the detector's levels are, relative to the neutral, in volts (all
 /// positive): breaths are shaped to cross them at exact times.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Crossings {
     /// A puff starts above neutral + this.
     pub puff_on: f64,
