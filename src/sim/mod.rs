@@ -1,8 +1,10 @@
 //! Simulation: the seeded sensor model, the scripts and simulated users
-//! that breathe into it, and the paper's study run with them through the
+//! that breathe into it, simulated people with known breathing for
+//! calibration, and the paper's study run with them through the
 //! production core. Set-up and tooling code: it may allocate, and neither
 //! the core nor the runtime imports it.
 
+pub mod breather;
 pub mod script;
 pub mod sensor_model;
 pub mod study;

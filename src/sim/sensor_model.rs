@@ -53,7 +53,7 @@ pub enum Step {
 
 /// Where the detector's levels are, relative to the neutral, in volts (all
 /// positive): breaths are shaped to cross them at exact times.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Crossings {
     /// A puff starts above neutral + this.
     pub puff_on: f64,
@@ -92,8 +92,12 @@ pub struct SignalParams {
     /// Detector levels the breaths are shaped to cross exactly.
     pub crossings: Crossings,
     /// Mean plateau height of a breath above (puff) or below (sip) the
-    /// neutral, in volts.
+    /// neutral, in volts; of puffs only when `sip_volts` is set.
     pub breath_volts: f64,
+    /// Mean plateau height of a sip below the neutral, in volts, when it
+    /// differs from a puff's (a user who blows harder than they suck);
+    /// `None`: `breath_volts`.
+    pub sip_volts: Option<f64>,
     /// Each breath's height varies uniformly by ± this fraction.
     pub breath_jitter: f64,
     /// Ramp (rise and fall) time range, in ms.
@@ -126,6 +130,7 @@ impl SignalParams {
             neutral_volts: detector.neutral_volts,
             crossings: Crossings::of(detector),
             breath_volts: 1.2,
+            sip_volts: None,
             breath_jitter: 0.15,
             ramp_ms: DEFAULT_RAMP_MS,
             tremor_volts: 0.03,
@@ -153,6 +158,23 @@ impl SignalParams {
         SignalParams {
             wander_volts,
             ..self
+        }
+    }
+
+    /// With sips of this mean height below the neutral, volts (puffs keep
+    /// `breath_volts`).
+    pub fn with_sip_volts(self, sip_volts: f64) -> Self {
+        SignalParams {
+            sip_volts: Some(sip_volts),
+            ..self
+        }
+    }
+
+    /// Mean plateau height of this breath, volts from the neutral.
+    pub fn mean_volts(&self, breath: Breath) -> f64 {
+        match breath {
+            Breath::Puff => self.breath_volts,
+            Breath::Sip => self.sip_volts.unwrap_or(self.breath_volts),
         }
     }
 
@@ -308,7 +330,7 @@ impl<'a> SignalGenerator<'a> {
             Some(&Step::Breath { breath, ms }) => {
                 let p = &self.params;
                 let jitter = self.rng.random_range(-1.0..=1.0) * p.breath_jitter;
-                let height = p.breath_volts * (1.0 + jitter);
+                let height = p.mean_volts(breath) * (1.0 + jitter);
                 let ramp = self.rng.random_range(p.ramp_ms.0..=p.ramp_ms.1);
                 let shape = Shape::new(p, breath, ms, height, ramp);
                 // Drawn only when used: a signal without wander draws the
@@ -538,6 +560,37 @@ mod tests {
         let c: Vec<f64> = SignalGenerator::new(p, &script).collect();
         assert_ne!(a, c);
         assert!(a.iter().all(|v| (0.0..=5.0).contains(v)));
+    }
+
+    #[test]
+    fn sips_may_have_their_own_height_and_nothing_else_changes() {
+        let c = DetectorConfig::default();
+        let script = [
+            Step::Rest { ms: 50 },
+            Step::Breath {
+                breath: Breath::Puff,
+                ms: 300,
+            },
+            Step::Rest { ms: 100 },
+            Step::Breath {
+                breath: Breath::Sip,
+                ms: 300,
+            },
+            Step::Rest { ms: 100 },
+        ];
+        let p = SignalParams::clean(&c, 4).with_noise(0.01);
+        let same: Vec<f64> = SignalGenerator::new(p, &script).collect();
+        let explicit: Vec<f64> =
+            SignalGenerator::new(p.with_sip_volts(p.breath_volts), &script).collect();
+        assert_eq!(same, explicit);
+        let weak_sips: Vec<f64> = SignalGenerator::new(p.with_sip_volts(0.8), &script).collect();
+        // Puffs (and the random draws) as before: the sip starts after
+        // 50 + 300 + 100 samples at the earliest. Sips shallower by a third.
+        assert_eq!(weak_sips[..450], same[..450]);
+        let depth = |s: &[f64]| s.iter().fold(0.0_f64, |m, v| m.max(2.5 - v));
+        let ratio = depth(&weak_sips) / depth(&same);
+        assert!((ratio - 2.0 / 3.0).abs() < 0.05, "{ratio}");
+        assert_eq!(bursts(p.with_sip_volts(0.8), &script).len(), 2);
     }
 
     #[test]

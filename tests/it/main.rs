@@ -17,6 +17,7 @@ mod arm_feedback;
 mod arm_kinova_sdk;
 mod arm_ros1;
 mod arm_ros2;
+mod breathers;
 mod cli;
 mod common;
 mod display;
