@@ -6,6 +6,7 @@ use anyhow::Context;
 
 use crate::cli::args::ConfigArg;
 use crate::cli::output;
+use crate::sim::study::atypical::{self, AtypicalOptions};
 use crate::sim::study::{
     StudyOptions, StudyReport, SweepParam, plot, run_study, study_text, sweep, sweep_text,
 };
@@ -30,10 +31,29 @@ pub struct StudyArgs {
     /// Instead, how the gap moves with one parameter.
     #[arg(long, value_enum)]
     sweep: Option<SweepParam>,
+    /// Instead, the built-in atypical breathers (weak, slow, tremulous,
+    /// …): each fitted from the calibration protocol, then reading a
+    /// held-out session and doing the three tasks with the defaults and
+    /// with their profile.
+    #[arg(long, conflicts_with_all = ["sweep", "plot", "users"])]
+    atypical: bool,
 }
 
 /// Runs the study (or a sweep) and prints it.
 pub fn study(args: StudyArgs) -> anyhow::Result<()> {
+    if args.atypical {
+        let options = AtypicalOptions {
+            seed: args.seed,
+            ..AtypicalOptions::default()
+        };
+        let results = atypical::run(&options);
+        return if args.json {
+            output::stdout_line(&serde_json::to_string(&results)?)
+        } else {
+            output::stdout(&atypical::text(&results))
+        }
+        .context("stdout");
+    }
     let config = args.config.load()?;
     let options = StudyOptions {
         users: usize::try_from(args.users)?,

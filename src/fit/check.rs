@@ -171,3 +171,22 @@ pub fn confusion(
         faults,
     }
 }
+
+/// How far a burst may lie outside the breath it reads, ms: a threshold
+/// below the true one is crossed earlier on the rise (by at most part of
+/// a ramp), and a sequence's breaths may be 200 ms apart.
+const READ_SLACK_MS: u64 = 60;
+
+/// Breaths read right: of the breaths meant (`(action, first tick, ms)`),
+/// those one burst of the same action overlaps, and no other burst.
+pub fn read_right(bursts: &[Burst], meant: &[(Action, u64, u64)]) -> usize {
+    meant
+        .iter()
+        .filter(|&&(action, start, ms)| {
+            let mut mine = bursts
+                .iter()
+                .filter(|b| b.start < start + ms + READ_SLACK_MS && b.end + READ_SLACK_MS > start);
+            matches!((mine.next(), mine.next()), (Some(b), None) if b.action == action)
+        })
+        .count()
+}

@@ -279,4 +279,25 @@ mod tests {
             .unwrap();
         assert!((short.duration_ms.mean - 150.0).abs() < 20.0, "{short:?}");
     }
+
+    #[test]
+    fn overlapping_short_and_long_breaths_are_said_and_not_trusted() {
+        use crate::sim::breather::{Breather, protocol_session};
+        // Short 380 ms and long 480 ms, each ±30 %: no boundary separates
+        // them.
+        let b = Breather {
+            short_ms: 380,
+            long_ms: 480,
+            ..Breather::named("typical").unwrap()
+        };
+        let session = protocol_session(&b, &Protocol::default(), 2);
+        let signal = Signal::from_volts(session.signal());
+        let fit = fit(&signal, &Protocol::default(), &Config::default()).unwrap();
+        assert!(!fit.is_reliable());
+        let said = fit.overlap.unwrap();
+        assert!(
+            said.starts_with("your short and long breaths overlap"),
+            "{said}"
+        );
+    }
 }

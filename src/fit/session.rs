@@ -61,18 +61,26 @@ pub fn answers(protocol: &Protocol, found: &Found) -> Result<Answers, FitError> 
         extra: Vec::new(),
         notes: Vec::new(),
     };
+    if found.regions.is_empty() {
+        return Err(FitError::new(format!(
+            "no breath found after the rest: the signal never left the rest's noise (±{:.2} V around {:.2} V) for {} ms; check the tube and the sensor",
+            found.outside,
+            found.rest.level,
+            crate::fit::breaths::MIN_BREATH_MS
+        )));
+    }
     if runs.len() < wanted.len() {
         let kinds: Vec<&str> = runs.iter().map(|r| kind_words(r[0].breath)).collect();
         return Err(FitError::new(format!(
-            "the protocol asks for {} runs of breaths ({}) but the session has {} ({}): was the whole protocol breathed, in its order?",
-            wanted.len(),
+            "the protocol asks for {} then {}, but the session has {}: was the whole protocol breathed, in its order?",
             wanted
                 .iter()
+                .take(wanted.len() - 1)
                 .map(|(b, _)| kind_words(*b))
                 .collect::<Vec<_>>()
                 .join(", "),
-            runs.len(),
-            kinds.join(", ")
+            wanted.last().map_or("", |(b, _)| kind_words(*b)),
+            kinds.join(" then ")
         )));
     }
     for (run, (breath, blocks)) in runs.iter().zip(&wanted) {

@@ -112,13 +112,13 @@ const BREATHERS: [Breather; 6] = [
         ..TYPICAL
     },
     // Little lung capacity: no breath over 800 ms (a long one at most
-    // 600 ms × 1.3 = 780 ms).
+    // 600 ms × 1.3 = 780 ms, a hold 720 ms × 1.1 = 792 ms).
     Breather {
         name: "short_capacity",
         rest_volts: 2.65,
         short_ms: 200,
         long_ms: 600,
-        hold_ms: 800,
+        hold_ms: 720,
         ..TYPICAL
     },
     // Everything takes longer: breaths and the gaps between them.

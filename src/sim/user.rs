@@ -51,6 +51,9 @@ pub struct UserModel {
     /// detection mode (the slip the motion onset is for). 0 in the paper's
     /// population.
     pub slip_rate: f64,
+    /// The longest breath the user can hold, ms: a longer move is made of
+    /// several holds. Unlimited in the paper's population.
+    pub hold_capacity_ms: f64,
 }
 
 impl UserModel {
@@ -73,6 +76,7 @@ impl UserModel {
         hold_sd: 0.10,
         between_users: 0.20,
         slip_rate: 0.0,
+        hold_capacity_ms: f64::INFINITY,
     };
 
     /// One participant drawn from the population: their own mean reaction
@@ -121,6 +125,9 @@ pub struct TaskRun {
 const MAX_TASK_TICKS: u64 = 30 * 60 * 1000;
 /// Rest after a hold before the user considers the next step, ms.
 const AFTER_HOLD_MS: u32 = 250;
+/// Rest between the holds of one move too long for one breath, ms (well
+/// inside any inactivity timeout).
+const BETWEEN_HOLDS_MS: u32 = 400;
 
 /// What the user is doing.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -236,9 +243,23 @@ impl Agent<'_> {
                         // after it: the user holds that much longer.
                         let onset = self.config.core().command().motion_onset_ms;
                         signal.push(Step::Rest { ms: reaction });
+                        // A move longer than the user can hold is made of
+                        // holds of at most their capacity, a breath apart.
+                        let mut left = hold.max(100.0);
+                        let capacity = self.user.hold_capacity_ms - f64::from(onset);
+                        while left > capacity && capacity >= 100.0 {
+                            signal.push(Step::Breath {
+                                breath: step.breath,
+                                ms: capacity as u32 + onset,
+                            });
+                            signal.push(Step::Rest {
+                                ms: BETWEEN_HOLDS_MS,
+                            });
+                            left -= capacity;
+                        }
                         signal.push(Step::Breath {
                             breath: step.breath,
-                            ms: hold.max(100.0) as u32 + onset,
+                            ms: left.max(100.0) as u32 + onset,
                         });
                         signal.push(Step::Rest { ms: AFTER_HOLD_MS });
                         self.next += 1;
@@ -441,7 +462,27 @@ impl Agent<'_> {
 /// tick through the production core and the simulated arm, from detection
 /// mode at rest until the last move ends.
 pub fn run_task(config: &Config, task: &Task, user: &UserModel, seed: u64) -> TaskRun {
-    simulate(config, task.steps, user, seed).0
+    simulate(config, task.steps, user, study_signal(config, seed), seed).0
+}
+
+/// [`run_task`] with a sensor and person of given signal parameters (a
+/// breather's), whatever the configuration reading them.
+pub fn run_task_as(
+    config: &Config,
+    task: &Task,
+    user: &UserModel,
+    params: SignalParams,
+    seed: u64,
+) -> TaskRun {
+    simulate(config, task.steps, user, params, seed).0
+}
+
+/// The study's sensor: clean breaths shaped for the configuration's
+/// detector, with noise and hum.
+fn study_signal(config: &Config, seed: u64) -> SignalParams {
+    SignalParams::clean(config.core().detector(), seed)
+        .with_noise(0.02)
+        .with_hum(0.03)
 }
 
 /// The steps of `sipnpuff run`'s built-in user on the scanning interface:
@@ -491,7 +532,7 @@ pub fn scripted_session(
         hold_sd: 0.0,
         ..UserModel::POPULATION
     };
-    let (_, params, script) = simulate(config, steps, &user, seed);
+    let (_, params, script) = simulate(config, steps, &user, study_signal(config, seed), seed);
     (params, script)
 }
 
@@ -501,11 +542,9 @@ fn simulate(
     config: &Config,
     steps: &[TaskStep],
     user: &UserModel,
+    params: SignalParams,
     seed: u64,
 ) -> (TaskRun, SignalParams, Vec<Step>) {
-    let params = SignalParams::clean(config.core().detector(), seed)
-        .with_noise(0.02)
-        .with_hum(0.03);
     let mut signal = SignalGenerator::live(params);
     let mut core = Pipeline::new(config.core());
     let mut arm = SimulatedJaco::new(config.core());

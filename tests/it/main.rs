@@ -24,6 +24,7 @@ mod display;
 mod display_browser;
 mod fast_paths;
 mod faults;
+mod fit;
 mod golden;
 mod motion;
 mod motion_safety;

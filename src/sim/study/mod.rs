@@ -5,6 +5,7 @@
 //! compared as the paper did, with Wilcoxon signed-rank tests on the paired
 //! times, side by side with the paper's figures.
 
+pub mod atypical;
 pub mod plot;
 pub mod stats;
 pub mod tasks;
