@@ -1,8 +1,9 @@
 //! Fitting from ordinary use: a `run --record` session where nobody
 //! prompted anything. The breaths are those the user made, read by the
-//! settings in use; their lengths are split into short and long by a
-//! two-part mixture per kind, not by the boundary in use, so a boundary
-//! that drifted away from the user is seen. The pauses inside sequences
+//! settings in use; those made to select (not in a mode, where a breath
+//! moves the arm) are split into short and long by a two-part mixture per
+//! kind, not by the boundary in use, so a boundary that drifted away from
+//! the user is seen. The pauses inside sequences
 //! and in a mode give the sequence and inactivity timeouts.
 
 use crate::config::Config;
@@ -44,9 +45,6 @@ pub struct Use {
     pub pauses: Pauses,
 }
 
-/// Breaths longer than this many times the boundary in use are holds (arm
-/// motion), not sequence breaths: left out of the short/long split.
-const HOLD_FACTOR: u32 = 3;
 /// Samples this close to a burst are not rest, ms.
 const QUIET_MARGIN_MS: usize = 500;
 
@@ -117,8 +115,7 @@ pub fn measure(signal: &Signal, in_use: &Config) -> Result<Use, FitError> {
     for breath in [Breath::Puff, Breath::Sip] {
         let mine: Vec<&Region> = regions
             .iter()
-            .filter(|(r, _)| r.breath == breath)
-            .filter(|(r, _)| ((r.end - r.start) as u32) < HOLD_FACTOR * long_in_use)
+            .filter(|(r, in_mode)| r.breath == breath && !in_mode)
             .map(|(r, _)| r)
             .collect();
         let ms: Vec<f64> = mine.iter().map(|r| (r.end - r.start) as f64).collect();
