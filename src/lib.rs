@@ -20,7 +20,11 @@
 //!   set-up, the threads and rings, telemetry and the run report;
 //! * [`display`]: what the user sees and hears, served to a browser or
 //!   drawn in a terminal, fed from the telemetry side;
-//! * [`sim`]: the sensor model, simulated users and the paper's study;
+//! * [`fit`]: fitting the interface to a person: a calibration's breaths
+//!   measured, their settings proposed with reasons, checked by replay,
+//!   written as a profile;
+//! * [`sim`]: the sensor model, simulated users (and breathers with known
+//!   breathing) and the paper's study;
 //! * [`tools`]: replay, session recordings, benchmarks, the accuracy
 //!   scorer and the safety monitor;
 //! * [`cli`]: the `sipnpuff` command line, one file per command.

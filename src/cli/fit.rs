@@ -59,20 +59,28 @@ pub struct FitArgs {
 pub fn fit(args: FitArgs) -> anyhow::Result<u8> {
     let protocol = Protocol::new(args.count, if args.holds { DEFAULT_HOLDS } else { 0 });
     let signal = Signal::read(&args.from).map_err(anyhow::Error::msg)?;
-    let ordinary_use = args.from.is_dir() && !args.from.join(CALIBRATION).exists();
+    let current = args.config.load()?;
+    let as_protocol = fitting::fit(&signal, &protocol, &current);
+    // A recording of a guided session says so; any other recording that
+    // follows the protocol block for block is a calibration too; the
+    // rest is ordinary use.
+    let follows = as_protocol
+        .as_ref()
+        .is_ok_and(|f| f.answers.notes.is_empty());
+    let ordinary_use = args.from.is_dir() && !args.from.join(CALIBRATION).exists() && !follows;
     let fitted = if ordinary_use {
         // The profile in use: `--config`, or what the session recorded.
         let in_use = match &args.config.config {
-            Some(_) => args.config.load()?,
+            Some(_) => current,
             None => Recording::open(&args.from)?.config,
         };
         note!(
-            "{}: a session of ordinary use (no {CALIBRATION}): its breaths split into short and long as you made them",
+            "{}: a session of ordinary use (it does not follow the protocol): its breaths split into short and long as you made them",
             args.from.display()
         );
         fitting::fit_use(&signal, &in_use)
     } else {
-        fitting::fit(&signal, &protocol, &args.config.load()?)
+        as_protocol
     };
     let fit = match fitted {
         Ok(fit) => fit,

@@ -56,7 +56,7 @@ const END_MS: usize = 50;
 /// (the sensor settling; the breath's rise).
 const REST_MARGIN_MS: usize = 200;
 /// Shortest usable initial rest, ms.
-pub const MIN_REST_MS: usize = 3000;
+pub const MIN_REST_MS: usize = 2000;
 /// Time constant of the baseline's tracking between breaths, ms.
 const TRACKING_MS: f64 = 2000.0;
 /// Samples for the first estimate of the rest: the first 3 s.
@@ -219,8 +219,9 @@ fn regions(signal: &Signal, level: f64, outside: f64) -> Vec<Region> {
     found
 }
 
-/// Measures one stretch.
-fn region(signal: &Signal, sign: f64, start: usize, end: usize, baseline: f64) -> Region {
+/// Measures the stretch `start..end` of a breath (`sign` +1 for a puff,
+/// −1 for a sip) against `baseline`.
+pub fn region(signal: &Signal, sign: f64, start: usize, end: usize, baseline: f64) -> Region {
     let mut distances: Vec<f64> = (start..end)
         .filter_map(|t| signal.volts(t))
         .map(|v| sign * (v - baseline))

@@ -11,7 +11,7 @@ use crate::control::action::{Action, Breath};
 use crate::control::event::Event;
 use crate::control::mode::ModeState;
 use crate::control::pipeline::{Pipeline, TickOutput};
-use crate::fit::breaths::{Found, Region, Rest};
+use crate::fit::breaths::{self, Found, Region, Rest};
 use crate::fit::protocol::{Ask, Block, Protocol};
 use crate::fit::session::{Answer, Answers};
 use crate::fit::signal::{FitError, Signal};
@@ -203,25 +203,7 @@ fn region(
         Breath::Puff => 1.0,
         Breath::Sip => -1.0,
     };
-    let mut distances: Vec<f64> = (start..end)
-        .filter_map(|t| signal.volts(t))
-        .map(|v| sign * (v - baseline))
-        .collect();
-    distances.sort_unstable_by(f64::total_cmp);
-    let peak = quantile_sorted(&distances, 0.95);
-    let high: Vec<f64> = distances
-        .iter()
-        .copied()
-        .filter(|d| *d >= peak / 2.0)
-        .collect();
-    Region {
-        breath: b.action.breath(),
-        start,
-        end,
-        baseline,
-        peak,
-        plateau: stats::median(&high),
-    }
+    breaths::region(signal, sign, start, end, baseline)
 }
 
 /// Two groups this far apart (difference of means over their pooled

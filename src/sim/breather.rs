@@ -509,8 +509,9 @@ mod tests {
         assert_eq!((typical.noise_volts, typical.tremor_volts), (0.01, 0.03));
         assert_eq!((b("weak").puff_volts, b("weak").sip_volts), (0.4, 0.4));
         let sc = b("short_capacity");
-        assert_eq!((sc.short_ms, sc.long_ms, sc.hold_ms), (200, 600, 800));
+        assert_eq!((sc.short_ms, sc.long_ms, sc.hold_ms), (200, 600, 720));
         assert!(f64::from(sc.long_ms) * (1.0 + VARIATION) <= 800.0);
+        assert!(f64::from(sc.hold_ms) * (1.0 + HOLD_VARIATION) <= 800.0);
         let slow = b("slow");
         assert_eq!((slow.short_ms, slow.long_ms), (400, 1500));
         assert!(slow.gap_ms > typical.gap_ms);

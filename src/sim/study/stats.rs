@@ -48,7 +48,7 @@ pub struct SignedRank {
 
 /// Standard normal CDF.
 fn phi(z: f64) -> f64 {
-    0.5 * libm::erfc(-z / std::f64::consts::SQRT_2)
+    crate::fit::stats::normal_cdf(z)
 }
 
 /// Tests whether `first − second` is centred on zero. `None` if the
