@@ -5,13 +5,17 @@
 //! the breaths; [`session`] matches them to the [`protocol`]'s prompts;
 //! [`propose`] derives the settings, each with its reason; [`predict`]
 //! gives the misreadings they predict and [`check`] replays the session
-//! through the real detector; [`profile`] writes the result. Pure: no
+//! through the real detector; [`profile`] writes the result and
+//! [`outcome`] sums it up for the page. A live session is guided by
+//! [`prompter`], which owns the protocol's progress tick by tick. Pure: no
 //! clock, no device.
 
 pub mod breaths;
 pub mod check;
+pub mod outcome;
 pub mod predict;
 pub mod profile;
+pub mod prompter;
 pub mod propose;
 pub mod protocol;
 pub mod session;
@@ -222,12 +226,7 @@ mod tests {
             fit.found.rest
         );
         assert_eq!(fit.answers.answers.len(), 32, "{:?}", fit.answers.notes);
-        assert_eq!(
-            fit.replayed[1].right(),
-            (32, 32),
-            "{}",
-            crate::cli::fit::report(&fit)
-        );
+        assert_eq!(fit.replayed[1].right(), (32, 32), "{:?}", fit.replayed[1]);
         assert!(fit.is_reliable());
         let d = fit.proposal.detector;
         // Midway between the rest's noise (±0.04 V) and the weakest

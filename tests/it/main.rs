@@ -23,6 +23,7 @@ mod display;
 mod display_browser;
 mod fast_paths;
 mod faults;
+mod fit_live;
 mod golden;
 mod motion;
 mod motion_safety;
