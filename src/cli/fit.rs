@@ -44,6 +44,11 @@ use crate::tools::recording::writer::RecordOptions;
 /// The profile's name in a live session's directory (without `--out`).
 pub const PROFILE: &str = "profile.toml";
 
+/// The file a guided session leaves in its recording: the protocol it
+/// followed (`Protocol` as JSON), written when the session starts. A
+/// recording without it is ordinary use.
+pub const CALIBRATION: &str = "calibration.json";
+
 /// How long the page's summary may take to reach the open pages before
 /// `fit` exits.
 const SUMMARY_WAIT: Duration = Duration::from_secs(3);
@@ -347,6 +352,11 @@ impl OnSensor for Session<'_> {
     fn on<S: Sensor>(self, config: &Config, sensor: S) -> anyhow::Result<Ran> {
         let mut recorder = Recorder::create(self.dir, config, RecordOptions::default())
             .map_err(|e| anyhow::Error::new(e).context("--record"))?;
+        // The recording says it is a calibration, and which protocol.
+        let marker = self.dir.join(CALIBRATION);
+        let protocol = serde_json::to_string_pretty(self.protocol)? + "\n";
+        std::fs::write(&marker, protocol)
+            .with_context(|| format!("cannot write {}", marker.display()))?;
         // A fit never drives a real arm: the core's output goes to the
         // simulated one.
         let arm: Box<dyn Arm> = Box::new(SimArm::new(config.core()));

@@ -53,6 +53,22 @@ fn control_thread_allocations(recording: &Path) -> u64 {
         .unwrap_or_else(|| panic!("no allocation count in {report}"))
 }
 
+/// The blocks a guided session's recording says it followed
+/// (`calibration.json`): what each asked for.
+fn protocol_followed(recording: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(recording.join("calibration.json")).unwrap();
+    let protocol: Value = serde_json::from_str(&text).unwrap();
+    protocol["blocks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| {
+            assert!(b["count"].as_u64().unwrap() >= 3, "{b}");
+            b["ask"].as_str().unwrap().to_string()
+        })
+        .collect()
+}
+
 /// Runs `sipnpuff` with `args` to its end; (status, stdout, stderr).
 fn sipnpuff(args: &[&str]) -> (std::process::ExitStatus, String, String) {
     let mut command = common::sipnpuff();
@@ -123,6 +139,10 @@ fn a_live_session_is_guided_recorded_and_fitted_and_its_recording_fits_again_ali
             "{stderr}"
         );
         assert_eq!(control_thread_allocations(recording), 0);
+        assert_eq!(
+            protocol_followed(recording),
+            ["short puff", "long puff", "short sip", "long sip"]
+        );
 
         // The profile is a configuration.
         let (status, _, stderr) = sipnpuff(&["config", "--config", profile.to_str().unwrap()]);
@@ -182,6 +202,7 @@ fn ctrl_c_stops_a_live_session_keeps_its_recording_and_writes_nothing() {
             "{stderr}"
         );
         assert!(!profile.exists());
+        assert_eq!(protocol_followed(&recording).len(), 4);
         // The recording is whole: it replays.
         let (status, _, stderr) = sipnpuff(&["replay", recording.to_str().unwrap()]);
         assert!(status.success(), "{stderr}");
