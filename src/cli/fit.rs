@@ -194,6 +194,17 @@ fn live(args: &FitArgs, current: &Config, protocol: &Protocol) -> anyhow::Result
         Some(dir) => dir.clone(),
         None => default_dir(&args.label),
     };
+    // Where the profile goes is checked now, not after the session.
+    if let Some(out) = &args.out
+        && let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty())
+        && !parent.is_dir()
+    {
+        return invalid(Err(anyhow::anyhow!(
+            "--out {}: {} is not a directory",
+            out.display(),
+            parent.display()
+        )));
+    }
     invalid(check_dir(&dir).map_err(|e| anyhow::Error::new(e).context("--record")))?;
     let out = args.out.clone().unwrap_or_else(|| dir.join(PROFILE));
     let settings = LoopSettings {
