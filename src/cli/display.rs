@@ -6,7 +6,10 @@
 
 use std::net::{SocketAddr, ToSocketAddrs};
 
+use crate::control::Tick;
 use crate::control::core_config::CoreConfig;
+use crate::fit::outcome::Outcome;
+use crate::fit::prompter::{Say, View};
 use crate::rt::report::RunReport;
 use crate::rt::telemetry::TelemetryObserver;
 
@@ -77,10 +80,20 @@ mod wired {
 
         /// Starts what was chosen for a run of `config` on `arm` (in words).
         pub fn start(&self, config: &CoreConfig, arm: &str) -> anyhow::Result<Showing> {
+            self.start_hub(|| DisplayHub::new(config, arm))
+        }
+
+        /// Starts the page of a live calibration (`sipnpuff fit`) on
+        /// `config` and `arm`: its prompts instead of the modes.
+        pub fn start_fit(&self, config: &CoreConfig, arm: &str) -> anyhow::Result<Showing> {
+            self.start_hub(|| DisplayHub::for_fit(config, arm))
+        }
+
+        fn start_hub(&self, hub: impl FnOnce() -> DisplayHub) -> anyhow::Result<Showing> {
             if self.listener.is_none() && !self.tui {
                 return Ok(Showing::default());
             }
-            let hub = DisplayHub::new(config, arm);
+            let hub = hub();
             let server = match &self.listener {
                 Some(listener) => Some(DisplayServer::serve(listener.try_clone()?, hub.feed())?),
                 None => None,
@@ -115,9 +128,31 @@ mod wired {
             self.hub.as_mut().map(|h| h as &mut dyn TelemetryObserver)
         }
 
+        /// A live calibration's state from its guide, after it said
+        /// `said` on `tick`.
+        pub fn calibrate(&mut self, tick: Tick, view: &View, said: Option<&Say>) {
+            if let Some(hub) = self.hub.as_mut() {
+                hub.calibrate(tick, view, said);
+            }
+        }
+
+        /// A live calibration's summary, the session's last frame: waits
+        /// (at most `limit`) until every open page has it, so the page
+        /// keeps it when the server goes.
+        pub fn conclude(&mut self, outcome: &Outcome, limit: std::time::Duration) {
+            let Some(hub) = self.hub.as_mut() else {
+                return;
+            };
+            hub.conclude(outcome);
+            if self.server.is_some() && hub.feed().wait_last_sent(limit) {
+                // Sent to the socket: a moment for it to leave.
+                std::thread::sleep(std::time::Duration::from_millis(100));
+            }
+        }
+
         /// After the run: the last frame published, the terminal given
         /// back, the figures in `report` (when there is one).
-        pub fn finish(mut self, report: Option<&mut RunReport>) {
+        pub fn finish(&mut self, report: Option<&mut RunReport>) {
             if let Some(hub) = self.hub.as_mut() {
                 hub.publish();
             }
@@ -152,6 +187,11 @@ mod wired {
         pub fn start(&self, _config: &CoreConfig, _arm: &str) -> anyhow::Result<Showing> {
             Ok(Showing)
         }
+
+        /// Nothing to start.
+        pub fn start_fit(&self, _config: &CoreConfig, _arm: &str) -> anyhow::Result<Showing> {
+            Ok(Showing)
+        }
     }
 
     /// No display.
@@ -163,8 +203,14 @@ mod wired {
             None
         }
 
+        /// Nothing to show.
+        pub fn calibrate(&mut self, _tick: Tick, _view: &View, _said: Option<&Say>) {}
+
+        /// Nothing to show.
+        pub fn conclude(&mut self, _outcome: &Outcome, _limit: std::time::Duration) {}
+
         /// Nothing to end.
-        pub fn finish(self, _report: Option<&mut RunReport>) {}
+        pub fn finish(&mut self, _report: Option<&mut RunReport>) {}
     }
 }
 

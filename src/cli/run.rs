@@ -151,49 +151,19 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         quiet: args.display.tui,
         ..StdoutEvents::default()
     };
-    let settings = config.sensor();
-    let neutral = config.core().detector().neutral_volts;
-    let report = match &args.sensor {
-        SensorSpec::Synthetic => start(
-            &config,
-            SyntheticSensor::built_in_user(&config),
-            arm,
-            &options,
-            &mut events,
-            record,
-            display,
-        )?,
-        SensorSpec::Csv(path) => start(
-            &config,
-            CsvSensor::open(path)?,
-            arm,
-            &options,
-            &mut events,
-            record,
-            display,
-        )?,
-        SensorSpec::Evdev(target) => {
-            let sensor = EvdevSensor::open(target, &settings.evdev, neutral, settings.reconnect)?;
-            let analog = sensor.is_analog();
-            let (config, sensor) = prepare_device(&config, sensor, analog)?;
-            start(&config, sensor, arm, &options, &mut events, record, display)?
-        }
-        SensorSpec::Serial { path, baud } => {
-            let sensor =
-                SerialSensor::open(path, *baud, &settings.serial, neutral, settings.reconnect)?;
-            let detector = config.core().detector();
-            if let Some(note) = sensor.rate_note(detector.min_burst_ms, detector.long_burst_ms) {
-                note!("sipnpuff: {note}");
-            }
-            let (config, sensor) = prepare_device(&config, sensor, true)?;
-            start(&config, sensor, arm, &options, &mut events, record, display)?
-        }
-        SensorSpec::Iio(path) => {
-            let sensor = IioSensor::open(path, &settings.iio, settings.reconnect)?;
-            let (config, sensor) = prepare_device(&config, sensor, true)?;
-            start(&config, sensor, arm, &options, &mut events, record, display)?
-        }
+    let start = Start {
+        arm,
+        settings: &options,
+        events: &mut events,
+        record,
+        display,
     };
+    let report = open_sensor(
+        &args.sensor,
+        &config,
+        || SyntheticSensor::built_in_user(&config),
+        start,
+    )?;
     let text = if args.json {
         serde_json::to_string(&report)? + "\n"
     } else {
@@ -250,43 +220,103 @@ struct Record<'a> {
     options: RecordOptions,
 }
 
-/// Runs the loop on `sensor`, the core built from `config` (the
-/// configuration in effect), with the display and the recording asked
+/// What runs on the sensor `--sensor` opened, whatever its type: `run`
+/// and `fit` open sensors alike.
+pub trait OnSensor {
+    /// What it gives back.
+    type Output;
+
+    /// Runs on `sensor`; `config` is the configuration in effect (with a
+    /// device's measured neutral).
+    fn on<S: Sensor>(self, config: &Config, sensor: S) -> anyhow::Result<Self::Output>;
+}
+
+/// Opens the `--sensor` backend and runs `on` on it: `synthetic` is the
+/// command's scripted user (`synthetic()`); a device is started and, if
+/// analog, its neutral measured first ([`prepare_device`]).
+pub fn open_sensor<O: OnSensor>(
+    spec: &SensorSpec,
+    config: &Config,
+    synthetic: impl FnOnce() -> SyntheticSensor,
+    on: O,
+) -> anyhow::Result<O::Output> {
+    let settings = config.sensor();
+    let neutral = config.core().detector().neutral_volts;
+    match spec {
+        SensorSpec::Synthetic => on.on(config, synthetic()),
+        SensorSpec::Csv(path) => on.on(config, CsvSensor::open(path)?),
+        SensorSpec::Evdev(target) => {
+            let sensor = EvdevSensor::open(target, &settings.evdev, neutral, settings.reconnect)?;
+            let analog = sensor.is_analog();
+            let (config, sensor) = prepare_device(config, sensor, analog)?;
+            on.on(&config, sensor)
+        }
+        SensorSpec::Serial { path, baud } => {
+            let sensor =
+                SerialSensor::open(path, *baud, &settings.serial, neutral, settings.reconnect)?;
+            let detector = config.core().detector();
+            if let Some(note) = sensor.rate_note(detector.min_burst_ms, detector.long_burst_ms) {
+                note!("sipnpuff: {note}");
+            }
+            let (config, sensor) = prepare_device(config, sensor, true)?;
+            on.on(&config, sensor)
+        }
+        SensorSpec::Iio(path) => {
+            let sensor = IioSensor::open(path, &settings.iio, settings.reconnect)?;
+            let (config, sensor) = prepare_device(config, sensor, true)?;
+            on.on(&config, sensor)
+        }
+    }
+}
+
+/// `run` on the sensor opened: the loop on it, the core built from the
+/// configuration in effect, with the display and the recording asked
 /// for: the recording ends before the report is printed, its summary in
 /// the report (and its `report.json`); the terminal view gives the
 /// terminal back before it.
-fn start<S: Sensor>(
-    config: &Config,
-    sensor: S,
+struct Start<'a> {
     arm: Box<dyn Arm>,
-    settings: &LoopSettings,
-    events: &mut StdoutEvents,
-    record: Option<&Record<'_>>,
-    display: &Display,
-) -> anyhow::Result<RunReport> {
-    let mut recorder = match record {
-        Some(record) => Some(
-            Recorder::create(record.dir, config, record.options)
-                .map_err(|e| anyhow::Error::new(e).context("--record"))?,
-        ),
-        None => None,
-    };
-    let mut showing = display.start(config.core(), &arm.describe())?;
-    let options = RunOptions {
-        watchers: Watchers {
-            events: Some(events),
-            recorder: recorder.as_mut().map(|r| r as &mut dyn SessionRecorder),
-            observer: showing.observer(),
-        },
-        ..RunOptions::new(sensor, arm, settings.clone())
-    };
-    let mut result = threads::run(config.core(), options);
-    showing.finish(result.as_mut().ok());
-    let mut report = result?;
-    if let Some(recorder) = recorder {
-        recorder.finish(&mut report);
+    settings: &'a LoopSettings,
+    events: &'a mut StdoutEvents,
+    record: Option<&'a Record<'a>>,
+    display: &'a Display,
+}
+
+impl OnSensor for Start<'_> {
+    type Output = RunReport;
+
+    fn on<S: Sensor>(self, config: &Config, sensor: S) -> anyhow::Result<RunReport> {
+        let Start {
+            arm,
+            settings,
+            events,
+            record,
+            display,
+        } = self;
+        let mut recorder = match record {
+            Some(record) => Some(
+                Recorder::create(record.dir, config, record.options)
+                    .map_err(|e| anyhow::Error::new(e).context("--record"))?,
+            ),
+            None => None,
+        };
+        let mut showing = display.start(config.core(), &arm.describe())?;
+        let options = RunOptions {
+            watchers: Watchers {
+                events: Some(events),
+                recorder: recorder.as_mut().map(|r| r as &mut dyn SessionRecorder),
+                observer: showing.observer(),
+            },
+            ..RunOptions::new(sensor, arm, settings.clone())
+        };
+        let mut result = threads::run(config.core(), options);
+        showing.finish(result.as_mut().ok());
+        let mut report = result?;
+        if let Some(recorder) = recorder {
+            recorder.finish(&mut report);
+        }
+        Ok(report)
     }
-    Ok(report)
 }
 
 /// `--record-max-mb`: a positive number of megabytes (10^6 bytes), at
@@ -381,7 +411,9 @@ pub fn exit_status(report: &RunReport, stdout_failed: Option<io::ErrorKind>) -> 
             None => output::FAILED,
             kind => output_status(kind),
         },
-        StopReason::Time | StopReason::SensorEnded => output_status(stdout_failed),
+        StopReason::Time | StopReason::SensorEnded | StopReason::Finished => {
+            output_status(stdout_failed)
+        }
     }
 }
 

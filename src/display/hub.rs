@@ -17,6 +17,8 @@ use crate::control::Tick;
 use crate::control::core_config::CoreConfig;
 use crate::control::event::TimedEvent;
 use crate::display::screen::{Cue, Frame, Screen};
+use crate::fit::outcome::Outcome;
+use crate::fit::prompter::{Say, View};
 use crate::rt::report::DisplaySummary;
 use crate::rt::telemetry::{TelemetryObserver, TickRecord};
 
@@ -38,6 +40,8 @@ pub struct Published {
     /// The frame on the wire as JSON (with the last event's tick and wake
     /// time, and when it was sent): what a page receives.
     pub json: String,
+    /// The session's last frame: nothing follows it (`fit`'s summary).
+    pub last: bool,
 }
 
 /// A frame on the wire.
@@ -79,6 +83,8 @@ pub struct FeedStats {
     pub pages_opened: AtomicU64,
     /// Pages open now.
     pub pages_open: AtomicU64,
+    /// Times a session's last frame was sent to a page.
+    pub last_frames_sent: AtomicU64,
 }
 
 /// What the pages and the terminal view read: the setup, the latest
@@ -109,6 +115,23 @@ impl Feed {
     /// The latest frame.
     pub fn latest(&self) -> Arc<Published> {
         self.frames.borrow().clone()
+    }
+
+    /// Waits until every open page has been sent the session's last frame
+    /// (or `limit` passes: a page that stopped reading is not waited
+    /// for); whether they all were.
+    pub fn wait_last_sent(&self, limit: std::time::Duration) -> bool {
+        let started = Instant::now();
+        loop {
+            let s = &self.stats;
+            if s.last_frames_sent.load(Ordering::Relaxed) >= s.pages_open.load(Ordering::Relaxed) {
+                return true;
+            }
+            if started.elapsed() >= limit {
+                return false;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
     }
 
     /// What the report says of the display.
@@ -148,6 +171,8 @@ pub struct DisplayHub {
     waiting: Vec<TimedEvent>,
     /// The last record's tick.
     last_tick: Option<Tick>,
+    /// The session's last frame is published.
+    last: bool,
 }
 
 /// How many recent ticks' wake times are kept (2 s).
@@ -156,10 +181,19 @@ const WOKE_TICKS: usize = 2048;
 impl DisplayHub {
     /// The hub for a run of `config` on `arm` (in words).
     pub fn new(config: &CoreConfig, arm: &str) -> DisplayHub {
-        let screen = Screen::new(config, arm);
+        DisplayHub::showing(Screen::new(config, arm))
+    }
+
+    /// The hub for a live calibration (`sipnpuff fit`) on `config` and
+    /// `arm`: the page shows the prompts.
+    pub fn for_fit(config: &CoreConfig, arm: &str) -> DisplayHub {
+        DisplayHub::showing(Screen::new(config, arm).fitting())
+    }
+
+    fn showing(screen: Screen) -> DisplayHub {
         let setup = screen.setup().clone();
         let setup_json = serde_json::to_string(&setup).unwrap_or_else(|_| "{}".into());
-        let first = publication(1, screen.frame(), None);
+        let first = publication(1, screen.frame(), None, false);
         let (frames, _) = watch::channel(Arc::new(first));
         let (cues, _) = broadcast::channel(CUE_QUEUE);
         let feed = Arc::new(Feed {
@@ -182,6 +216,7 @@ impl DisplayHub {
             seq: 1,
             waiting: Vec::with_capacity(64),
             last_tick: None,
+            last: false,
         }
     }
 
@@ -197,6 +232,24 @@ impl DisplayHub {
         self.publish_frame();
     }
 
+    /// Takes a live calibration's state from its guide, after it said
+    /// `said` on `tick`: published at the next drain, its sound at once.
+    pub fn calibrate(&mut self, tick: Tick, view: &View, said: Option<&Say>) {
+        if let Some(cue) = self.screen.calibrate(view, said) {
+            let _ = self.feed.cues.send(CueMessage { cue, tick });
+        }
+        self.event_pending = true;
+    }
+
+    /// Publishes a live calibration's summary as the session's last
+    /// frame; then [`Feed::wait_last_sent`] tells when the pages have it.
+    pub fn conclude(&mut self, outcome: &Outcome) {
+        self.take_events(Tick::MAX);
+        self.screen.conclude(outcome);
+        self.last = true;
+        self.publish_frame();
+    }
+
     fn publish_frame(&mut self) {
         self.seq += 1;
         let offset = self.unix_minus_monotonic_ns;
@@ -204,7 +257,7 @@ impl DisplayHub {
             let unix_ms = woke_ns.map(|ns| (i128::from(ns) + offset) as f64 / 1e6);
             (tick, unix_ms)
         });
-        let published = publication(self.seq, self.screen.frame(), event);
+        let published = publication(self.seq, self.screen.frame(), event, self.last);
         self.feed.frames.send_replace(Arc::new(published));
         self.feed
             .stats
@@ -250,7 +303,12 @@ impl DisplayHub {
     }
 }
 
-fn publication(seq: u64, frame: Frame, event: Option<(Tick, Option<f64>)>) -> Published {
+fn publication(
+    seq: u64,
+    frame: Frame,
+    event: Option<(Tick, Option<f64>)>,
+    last: bool,
+) -> Published {
     let wire = Wire {
         seq,
         event_tick: event.map(|e| e.0),
@@ -259,7 +317,12 @@ fn publication(seq: u64, frame: Frame, event: Option<(Tick, Option<f64>)>) -> Pu
         frame: &frame,
     };
     let json = serde_json::to_string(&wire).unwrap_or_else(|_| "{}".into());
-    Published { seq, frame, json }
+    Published {
+        seq,
+        frame,
+        json,
+        last,
+    }
 }
 
 impl TelemetryObserver for DisplayHub {

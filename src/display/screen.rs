@@ -17,6 +17,8 @@ use crate::control::motion::workspace::Boundary;
 use crate::control::sample::Sample;
 use crate::control::selection::Interface;
 use crate::control::view::CoreView;
+use crate::fit::outcome::Outcome;
+use crate::fit::prompter::{Phase, Say, View};
 use crate::rt::telemetry::TickRecord;
 
 /// One breath of a sequence, as the page draws it.
@@ -66,6 +68,9 @@ pub struct ModeEntry {
 /// What does not change during a run: sent once to each page.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Setup {
+    /// `run` (the modes, `sipnpuff run`) or `fit` (a live calibration's
+    /// prompts, `sipnpuff fit`).
+    pub view: &'static str,
     /// `asp` (sequences) or `bsp` (scanning).
     pub interface: &'static str,
     /// The modes in the order the screen lists them: the library's order
@@ -195,6 +200,98 @@ pub struct Frame {
     pub saved_point: &'static str,
     /// The arm: `connected` or `fault`.
     pub arm: &'static str,
+    /// A live calibration's prompts (`sipnpuff fit` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub calibration: Option<Calibration>,
+}
+
+/// What a live calibration (`sipnpuff fit`) shows: the prompt, large;
+/// the count; a line of news; the rest level; at the end, the summary.
+/// Words from the session's guide ([`crate::fit::prompter`]), as the
+/// terminal prints them.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Calibration {
+    /// `rest` (the rest at the start), `pause` (resting before the next
+    /// prompt), `prompt`, `finished`, `stopped`, or `summary` (the fit is
+    /// done, or nothing was written).
+    pub phase: &'static str,
+    /// The large words: "short puff — now", "rest, please".
+    pub headline: String,
+    /// "3 of 8" (empty without a prompt).
+    pub count: String,
+    /// "block 1 of 4: 8 short puffs" (empty without a prompt).
+    pub block: String,
+    /// The latest news: "that was a sip — again, a puff please", "got it".
+    pub message: String,
+    /// How the news is drawn: `info`, `again` (not counted, or the prompt
+    /// repeated) or `fault` (the session stopped).
+    pub message_level: &'static str,
+    /// Breaths counted so far.
+    pub counted: u32,
+    /// Breaths the session asks for.
+    pub total: u32,
+    /// The rest level measured, volts (the pressure bar's centre).
+    pub rest_volts: Option<f64>,
+    /// The band around it a breath must leave, volts.
+    pub band_volts: Option<f64>,
+    /// The breath held now: `sip` or `puff`.
+    pub held: Option<&'static str>,
+    /// The summary, once the session is over.
+    pub outcome: Option<Outcome>,
+}
+
+impl Calibration {
+    /// Before the session's first tick.
+    fn starting() -> Calibration {
+        Calibration {
+            phase: "rest",
+            headline: "rest, please".into(),
+            count: String::new(),
+            block: String::new(),
+            message: String::new(),
+            message_level: "info",
+            counted: 0,
+            total: 0,
+            rest_volts: None,
+            band_volts: None,
+            held: None,
+            outcome: None,
+        }
+    }
+
+    /// The guide's view.
+    fn of(view: &View) -> Calibration {
+        let message_level = match view.message {
+            Some(
+                Say::WrongKind { .. }
+                | Say::Early { .. }
+                | Say::Repeat(_)
+                | Say::Rest { again: true },
+            ) => "again",
+            Some(Say::Stopped(_)) => "fault",
+            _ => "info",
+        };
+        Calibration {
+            phase: match view.phase {
+                Phase::Rest => "rest",
+                Phase::Pause => "pause",
+                Phase::Prompted => "prompt",
+                Phase::Finished => "finished",
+                Phase::Stopped => "stopped",
+            },
+            headline: view.headline(),
+            count: view.prompt.map(|p| p.count_words()).unwrap_or_default(),
+            block: view.prompt.map(|p| p.block_words()).unwrap_or_default(),
+            message: view.message.map(|s| s.message()).unwrap_or_default(),
+            message_level,
+            counted: view.counted,
+            total: view.total,
+            rest_volts: view.band.map(|b| b.level),
+            band_volts: view.band.map(|b| b.outside),
+            held: view.held.map(breath_name),
+            outcome: None,
+        }
+    }
 }
 
 /// A sound the page plays.
@@ -209,6 +306,13 @@ pub enum Cue {
     Fault,
     /// Motion stopped at a limit.
     Limit,
+    /// A calibration's prompt: breathe now.
+    Prompt,
+    /// A calibration's breath not counted (wrong kind, too early) or its
+    /// prompt repeated.
+    Again,
+    /// A calibration's last breath is in.
+    Done,
 }
 
 /// The screen's state: fed records and events, gives frames and cues.
@@ -228,6 +332,7 @@ pub struct Screen {
     saved: &'static str,
     news: Option<(String, Tick)>,
     stopping: bool,
+    calibration: Option<Calibration>,
 }
 
 /// How long a piece of news (`point saved`, `nothing saved yet`) stays up, ms.
@@ -263,6 +368,7 @@ impl Screen {
                 .collect()
         };
         let setup = Setup {
+            view: "run",
             interface: match interface {
                 Interface::Asp => "asp",
                 Interface::Bsp => "bsp",
@@ -320,7 +426,45 @@ impl Screen {
             saved: "none",
             news: None,
             stopping: false,
+            calibration: None,
         }
+    }
+
+    /// The screen of a live calibration (`sipnpuff fit`): the prompts
+    /// instead of the modes.
+    pub fn fitting(mut self) -> Screen {
+        self.setup.view = "fit";
+        self.calibration = Some(Calibration::starting());
+        self
+    }
+
+    /// Takes the session guide's view after it said `said`; returns the
+    /// sound for what it said.
+    pub fn calibrate(&mut self, view: &View, said: Option<&Say>) -> Option<Cue> {
+        self.calibration = Some(Calibration::of(view));
+        match said? {
+            Say::Prompt(_) => Some(Cue::Prompt),
+            Say::Repeat(_)
+            | Say::WrongKind { .. }
+            | Say::Early { .. }
+            | Say::Rest { again: true } => Some(Cue::Again),
+            Say::Finished => Some(Cue::Done),
+            Say::Stopped(_) => Some(Cue::Fault),
+            Say::Counted { .. } | Say::Rest { again: false } => None,
+        }
+    }
+
+    /// The session is over: its summary.
+    pub fn conclude(&mut self, outcome: &Outcome) {
+        let c = self.calibration.get_or_insert_with(Calibration::starting);
+        c.phase = "summary";
+        c.headline = if outcome.profile.is_some() {
+            "fitted — the profile is written".into()
+        } else {
+            "no profile written".into()
+        };
+        c.held = None;
+        c.outcome = Some(outcome.clone());
     }
 
     /// What does not change.
@@ -552,6 +696,7 @@ impl Screen {
             } else {
                 "connected"
             },
+            calibration: self.calibration.clone(),
         }
     }
 }

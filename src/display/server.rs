@@ -164,6 +164,9 @@ async fn events(State(feed): State<Arc<Feed>>) -> impl IntoResponse {
         }
         last_seq = Some(published.seq);
         stats.frames_sent.fetch_add(1, Ordering::Relaxed);
+        if published.last {
+            stats.last_frames_sent.fetch_add(1, Ordering::Relaxed);
+        }
         // The stream owns the page's count: it ends with the stream.
         let _open = &open;
         Some(Event::default().event("frame").data(published.json.clone()))

@@ -5,14 +5,18 @@
 //! the breaths; [`session`] matches them to the [`protocol`]'s prompts;
 //! [`propose`] derives the settings, each with its reason; [`predict`]
 //! gives the misreadings they predict and [`check`] replays the session
-//! through the real detector; [`profile`] writes the result. Pure: no
+//! through the real detector; [`profile`] writes the result and
+//! [`outcome`] sums it up for the page. A live session is guided by
+//! [`prompter`], which owns the protocol's progress tick by tick. Pure: no
 //! clock, no device.
 
 pub mod breaths;
 pub mod check;
 pub mod drift;
+pub mod outcome;
 pub mod predict;
 pub mod profile;
+pub mod prompter;
 pub mod propose;
 pub mod protocol;
 pub mod session;

@@ -71,7 +71,7 @@ pub fn text(fit: &Fit, header: &Header) -> String {
     if let Some(overlap) = &fit.overlap {
         let _ = writeln!(out, "# WARNING: {overlap}");
     }
-    let defaults = defaults();
+    let defaults = values(&Config::default());
     let mut section = "";
     for s in &fit.proposal.settings {
         let (table, key) = s.key.split_once('.').unwrap_or(("", s.key));
@@ -109,10 +109,11 @@ pub fn rates_line(new: &Rates, old: &Rates) -> String {
     )
 }
 
-/// The default configuration's values by dotted key.
-fn defaults() -> std::collections::BTreeMap<String, String> {
+/// A configuration's values by dotted key (`detector.long_burst_ms`), as
+/// TOML writes them.
+pub fn values(config: &Config) -> std::collections::BTreeMap<String, String> {
     let mut map = std::collections::BTreeMap::new();
-    let Ok(text) = Config::default().to_toml() else {
+    let Ok(text) = config.to_toml() else {
         return map;
     };
     let Ok(table) = text.parse::<toml::Table>() else {
@@ -129,7 +130,7 @@ fn defaults() -> std::collections::BTreeMap<String, String> {
 }
 
 /// Whether two TOML values are the same number (or text).
-fn same(a: &str, b: &str) -> bool {
+pub fn same(a: &str, b: &str) -> bool {
     match (a.parse::<f64>(), b.parse::<f64>()) {
         (Ok(x), Ok(y)) => x == y,
         _ => a == b,

@@ -26,6 +26,9 @@ pub enum StopReason {
     Time,
     /// The sensor's recording or script ended.
     SensorEnded,
+    /// Whoever watched the run on the telemetry side finished its work
+    /// (`fit`: the guided session is over).
+    Finished,
 }
 
 impl fmt::Display for StopReason {
@@ -37,6 +40,7 @@ impl fmt::Display for StopReason {
             StopReason::ArmFault => "arm fault",
             StopReason::Time => "time",
             StopReason::SensorEnded => "sensor ended",
+            StopReason::Finished => "finished",
         })
     }
 }
@@ -51,6 +55,8 @@ impl Serialize for StopReason {
 /// The value of a stop request from a failed output (signals are their
 /// numbers, all below it).
 const OUTPUT_FAILED: usize = 1 << 16;
+/// The value of a stop request from a watcher whose work is done.
+const FINISHED: usize = OUTPUT_FAILED + 1;
 
 /// A request for a safe stop, shared by the signal handlers, the telemetry
 /// side and the control loop. The first request wins; later ones change
@@ -86,11 +92,20 @@ impl StopRequest {
             .compare_exchange(0, OUTPUT_FAILED, Ordering::SeqCst, Ordering::SeqCst);
     }
 
+    /// Requests a stop because the run's watcher on the telemetry side
+    /// finished its work (`fit`: the guided session is over).
+    pub fn finished(&self) {
+        let _ = self
+            .0
+            .compare_exchange(0, FINISHED, Ordering::SeqCst, Ordering::SeqCst);
+    }
+
     /// The request, if any. RT-safe (one atomic load).
     pub fn reason(&self) -> Option<StopReason> {
         match self.0.load(Ordering::Relaxed) {
             0 => None,
             OUTPUT_FAILED => Some(StopReason::OutputFailed),
+            FINISHED => Some(StopReason::Finished),
             // Below OUTPUT_FAILED: a signal number (see `signal`).
             n => Some(StopReason::Signal(n as i32)),
         }
@@ -135,6 +150,11 @@ mod tests {
         stop.output_failed();
         stop.signal(libc::SIGINT);
         assert_eq!(stop.reason(), Some(StopReason::OutputFailed));
+        let stop = StopRequest::new();
+        stop.finished();
+        stop.signal(libc::SIGINT);
+        assert_eq!(stop.reason(), Some(StopReason::Finished));
+        assert_eq!(StopReason::Finished.to_string(), "finished");
     }
 
     #[test]

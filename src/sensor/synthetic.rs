@@ -5,8 +5,9 @@
 use crate::config::Config;
 use crate::control::sample::Sample;
 use crate::control::selection::Interface;
+use crate::fit::protocol::Protocol;
 use crate::sensor::{Producer, Reading, Samples, Sensor, SensorError, Started};
-use crate::sim::script::run_script;
+use crate::sim::script::{protocol_script, run_script};
 use crate::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 use crate::sim::user::{RUN_STEPS, scripted_session};
 
@@ -47,6 +48,16 @@ impl SyntheticSensor {
                 SyntheticSensor::new(params, script)
             }
         }
+    }
+
+    /// The user of a live calibration (`sipnpuff fit` on the synthetic
+    /// sensor): a typical user who breathes `protocol` in time with its
+    /// prompts ([`protocol_script`]), resting at the configuration's
+    /// neutral. The one place that chooses the calibration's simulated
+    /// user.
+    pub fn calibration_user(config: &Config, protocol: &Protocol) -> SyntheticSensor {
+        let (params, script) = protocol_script(config.core().detector(), protocol, 1);
+        SyntheticSensor::new(params, script)
     }
 
     /// Starts the script again whenever it ends (never ends).

@@ -9,6 +9,7 @@ use crate::config::Config;
 use crate::control::action::{Action, ActionSeq, Breath};
 use crate::control::detector::DetectorConfig;
 use crate::control::mode::Mode;
+use crate::fit::protocol::{Ask, Protocol};
 use crate::sim::sensor_model::{DEFAULT_RAMP_MS, SignalParams, Step};
 
 /// How long a scripted user's breaths and pauses are, in ms.
@@ -320,5 +321,46 @@ pub fn every_path_session(config: &Config) -> (SignalParams, Vec<Step>) {
         },
         Step::Rest { ms: 10_000 },
     ]);
+    (params, script)
+}
+
+/// A user breathing `protocol` in time with a live calibration's prompts
+/// (`sipnpuff fit` on the synthetic sensor; the guide is
+/// `fit::prompter`): 6 s at rest, then each breath 1.5–2 s after the one
+/// before and 3.5 s after a block's last, so that every breath starts
+/// after its prompt (the guide prompts after 1 s of rest, 3 s between
+/// blocks, 5 s at the start); short breaths 150 ms and long ones 800 ms
+/// (± 30 %), holds 3.5 s (± 10 %); then 10 s at rest, past the session's
+/// end. Light noise (0.01 V); shaped for `detector`, its neutral the rest
+/// level. Seeded.
+pub fn protocol_script(
+    detector: &DetectorConfig,
+    protocol: &Protocol,
+    seed: u64,
+) -> (SignalParams, Vec<Step>) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut script = vec![Step::Rest { ms: 6000 }];
+    for block in &protocol.blocks {
+        for n in 1..=block.count {
+            let (mean, spread) = match block.ask {
+                Ask::Breath(action) if action.is_long() => (800.0, 0.3),
+                Ask::Breath(_) => (150.0, 0.3),
+                Ask::Hold(_) => (3500.0, 0.1),
+            };
+            let ms = (mean * rng.random_range(1.0 - spread..=1.0 + spread)) as u32;
+            script.push(Step::Breath {
+                breath: block.ask.breath(),
+                ms,
+            });
+            let rest = if n == block.count {
+                3500
+            } else {
+                rng.random_range(1500..=2000)
+            };
+            script.push(Step::Rest { ms: rest });
+        }
+    }
+    script.push(Step::Rest { ms: 10_000 });
+    let params = SignalParams::clean(detector, seed).with_noise(0.01);
     (params, script)
 }

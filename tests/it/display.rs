@@ -304,3 +304,93 @@ fn the_terminal_view_shows_the_sequence_the_wait_and_the_motion() {
     );
     assert!(text.contains("puff held"), "{text}");
 }
+
+/// A live calibration's screen (`sipnpuff fit`): the guide's words in the
+/// frame, a sound per prompt, another for a breath not counted, and the
+/// summary at the end; the run's frames carry none of it.
+#[test]
+fn a_calibrations_frames_carry_the_guides_words_sounds_and_summary() {
+    use sipnpuff::fit::outcome::Outcome;
+    use sipnpuff::fit::prompter::Prompter;
+    use sipnpuff::fit::protocol::Protocol;
+
+    let config = Config::default();
+    let run = Screen::new(config.core(), "simulated JACO");
+    assert_eq!(run.setup().view, "run");
+    let json = serde_json::to_string(&run.frame()).unwrap();
+    assert!(!json.contains("calibration"), "{json}");
+
+    let mut screen = Screen::new(config.core(), "simulated JACO").fitting();
+    assert_eq!(screen.setup().view, "fit");
+    let mut prompter = Prompter::new(&Protocol::new(3, 0));
+    let params = SignalParams::clean(config.core().detector(), 2).with_noise(0.01);
+    // A sip when a puff is asked for, then the puff.
+    let script = [rest(6000), sip(150), rest(1500), puff(150), rest(500)];
+    let mut cues = Vec::new();
+    let mut frames = Vec::new();
+    for (t, volts) in SignalGenerator::new(params, &script).enumerate() {
+        if let Some(say) = prompter.step(t as Tick, Sample::Volts(volts)) {
+            cues.push(screen.calibrate(&prompter.view(), Some(&say)));
+            frames.push(screen.frame().calibration.unwrap());
+        }
+    }
+    assert_eq!(
+        cues,
+        [
+            None,
+            Some(Cue::Prompt),
+            Some(Cue::Again),
+            Some(Cue::Prompt),
+            None
+        ]
+    );
+    let shown: Vec<(&str, &str, &str, &str)> = frames
+        .iter()
+        .map(|c| {
+            (
+                c.phase,
+                c.headline.as_str(),
+                c.count.as_str(),
+                c.message.as_str(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        shown,
+        [
+            (
+                "rest",
+                "rest, please",
+                "",
+                "rest, please: no sip or puff for 5 s while the sensor at rest is measured"
+            ),
+            ("prompt", "short puff — now", "1 of 3", ""),
+            (
+                "pause",
+                "rest — wait for the prompt",
+                "1 of 3",
+                "that was a sip — again, a puff please"
+            ),
+            (
+                "prompt",
+                "short puff — now",
+                "1 of 3",
+                "that was a sip — again, a puff please"
+            ),
+            ("pause", "rest — wait for the prompt", "2 of 3", "got it"),
+        ]
+    );
+    assert_eq!(frames[2].message_level, "again");
+    assert_eq!(frames[4].block, "block 1 of 4: 3 short puffs");
+    assert_eq!((frames[4].counted, frames[4].total), (1, 12));
+    assert!((frames[4].rest_volts.unwrap() - 2.5).abs() < 0.01);
+
+    screen.conclude(&Outcome {
+        profile: Some("p.toml".into()),
+        ..Outcome::default()
+    });
+    let end = screen.frame().calibration.unwrap();
+    assert_eq!(end.phase, "summary");
+    assert_eq!(end.headline, "fitted — the profile is written");
+    assert_eq!(end.outcome.unwrap().profile.as_deref(), Some("p.toml"));
+}

@@ -26,7 +26,7 @@ const CHROMEDRIVER: &str = "/usr/bin/chromedriver";
 /// Runs a real-time test (see [`common::real_time`]) if Chromium and
 /// ChromeDriver are installed (tests/peers/browser/install.sh); says why
 /// not otherwise (or fails, when peers are required).
-fn browser_test(test: impl Fn()) {
+pub(crate) fn browser_test(test: impl Fn()) {
     let missing = [CHROMIUM, CHROMEDRIVER]
         .iter()
         .find(|p| !Path::new(p).exists())
@@ -94,7 +94,7 @@ impl Session {
 }
 
 /// A WebDriver session in headless Chromium.
-struct Browser {
+pub(crate) struct Browser {
     /// Ended (dropped) after its session is deleted.
     _driver: Running,
     base: String,
@@ -102,7 +102,7 @@ struct Browser {
 }
 
 impl Browser {
-    fn start() -> Browser {
+    pub(crate) fn start() -> Browser {
         let port = free_port();
         let mut command = Command::new(CHROMEDRIVER);
         command.arg(format!("--port={port}"));
@@ -142,14 +142,14 @@ impl Browser {
         format!("{}/session/{}/{path}", self.base, self.session)
     }
 
-    fn open(&self, page: &str) {
+    pub(crate) fn open(&self, page: &str) {
         ureq::post(self.url("url"))
             .send_json(json!({ "url": page }))
             .expect("the page opens");
     }
 
     /// Runs `script` in the page; its return value.
-    fn eval(&self, script: &str) -> Value {
+    pub(crate) fn eval(&self, script: &str) -> Value {
         let mut reply = ureq::post(self.url("execute/sync"))
             .send_json(json!({ "script": script, "args": [] }))
             .expect("the script runs");
@@ -179,7 +179,7 @@ impl Browser {
         }
     }
 
-    fn screenshot(&self, name: &str) -> PathBuf {
+    pub(crate) fn screenshot(&self, name: &str) -> PathBuf {
         let reply: Value = ureq::get(self.url("screenshot"))
             .call()
             .expect("a screenshot")

@@ -25,6 +25,7 @@ mod display_browser;
 mod fast_paths;
 mod faults;
 mod fit;
+mod fit_live;
 mod golden;
 mod motion;
 mod motion_safety;
