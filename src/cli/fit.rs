@@ -558,16 +558,10 @@ pub fn report(fit: &Fit) -> String {
     for c in &fit.classes {
         let _ = writeln!(
             out,
-            "  {:<26} {:>2}  plateau {:.2} ± {:.2} V (weakest {:.2})  {:>5.0} ± {:>3.0} ms ({:.0}–{:.0})",
+            "  {:<26} {:>2}  {}",
             c.ask.words(),
             c.breaths,
-            c.plateau_volts.mean,
-            c.plateau_volts.sd,
-            c.plateau_volts.min,
-            c.duration_ms.mean,
-            c.duration_ms.sd,
-            c.duration_ms.min,
-            c.duration_ms.max
+            c.measured()
         );
     }
     let _ = writeln!(

@@ -40,19 +40,7 @@ pub fn text(fit: &Fit, header: &Header) -> String {
         rest.level, rest.sd, rest.excursion_up, rest.excursion_down, rest.spikes
     );
     for c in &fit.classes {
-        let _ = writeln!(
-            out,
-            "# {} × {}: plateau {:.2} ± {:.2} V (weakest {:.2}), {:.0} ± {:.0} ms ({:.0}–{:.0})",
-            c.breaths,
-            c.ask.words(),
-            c.plateau_volts.mean,
-            c.plateau_volts.sd,
-            c.plateau_volts.min,
-            c.duration_ms.mean,
-            c.duration_ms.sd,
-            c.duration_ms.min,
-            c.duration_ms.max
-        );
+        let _ = writeln!(out, "# {} × {}: {}", c.breaths, c.ask.words(), c.measured());
     }
     let _ = writeln!(
         out,

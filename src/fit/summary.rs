@@ -51,6 +51,23 @@ pub struct Class {
     pub duration_ms: Spread,
 }
 
+impl Class {
+    /// "plateau 1.13 ± 0.05 V (weakest 1.06), 146 ± 30 ms (106–186)": the
+    /// report's and the profile header's words (drift reads them back).
+    pub fn measured(&self) -> String {
+        format!(
+            "plateau {:.2} ± {:.2} V (weakest {:.2}), {:.0} ± {:.0} ms ({:.0}–{:.0})",
+            self.plateau_volts.mean,
+            self.plateau_volts.sd,
+            self.plateau_volts.min,
+            self.duration_ms.mean,
+            self.duration_ms.sd,
+            self.duration_ms.min,
+            self.duration_ms.max
+        )
+    }
+}
+
 /// Every kind's measurements, in the protocol's order; durations at the
 /// levels of `d`.
 pub fn classes(

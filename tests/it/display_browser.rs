@@ -74,14 +74,7 @@ impl Session {
         let browser = Browser::start();
         let port = free_port();
         let run = run(&config, &csv, Some(port));
-        assert!(
-            poll_until(Duration::from_secs(30), Duration::from_millis(20), || {
-                ureq::get(format!("http://127.0.0.1:{port}/state"))
-                    .call()
-                    .is_ok()
-            }),
-            "no page served"
-        );
+        wait_for_page(port);
         Session {
             config,
             csv,
@@ -632,4 +625,16 @@ fn a_page_that_stops_reading_skips_frames_and_holds_up_nothing() {
     assert_eq!(frame["tick"], FRAMES - 1);
     drop(stalled);
     drop(server);
+}
+
+/// Waits until the page's server on `port` answers (30 s at most).
+pub fn wait_for_page(port: u16) {
+    assert!(
+        poll_until(Duration::from_secs(30), Duration::from_millis(20), || {
+            ureq::get(format!("http://127.0.0.1:{port}/state"))
+                .call()
+                .is_ok()
+        }),
+        "no page served"
+    );
 }

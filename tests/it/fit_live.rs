@@ -14,8 +14,8 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value;
 
-use crate::common::{self, Running, free_port, poll_until};
-use crate::display_browser::{Browser, browser_test};
+use crate::common::{self, Running, free_port};
+use crate::display_browser::{Browser, browser_test, wait_for_page};
 use crate::scratch::Scratch;
 
 /// Breaths per block in these sessions (the shortest `--count`): about
@@ -261,14 +261,7 @@ fn a_live_session_in_a_real_browser_shows_each_prompt_its_count_and_the_summary(
             ])
             .env_remove("SIPNPUFF_NO_DISPLAY");
         let run = Running::start(command);
-        assert!(
-            poll_until(Duration::from_secs(30), Duration::from_millis(20), || {
-                ureq::get(format!("http://127.0.0.1:{port}/state"))
-                    .call()
-                    .is_ok()
-            }),
-            "no page served"
-        );
+        wait_for_page(port);
         browser.open(&format!("http://127.0.0.1:{port}/"));
 
         // Follow the page to the summary: every prompt shown, in order,
