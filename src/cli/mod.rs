@@ -67,6 +67,12 @@ enum Command {
     /// Fit the interface to a user: measure their breaths in a
     /// calibration session and propose their settings, each with its
     /// reason; write them as a profile (`--config` reads it).
+    #[command(
+        mut_arg("tui", |a| a.hide(true)),
+        mut_arg("display", |a| a.help(
+            "Serve the calibration page (the prompt, the count, the pressure, a tone per prompt) at this address: `HOST:PORT` or `PORT` (on 127.0.0.1)"
+        ))
+    )]
     Fit(fit::FitArgs),
     /// Measure the control path.
     Bench {
