@@ -4,6 +4,7 @@
 //! proposed, so the proposal can be made from what is found.
 
 use crate::control::action::Breath;
+use crate::control::mode::Direction;
 use crate::fit::signal::{FitError, Signal};
 use crate::fit::stats;
 
@@ -253,10 +254,7 @@ impl Region {
     /// confirmed by more than `glitch` ticks; `None` if it never passes
     /// `on` for longer than `glitch` ticks.
     pub fn duration_at(&self, signal: &Signal, on: f64, off: f64, glitch: usize) -> Option<usize> {
-        let sign = match self.breath {
-            Breath::Puff => 1.0,
-            Breath::Sip => -1.0,
-        };
+        let sign = Direction::of(self.breath).sign();
         let from = self.start.saturating_sub(LOOK_AROUND_MS);
         let to = (self.end + LOOK_AROUND_MS).min(signal.len());
         let distance = |t: usize| signal.volts(t).map(|v| sign * (v - self.baseline));

@@ -9,7 +9,7 @@
 use crate::config::Config;
 use crate::control::action::{Action, Breath};
 use crate::control::event::Event;
-use crate::control::mode::ModeState;
+use crate::control::mode::{Direction, ModeState};
 use crate::control::pipeline::{Pipeline, TickOutput};
 use crate::fit::breaths::{self, Found, Region, Rest};
 use crate::fit::protocol::{Ask, Block, Protocol};
@@ -199,10 +199,7 @@ fn region(
     } else {
         level
     };
-    let sign = match b.action.breath() {
-        Breath::Puff => 1.0,
-        Breath::Sip => -1.0,
-    };
+    let sign = Direction::of(b.action.breath()).sign();
     breaths::region(signal, sign, start, end, baseline)
 }
 
