@@ -91,7 +91,7 @@ fn per_sample(c: &mut Criterion) {
         .map(|(t, &v)| {
             core.step(t as u64, Sample::Volts(v), &mut out);
             let matched = out.events.iter().find_map(|e| match e {
-                Event::Match { mode, .. } => Some(*mode),
+                Event::Match { target, .. } => target.mode(),
                 _ => None,
             });
             (out.held, matched, out.faulted)
@@ -133,10 +133,10 @@ fn all_sequences(len: u32) -> Vec<SequenceEntry> {
             let actions: Vec<Action> = (0..len)
                 .map(|i| Action::ALL[(n / 4usize.pow(i)) % 4])
                 .collect();
-            SequenceEntry {
-                actions: ActionSeq::from_slice(&actions).unwrap(),
-                mode: Mode::ALL[n % Mode::ALL.len()],
-            }
+            SequenceEntry::mode(
+                ActionSeq::from_slice(&actions).unwrap(),
+                Mode::ALL[n % Mode::ALL.len()],
+            )
         })
         .collect()
 }

@@ -16,6 +16,9 @@
 //!   and IIO (an ADC through the kernel);
 //! * [`arm`]: the [`arm::Arm`] seam and its backends: the simulated JACO,
 //!   ROS 2 (DDS), ROS 1 (a rosmaster) and Kinova's SDK;
+//! * [`output`]: the [`output::Output`] seam beyond the arm and its
+//!   backends: the computer's keyboard and pointer through uinput, the
+//!   home through MQTT (Home Assistant);
 //! * [`rt`]: the 1 kHz runtime around the core: the scheduler, real-time
 //!   set-up, the threads and rings, telemetry and the run report;
 //! * [`display`]: what the user sees and hears, served to a browser or
@@ -92,6 +95,7 @@ pub mod control;
 #[cfg(feature = "display")]
 pub mod display;
 pub mod fit;
+pub mod output;
 pub mod rt;
 pub mod sensor;
 pub mod sim;

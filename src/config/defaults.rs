@@ -13,10 +13,7 @@ pub(super) fn core() -> CoreConfig {
     let sequences = DEFAULT_LIBRARY
         .iter()
         .filter_map(|&(actions, mode)| {
-            Some(SequenceEntry {
-                actions: ActionSeq::from_slice(actions)?,
-                mode,
-            })
+            Some(SequenceEntry::mode(ActionSeq::from_slice(actions)?, mode))
         })
         .collect();
     CoreConfig {
@@ -28,6 +25,7 @@ pub(super) fn core() -> CoreConfig {
         home: Default::default(),
         feedback: Default::default(),
         interface: Default::default(),
+        pointer: Default::default(),
         scanning: Default::default(),
         sequences,
     }
@@ -43,7 +41,10 @@ mod tests {
         let library = core().sequences;
         assert_eq!(library.len(), 9);
         for mode in Mode::ALL {
-            assert!(library.iter().any(|s| s.mode == mode), "{mode:?}");
+            assert!(
+                library.iter().any(|s| s.target.mode() == Some(mode)),
+                "{mode:?}"
+            );
         }
         for a in &library {
             for b in &library {

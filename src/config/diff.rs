@@ -15,8 +15,8 @@ use toml::{Table, Value};
 use crate::config::Config;
 use crate::config::file::File;
 use crate::config::lines::KeyLines;
-use crate::control::mode::Mode;
 use crate::control::selection::SequenceEntry;
+use crate::control::target::Target;
 
 /// How wide [`table`] is meant to be, in characters: a printed page, a
 /// photographed screen.
@@ -65,6 +65,7 @@ fn tree(config: &Config) -> Result<Table, toml::ser::Error> {
         config.core().clone(),
         config.sensor().clone(),
         config.arm().clone(),
+        config.output().clone(),
     );
     Table::try_from(file)
 }
@@ -117,25 +118,25 @@ impl Diff<'_> {
             value: entries(self.file.len()),
             reason: first.map_or(String::new(), |(line, _)| comment(self.above(line))),
         });
-        let mut modes: Vec<Mode> = Vec::new();
+        let mut targets: Vec<Target> = Vec::new();
         for entry in self.file.iter().chain(self.base) {
-            if !modes.contains(&entry.mode) {
-                modes.push(entry.mode);
+            if !targets.contains(&entry.target) {
+                targets.push(entry.target);
             }
         }
-        for mode in modes {
+        for mode in targets {
             let (base, file) = (sequences(self.base, mode)?, sequences(self.file, mode)?);
             if sorted(&base) == sorted(&file) {
                 continue;
             }
             let numbers: Vec<usize> = (1..=self.file.len())
-                .filter(|n| self.file[n - 1].mode == mode)
+                .filter(|n| self.file[n - 1].target == mode)
                 .collect();
             let (key, reason) = match numbers.first() {
-                None => (format!("{name} ({})", mode.name()), String::new()),
+                None => (format!("{name} ({})", mode.label()), String::new()),
                 Some(&first) => {
                     let numbers: Vec<String> = numbers.iter().map(|n| format!("#{n}")).collect();
-                    let key = format!("{name} {} ({})", numbers.join(", "), mode.name());
+                    let key = format!("{name} {} ({})", numbers.join(", "), mode.label());
                     (key, self.entry_reason(name, first))
                 }
             };
@@ -255,11 +256,12 @@ fn entries(count: usize) -> String {
     format!("{count} {}", if count == 1 { "entry" } else { "entries" })
 }
 
-/// The sequences that select `mode`, each as `config` prints it.
-fn sequences(library: &[SequenceEntry], mode: Mode) -> Result<Vec<String>, toml::ser::Error> {
+/// The sequences that select or fire `target`, each as `config` prints
+/// it.
+fn sequences(library: &[SequenceEntry], target: Target) -> Result<Vec<String>, toml::ser::Error> {
     library
         .iter()
-        .filter(|entry| entry.mode == mode)
+        .filter(|entry| entry.target == target)
         .map(|entry| Value::try_from(entry.actions).map(|v| v.to_string()))
         .collect()
 }

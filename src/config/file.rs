@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::arm::settings::ArmSettings;
 use crate::config::defaults;
+use crate::config::library::LibraryEntry;
 use crate::control::core_config::{CoreConfig, InterfaceSection};
 use crate::control::detector::DetectorConfig;
 use crate::control::modes::CommandConfig;
@@ -14,9 +15,10 @@ use crate::control::motion::feedback::FeedbackConfig;
 use crate::control::motion::home::HomeConfig;
 use crate::control::motion::limits::MotionConfig;
 use crate::control::motion::workspace::WorkspaceConfig;
-use crate::control::selection::SequenceEntry;
+use crate::control::pointer::PointerConfig;
 use crate::control::selection::matcher::MatcherConfig;
 use crate::control::selection::scanning::ScanningConfig;
+use crate::output::settings::{MqttSettings, OutputSettings, UinputSettings};
 use crate::sensor::settings::SensorSettings;
 
 /// The whole file, section by section, in the order `sipnpuff config`
@@ -34,8 +36,29 @@ pub(super) struct File {
     scanning: ScanningConfig,
     /// `[[sequence]]`: the library, replacing the built-in one whole.
     #[serde(rename = "sequence")]
-    sequences: Vec<SequenceEntry>,
+    sequences: Vec<LibraryEntry>,
     sensor: SensorSettings,
+    output: OutputSection,
+}
+
+/// `[output]`: the uinput device (its name and the pointer's speeds) and
+/// the MQTT broker.
+#[derive(Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct OutputSection {
+    uinput: UinputSection,
+    mqtt: MqttSettings,
+}
+
+/// `[output.uinput]`: the device's settings and the pointer's speeds, in
+/// one table.
+#[derive(Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct UinputSection {
+    #[serde(flatten)]
+    device: UinputSettings,
+    #[serde(flatten)]
+    pointer: PointerConfig,
 }
 
 /// `[arm]`: the arm at power-up, the checks on a measured pose (its
@@ -56,13 +79,19 @@ impl Default for File {
             defaults::core(),
             SensorSettings::default(),
             ArmSettings::default(),
+            OutputSettings::default(),
         )
     }
 }
 
 impl File {
     /// The file that holds these settings.
-    pub(super) fn new(core: CoreConfig, sensor: SensorSettings, arm: ArmSettings) -> File {
+    pub(super) fn new(
+        core: CoreConfig,
+        sensor: SensorSettings,
+        arm: ArmSettings,
+        output: OutputSettings,
+    ) -> File {
         File {
             detector: core.detector,
             matcher: core.matcher,
@@ -76,13 +105,20 @@ impl File {
             },
             interface: core.interface,
             scanning: core.scanning,
-            sequences: core.sequences,
+            sequences: core.sequences.into_iter().map(LibraryEntry).collect(),
             sensor,
+            output: OutputSection {
+                uinput: UinputSection {
+                    device: output.uinput,
+                    pointer: core.pointer,
+                },
+                mqtt: output.mqtt,
+            },
         }
     }
 
     /// The settings the file holds, not yet validated.
-    pub(super) fn into_parts(self) -> (CoreConfig, SensorSettings, ArmSettings) {
+    pub(super) fn into_parts(self) -> (CoreConfig, SensorSettings, ArmSettings, OutputSettings) {
         let core = CoreConfig {
             detector: self.detector,
             matcher: self.matcher,
@@ -93,9 +129,14 @@ impl File {
             feedback: self.arm.feedback,
             interface: self.interface,
             scanning: self.scanning,
-            sequences: self.sequences,
+            sequences: self.sequences.into_iter().map(|e| e.0).collect(),
+            pointer: self.output.uinput.pointer,
         };
-        (core, self.sensor, self.arm.backends)
+        let output = OutputSettings {
+            uinput: self.output.uinput.device,
+            mqtt: self.output.mqtt,
+        };
+        (core, self.sensor, self.arm.backends, output)
     }
 
     /// The built-in configuration as a TOML tree: what a file's key is

@@ -20,6 +20,7 @@ mod defaults;
 pub mod diff;
 pub mod error;
 mod file;
+mod library;
 mod lines;
 mod names;
 pub mod print;
@@ -35,6 +36,7 @@ use crate::control::core_config::{CoreConfig, InterfaceSection};
 use crate::control::detector::DetectorConfig;
 use crate::control::selection::scanning::ScanningConfig;
 use crate::control::selection::{Interface, SequenceEntry};
+use crate::output::settings::OutputSettings;
 use crate::sensor::settings::SensorSettings;
 use error::Problems;
 pub use error::{ConfigError, ConfigErrors, ConfigFileError};
@@ -48,13 +50,19 @@ pub struct Config {
     core: CoreConfig,
     sensor: SensorSettings,
     arm: ArmSettings,
+    output: OutputSettings,
 }
 
 /// The built-in configuration (see `defaults`).
 impl Default for Config {
     fn default() -> Self {
-        let (core, sensor, arm) = File::default().into_parts();
-        Config { core, sensor, arm }
+        let (core, sensor, arm, output) = File::default().into_parts();
+        Config {
+            core,
+            sensor,
+            arm,
+            output,
+        }
     }
 }
 
@@ -90,10 +98,15 @@ impl Config {
             .map_err(|e: toml::de::Error| ConfigErrors(vec![lines::syntax_error(text, &e)]))?;
         let sections: Vec<String> = root.keys().cloned().collect();
         let mut problems = Problems::default();
-        let (core, sensor, arm) = read::file(root, &mut problems).into_parts();
-        validate::config(&mut problems, &core, &sensor, &arm);
+        let (core, sensor, arm, output) = read::file(root, &mut problems).into_parts();
+        validate::config(&mut problems, &core, &sensor, &arm, &output);
         if problems.errors.is_empty() {
-            Ok(Config { core, sensor, arm })
+            Ok(Config {
+                core,
+                sensor,
+                arm,
+                output,
+            })
         } else {
             Err(lines::in_file_order(text, &sections, problems.errors))
         }
@@ -102,7 +115,13 @@ impl Config {
     /// Validates settings built in code.
     fn into_validated(self) -> Result<Config, ConfigErrors> {
         let mut problems = Problems::default();
-        validate::config(&mut problems, &self.core, &self.sensor, &self.arm);
+        validate::config(
+            &mut problems,
+            &self.core,
+            &self.sensor,
+            &self.arm,
+            &self.output,
+        );
         if problems.errors.is_empty() {
             Ok(self)
         } else {
@@ -125,6 +144,18 @@ impl Config {
     /// its `ros2`, `ros1`, `kinova_sdk` tables).
     pub fn arm(&self) -> &ArmSettings {
         &self.arm
+    }
+
+    /// How the outputs beyond the arm are reached (`[output]`'s `uinput`
+    /// and `mqtt` tables).
+    pub fn output(&self) -> &OutputSettings {
+        &self.output
+    }
+
+    /// The same configuration with other output settings, validated.
+    pub fn with_output(mut self, output: OutputSettings) -> Result<Config, ConfigErrors> {
+        self.output = output;
+        self.into_validated()
     }
 
     /// The same configuration with other arm settings, validated.
@@ -292,7 +323,10 @@ mod tests {
         )
         .unwrap();
         assert_eq!(c.core().sequences().len(), 1);
-        assert_eq!(c.core().sequences()[0].mode, Mode::TranslateX);
+        assert_eq!(
+            c.core().sequences()[0].target.mode(),
+            Some(Mode::TranslateX)
+        );
         assert_eq!(
             c.core().sequences()[0].actions.as_slice(),
             &[Action::ShortSip, Action::ShortSip]

@@ -11,7 +11,12 @@ impl Config {
     /// The complete configuration as TOML that [`Config::from_toml_str`]
     /// reads back to an equal `Config`.
     pub fn to_toml(&self) -> Result<String, toml::ser::Error> {
-        let file = File::new(self.core.clone(), self.sensor.clone(), self.arm.clone());
+        let file = File::new(
+            self.core.clone(),
+            self.sensor.clone(),
+            self.arm.clone(),
+            self.output.clone(),
+        );
         let text = toml::to_string(&file)?;
         let mut entries = self.core().sequences().iter();
         let mut out = String::from(
@@ -39,5 +44,5 @@ fn describe(entry: &SequenceEntry) -> String {
         .iter()
         .map(|a| a.to_string())
         .collect();
-    format!("{}: {}", bursts.join(", "), entry.mode.description())
+    format!("{}: {}", bursts.join(", "), entry.target.description())
 }

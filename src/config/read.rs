@@ -11,6 +11,7 @@ use toml::{Table, Value};
 
 use crate::config::error::Problems;
 use crate::config::file::File;
+use crate::config::library::TARGET_KEYS;
 
 /// One step into a TOML tree: a key of a table or an index in an array.
 #[derive(Debug, Clone, PartialEq)]
@@ -137,6 +138,11 @@ impl Reader<'_> {
             return !path.is_empty() && self.replace(path);
         }
         let key = self.key(&path);
+        // A library entry whose target key was wrong (and is dropped) says
+        // nothing more about having no target.
+        if self.is_entry(&path) && self.problems.has_under(&key) {
+            return self.replace(path);
+        }
         let value = get(&self.file, &path);
         let found = value.map_or("nothing", Value::type_str);
         let problem = if self.sample_at(&path).is_some_and(Value::is_table)
@@ -173,10 +179,13 @@ impl Reader<'_> {
 
     /// Records and drops the unknown `key` of the table at `path`.
     fn unknown(&mut self, path: &[Step], key: &str) {
-        let known: Vec<&str> = match self.sample_at(path) {
+        let mut known: Vec<&str> = match self.sample_at(path) {
             Some(Value::Table(table)) => table.keys().map(String::as_str).collect(),
             _ => Vec::new(),
         };
+        if self.is_entry(path) {
+            known.extend(TARGET_KEYS.iter().filter(|k| **k != "mode"));
+        }
         let what = if path.is_empty() {
             "unknown section or key"
         } else {
@@ -204,12 +213,21 @@ impl Reader<'_> {
         done
     }
 
-    /// Whether the table at `path` may hold `key`.
+    /// Whether the table at `path` may hold `key`. A library entry may
+    /// hold any of the target keys, though the built-in entries show only
+    /// `mode`.
     fn known(&self, path: &[Step], key: &str) -> bool {
         match self.sample_at(path) {
-            Some(Value::Table(table)) => table.contains_key(key),
+            Some(Value::Table(table)) => {
+                table.contains_key(key) || (self.is_entry(path) && TARGET_KEYS.contains(&key))
+            }
             _ => true,
         }
+    }
+
+    /// Whether `path` is an entry of the library (`[[sequence]]`).
+    fn is_entry(&self, path: &[Step]) -> bool {
+        matches!(path, [Step::Key(list), Step::Index(_)] if list == "sequence")
     }
 
     /// Whether the list at `path` holds tables (`[[sequence]]`).

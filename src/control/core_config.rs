@@ -14,6 +14,7 @@ use crate::control::motion::feedback::FeedbackConfig;
 use crate::control::motion::home::HomeConfig;
 use crate::control::motion::limits::MotionConfig;
 use crate::control::motion::workspace::WorkspaceConfig;
+use crate::control::pointer::PointerConfig;
 use crate::control::selection::matcher::MatcherConfig;
 use crate::control::selection::scanning::ScanningConfig;
 use crate::control::selection::{Interface, SequenceEntry};
@@ -33,6 +34,8 @@ pub struct CoreConfig {
     pub(crate) interface: InterfaceSection,
     pub(crate) scanning: ScanningConfig,
     pub(crate) sequences: Vec<SequenceEntry>,
+    /// The pointer's speeds (`[output.uinput]`).
+    pub(crate) pointer: PointerConfig,
 }
 
 /// The `[interface]` section.
@@ -81,6 +84,11 @@ impl CoreConfig {
     /// The user-defined sequences, in file order.
     pub fn sequences(&self) -> &[SequenceEntry] {
         &self.sequences
+    }
+
+    /// The pointer's speeds.
+    pub fn pointer(&self) -> &PointerConfig {
+        &self.pointer
     }
 
     /// How the user selects a mode.

@@ -14,6 +14,7 @@ use crate::control::modes::DetectionReason;
 use crate::control::motion::MotionEvent;
 use crate::control::motion::feedback::ArmFault;
 use crate::control::selection::matcher::ResetReason;
+use crate::control::target::Target;
 
 /// Something worth telling the user, the clinician or the log. `Copy`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -21,12 +22,15 @@ use crate::control::selection::matcher::ResetReason;
 pub enum Event {
     /// A burst was detected.
     Burst(Burst),
-    /// A sequence matched: command mode for `mode` starts.
+    /// A sequence matched: command mode for its mode starts, or its
+    /// action fires.
     Match {
         /// The matched sequence.
         sequence: ActionSeq,
-        /// The mode entered.
-        mode: Mode,
+        /// What it selects or fires (`"mode":…`, `"key":…`, `"click":…`,
+        /// `"home_event":…`).
+        #[serde(flatten)]
+        target: Target,
     },
     /// The current sequence was dropped.
     Reset {

@@ -13,6 +13,9 @@
 //!   scanning baseline (BSP);
 //! * [`modes`] is the detection/command mode machine of the paper's Fig. 1;
 //! * [`motion`] makes the smooth, limited velocity and the arm's stream;
+//! * [`pointer`] moves the computer's pointer in its modes, and
+//!   [`target`] says what a match selects or fires (a key chord, a click,
+//!   a home event): [`output_command`] carries them to the outputs;
 //! * [`pipeline`] wires them into one [`Pipeline::step`] per tick;
 //! * [`view`] is where the user is, for the display.
 //!
@@ -34,13 +37,17 @@ pub mod action;
 pub mod core_config;
 pub mod detector;
 pub mod event;
+pub mod keys;
 pub mod mode;
 pub mod modes;
 pub mod motion;
+pub mod output_command;
 pub mod pipeline;
+pub mod pointer;
 pub mod sample;
 pub mod selection;
 pub mod skip_count;
+pub mod target;
 pub mod view;
 
 /// Time in the core: one tick is one millisecond, one sensor sample at 1 kHz.

@@ -1,12 +1,14 @@
-//! The vocabulary of modes: the paper's nine arm modes, which one the
-//! interface is in, which way the user asks to move, and the breath held
-//! right now.
+//! The vocabulary of modes: the paper's nine arm modes and the pointer's
+//! three, which one the interface is in, which way the user asks to move,
+//! and the breath held right now.
 
 use serde::Serialize;
 
 use crate::control::action::Breath;
 
-/// One of the paper's nine arm modes. Serialized by its config name.
+/// A mode: one of the paper's nine arm modes, or one of the computer's
+/// pointer modes. In each, a held puff moves one way and a held sip the
+/// other. Serialized by its config name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Mode {
@@ -28,10 +30,36 @@ pub enum Mode {
     SavePoint,
     /// Move to the stored pose.
     GotoPoint,
+    /// The pointer right (puff) / left (sip).
+    PointerX,
+    /// The pointer up (puff) / down (sip).
+    PointerY,
+    /// Scroll up (puff) / down (sip).
+    Scroll,
 }
 
 impl Mode {
-    /// All modes, in the paper's order.
+    /// The pointer's modes.
+    pub const POINTER: [Mode; 3] = [Mode::PointerX, Mode::PointerY, Mode::Scroll];
+
+    /// Every mode, the arm's then the pointer's: the names a library
+    /// entry's `mode` may take.
+    pub const EVERY: [Mode; 12] = [
+        Mode::TranslateX,
+        Mode::TranslateY,
+        Mode::TranslateZ,
+        Mode::RotateX,
+        Mode::RotateY,
+        Mode::RotateZ,
+        Mode::Fingers,
+        Mode::SavePoint,
+        Mode::GotoPoint,
+        Mode::PointerX,
+        Mode::PointerY,
+        Mode::Scroll,
+    ];
+
+    /// The paper's nine arm modes, in its order.
     pub const ALL: [Mode; 9] = [
         Mode::TranslateX,
         Mode::TranslateY,
@@ -56,6 +84,9 @@ impl Mode {
             Mode::Fingers => "fingers",
             Mode::SavePoint => "save_point",
             Mode::GotoPoint => "goto_point",
+            Mode::PointerX => "pointer_x",
+            Mode::PointerY => "pointer_y",
+            Mode::Scroll => "scroll",
         }
     }
 
@@ -71,12 +102,30 @@ impl Mode {
             Mode::Fingers => "open (puff) / close (sip) the fingers",
             Mode::SavePoint => "puff stores the current pose",
             Mode::GotoPoint => "hold a puff to move to the stored pose",
+            Mode::PointerX => "the pointer right (puff) / left (sip)",
+            Mode::PointerY => "the pointer up (puff) / down (sip)",
+            Mode::Scroll => "scroll up (puff) / down (sip)",
         }
+    }
+
+    /// How the display labels it: the pointer's modes by their arrows.
+    pub const fn label(self) -> &'static str {
+        match self {
+            Mode::PointerX => "Pointer ←→",
+            Mode::PointerY => "Pointer ↑↓",
+            Mode::Scroll => "Scroll ↑↓",
+            _ => self.name(),
+        }
+    }
+
+    /// A pointer mode (it moves the computer's pointer, not the arm).
+    pub const fn is_pointer(self) -> bool {
+        matches!(self, Mode::PointerX | Mode::PointerY | Mode::Scroll)
     }
 
     /// The mode with this config name.
     pub fn from_name(name: &str) -> Option<Mode> {
-        Mode::ALL.into_iter().find(|m| m.name() == name)
+        Mode::EVERY.into_iter().find(|m| m.name() == name)
     }
 }
 
@@ -148,7 +197,7 @@ mod tests {
 
     #[test]
     fn names_round_trip() {
-        for mode in Mode::ALL {
+        for mode in Mode::EVERY {
             assert_eq!(Mode::from_name(mode.name()), Some(mode));
             assert_eq!(
                 serde_json::to_value(mode).unwrap(),

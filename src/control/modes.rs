@@ -112,6 +112,11 @@ impl ModeMachine {
         self.stopping = true;
     }
 
+    /// A stop was asked for ([`ModeMachine::stop`]).
+    pub fn stopping(&self) -> bool {
+        self.stopping
+    }
+
     /// The current mode.
     pub fn state(&self) -> ModeState {
         self.state

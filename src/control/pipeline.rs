@@ -10,15 +10,18 @@ use crate::control::action::ActionSeq;
 use crate::control::core_config::CoreConfig;
 use crate::control::detector::{BurstDetector, DetectorEvent, DetectorOutput};
 use crate::control::event::{Event, Events};
-use crate::control::mode::{Direction, Held, Mode, ModeState};
+use crate::control::mode::{Direction, Held, ModeState};
 use crate::control::modes::{ModeMachine, ModeOutput};
 use crate::control::motion::feedback::ArmFault;
 use crate::control::motion::stream::ARM_STOPS_AFTER_TICKS;
 use crate::control::motion::{Motion, MotionOutput};
+use crate::control::output_command::{OutputCommand, OutputCommands};
+use crate::control::pointer::Pointer;
 use crate::control::sample::Sample;
 use crate::control::selection::Interface;
 use crate::control::selection::matcher::{MatchEvent, ResetReason, SequenceMatcher};
 use crate::control::selection::scanning::Scanner;
+use crate::control::target::Target;
 use crate::control::view::CoreView;
 
 /// Everything the core says about one tick. `Copy`, RT-safe.
@@ -36,6 +39,8 @@ pub struct TickOutput {
     pub motion: MotionOutput,
     /// What happened on this tick.
     pub events: Events,
+    /// What the computer's and the home's outputs are to do.
+    pub outputs: OutputCommands,
     /// Events that did not fit in `events` (always 0; counted, never
     /// silently lost).
     pub dropped_events: u8,
@@ -50,6 +55,7 @@ impl TickOutput {
         self.held = Held::default();
         self.faulted = false;
         self.events.clear();
+        self.outputs.clear();
         self.dropped_events = 0;
     }
 
@@ -70,6 +76,10 @@ pub struct Pipeline {
     selector: Selector,
     modes: ModeMachine,
     motion: Motion,
+    pointer: Pointer,
+    /// A fault or stop let go of the outputs' keys and buttons: said once
+    /// until the next match.
+    released: bool,
     /// The previous tick, to see gaps.
     last_tick: Option<Tick>,
     /// The newest measured arm pose not yet taken in.
@@ -126,6 +136,8 @@ impl Pipeline {
             modes: ModeMachine::new(config.command()),
             motion: Motion::new(config.motion(), config.workspace(), config.home())
                 .with_feedback(config.feedback()),
+            pointer: Pointer::new(config.pointer()),
+            released: true,
             last_tick: None,
             measured: None,
             link_lost: false,
@@ -257,15 +269,25 @@ impl Pipeline {
             }
         }
         let matched = self.select(now, &detected, out);
+        let entered = matched.and_then(|(_, target)| target.mode());
+        if let Some((sequence, target)) = matched {
+            self.fire(now, sequence, target, out);
+        }
 
         let (command, left) = self
             .modes
-            .step(now, detected.held, matched, detected.faulted);
+            .step(now, detected.held, entered, detected.faulted);
         out.command = command;
         self.direction = command.direction;
         if let Some(reason) = left {
             out.log(Event::Detection { reason });
         }
+        // A fault or a stop lets go of every key and button held.
+        if (detected.faulted || self.modes.stopping()) && !self.released {
+            self.released = true;
+            self.pointer.release(&mut out.outputs);
+        }
+        self.pointer.step(now, &out.command, &mut out.outputs);
         // (An arm fault's stop takes effect through the mode machine.)
         self.motion.step(now, &out.command, &mut out.motion);
         for event in out.motion.events.into_iter().flatten() {
@@ -273,14 +295,36 @@ impl Pipeline {
         }
     }
 
+    /// A match's action for the outputs: a drag begins or ends, a chord,
+    /// a click or a home event fires (a mode is entered by the mode
+    /// machine).
+    fn fire(&mut self, now: Tick, sequence: ActionSeq, target: Target, out: &mut TickOutput) {
+        self.released = false;
+        self.pointer.on_match(target, &mut out.outputs);
+        let fired = match target {
+            Target::Key(chord) => Some(OutputCommand::Key(chord)),
+            Target::Click(click) => Some(OutputCommand::Click(click)),
+            Target::Home(event) => Some(OutputCommand::Home {
+                event,
+                tick: now,
+                sequence,
+            }),
+            Target::Mode(_) | Target::Drag => None,
+        };
+        if let Some(command) = fired {
+            // Room for it: see `MAX_OUTPUT_COMMANDS`.
+            let _ = out.outputs.push(command);
+        }
+    }
+
     /// The detector's event and the selector's decision on this tick,
-    /// logged: the mode selected, if any.
+    /// logged: the sequence matched and what it selects, if any.
     fn select(
         &mut self,
         now: Tick,
         detected: &DetectorOutput,
         out: &mut TickOutput,
-    ) -> Option<Mode> {
+    ) -> Option<(ActionSeq, Target)> {
         let in_detection = self.modes.state() == ModeState::Detection;
         let mut decision = None;
         let mut scan_burst = None;
@@ -335,15 +379,18 @@ impl Pipeline {
                     let mut sequence = ActionSeq::default();
                     // One action always fits.
                     let _ = sequence.try_push(burst.action);
-                    decision = Some(MatchEvent::Match { sequence, mode });
+                    decision = Some(MatchEvent::Match {
+                        sequence,
+                        target: Target::Mode(mode),
+                    });
                 }
             }
         }
 
         match decision {
-            Some(MatchEvent::Match { sequence, mode }) => {
-                out.log(Event::Match { sequence, mode });
-                Some(mode)
+            Some(MatchEvent::Match { sequence, target }) => {
+                out.log(Event::Match { sequence, target });
+                Some((sequence, target))
             }
             Some(MatchEvent::Reset { sequence, reason }) => {
                 out.log(Event::Reset { sequence, reason });

@@ -8,6 +8,7 @@
 use crate::control::Tick;
 use crate::control::action::{ActionSeq, Breath};
 use crate::control::mode::{Direction, Mode, ModeState};
+use crate::control::target::Target;
 
 /// The core's state as the user sees it. `Copy`, RT-safe to build.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -24,10 +25,10 @@ pub struct CoreView {
     /// When the matcher decides if nothing more is breathed (ASP, with a
     /// sequence entered; a breath held delays it).
     pub decides_at: Option<Tick>,
-    /// The mode that decision selects: the sequence is complete and only
+    /// What that decision selects: the sequence is complete and only
     /// a longer one could still change it (the paper's waiting rule).
     /// `None` with a sequence entered: the decision is a reset.
-    pub pending: Option<Mode>,
+    pub pending: Option<Target>,
     /// The mode the scan highlights (BSP, in detection mode).
     pub highlighted: Option<Mode>,
     /// Detection mode, or the mode puff and sip move the arm in.

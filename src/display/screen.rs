@@ -16,6 +16,7 @@ use crate::control::motion::MotionEvent;
 use crate::control::motion::workspace::Boundary;
 use crate::control::sample::Sample;
 use crate::control::selection::Interface;
+use crate::control::target::Target;
 use crate::control::view::CoreView;
 use crate::fit::outcome::Outcome;
 use crate::fit::prompter::{Phase, Say, View};
@@ -53,12 +54,13 @@ fn symbols(sequence: &ActionSeq) -> Vec<Symbol> {
 /// A mode as listed on the screen.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ModeEntry {
-    /// Its config name (`translate_x`).
-    pub mode: &'static str,
-    /// What a person reads (`Forward / back`).
-    pub label: &'static str,
-    /// What puff and sip do.
-    pub description: &'static str,
+    /// Its config name (`translate_x`), or what it fires
+    /// (`key:ctrl+alt+t`, `click:left`, `event:lights_toggle`, `drag`).
+    pub mode: String,
+    /// What a person reads (`Forward / back`, `Ctrl+Alt+T`).
+    pub label: String,
+    /// What puff and sip do, or what it does.
+    pub description: String,
     /// Its sequences (ASP), in library order; indices into
     /// [`Frame::candidates`] are `(mode index, sequence index)` flattened
     /// as [`Setup::sequences`].
@@ -103,22 +105,23 @@ pub struct Setup {
 /// A sequence of the library.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LibrarySequence {
-    /// The mode it selects.
-    pub mode: &'static str,
+    /// What it selects or fires ([`ModeEntry::mode`]).
+    pub mode: String,
     /// Its breaths.
     pub symbols: Vec<Symbol>,
 }
 
 /// The matcher waiting for the next breath.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Waiting {
     /// Time left before it decides, ms (frozen while a breath is held).
     pub ms_left: u64,
     /// The whole wait, ms.
     pub total_ms: u32,
-    /// The mode it selects then (the sequence is complete but a longer
-    /// one starts with it); `None`: the sequence is dropped.
-    pub selects: Option<&'static str>,
+    /// What it selects then ([`ModeEntry::mode`]; the sequence is
+    /// complete but a longer one starts with it); `None`: the sequence is
+    /// dropped.
+    pub selects: Option<String>,
 }
 
 /// The scan's highlight (BSP).
@@ -344,26 +347,26 @@ impl Screen {
         let detector = config.detector();
         let scanning = config.scanning();
         let interface = config.interface();
-        let order: Vec<Mode> = match interface {
+        let order: Vec<Target> = match interface {
             Interface::Asp => {
                 let mut order = Vec::new();
                 for entry in config.sequences() {
-                    if !order.contains(&entry.mode) {
-                        order.push(entry.mode);
+                    if !order.contains(&entry.target) {
+                        order.push(entry.target);
                     }
                 }
                 order
             }
-            Interface::Bsp => scanning.modes().to_vec(),
+            Interface::Bsp => scanning.modes().iter().map(|&m| Target::Mode(m)).collect(),
         };
-        let sequences_of = |mode: Mode| -> Vec<Vec<Symbol>> {
+        let sequences_of = |target: Target| -> Vec<Vec<Symbol>> {
             if interface == Interface::Bsp {
                 return Vec::new();
             }
             config
                 .sequences()
                 .iter()
-                .filter(|e| e.mode == mode)
+                .filter(|e| e.target == target)
                 .map(|e| symbols(&e.actions))
                 .collect()
         };
@@ -375,11 +378,11 @@ impl Screen {
             },
             modes: order
                 .iter()
-                .map(|&mode| ModeEntry {
-                    mode: mode.name(),
-                    label: label(mode),
-                    description: mode.description(),
-                    sequences: sequences_of(mode),
+                .map(|&target| ModeEntry {
+                    mode: target_id(&target),
+                    label: target_label(&target),
+                    description: target.description(),
+                    sequences: sequences_of(target),
                 })
                 .collect(),
             sequences: if interface == Interface::Asp {
@@ -387,7 +390,7 @@ impl Screen {
                     .sequences()
                     .iter()
                     .map(|e| LibrarySequence {
-                        mode: e.mode.name(),
+                        mode: target_id(&e.target),
                         symbols: symbols(&e.actions),
                     })
                     .collect()
@@ -521,8 +524,11 @@ impl Screen {
     pub fn event(&mut self, event: &TimedEvent) -> Option<Cue> {
         let tick = event.tick;
         match &event.event {
-            Event::Match { mode, .. } => {
-                self.selected = Some(*mode);
+            Event::Match { target, .. } => {
+                match target.mode() {
+                    Some(mode) => self.selected = Some(mode),
+                    None => self.news = Some((fired_words(target), tick)),
+                }
                 Some(Cue::Match)
             }
             Event::Detection { reason } => match reason {
@@ -615,7 +621,7 @@ impl Screen {
                 at.saturating_sub(now)
             },
             total_ms: self.setup.sequence_timeout_ms,
-            selects: view.pending.map(Mode::name),
+            selects: view.pending.as_ref().map(target_id),
         });
         // The scan runs in detection mode only.
         let scanning = view.state == ModeState::Detection && !stopped;
@@ -706,6 +712,59 @@ fn starts_with(sequence: &ActionSeq, prefix: &ActionSeq) -> bool {
     sequence.as_slice().starts_with(prefix.as_slice())
 }
 
+/// How the page names what a library entry does: a mode by its config
+/// name, anything else by its kind and value (`key:ctrl+alt+t`,
+/// `click:left`, `event:lights_toggle`, `drag`).
+pub fn target_id(target: &Target) -> String {
+    match target {
+        Target::Mode(mode) => mode.name().to_owned(),
+        Target::Drag => "drag".to_owned(),
+        Target::Key(chord) => format!("key:{chord}"),
+        Target::Click(click) => format!("click:{}", click.name()),
+        Target::Home(event) => format!("event:{}", event.as_str()),
+    }
+}
+
+/// What a library entry does, for people: "Forward / back",
+/// "Ctrl+Alt+T", "Lights: toggle", "Pointer ←→".
+pub fn target_label(target: &Target) -> String {
+    match target {
+        Target::Mode(mode) => label(mode.to_owned()).to_owned(),
+        Target::Home(event) => home_label(event.as_str()),
+        _ => target.label(),
+    }
+}
+
+/// A home event's name for people: `lights_toggle` → "Lights: toggle"
+/// (the last word is the action), `movie_time` → "Movie time".
+fn home_label(name: &str) -> String {
+    let words: Vec<&str> = name.split('_').filter(|w| !w.is_empty()).collect();
+    let capital = |w: &str| {
+        let mut c = w.chars();
+        c.next()
+            .map(|f| f.to_uppercase().collect::<String>() + c.as_str())
+            .unwrap_or_default()
+    };
+    const ACTIONS: [&str; 7] = ["toggle", "on", "off", "open", "close", "up", "down"];
+    match words.split_last() {
+        Some((last, rest)) if !rest.is_empty() && ACTIONS.contains(last) => {
+            format!("{}: {last}", capital(&rest.join(" ")))
+        }
+        _ => capital(&words.join(" ")),
+    }
+}
+
+/// The news when a match fires an action.
+fn fired_words(target: &Target) -> String {
+    match target {
+        Target::Drag => "drag: the button is held, or let go".to_owned(),
+        Target::Key(chord) => format!("typed {}", chord.label()),
+        Target::Click(click) => format!("{} click", click.name()),
+        Target::Home(event) => format!("sent {}", home_label(event.as_str())),
+        Target::Mode(mode) => mode.name().to_owned(),
+    }
+}
+
 /// A mode's name for people.
 pub fn label(mode: Mode) -> &'static str {
     match mode {
@@ -718,6 +777,7 @@ pub fn label(mode: Mode) -> &'static str {
         Mode::Fingers => "Fingers",
         Mode::SavePoint => "Save point",
         Mode::GotoPoint => "Go to point",
+        Mode::PointerX | Mode::PointerY | Mode::Scroll => mode.label(),
     }
 }
 
@@ -743,6 +803,12 @@ fn motion_shown(mode: Mode, direction: Direction) -> (&'static str, &'static str
         (Mode::SavePoint, _) => ("saving the point", "save"),
         (Mode::GotoPoint, Positive) => ("going to the saved point", "goto"),
         (Mode::GotoPoint, Negative) => ("stopped", "none"),
+        (Mode::PointerX, Positive) => ("pointer right", "right"),
+        (Mode::PointerX, Negative) => ("pointer left", "left"),
+        (Mode::PointerY, Positive) => ("pointer up", "up"),
+        (Mode::PointerY, Negative) => ("pointer down", "down"),
+        (Mode::Scroll, Positive) => ("scrolling up", "up"),
+        (Mode::Scroll, Negative) => ("scrolling down", "down"),
     }
 }
 

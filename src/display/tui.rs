@@ -58,7 +58,7 @@ fn label<'a>(setup: &'a Setup, mode: &'a str) -> &'a str {
         .modes
         .iter()
         .find(|m| m.mode == mode)
-        .map_or(mode, |m| m.label)
+        .map_or(mode, |m| m.label.as_str())
 }
 
 fn seconds(ms: u64) -> String {
@@ -109,8 +109,8 @@ fn draw_modes(out: &mut ratatui::Frame<'_>, area: Rect, setup: &Setup, frame: &F
         let lit = indices.iter().any(|i| frame.candidates.contains(i));
         let highlighted = frame.highlight.is_some_and(|h| h.mode == entry.mode);
         // Lit only in command mode; the last used is merely marked.
-        let selected = frame.selected == Some(entry.mode) && frame.state == "command";
-        let last = frame.selected == Some(entry.mode) && selecting && !entered;
+        let selected = frame.selected == Some(entry.mode.as_str()) && frame.state == "command";
+        let last = frame.selected == Some(entry.mode.as_str()) && selecting && !entered;
         let (marker, style) = if highlighted {
             ("▶ ", Style::default().fg(Color::Black).bg(Color::Yellow))
         } else if selected {
@@ -219,7 +219,7 @@ fn draw_status(out: &mut ratatui::Frame<'_>, area: Rect, setup: &Setup, frame: &
         }
         lines.push(Line::from(spans));
         if let Some(w) = &frame.waiting {
-            lines.push(Line::raw(match w.selects {
+            lines.push(Line::raw(match w.selects.as_deref() {
                 Some(mode) => format!("{} in {}", label(setup, mode), seconds(w.ms_left)),
                 None => format!("start again in {} unless you go on", seconds(w.ms_left)),
             }));

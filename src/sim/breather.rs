@@ -434,7 +434,9 @@ pub fn practice_session(
         high += length + u64::from(rest);
         script.extend(steps);
         actions.extend_from_slice(entry.actions.as_slice());
-        modes.push(entry.mode);
+        if let Some(mode) = entry.target.mode() {
+            modes.push(mode);
+        }
     }
     let params = breather.signal_params(seed);
     let (placed, played) = play(params, &script);
@@ -605,7 +607,14 @@ mod tests {
                 let breaths: usize = s
                     .modes
                     .iter()
-                    .map(|m| library.iter().find(|e| e.mode == *m).unwrap().actions.len())
+                    .map(|m| {
+                        library
+                            .iter()
+                            .find(|e| e.target.mode() == Some(*m))
+                            .unwrap()
+                            .actions
+                            .len()
+                    })
                     .sum();
                 assert_eq!(s.breaths.len(), breaths);
                 if let Some(last) = s.breaths.last() {

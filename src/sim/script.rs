@@ -151,7 +151,12 @@ fn scripted_user(config: &Config, plan: &[(Mode, &[(Breath, u32)])]) -> (Vec<Ste
     let mut script = vec![Step::Rest { ms: 1000 }];
     let mut modes = Vec::new();
     for &(mode, breaths) in plan {
-        let Some(entry) = config.core().sequences().iter().find(|e| e.mode == mode) else {
+        let Some(entry) = config
+            .core()
+            .sequences()
+            .iter()
+            .find(|e| e.target.mode() == Some(mode))
+        else {
             continue;
         };
         script.extend(sequence_steps(entry.actions.as_slice(), Timing::DEFAULT));
@@ -268,7 +273,9 @@ pub fn random_session_with(
         low += step_low;
         high += step_high;
         script.extend(steps);
-        modes.push(entry.mode);
+        if let Some(mode) = entry.target.mode() {
+            modes.push(mode);
+        }
     }
     let fill = total_ms.saturating_sub(low);
     script.push(Step::Rest {

@@ -354,7 +354,9 @@ impl Agent<'_> {
             Phase::AwaitMatch { target, deadline } => {
                 for event in events {
                     match event {
-                        Event::Match { mode, .. } if *mode == target => {
+                        Event::Match {
+                            target: matched, ..
+                        } if matched.mode() == Some(target) => {
                             return Some(Phase::Decide);
                         }
                         Event::Match { .. } => {
@@ -398,7 +400,7 @@ impl Agent<'_> {
                 .core()
                 .sequences()
                 .iter()
-                .find(|e| e.mode == mode)
+                .find(|e| e.target.mode() == Some(mode))
                 .is_some_and(|e| {
                     e.actions
                         .as_slice()
@@ -415,7 +417,7 @@ impl Agent<'_> {
             .core()
             .sequences()
             .iter()
-            .find(|e| e.mode == mode)
+            .find(|e| e.target.mode() == Some(mode))
         else {
             // Not in the library: nothing to breathe; the caller waits.
             signal.push(Step::Rest { ms: 1 });

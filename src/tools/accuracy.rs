@@ -148,7 +148,11 @@ pub fn observe(config: &Config, params: SignalParams, script: &[Step]) -> Observ
         for event in out.events.iter() {
             match *event {
                 Event::Burst(b) => seen.bursts.push(b),
-                Event::Match { mode, .. } => seen.matched.push(mode),
+                Event::Match { target, .. } => {
+                    if let Some(mode) = target.mode() {
+                        seen.matched.push(mode);
+                    }
+                }
                 Event::Reset { .. } => seen.resets += 1,
                 Event::Fault { reason } => {
                     seen.faults += 1;

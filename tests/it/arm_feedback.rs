@@ -241,8 +241,8 @@ fn a_whole_session_with_an_imperfect_arm_is_no_fault() {
         let out = core.tick(t as u64, volts);
         for e in out.events.iter() {
             assert!(!matches!(e, Event::ArmFault { .. }), "tick {t}: {e:?}");
-            if let Event::Match { mode, .. } = e {
-                matched.push(*mode);
+            if let Event::Match { target, .. } = e {
+                matched.extend(target.mode());
             }
         }
         if let Some(mut measured) = arm.tick(t as u64, out.motion.arm_command.as_ref()) {

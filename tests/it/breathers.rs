@@ -195,7 +195,10 @@ fn a_practice_session_is_library_sequences_read_exactly_at_the_truth() {
             .modes
             .iter()
             .flat_map(|m| {
-                let entry = library.iter().find(|e| e.mode == *m).unwrap();
+                let entry = library
+                    .iter()
+                    .find(|e| e.target.mode() == Some(*m))
+                    .unwrap();
                 entry.actions.as_slice().to_vec()
             })
             .collect();

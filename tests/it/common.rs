@@ -52,7 +52,7 @@ pub fn assert_session(
         for event in core.tick(t as u64, v).events.iter() {
             match event {
                 Event::Burst(b) => bursts.push(*b),
-                Event::Match { mode, .. } => matched.push(*mode),
+                Event::Match { target, .. } => matched.extend(target.mode()),
                 Event::Reset { .. }
                 | Event::Fault { .. }
                 | Event::Recovered

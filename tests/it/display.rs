@@ -120,7 +120,7 @@ fn asp_shows_the_sequence_the_sequences_still_possible_and_the_wait_on_a_prefix(
     assert!(start.sequence.is_empty() && start.waiting.is_none());
     let setup = s.screen.setup();
     assert_eq!(setup.interface, "asp");
-    let listed: Vec<&str> = setup.modes.iter().map(|m| m.mode).collect();
+    let listed: Vec<&str> = setup.modes.iter().map(|m| m.mode.as_str()).collect();
     assert_eq!(listed, ["translate_x", "translate_y", "translate_z"]);
     assert_eq!(setup.long_ms, 500);
 
@@ -150,7 +150,7 @@ fn asp_shows_the_sequence_the_sequences_still_possible_and_the_wait_on_a_prefix(
     assert_eq!(names(&after), ["short sip", "long sip"]);
     assert_eq!(after.candidates, [0, 1]);
     let waiting = after.waiting.unwrap();
-    assert_eq!(waiting.selects, Some("translate_y"));
+    assert_eq!(waiting.selects.as_deref(), Some("translate_y"));
     assert_eq!(waiting.ms_left, second_end + 1000 - (end + 1100));
 
     // The wait runs out: translate_y is selected and lit, command mode.

@@ -9,6 +9,7 @@ use sipnpuff::control::event::{Event, TimedEvent};
 use sipnpuff::control::mode::{Mode, ModeState};
 use sipnpuff::control::modes::DetectionReason;
 use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::target::Target;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
 /// Steps a pipeline sample by sample, keeping every event with its tick.
@@ -57,7 +58,7 @@ impl Run {
             self.events.iter().any(|(_, e)| matches!(
                 e,
                 Event::Match {
-                    mode: Mode::RotateZ,
+                    target: Target::Mode(Mode::RotateZ),
                     ..
                 }
             )),
@@ -247,7 +248,7 @@ fn an_offset_shift_faults_then_rezeroes_and_detection_resumes() {
     assert!(run.events.iter().any(|(_, e)| matches!(
         e,
         Event::Match {
-            mode: Mode::RotateZ,
+            target: Target::Mode(Mode::RotateZ),
             ..
         }
     )));

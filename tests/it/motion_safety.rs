@@ -416,7 +416,7 @@ fn with_motion_onset_a_selection_in_command_mode_switches_without_moving() {
         .iter()
         .filter_map(|r| {
             r.out.events.iter().find_map(|e| match e {
-                Event::Match { mode, .. } => Some((r.out.tick, *mode)),
+                Event::Match { target, .. } => target.mode().map(|mode| (r.out.tick, mode)),
                 _ => None,
             })
         })

@@ -191,7 +191,7 @@ fn in_library(config: &Config, sequence: &ActionSeq, mode: Mode) -> bool {
         .core()
         .sequences()
         .iter()
-        .any(|e| e.actions == *sequence && e.mode == mode)
+        .any(|e| e.actions == *sequence && e.target.mode() == Some(mode))
 }
 
 /// Whether a match could come from the interface: a library entry (ASP),
@@ -223,8 +223,9 @@ proptest! {
                 prop_assert_eq!(out.command.direction, Direction::Still);
             }
             for event in out.events.iter() {
-                if let Event::Match { sequence, mode } = event {
-                    prop_assert!(in_library(&config, sequence, *mode), "{:?} {:?}", sequence, mode);
+                if let Event::Match { sequence, target } = event {
+                    let mode = target.mode().expect("the library selects modes");
+                    prop_assert!(in_library(&config, sequence, mode), "{:?} {:?}", sequence, mode);
                 }
             }
         }
@@ -251,7 +252,7 @@ proptest! {
             }
         }
         prop_assert_eq!(bursts.as_slice(), entry.actions.as_slice());
-        prop_assert_eq!(decisions, vec![Event::Match { sequence: entry.actions, mode: entry.mode }]);
+        prop_assert_eq!(decisions, vec![Event::Match { sequence: entry.actions, target: entry.target }]);
     }
 
     /// Any valid configuration, any samples, and ticks that jump ahead,
@@ -287,8 +288,9 @@ proptest! {
                 prop_assert_eq!(out.command.direction, Direction::Still);
             }
             for event in out.events.iter() {
-                if let Event::Match { sequence, mode } = event {
-                    prop_assert!(selectable(&config, sequence, *mode), "{:?} {:?}", sequence, mode);
+                if let Event::Match { sequence, target } = event {
+                    let mode = target.mode().expect("the library selects modes");
+                    prop_assert!(selectable(&config, sequence, mode), "{:?} {:?}", sequence, mode);
                 }
             }
         }

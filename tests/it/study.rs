@@ -66,9 +66,9 @@ fn a_puff_enters_the_highlighted_mode_and_inactivity_restarts_the_scan() {
     let matches: Vec<(u64, Mode)> = all
         .iter()
         .filter_map(|(t, e)| match e {
-            Event::Match { mode, sequence } => {
+            Event::Match { target, sequence } => {
                 assert_eq!(sequence.codes().collect::<Vec<_>>(), [-1]);
-                Some((*t, *mode))
+                target.mode().map(|mode| (*t, mode))
             }
             _ => None,
         })
@@ -120,8 +120,8 @@ fn the_run_users_session_selects_every_mode_of_its_plan() {
     let mut matched = Vec::new();
     for (t, v) in SignalGenerator::new(params, &script).enumerate() {
         for e in core.tick(t as u64, v).events.iter() {
-            if let Event::Match { mode, .. } = e {
-                matched.push(*mode);
+            if let Event::Match { target, .. } = e {
+                matched.extend(target.mode());
             }
         }
     }

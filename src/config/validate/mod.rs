@@ -11,12 +11,14 @@
 mod arm;
 mod detector;
 mod motion;
+mod output;
 mod selection;
 mod sensor;
 
 use crate::arm::settings::ArmSettings;
 use crate::config::error::Problems;
 use crate::control::core_config::CoreConfig;
+use crate::output::settings::OutputSettings;
 use crate::sensor::settings::SensorSettings;
 
 pub use selection::MAX_SEQUENCES;
@@ -71,6 +73,7 @@ pub(super) fn config(
     core: &CoreConfig,
     sensor: &SensorSettings,
     arm: &ArmSettings,
+    output: &OutputSettings,
 ) {
     detector::detector(p, core.detector());
     selection::matcher(p, core.matcher());
@@ -83,4 +86,5 @@ pub(super) fn config(
     selection::scanning(p, core.scanning());
     selection::library(p, core.sequences());
     sensor::sensor(p, sensor);
+    output::output(p, output, core.pointer());
 }

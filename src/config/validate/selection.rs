@@ -8,6 +8,7 @@ use crate::control::modes::CommandConfig;
 use crate::control::selection::SequenceEntry;
 use crate::control::selection::matcher::MatcherConfig;
 use crate::control::selection::scanning::ScanningConfig;
+use crate::control::target::Target;
 
 /// Largest library the matcher accepts.
 pub const MAX_SEQUENCES: usize = 256;
@@ -66,6 +67,7 @@ pub(super) fn library(p: &mut Problems, entries: &[SequenceEntry]) {
         );
     }
     let mut seen = HashSet::new();
+    let mut events = HashSet::new();
     for (i, entry) in entries.iter().enumerate() {
         let entry_key = format!("sequence #{}", i + 1);
         let key = format!("{entry_key}.actions");
@@ -76,6 +78,17 @@ pub(super) fn library(p: &mut Problems, entries: &[SequenceEntry]) {
             p.add(&key, "must hold at least one action");
         } else if !seen.insert(entry.actions) {
             p.add(&key, format!("{:?} is listed twice", entry.actions));
+        }
+        if let Target::Home(event) = entry.target
+            && !events.insert(event)
+        {
+            p.add(
+                format!("{entry_key}.event"),
+                format!(
+                    "{:?} is used twice: each home event has one sequence",
+                    event.as_str()
+                ),
+            );
         }
     }
 }

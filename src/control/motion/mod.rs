@@ -409,6 +409,8 @@ impl Motion {
                     self.goto = Goto::Waiting;
                 }
             }
+            // The pointer's modes move the pointer, never the arm.
+            (Some(Mode::PointerX | Mode::PointerY | Mode::Scroll), _) => {}
         }
         // A request: (signed unit direction, speed).
         let linear = linear.map(|(axis, speed)| (axis * direction, speed * scale));

@@ -19,8 +19,8 @@ use serde::Serialize;
 use crate::control::Tick;
 use crate::control::action::ActionSeq;
 use crate::control::detector::Burst;
-use crate::control::mode::Mode;
 use crate::control::selection::SequenceEntry;
+use crate::control::target::Target;
 
 /// Sequence matcher settings (`[matcher]` in the config file).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
@@ -61,8 +61,8 @@ pub enum MatchEvent {
     Match {
         /// The matched sequence.
         sequence: ActionSeq,
-        /// Its mode.
-        mode: Mode,
+        /// What its entry selects or fires.
+        target: Target,
     },
     /// The sequence was dropped.
     Reset {
@@ -81,16 +81,16 @@ pub struct SequenceMatcher {
     timeout: u64,
     cs: ActionSeq,
     /// The CS equals this entry's sequence, but a longer one starts with it.
-    pending: Option<Mode>,
+    pending: Option<Target>,
     last_end: Tick,
 }
 
 /// Where the CS stands in the library.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Standing {
-    /// The mode of the entry equal to the CS, if any (the last one, should
+    /// The target of the entry equal to the CS, if any (the last one, should
     /// a library hold a sequence twice; a validated one never does).
-    exact: Option<Mode>,
+    exact: Option<Target>,
     /// Some longer entry starts with the CS.
     has_longer: bool,
 }
@@ -117,7 +117,7 @@ impl SequenceMatcher {
         for entry in self.library.iter() {
             let sequence = entry.actions.as_slice();
             if sequence == cs {
-                standing.exact = Some(entry.mode);
+                standing.exact = Some(entry.target);
             } else if sequence.starts_with(cs) {
                 standing.has_longer = true;
             }
@@ -137,9 +137,9 @@ impl SequenceMatcher {
         (!self.cs.is_empty()).then(|| self.last_end.saturating_add(self.timeout))
     }
 
-    /// The mode that decision selects (the sequence is complete and a
+    /// What that decision selects (the sequence is complete and a
     /// longer one starts with it); `None`: it resets. RT-safe.
-    pub fn pending(&self) -> Option<Mode> {
+    pub fn pending(&self) -> Option<Target> {
         self.pending
     }
 
@@ -157,9 +157,9 @@ impl SequenceMatcher {
                 has_longer: false,
             } => self.reset(ResetReason::NoMatch),
             Standing {
-                exact: Some(mode),
+                exact: Some(target),
                 has_longer: false,
-            } => self.matched(mode),
+            } => self.matched(target),
             Standing { exact, .. } => {
                 self.pending = exact;
                 None
@@ -174,7 +174,7 @@ impl SequenceMatcher {
             return None;
         }
         match self.pending {
-            Some(mode) => self.matched(mode),
+            Some(target) => self.matched(target),
             None => self.reset(ResetReason::Timeout),
         }
     }
@@ -193,10 +193,10 @@ impl SequenceMatcher {
         }
     }
 
-    fn matched(&mut self, mode: Mode) -> Option<MatchEvent> {
+    fn matched(&mut self, target: Target) -> Option<MatchEvent> {
         let sequence = self.cs;
         self.clear();
-        Some(MatchEvent::Match { sequence, mode })
+        Some(MatchEvent::Match { sequence, target })
     }
 
     fn reset(&mut self, reason: ResetReason) -> Option<MatchEvent> {
@@ -215,12 +215,13 @@ impl SequenceMatcher {
 mod tests {
     use super::*;
     use crate::control::action::Action;
+    use crate::control::mode::Mode;
     use Action::{LongPuff, LongSip, ShortPuff, ShortSip};
 
     fn entry(actions: &[Action], mode: Mode) -> SequenceEntry {
         SequenceEntry {
             actions: ActionSeq::from_slice(actions).unwrap(),
-            mode,
+            target: Target::Mode(mode),
         }
     }
 
@@ -247,7 +248,7 @@ mod tests {
     fn matched(actions: &[Action], mode: Mode) -> Option<MatchEvent> {
         Some(MatchEvent::Match {
             sequence: ActionSeq::from_slice(actions).unwrap(),
-            mode,
+            target: Target::Mode(mode),
         })
     }
 

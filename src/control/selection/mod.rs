@@ -1,4 +1,5 @@
-//! Selection: how the user picks one of the nine modes in detection mode.
+//! Selection: how the user picks a mode (or fires an action) in
+//! detection mode.
 //!
 //! * ASP, the paper's interface: bursts form sequences matched against the
 //!   user's library ([`matcher`]).
@@ -13,16 +14,28 @@ use serde::Serialize;
 
 use crate::control::action::{Action, ActionSeq};
 use crate::control::mode::Mode;
+use crate::control::target::Target;
 
-/// One user-defined sequence and the mode it selects.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
+/// One user-defined sequence and what it selects or fires. Written in a
+/// file as `actions` and one of `mode`, `key`, `click` or `event`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct SequenceEntry {
     /// The actions, non-empty, at most
     /// [`MAX_SEQUENCE_LEN`](crate::control::action::MAX_SEQUENCE_LEN).
     pub actions: ActionSeq,
-    /// The arm mode it selects.
-    pub mode: Mode,
+    /// What it selects or fires.
+    #[serde(flatten)]
+    pub target: Target,
+}
+
+impl SequenceEntry {
+    /// The entry for `actions` selecting `mode`.
+    pub fn mode(actions: ActionSeq, mode: Mode) -> SequenceEntry {
+        SequenceEntry {
+            actions,
+            target: Target::Mode(mode),
+        }
+    }
 }
 
 /// The built-in library: prefix-free (no selection ever waits for the

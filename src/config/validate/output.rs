@@ -1,0 +1,102 @@
+//! `[output.uinput]` and `[output.mqtt]`: the device's name, the
+//! pointer's speeds, the broker's address and Home Assistant's prefix.
+
+use crate::config::error::Problems;
+use crate::control::pointer::PointerConfig;
+use crate::output::settings::OutputSettings;
+
+/// Longest uinput device name the kernel keeps (`UINPUT_MAX_NAME_SIZE`
+/// is 80 with its terminating zero).
+const MAX_DEVICE_NAME: usize = 79;
+/// Highest pointer speed, counts/s (a 4K screen in under a second).
+const MAX_POINTER_SPEED: f64 = 5000.0;
+/// Highest scroll speed, detents/s.
+const MAX_SCROLL_SPEED: f64 = 100.0;
+
+/// Every check of `[output]`.
+pub(super) fn output(p: &mut Problems, output: &OutputSettings, pointer: &PointerConfig) {
+    let name = &output.uinput.name;
+    if name.trim().is_empty() {
+        p.add("output.uinput.name", "must name the device");
+    } else if name.len() > MAX_DEVICE_NAME {
+        p.add(
+            "output.uinput.name",
+            format!(
+                "{} bytes: the kernel keeps at most {MAX_DEVICE_NAME}",
+                name.len()
+            ),
+        );
+    }
+    let key = |k: &str| format!("output.uinput.{k}");
+    let c = pointer;
+    p.range(
+        &key("pointer_speed"),
+        c.pointer_speed,
+        0.0,
+        false,
+        MAX_POINTER_SPEED,
+        "counts/s",
+    );
+    p.range(
+        &key("pointer_acceleration"),
+        c.pointer_acceleration,
+        0.0,
+        false,
+        100.0 * MAX_POINTER_SPEED,
+        "counts/s²",
+    );
+    p.range(
+        &key("pointer_jerk"),
+        c.pointer_jerk,
+        0.0,
+        false,
+        10_000.0 * MAX_POINTER_SPEED,
+        "counts/s³",
+    );
+    p.range(
+        &key("scroll_speed"),
+        c.scroll_speed,
+        0.0,
+        false,
+        MAX_SCROLL_SPEED,
+        "detents/s",
+    );
+    p.range(
+        &key("scroll_acceleration"),
+        c.scroll_acceleration,
+        0.0,
+        false,
+        100.0 * MAX_SCROLL_SPEED,
+        "detents/s²",
+    );
+    p.range(
+        &key("scroll_jerk"),
+        c.scroll_jerk,
+        0.0,
+        false,
+        10_000.0 * MAX_SCROLL_SPEED,
+        "detents/s³",
+    );
+
+    let m = &output.mqtt;
+    if m.host.trim().is_empty() {
+        p.add("output.mqtt.host", "must name the broker's host");
+    }
+    if m.port == 0 {
+        p.add("output.mqtt.port", "must be a port, 1–65535");
+    }
+    for (k, value) in [("prefix", &m.prefix), ("device_id", &m.device_id)] {
+        let topic_safe = !value.is_empty()
+            && value
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+        if !topic_safe {
+            p.add(
+                format!("output.mqtt.{k}"),
+                format!(
+                    "{value:?} must be letters, digits, `_` or `-` (it is part of every topic)"
+                ),
+            );
+        }
+    }
+}

@@ -1,0 +1,115 @@
+//! What the core asks of the outputs beyond the arm — the computer's
+//! keyboard and pointer, the home — on one tick. The control thread only
+//! decides; each output carries these out on its own thread.
+
+use serde::Serialize;
+
+use crate::control::Tick;
+use crate::control::action::ActionSeq;
+use crate::control::target::{Chord, Click, HomeEvent};
+
+/// One command to the outputs. `Copy`, RT-safe.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputCommand {
+    /// Press the chord's keys in order, then release them in reverse.
+    Key(Chord),
+    /// Click.
+    Click(Click),
+    /// The left button goes down (a drag begins) or up (it ends).
+    Button {
+        /// Down (true) or up.
+        down: bool,
+    },
+    /// The pointer moved over the last 10 ms.
+    Pointer(PointerMove),
+    /// A home event fired: the match that fired it.
+    Home {
+        /// The event.
+        event: HomeEvent,
+        /// The tick of the match.
+        tick: Tick,
+        /// The sequence matched.
+        sequence: ActionSeq,
+    },
+    /// Let go of everything held: a fault or a stop.
+    ReleaseAll,
+}
+
+impl OutputCommand {
+    /// For the computer's keyboard and pointer (not the home).
+    pub const fn is_for_computer(&self) -> bool {
+        !matches!(self, OutputCommand::Home { .. })
+    }
+
+    /// For the home (events, and letting go on a stop).
+    pub const fn is_for_home(&self) -> bool {
+        matches!(self, OutputCommand::Home { .. } | OutputCommand::ReleaseAll)
+    }
+}
+
+/// Pointer motion in whole counts (uinput's `REL_X`, `REL_Y`,
+/// `REL_WHEEL`): right, down and wheel-up are positive. The fractions are
+/// carried to the next move, so the moves sum to the travel commanded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct PointerMove {
+    /// Right (+) or left (−), counts.
+    pub dx: i32,
+    /// Down (+) or up (−), counts.
+    pub dy: i32,
+    /// Wheel up (+) or down (−), detents.
+    pub wheel: i32,
+}
+
+impl PointerMove {
+    /// No motion.
+    pub const fn is_zero(&self) -> bool {
+        self.dx == 0 && self.dy == 0 && self.wheel == 0
+    }
+}
+
+/// Most output commands one tick can carry: a drag let go, the action a
+/// match fires, a pointer move, and a release on a fault or stop.
+pub const MAX_OUTPUT_COMMANDS: usize = 4;
+
+/// The output commands of one tick, inline. `Copy`, RT-safe.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OutputCommands {
+    items: [Option<OutputCommand>; MAX_OUTPUT_COMMANDS],
+}
+
+impl Default for OutputCommands {
+    fn default() -> Self {
+        OutputCommands {
+            items: [None; MAX_OUTPUT_COMMANDS],
+        }
+    }
+}
+
+impl OutputCommands {
+    /// Adds a command; hands it back if full (never with the core's
+    /// commands: at most [`MAX_OUTPUT_COMMANDS`] a tick).
+    pub fn push(&mut self, command: OutputCommand) -> Result<(), OutputCommand> {
+        match self.items.iter_mut().find(|slot| slot.is_none()) {
+            Some(slot) => {
+                *slot = Some(command);
+                Ok(())
+            }
+            None => Err(command),
+        }
+    }
+
+    /// Empties the list. RT-safe.
+    pub fn clear(&mut self) {
+        self.items = [None; MAX_OUTPUT_COMMANDS];
+    }
+
+    /// The commands, in order.
+    pub fn iter(&self) -> impl Iterator<Item = &OutputCommand> {
+        self.items.iter().map_while(Option::as_ref)
+    }
+
+    /// No command.
+    pub fn is_empty(&self) -> bool {
+        self.iter().next().is_none()
+    }
+}
