@@ -18,6 +18,7 @@ use serde::Serialize;
 
 use crate::control::output_command::OutputCommand;
 
+pub mod mqtt;
 pub mod settings;
 
 /// Which outputs to drive besides the arm: the `--output` values.

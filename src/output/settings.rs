@@ -54,6 +54,11 @@ pub struct MqttSettings {
     /// The device's stable identifier in Home Assistant (and its topics'
     /// root): one per person's controller.
     pub device_id: String,
+    /// How long an event fired while the broker is unreachable waits for
+    /// it, ms; past that it is given up and counted lost (a light that
+    /// toggles a minute after the breath surprises more than one that
+    /// does not). 0: never wait.
+    pub max_delay_ms: u32,
 }
 
 impl Default for MqttSettings {
@@ -65,6 +70,7 @@ impl Default for MqttSettings {
             credentials_file: None,
             tls: false,
             device_id: "sipnpuff".into(),
+            max_delay_ms: 10_000,
         }
     }
 }

@@ -13,6 +13,9 @@ const MAX_POINTER_SPEED: f64 = 5000.0;
 /// Highest scroll speed, detents/s.
 const MAX_SCROLL_SPEED: f64 = 100.0;
 
+/// Longest an event may wait for an unreachable broker, ms (an hour).
+const MAX_EVENT_DELAY_MS: u32 = 3_600_000;
+
 /// Every check of `[output]`.
 pub(super) fn output(p: &mut Problems, output: &OutputSettings, pointer: &PointerConfig) {
     let name = &output.uinput.name;
@@ -98,5 +101,14 @@ pub(super) fn output(p: &mut Problems, output: &OutputSettings, pointer: &Pointe
                 ),
             );
         }
+    }
+    if m.max_delay_ms > MAX_EVENT_DELAY_MS {
+        p.add(
+            "output.mqtt.max_delay_ms",
+            format!(
+                "{} ms: at most {MAX_EVENT_DELAY_MS} ms (an hour) an event may wait for the broker",
+                m.max_delay_ms
+            ),
+        );
     }
 }
