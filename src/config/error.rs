@@ -74,12 +74,13 @@ impl Problems {
         });
     }
 
-    /// Whether a problem with a key inside `key` (`key.…`) is recorded.
-    pub(super) fn has_under(&self, key: &str) -> bool {
+    /// Whether a problem with `key` or a key inside it (`key.…`) is
+    /// recorded already.
+    pub(super) fn has_in(&self, key: &str) -> bool {
         self.errors.iter().any(|e| {
             e.key
                 .strip_prefix(key)
-                .is_some_and(|rest| rest.starts_with('.'))
+                .is_some_and(|rest| rest.is_empty() || rest.starts_with('.'))
         })
     }
 

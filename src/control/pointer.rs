@@ -37,13 +37,14 @@ pub struct PointerConfig {
 }
 
 impl Default for PointerConfig {
-    /// Full speed (800 counts/s) after about 0.75 s; a 100 ms breath moves
-    /// the pointer about one count, a 1 s breath about 460.
+    /// A creep that gathers speed: a 100 ms breath moves the pointer about
+    /// three counts, a 1 s breath about 300, and from 1 s on it runs at
+    /// 800 counts/s.
     fn default() -> Self {
         PointerConfig {
             pointer_speed: 800.0,
             pointer_acceleration: 1600.0,
-            pointer_jerk: 6400.0,
+            pointer_jerk: 1600.0,
             scroll_speed: 8.0,
             scroll_acceleration: 32.0,
             scroll_jerk: 256.0,
@@ -160,7 +161,7 @@ impl Pointer {
                 *travel += self.channel.velocity(dof) * CYCLE_S;
             }
         }
-        if now % MOVE_EVERY_TICKS == 0 {
+        if now.is_multiple_of(MOVE_EVERY_TICKS) {
             let mut whole = [0i32; 3];
             for ((travel, sent), delta) in self.travel.iter().zip(&mut self.sent).zip(&mut whole) {
                 let now_whole = travel.round() as i64;

@@ -52,8 +52,8 @@ pub(super) fn scanning(p: &mut Problems, c: &ScanningConfig) {
     }
 }
 
-/// `[[sequence]]`: how many, none empty, none listed twice. An entry
-/// whose `actions` (or the entry itself) the reader found wrong holds the
+/// `[[sequence]]`: how many, none empty, none listed twice, no home
+/// event used twice. An entry the reader found wrong anywhere holds the
 /// built-in value in its place and is not compared.
 pub(super) fn library(p: &mut Problems, entries: &[SequenceEntry]) {
     let count = entries.len();
@@ -71,7 +71,7 @@ pub(super) fn library(p: &mut Problems, entries: &[SequenceEntry]) {
     for (i, entry) in entries.iter().enumerate() {
         let entry_key = format!("sequence #{}", i + 1);
         let key = format!("{entry_key}.actions");
-        if p.has(&entry_key) || p.has(&key) {
+        if p.has_in(&entry_key) {
             continue;
         }
         if entry.actions.is_empty() {
