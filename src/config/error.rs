@@ -74,16 +74,6 @@ impl Problems {
         });
     }
 
-    /// Whether a problem with `key` or a key inside it (`key.…`) is
-    /// recorded already.
-    pub(super) fn has_in(&self, key: &str) -> bool {
-        self.errors.iter().any(|e| {
-            e.key
-                .strip_prefix(key)
-                .is_some_and(|rest| rest.is_empty() || rest.starts_with('.'))
-        })
-    }
-
     /// Whether a problem with `key` is recorded already.
     pub(super) fn has(&self, key: &str) -> bool {
         self.errors.iter().any(|e| e.key == key)
