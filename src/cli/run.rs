@@ -18,6 +18,7 @@ use crate::cli::display::{Display, DisplayArgs};
 use crate::cli::output::{self, StdoutEvents, invalid};
 use crate::config::Config;
 use crate::control::target::{HomeEvent, Target};
+use crate::output::mqtt::MqttOutput;
 use crate::output::settings::MqttSettings;
 use crate::output::{Output, OutputSpec};
 use crate::rt::control_loop::StopReason;
@@ -180,9 +181,10 @@ fn open_uinput(_config: &Config) -> anyhow::Result<Box<dyn Output>> {
     anyhow::bail!("--output uinput: the uinput backend is being merged")
 }
 
-/// `--output mqtt`.
-fn open_mqtt(_settings: &MqttSettings, _events: &[HomeEvent]) -> anyhow::Result<Box<dyn Output>> {
-    anyhow::bail!("--output mqtt: the MQTT backend is being merged")
+/// `--output mqtt`: connects now, so a wrong address, a broker that is
+/// down or refused credentials stop the run before it starts.
+fn open_mqtt(settings: &MqttSettings, events: &[HomeEvent]) -> anyhow::Result<Box<dyn Output>> {
+    Ok(Box::new(MqttOutput::open(settings, events)?))
 }
 
 /// Runs the loop with the chosen sensor and arm; prints events as they

@@ -14,7 +14,7 @@
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Instant;
+use std::time::{Duration, Instant, SystemTime};
 
 use nalgebra::Isometry3;
 
@@ -26,7 +26,7 @@ use crate::control::view::CoreView;
 use crate::rt::alloc_counter;
 use crate::rt::clock::Clock;
 use crate::rt::core_input::{ArmInput, ArmPose, CoreInput};
-use crate::rt::output_thread::OutputLane;
+use crate::rt::output_thread::{OutputLane, TickZero};
 use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
 use crate::rt::setup::{RtOptions, Setting, setup_current_thread};
 pub use crate::rt::stop::StopReason;
@@ -340,6 +340,9 @@ pub struct LoopOptions {
     pub stop: StopRequest,
     /// Set by the arm thread when the arm failed.
     pub arm_fault: Arc<AtomicBool>,
+    /// Told the wall-clock time of tick 0 (the outputs stamp commands
+    /// with it), if anyone needs it.
+    pub tick_zero: Option<TickZero>,
 }
 
 /// What the loop did.
@@ -378,6 +381,10 @@ pub fn control_loop<C: Clock, W: TickWork>(
     let mut record_drops = 0u64;
 
     let start = clock.now_ns() + PERIOD_NS;
+    if let Some(zero) = &options.tick_zero {
+        let until_start = Duration::from_nanos(start.saturating_sub(clock.now_ns()));
+        zero.set(SystemTime::now() + until_start);
+    }
     let mut scheduler = Scheduler::new(start, PERIOD_NS, options.spin_margin_ns);
     let mut previous_wake = 0u64;
     let last_woke = loop {

@@ -6,8 +6,8 @@
 //! ended, stopped, faulted or its thread died), closes the output: every
 //! key and button held is let go before the device or connection goes.
 
-use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
 use std::thread;
 use std::time::{Duration, SystemTime};
 
@@ -42,6 +42,37 @@ impl Serves {
     }
 }
 
+/// The wall-clock time of the loop's tick 0, once the control thread
+/// knows it (after its real-time set-up, which may take tens of ms): a
+/// command's tick becomes a time from it (a home event's match time).
+#[derive(Debug, Clone, Default)]
+pub struct TickZero(Arc<OnceLock<SystemTime>>);
+
+impl TickZero {
+    /// Not known yet: the control loop sets it.
+    pub fn new() -> TickZero {
+        TickZero::default()
+    }
+
+    /// Known already (a loop that is not timed by the wall clock).
+    pub fn known(at: SystemTime) -> TickZero {
+        let zero = TickZero::new();
+        zero.set(at);
+        zero
+    }
+
+    /// Tick 0 is at `at`. The first call wins. Called once, before the
+    /// loop's first deadline.
+    pub fn set(&self, at: SystemTime) {
+        let _ = self.0.set(at);
+    }
+
+    /// Tick 0's time, if known.
+    pub fn get(&self) -> Option<SystemTime> {
+        self.0.get().copied()
+    }
+}
+
 /// The control thread's end of one output's ring. RT-safe to push into.
 pub struct OutputLane {
     serves: Serves,
@@ -68,11 +99,12 @@ pub struct OutputThread {
 
 impl OutputThread {
     /// Starts `output`'s thread; returns it and the lane the control
-    /// thread pushes into. Commands are given times from `tick_zero`.
+    /// thread pushes into. Commands are given times from `tick_zero`: the
+    /// thread begins the output once it is known (or the loop never ran).
     pub fn start(
         serves: Serves,
         mut output: Box<dyn Output>,
-        tick_zero: SystemTime,
+        tick_zero: TickZero,
     ) -> std::io::Result<(OutputThread, OutputLane)> {
         let (ring, mut commands) = RingBuffer::new(OUTPUT_RING);
         let dropped = Arc::new(AtomicU64::new(0));
@@ -85,7 +117,16 @@ impl OutputThread {
         let handle = thread::Builder::new()
             .name(format!("output {}", short_name(&describe)))
             .spawn(move || {
-                output.begin(tick_zero);
+                let zero = loop {
+                    if let Some(zero) = tick_zero.get() {
+                        break zero;
+                    }
+                    if commands.is_abandoned() {
+                        break SystemTime::now(); // the loop never started
+                    }
+                    thread::sleep(IDLE_SLEEP);
+                };
+                output.begin(zero);
                 loop {
                     let mut worked = false;
                     while let Ok(command) = commands.pop() {

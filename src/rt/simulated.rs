@@ -20,7 +20,7 @@ use crate::rt::clock::SimClock;
 use crate::rt::control_loop::{
     ControlTick, LoopOptions, StopReason, TickOutcome, TickWork, WorkSummary, control_loop,
 };
-use crate::rt::output_thread::{OutputThread, Serves};
+use crate::rt::output_thread::{OutputThread, Serves, TickZero};
 use crate::rt::rings::{FEEDBACK_RING, Rings};
 use crate::rt::scheduler::Wake;
 use crate::rt::setup::RtOptions;
@@ -181,14 +181,17 @@ fn simulate<S: Samples>(
         spin_margin_ns: None,
         stop: StopRequest::new(),
         arm_fault: Arc::new(AtomicBool::new(false)),
+        tick_zero: None,
     };
     // The outputs, each on its thread as in `run`: the loop checked
     // offers them its commands.
     let mut output_threads = Vec::new();
     for (serves, output) in outputs_to_drive {
-        if let Ok((thread, lane)) =
-            OutputThread::start(serves, output, std::time::SystemTime::now())
-        {
+        if let Ok((thread, lane)) = OutputThread::start(
+            serves,
+            output,
+            TickZero::known(std::time::SystemTime::now()),
+        ) {
             output_threads.push(thread);
             outputs.outputs.push(lane);
         }

@@ -28,7 +28,7 @@ use std::fmt;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::thread;
-use std::time::{Duration, Instant, SystemTime};
+use std::time::{Duration, Instant};
 
 use rtrb::RingBuffer;
 
@@ -40,7 +40,7 @@ use crate::output::Output;
 use crate::rt::arm_thread::{ArmStream, run_arm};
 use crate::rt::clock::MonotonicClock;
 use crate::rt::control_loop::{ControlTick, LoopOptions, TickWork, control_loop};
-use crate::rt::output_thread::{OutputThread, Serves};
+use crate::rt::output_thread::{OutputThread, Serves, TickZero};
 use crate::rt::recorder::SessionRecorder;
 use crate::rt::report::{RunFacts, RunReport};
 use crate::rt::rings::{FEEDBACK_RING, Rings};
@@ -226,10 +226,10 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     let limit_ticks = settings.seconds.map(|s| (s * 1000.0).round() as u64);
     // The outputs' threads: each closes its output when the control
     // thread's end of its ring goes, however the loop ends.
-    let tick_zero = SystemTime::now() + Duration::from_millis(1);
+    let tick_zero = TickZero::new();
     let mut output_threads = Vec::with_capacity(outputs.len());
     for (serves, output) in outputs {
-        let (thread, lane) = OutputThread::start(serves, output, tick_zero)
+        let (thread, lane) = OutputThread::start(serves, output, tick_zero.clone())
             .map_err(|e| RunError::Thread(format!("cannot start an output's thread: {e}")))?;
         output_threads.push(thread);
         rings.outputs.outputs.push(lane);
@@ -257,6 +257,7 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
         spin_margin_ns: settings.spin_margin_ns,
         stop: settings.stop.clone(),
         arm_fault,
+        tick_zero: Some(tick_zero),
     };
     let mut records = rings.records;
     let control = thread::Builder::new()
