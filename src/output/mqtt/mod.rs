@@ -479,12 +479,12 @@ impl MqttOutput {
     /// Tells the network thread to end; joins it if it has.
     fn stop_thread(&mut self) {
         self.stop = None;
-        if let Some(thread) = self.thread.take() {
-            if thread.is_finished() {
-                let _ = thread.join();
-            }
-            // Otherwise it is blocked on the network: it ends when that
-            // returns (its channels are gone), on its own.
+        // A thread blocked on the network ends when that returns (its
+        // channels are gone), on its own.
+        if let Some(thread) = self.thread.take()
+            && thread.is_finished()
+        {
+            let _ = thread.join();
         }
     }
 

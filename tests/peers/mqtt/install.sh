@@ -18,6 +18,8 @@ fi
 # start their own.
 if command -v systemctl >/dev/null && systemctl is-active --quiet mosquitto 2>/dev/null; then
     systemctl disable --now mosquitto >/dev/null 2>&1 || true
+elif [ -x /etc/init.d/mosquitto ]; then
+    /etc/init.d/mosquitto stop >/dev/null 2>&1 || true
 fi
 if [ ! -x "$venv/bin/python" ]; then
     mkdir -p "$(dirname "$venv")"

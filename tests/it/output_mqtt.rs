@@ -1,0 +1,1077 @@
+//! `--output mqtt` against Debian's Mosquitto (`tests/peers/mqtt/install.sh`):
+//! each test starts a broker of its own on a free port of 127.0.0.1 and an
+//! independent subscriber (paho-mqtt 2.x, `tests/peers/mqtt/subscriber.py`)
+//! that prints every message on every topic with its wall-clock receive
+//! time, retain, QoS and DUP flags.
+//!
+//! Through `sipnpuff run --sensor csv:… --output mqtt:127.0.0.1:PORT`: the
+//! discovery payloads field by field against Home Assistant's documented
+//! schema, each match (as the run's own event lines say) received exactly
+//! once, availability `online` then `offline`, the last will after
+//! SIGKILL, discovery again when Home Assistant says `online`, a broker
+//! killed and restarted mid-run, and the loop's figures with and without
+//! MQTT. Driving [`MqttOutput`] directly: an event held while the broker is
+//! down (sent once), one in flight when the connection breaks (lost,
+//! never resent), one that waits too long (given up), credentials, a
+//! stale trigger deleted, and the errors of `open`.
+//!
+//! Skipped with a notice when the peers are not installed, unless
+//! `SIPNPUFF_REQUIRE_PEERS=1` (CI), where that is a failure.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant, SystemTime};
+
+use serde_json::{Value, json};
+use sipnpuff::control::Tick;
+use sipnpuff::control::action::{Action, ActionSeq};
+use sipnpuff::control::output_command::OutputCommand;
+use sipnpuff::control::target::HomeEvent;
+use sipnpuff::output::mqtt::MqttOutput;
+use sipnpuff::output::settings::MqttSettings;
+use sipnpuff::output::{Output, OutputReport};
+use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step, write_csv};
+
+use crate::common::{Running, free_port, have_peer, poll_until, puff, rest, sip};
+use crate::peers::quantile;
+use crate::scratch::Scratch;
+
+const MOSQUITTO: &str = "/usr/sbin/mosquitto";
+const MOSQUITTO_PUB: &str = "/usr/bin/mosquitto_pub";
+const MOSQUITTO_PASSWD: &str = "/usr/bin/mosquitto_passwd";
+/// Longest wait for anything the broker or the subscriber should do.
+const PATIENCE: Duration = Duration::from_secs(10);
+
+const AVAILABILITY: &str = "sipnpuff/availability";
+const EVENTS: &str = "sipnpuff/event";
+const LIGHTS_CONFIG: &str = "homeassistant/device_automation/sipnpuff/lights_toggle/config";
+const HELP_CONFIG: &str = "homeassistant/device_automation/sipnpuff/call_for_help/config";
+const ENTITY_CONFIG: &str = "homeassistant/event/sipnpuff/home_events/config";
+
+/// The library: two home events and an arm mode.
+const LIBRARY: &str = "\
+[detector]
+stale_ms = 1000
+
+[[sequence]]
+actions = [-1, -1]
+event = \"lights_toggle\"
+
+[[sequence]]
+actions = [1, 1]
+event = \"call_for_help\"
+
+[[sequence]]
+actions = [-2, -2]
+mode = \"translate_x\"
+";
+
+fn python() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("target/peers/paho/bin/python")
+}
+
+fn peer_script(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/peers/mqtt")
+        .join(name)
+}
+
+/// Runs `test` in a scratch folder if Mosquitto and paho-mqtt are here; a
+/// notice (or, under `SIPNPUFF_REQUIRE_PEERS=1`, a failure) when not.
+fn mqtt_test(test: impl Fn(&Scratch)) {
+    let paho = Command::new(python())
+        .args(["-c", "import paho.mqtt"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    let ok = Path::new(MOSQUITTO).exists() && Path::new(MOSQUITTO_PUB).exists() && paho;
+    let missing = (!ok).then(|| {
+        "Mosquitto (mosquitto, mosquitto-clients) or paho-mqtt in target/peers/paho is not installed: run tests/peers/mqtt/install.sh as root".into()
+    });
+    if have_peer(missing) {
+        let dir = Scratch::new();
+        // The broker drops root for the `mosquitto` user: it reads its
+        // password file from here.
+        std::fs::set_permissions(&*dir, std::os::unix::fs::PermissionsExt::from_mode(0o755))
+            .unwrap();
+        test(&dir);
+    }
+}
+
+/// A Mosquitto broker on its own port.
+struct Broker {
+    port: u16,
+    conf: PathBuf,
+    process: Option<Running>,
+}
+
+impl Broker {
+    /// Anonymous clients allowed.
+    fn start(dir: &Path) -> Broker {
+        Broker::with(dir, "allow_anonymous true\n")
+    }
+
+    /// With `auth` lines in its configuration.
+    fn with(dir: &Path, auth: &str) -> Broker {
+        let port = free_port();
+        let conf = dir.join(format!("mosquitto-{port}.conf"));
+        std::fs::write(
+            &conf,
+            format!("listener {port} 127.0.0.1\npersistence false\n{auth}"),
+        )
+        .unwrap();
+        let mut broker = Broker {
+            port,
+            conf,
+            process: None,
+        };
+        broker.spawn();
+        broker
+    }
+
+    fn spawn(&mut self) {
+        let mut command = Command::new(MOSQUITTO);
+        command.arg("-c").arg(&self.conf);
+        self.process = Some(Running::start(command));
+        let port = self.port;
+        assert!(
+            poll_until(PATIENCE, Duration::from_millis(10), || {
+                std::net::TcpStream::connect(("127.0.0.1", port)).is_ok()
+            }),
+            "mosquitto did not open port {port}"
+        );
+    }
+
+    /// SIGKILL: no goodbye to anyone, nothing kept.
+    fn kill(&mut self) {
+        if let Some(process) = self.process.take() {
+            process.signal(libc::SIGKILL);
+            let _ = process.finish();
+        }
+    }
+
+    /// Killed, then started again on the same port.
+    fn restart(&mut self) {
+        self.kill();
+        self.spawn();
+    }
+
+    fn signal(&self, signal: libc::c_int) {
+        if let Some(process) = &self.process {
+            process.signal(signal);
+        }
+    }
+
+    /// Publishes as a third client (Home Assistant's birth, a stale config).
+    fn publish(&self, topic: &str, payload: &str, retain: bool) {
+        let mut command = Command::new(MOSQUITTO_PUB);
+        command
+            .args(["-h", "127.0.0.1", "-p", &self.port.to_string()])
+            .args(["-q", "1", "-t", topic, "-m", payload]);
+        if retain {
+            command.arg("-r");
+        }
+        let status = crate::watchdog::output(&mut command).status;
+        assert!(status.success(), "mosquitto_pub {topic}");
+    }
+
+    fn mqtt_arg(&self) -> String {
+        format!("mqtt:127.0.0.1:{}", self.port)
+    }
+
+    fn settings(&self) -> MqttSettings {
+        MqttSettings {
+            port: self.port,
+            ..MqttSettings::default()
+        }
+    }
+}
+
+impl Drop for Broker {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+/// One message as the independent subscriber received it.
+#[derive(Debug, Clone)]
+struct Msg {
+    t_ns: i64,
+    topic: String,
+    payload: String,
+    retain: bool,
+    qos: u64,
+    dup: bool,
+}
+
+impl Msg {
+    fn json(&self) -> Value {
+        serde_json::from_str(&self.payload)
+            .unwrap_or_else(|e| panic!("{}: {e}: {}", self.topic, self.payload))
+    }
+}
+
+/// The independent subscriber: every topic, QoS 1.
+struct Subscriber {
+    process: Running,
+    got: Vec<Msg>,
+    subscribed: u64,
+}
+
+impl Subscriber {
+    /// Started and subscribed.
+    fn start(port: u16) -> Subscriber {
+        let mut command = Command::new(python());
+        command
+            .arg(peer_script("subscriber.py"))
+            .args(["--port", &port.to_string()])
+            .env("PYTHONUNBUFFERED", "1");
+        let mut subscriber = Subscriber {
+            process: Running::start(command),
+            got: Vec::new(),
+            subscribed: 0,
+        };
+        subscriber.wait("its subscription", |s| s.subscribed >= 1);
+        subscriber
+    }
+
+    /// Reads lines until `done` holds; fails the test after [`PATIENCE`].
+    fn wait(&mut self, what: &str, done: impl Fn(&Subscriber) -> bool) {
+        let deadline = Instant::now() + PATIENCE;
+        while !done(self) {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.process.lines.recv_timeout(left) {
+                Ok(line) => self.take(&line),
+                Err(_) => panic!(
+                    "the subscriber never saw {what}; it got:\n{}",
+                    self.listing()
+                ),
+            }
+        }
+    }
+
+    /// Reads whatever arrives for `span`.
+    fn linger(&mut self, span: Duration) {
+        let deadline = Instant::now() + span;
+        while let Ok(line) = self
+            .process
+            .lines
+            .recv_timeout(deadline.saturating_duration_since(Instant::now()))
+        {
+            self.take(&line);
+        }
+    }
+
+    fn take(&mut self, line: &str) {
+        let v: Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("{line}: {e}"));
+        if let Some(n) = v["subscribed"].as_u64() {
+            self.subscribed = n;
+        } else if v.get("t_ns").is_some() {
+            self.got.push(Msg {
+                t_ns: v["t_ns"].as_i64().unwrap(),
+                topic: v["topic"].as_str().unwrap().into(),
+                payload: v["payload"].as_str().unwrap().into(),
+                retain: v["retain"].as_bool().unwrap(),
+                qos: v["qos"].as_u64().unwrap(),
+                dup: v["dup"].as_bool().unwrap(),
+            });
+        }
+    }
+
+    fn on(&self, topic: &str) -> Vec<&Msg> {
+        self.got.iter().filter(|m| m.topic == topic).collect()
+    }
+
+    /// The event messages, parsed.
+    fn events(&self) -> Vec<Value> {
+        self.on(EVENTS).iter().map(|m| m.json()).collect()
+    }
+
+    fn listing(&self) -> String {
+        self.got
+            .iter()
+            .map(|m| {
+                format!(
+                    "  {} retain={} qos={} dup={} {}",
+                    m.topic, m.retain, m.qos, m.dup, m.payload
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    }
+}
+
+fn event(name: &str) -> HomeEvent {
+    HomeEvent::new(name).unwrap()
+}
+
+fn seq(codes: &[i8]) -> ActionSeq {
+    let actions: Vec<Action> = codes
+        .iter()
+        .map(|&c| Action::from_code(c.into()).unwrap())
+        .collect();
+    ActionSeq::from_slice(&actions).unwrap()
+}
+
+fn home(name: &str, tick: Tick) -> OutputCommand {
+    OutputCommand::Home {
+        event: event(name),
+        tick,
+        sequence: seq(&[-1, -1]),
+    }
+}
+
+/// One home event breathed: two short puffs (`lights_toggle`) or two
+/// short sips (`call_for_help`), then a rest.
+fn breathe(script: &mut Vec<Step>, lights: bool) {
+    let breath = if lights { puff } else { sip };
+    script.extend([breath(150), rest(350), breath(150), rest(700)]);
+}
+
+/// Writes the library and a recording of `events` (true: lights, false:
+/// help) with `pause_after` ms of rest after the event of that index;
+/// returns their paths.
+fn session(dir: &Path, events: &[bool], pause_after: Option<(usize, u32)>) -> (String, String) {
+    let library = dir.join("library.toml");
+    std::fs::write(&library, LIBRARY).unwrap();
+    let config = sipnpuff::config::Config::from_file(&library).unwrap();
+    let mut script = vec![rest(1000)];
+    for (i, &lights) in events.iter().enumerate() {
+        breathe(&mut script, lights);
+        if let Some((after, ms)) = pause_after
+            && after == i
+        {
+            script.push(rest(ms));
+        }
+    }
+    script.push(rest(500));
+    let params = SignalParams::clean(config.core().detector(), 7);
+    let csv = dir.join("session.csv");
+    let mut file = std::io::BufWriter::new(std::fs::File::create(&csv).unwrap());
+    write_csv(&mut file, SignalGenerator::new(params, &script)).unwrap();
+    drop(file);
+    (
+        library.to_str().unwrap().into(),
+        csv.to_str().unwrap().into(),
+    )
+}
+
+/// The run's own match lines of home events: (tick, event, sequence).
+fn matches(lines: &[String]) -> Vec<(u64, String, Value)> {
+    lines
+        .iter()
+        .filter(|l| l.contains("\"home_event\""))
+        .map(|l| {
+            let v: Value = serde_json::from_str(l).unwrap();
+            (
+                v["tick"].as_u64().unwrap(),
+                v["home_event"].as_str().unwrap().to_owned(),
+                v["sequence"].clone(),
+            )
+        })
+        .collect()
+}
+
+fn report(lines: &[String]) -> Value {
+    let last = lines.last().expect("a report line");
+    serde_json::from_str(last).unwrap_or_else(|e| panic!("{last}: {e}"))
+}
+
+/// Every match received exactly once, as the run said it (tick, event,
+/// sequence), nothing else, none with DUP; returns the delays match →
+/// subscriber, ms.
+fn assert_each_once(sub: &Subscriber, matched: &[(u64, String, Value)]) -> Vec<f64> {
+    let events = sub.events();
+    let mut delays = Vec::new();
+    for (tick, name, sequence) in matched {
+        let got: Vec<(&Msg, Value)> = sub
+            .on(EVENTS)
+            .into_iter()
+            .map(|m| (m, m.json()))
+            .filter(|(_, v)| v["tick"] == *tick)
+            .collect();
+        assert_eq!(
+            got.len(),
+            1,
+            "the match at tick {tick} ({name}) received {} times:\n{}",
+            got.len(),
+            sub.listing()
+        );
+        let (msg, v) = &got[0];
+        assert_eq!(v["event_type"], name.as_str());
+        assert_eq!(v["sequence"], *sequence);
+        assert_eq!(
+            v.as_object().unwrap().keys().collect::<Vec<_>>(),
+            ["event_type", "tick", "sequence", "matched_at_ms"]
+        );
+        assert!(!msg.retain && !msg.dup, "{msg:?}");
+        assert_eq!(msg.qos, 1, "{msg:?}");
+        delays.push(msg.t_ns as f64 / 1e6 - v["matched_at_ms"].as_f64().unwrap());
+    }
+    assert_eq!(
+        events.len(),
+        matched.len(),
+        "event messages vs the run's matches:\n{}",
+        sub.listing()
+    );
+    delays
+}
+
+/// Median and worst of `delays`, for the test's output.
+fn latency(delays: &[f64]) -> String {
+    let mut sorted = delays.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    format!(
+        "match → subscriber over {} events: median {:.2} ms, worst {:.2} ms",
+        sorted.len(),
+        quantile(&sorted, 0.5),
+        quantile(&sorted, 1.0)
+    )
+}
+
+/// Home Assistant's documented schema of an MQTT device trigger
+/// (`device_trigger.mqtt`): the required keys and their types.
+fn check_trigger_schema(c: &Value) {
+    assert_eq!(c["automation_type"], "trigger", "{c}");
+    for key in ["topic", "type", "subtype", "payload", "value_template"] {
+        assert!(c[key].is_string(), "{key} in {c}");
+    }
+    let topic = c["topic"].as_str().unwrap();
+    assert!(!topic.contains(['+', '#']), "a topic, not a filter: {c}");
+    assert!([0, 1, 2].contains(&c["qos"].as_u64().unwrap()), "{c}");
+    check_device_schema(&c["device"]);
+}
+
+/// Home Assistant's documented schema of an MQTT `event` entity.
+fn check_event_schema(c: &Value) {
+    for key in ["state_topic", "unique_id", "availability_topic", "name"] {
+        assert!(c[key].is_string(), "{key} in {c}");
+    }
+    let types = c["event_types"].as_array().unwrap();
+    assert!(
+        !types.is_empty() && types.iter().all(Value::is_string),
+        "{c}"
+    );
+    assert!(
+        ["button", "doorbell", "motion"].contains(&c["device_class"].as_str().unwrap()),
+        "{c}"
+    );
+    check_device_schema(&c["device"]);
+}
+
+fn check_device_schema(d: &Value) {
+    let ids = d["identifiers"].as_array().unwrap();
+    assert!(!ids.is_empty() && ids.iter().all(Value::is_string), "{d}");
+    for key in ["name", "manufacturer", "model", "sw_version"] {
+        assert!(d[key].is_string(), "{key} in {d}");
+    }
+}
+
+/// The discovery configs, exactly, as Home Assistant must receive them.
+fn expected_configs() -> Vec<(&'static str, Value)> {
+    let version = env!("CARGO_PKG_VERSION");
+    let device = json!({
+        "identifiers": ["sipnpuff"],
+        "name": "sipnpuff",
+        "manufacturer": "sipnpuff",
+        "model": "Sip-and-puff interface",
+        "sw_version": version,
+    });
+    let origin = json!({"name": "sipnpuff", "sw_version": version});
+    let trigger = |name: &str| {
+        json!({
+            "automation_type": "trigger",
+            "topic": "sipnpuff/event",
+            "value_template": "{{ value_json.event_type }}",
+            "payload": name,
+            "type": "button_short_press",
+            "subtype": name,
+            "qos": 1,
+            "device": device,
+            "origin": origin,
+        })
+    };
+    vec![
+        (LIGHTS_CONFIG, trigger("lights_toggle")),
+        (HELP_CONFIG, trigger("call_for_help")),
+        (
+            ENTITY_CONFIG,
+            json!({
+                "name": "Home event",
+                "unique_id": "sipnpuff_home_events",
+                "state_topic": "sipnpuff/event",
+                "event_types": ["lights_toggle", "call_for_help"],
+                "device_class": "button",
+                "availability_topic": "sipnpuff/availability",
+                "payload_available": "online",
+                "payload_not_available": "offline",
+                "qos": 1,
+                "device": device,
+                "origin": origin,
+            }),
+        ),
+    ]
+}
+
+/// A config as received matches Home Assistant's schema and the expected
+/// config exactly, and the entity's triggers fire on the events' own
+/// messages (Home Assistant's `value_template`, then `payload`).
+fn assert_config(msg: &Msg) {
+    let got = msg.json();
+    let (_, expected) = expected_configs()
+        .into_iter()
+        .find(|(t, _)| *t == msg.topic)
+        .unwrap_or_else(|| panic!("an unexpected config on {}", msg.topic));
+    if msg.topic == ENTITY_CONFIG {
+        check_event_schema(&got);
+    } else {
+        check_trigger_schema(&got);
+    }
+    assert_eq!(got, expected, "{}", msg.topic);
+}
+
+/// `value_template: "{{ value_json.event_type }}"` applied to each event
+/// message, compared with each trigger's `payload`: the triggers that fire.
+fn triggers_fired(sub: &Subscriber, config_topic: &str) -> usize {
+    let config = sub.on(config_topic)[0].json();
+    sub.events()
+        .iter()
+        .filter(|e| e["event_type"] == config["payload"])
+        .count()
+}
+
+/// `--output mqtt` end to end: discovery, each event once, availability,
+/// discovery again on Home Assistant's `online`, the report; and the
+/// loop's figures with and without MQTT in the same sitting.
+#[test]
+fn home_events_reach_an_independent_subscriber_once_each() {
+    crate::common::real_time(|| {
+        mqtt_test(|dir| {
+            let broker = Broker::start(dir);
+            let mut sub = Subscriber::start(broker.port);
+            let (library, csv) = session(dir, &[true, false, true, false], None);
+            let sensor = format!("csv:{csv}");
+            let base = ["run", "--sensor", &sensor, "--config", &library, "--json"];
+
+            // The same recording without MQTT first.
+            let (status, without_lines, stderr) = Running::spawn(&base).finish();
+            assert!(status.success(), "{stderr}");
+            let without = report(&without_lines);
+
+            let mqtt = broker.mqtt_arg();
+            let mut args = base.to_vec();
+            args.extend(["--output", &mqtt]);
+            let run = Running::spawn(&args);
+            sub.wait("availability online", |s| {
+                s.on(AVAILABILITY).iter().any(|m| m.payload == "online")
+            });
+            sub.wait("the first event", |s| !s.on(EVENTS).is_empty());
+            // Home Assistant restarts: its birth message asks for discovery.
+            broker.publish("homeassistant/status", "online", false);
+            sub.wait("discovery again", |s| {
+                expected_configs().iter().all(|(t, _)| s.on(t).len() == 2)
+            });
+            let (status, lines, stderr) = run.finish();
+            assert!(status.success(), "{stderr}");
+            sub.wait("availability offline", |s| {
+                s.on(AVAILABILITY)
+                    .last()
+                    .is_some_and(|m| m.payload == "offline")
+            });
+            sub.linger(Duration::from_millis(200));
+
+            // Availability: online, then offline after the clean stop, once each.
+            let availability: Vec<&str> = sub
+                .on(AVAILABILITY)
+                .iter()
+                .map(|m| m.payload.as_str())
+                .collect();
+            assert_eq!(
+                availability,
+                ["online", "online", "offline"],
+                "{}",
+                sub.listing()
+            );
+
+            // Discovery: each config at connect and on `online`, exact.
+            for (topic, _) in expected_configs() {
+                let got = sub.on(topic);
+                assert_eq!(got.len(), 2, "{topic}:\n{}", sub.listing());
+                for msg in got {
+                    assert_eq!(msg.qos, 1, "{msg:?}");
+                    assert_config(msg);
+                }
+            }
+
+            // Every match once, as the run said it.
+            let matched = matches(&lines);
+            assert_eq!(
+                matched.iter().map(|m| m.1.as_str()).collect::<Vec<_>>(),
+                [
+                    "lights_toggle",
+                    "call_for_help",
+                    "lights_toggle",
+                    "call_for_help"
+                ]
+            );
+            let delays = assert_each_once(&sub, &matched);
+            assert_eq!(triggers_fired(&sub, LIGHTS_CONFIG), 2);
+            assert_eq!(triggers_fired(&sub, HELP_CONFIG), 2);
+
+            // The report: every event acknowledged, nothing lost.
+            let with = report(&lines);
+            let outputs = with["outputs"].as_array().unwrap();
+            assert_eq!(outputs.len(), 1, "{with}");
+            let o = &outputs[0];
+            assert_eq!(
+                o["output"],
+                format!(
+                    "mqtt 127.0.0.1:{} (device \"sipnpuff\", 2 home events)",
+                    broker.port
+                )
+            );
+            assert_eq!(
+                (&o["applied"], &o["dropped"], &o["lost"]),
+                (&json!(4), &json!(0), &json!(0)),
+                "{o}"
+            );
+            assert_eq!(o["notes"], json!([]), "{o}");
+
+            // Retained: a subscriber that comes later gets the configs
+            // and `offline`, flagged retained.
+            let mut late = Subscriber::start(broker.port);
+            late.wait("the retained configs and availability", |s| {
+                s.got.len() >= 4
+            });
+            late.linger(Duration::from_millis(200));
+            let mut retained: Vec<(&str, &str)> = late
+                .got
+                .iter()
+                .filter(|m| m.retain)
+                .map(|m| (m.topic.as_str(), m.payload.as_str()))
+                .collect();
+            retained.sort();
+            assert_eq!(retained.len(), 4, "{}", late.listing());
+            assert_eq!(retained[0].0, HELP_CONFIG);
+            assert_eq!(retained[1].0, LIGHTS_CONFIG);
+            assert_eq!(retained[2].0, ENTITY_CONFIG);
+            assert_eq!(retained[3], (AVAILABILITY, "offline"));
+            for msg in &late.got {
+                if msg.topic.ends_with("/config") {
+                    assert_config(msg);
+                }
+            }
+
+            // The loop with and without MQTT, same recording, same sitting.
+            let figures = |r: &Value| {
+                format!(
+                    "{} ticks, {} missed deadlines, {} skipped, wake-up p99 {:.1} µs, max {:.1} µs, {} allocations",
+                    r["stats"]["ticks_run"],
+                    r["stats"]["missed_deadlines"],
+                    r["stats"]["skipped_ticks"],
+                    r["full"]["wake_latency_ns"]["p99"].as_f64().unwrap() / 1e3,
+                    r["full"]["wake_latency_ns"]["max"].as_f64().unwrap() / 1e3,
+                    r["control_thread_allocations"]
+                )
+            };
+            eprintln!(
+                "home_events: {}\n  loop without MQTT: {}\n  loop with MQTT:    {}",
+                latency(&delays),
+                figures(&without),
+                figures(&with)
+            );
+            assert_eq!(without["control_thread_allocations"], 0);
+            assert_eq!(with["control_thread_allocations"], 0);
+        });
+    });
+}
+
+/// SIGKILL: no goodbye, so the broker publishes the last will `offline`
+/// (retained).
+#[test]
+fn the_last_will_says_offline_after_sigkill() {
+    crate::common::real_time(|| {
+        mqtt_test(|dir| {
+            let broker = Broker::start(dir);
+            let mut sub = Subscriber::start(broker.port);
+            let (library, csv) = session(dir, &[true], Some((0, 30_000)));
+            let run = Running::spawn(&[
+                "run",
+                "--sensor",
+                &format!("csv:{csv}"),
+                "--config",
+                &library,
+                "--output",
+                &broker.mqtt_arg(),
+            ]);
+            sub.wait("availability online", |s| {
+                s.on(AVAILABILITY).iter().any(|m| m.payload == "online")
+            });
+            run.signal(libc::SIGKILL);
+            let killed = Instant::now();
+            let (status, _, _) = run.finish();
+            assert_eq!(status.code(), None, "killed by a signal");
+            sub.wait("the last will", |s| {
+                s.on(AVAILABILITY)
+                    .last()
+                    .is_some_and(|m| m.payload == "offline")
+            });
+            eprintln!(
+                "the_last_will: `offline` {:.0} ms after SIGKILL",
+                killed.elapsed().as_secs_f64() * 1e3
+            );
+            let mut late = Subscriber::start(broker.port);
+            late.wait("the retained availability", |s| {
+                !s.on(AVAILABILITY).is_empty()
+            });
+            let kept = late.on(AVAILABILITY)[0];
+            assert_eq!((kept.payload.as_str(), kept.retain), ("offline", true));
+        });
+    });
+}
+
+/// The broker killed (SIGKILL) and restarted mid-run: the events after
+/// the restart arrive, none twice; the report says the broker was away.
+#[test]
+fn a_broker_restarted_mid_run_loses_nothing_after_it_and_repeats_nothing() {
+    crate::common::real_time(|| {
+        mqtt_test(|dir| {
+            let mut broker = Broker::start(dir);
+            let mut sub = Subscriber::start(broker.port);
+            let (library, csv) = session(dir, &[true, false, true, false], Some((1, 2500)));
+            let run = Running::spawn(&[
+                "run",
+                "--sensor",
+                &format!("csv:{csv}"),
+                "--config",
+                &library,
+                "--output",
+                &broker.mqtt_arg(),
+                "--json",
+            ]);
+            sub.wait("two events", |s| s.on(EVENTS).len() >= 2);
+            // Between events: the second's acknowledgement is back (killed
+            // before it, the second would count lost — at most once).
+            std::thread::sleep(Duration::from_millis(300));
+            let killed = Instant::now();
+            broker.restart();
+            let away_ms = killed.elapsed().as_secs_f64() * 1e3;
+            sub.wait("its subscription again", |s| s.subscribed >= 2);
+            let (status, lines, stderr) = run.finish();
+            assert!(status.success(), "{stderr}");
+            sub.linger(Duration::from_millis(300));
+
+            let matched = matches(&lines);
+            assert_eq!(matched.len(), 4, "{lines:?}");
+            let delays = assert_each_once(&sub, &matched);
+            let received = sub.on(EVENTS).len();
+            let mut payloads: Vec<&str> =
+                sub.on(EVENTS).iter().map(|m| m.payload.as_str()).collect();
+            payloads.sort();
+            payloads.dedup();
+            let duplicates = received - payloads.len();
+
+            let o = &report(&lines)["outputs"][0];
+            eprintln!(
+                "broker_restart: broker away {away_ms:.0} ms; sent {}, received {received}, lost {}, duplicates {duplicates}; {}; report: {o}",
+                matched.len(),
+                matched.len() - payloads.len(),
+                latency(&delays)
+            );
+            assert_eq!(duplicates, 0);
+            assert_eq!((&o["applied"], &o["lost"]), (&json!(4), &json!(0)), "{o}");
+            let notes = o["notes"].to_string();
+            assert!(notes.contains("the broker was unreachable for"), "{o}");
+            // Discovery and `online` again on the new broker, which kept nothing.
+            let online = sub
+                .on(AVAILABILITY)
+                .iter()
+                .filter(|m| m.payload == "online")
+                .count();
+            assert_eq!(online, 2, "{}", sub.listing());
+            assert_eq!(sub.on(ENTITY_CONFIG).len(), 2, "{}", sub.listing());
+        });
+    });
+}
+
+/// Drives `output` (as its thread does, every ms) until `done` or
+/// [`PATIENCE`].
+fn idle_until(output: &mut MqttOutput, sub: &mut Subscriber, done: impl Fn(&Subscriber) -> bool) {
+    let deadline = Instant::now() + PATIENCE;
+    while !done(sub) {
+        assert!(
+            Instant::now() < deadline,
+            "never happened:\n{}",
+            sub.listing()
+        );
+        output.idle();
+        sub.linger(Duration::from_millis(1));
+    }
+}
+
+fn idle_for(output: &mut MqttOutput, span: Duration) {
+    let deadline = Instant::now() + span;
+    while Instant::now() < deadline {
+        output.idle();
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+fn ticks(sub: &Subscriber) -> Vec<u64> {
+    sub.events()
+        .iter()
+        .map(|e| e["tick"].as_u64().unwrap())
+        .collect()
+}
+
+/// At most once, through the output's own seam: an event written just
+/// before the broker died (it was stopped, then killed) is lost and never
+/// sent again; one fired while there was no broker waits and is sent once
+/// when it is back.
+#[test]
+fn an_event_in_flight_is_lost_never_resent_and_one_fired_while_down_waits() {
+    mqtt_test(|dir| {
+        let mut broker = Broker::start(dir);
+        let mut sub = Subscriber::start(broker.port);
+        let mut output = MqttOutput::open(&broker.settings(), &[event("lights_toggle")]).unwrap();
+        output.begin(SystemTime::now());
+        output.apply(&home("lights_toggle", 1));
+        idle_until(&mut output, &mut sub, |s| ticks(s) == [1]);
+
+        // Tick 2 goes out to a broker that no longer reads, which dies.
+        broker.signal(libc::SIGSTOP);
+        output.apply(&home("lights_toggle", 2));
+        idle_for(&mut output, Duration::from_millis(200));
+        broker.kill();
+        idle_for(&mut output, Duration::from_millis(300));
+        // Tick 3 fires with no broker at all.
+        output.apply(&home("lights_toggle", 3));
+        idle_for(&mut output, Duration::from_millis(300));
+        broker.spawn();
+        // The output is not driven until the subscriber is back: then it
+        // finds its new connection and sends what waited.
+        sub.wait("its subscription again", |s| s.subscribed >= 2);
+        idle_until(&mut output, &mut sub, |s| ticks(s) == [1, 3]);
+        let report = output.close();
+        sub.linger(Duration::from_millis(300));
+        assert_eq!(
+            ticks(&sub),
+            [1, 3],
+            "tick 2 is never sent again:\n{}",
+            sub.listing()
+        );
+        assert!(sub.on(EVENTS).iter().all(|m| !m.dup));
+        assert_eq!(
+            (report.applied, report.lost, report.dropped),
+            (2, 1, 0),
+            "{report:?}"
+        );
+        assert_unreachable_then(
+            &report,
+            "1 event was lost: 1 sent as the connection broke, never acknowledged (not sent again: it may have arrived, never twice)",
+        );
+        eprintln!("in_flight: {report:?}");
+    });
+}
+
+/// The report's notes: how long the broker was away, then `lost`.
+fn assert_unreachable_then(report: &OutputReport, lost: &str) {
+    assert_eq!(report.notes.len(), 2, "{report:?}");
+    assert!(
+        report.notes[0].starts_with("the broker was unreachable for "),
+        "{report:?}"
+    );
+    assert_eq!(report.notes[1], lost, "{report:?}");
+}
+
+/// An event that waits longer than `max_delay_ms` for the broker is
+/// given up: lost, never sent late.
+#[test]
+fn an_event_that_waits_too_long_is_given_up() {
+    mqtt_test(|dir| {
+        let mut broker = Broker::start(dir);
+        let mut sub = Subscriber::start(broker.port);
+        let settings = MqttSettings {
+            max_delay_ms: 200,
+            ..broker.settings()
+        };
+        let mut output = MqttOutput::open(&settings, &[event("lights_toggle")]).unwrap();
+        output.begin(SystemTime::now());
+        idle_until(&mut output, &mut sub, |s| !s.on(AVAILABILITY).is_empty());
+        broker.kill();
+        idle_for(&mut output, Duration::from_millis(200));
+        output.apply(&home("lights_toggle", 7));
+        idle_for(&mut output, Duration::from_millis(400));
+        broker.spawn();
+        sub.wait("its subscription again", |s| s.subscribed >= 2);
+        idle_until(&mut output, &mut sub, |s| {
+            s.on(AVAILABILITY)
+                .iter()
+                .filter(|m| m.payload == "online")
+                .count()
+                == 2
+        });
+        let report = output.close();
+        sub.linger(Duration::from_millis(300));
+        assert!(sub.on(EVENTS).is_empty(), "{}", sub.listing());
+        assert_eq!((report.applied, report.lost), (0, 1), "{report:?}");
+        assert_unreachable_then(
+            &report,
+            "1 event was lost: 1 waited longer than 0.2 s for the broker",
+        );
+    });
+}
+
+/// Credentials from an owner-only file are accepted by a broker that
+/// needs them; a wrong password and a world-readable file are refused
+/// before anything runs, and no error shows the password.
+#[test]
+fn credentials_come_from_an_owner_only_file() {
+    mqtt_test(|dir| {
+        let passwords = dir.join("passwords");
+        let made = crate::watchdog::output(
+            Command::new(MOSQUITTO_PASSWD)
+                .arg("-c")
+                .arg("-b")
+                .arg(&passwords)
+                .args(["home", "br3ath-s3cret"]),
+        );
+        assert!(made.status.success(), "{made:?}");
+        std::fs::set_permissions(
+            &passwords,
+            std::os::unix::fs::PermissionsExt::from_mode(0o644),
+        )
+        .unwrap();
+        let broker = Broker::with(
+            dir,
+            &format!(
+                "allow_anonymous false\npassword_file {}\n",
+                passwords.display()
+            ),
+        );
+        let write = |name: &str, password: &str, mode: u32| {
+            let path = dir.join(name);
+            std::fs::write(
+                &path,
+                format!("username = \"home\"\npassword = \"{password}\"\n"),
+            )
+            .unwrap();
+            std::fs::set_permissions(&path, std::os::unix::fs::PermissionsExt::from_mode(mode))
+                .unwrap();
+            path
+        };
+        let open = |file: Option<PathBuf>| {
+            let settings = MqttSettings {
+                credentials_file: file,
+                ..broker.settings()
+            };
+            MqttOutput::open(&settings, &[event("lights_toggle")])
+        };
+
+        let mut output = open(Some(write("good.toml", "br3ath-s3cret", 0o600))).unwrap();
+        let report = output.close();
+        assert_eq!(report.notes, Vec::<String>::new());
+
+        let wrong = open(Some(write("wrong.toml", "guess", 0o600)))
+            .err()
+            .unwrap();
+        assert!(wrong.detail.contains("not authorised"), "{wrong}");
+        assert!(!wrong.to_string().contains("guess"), "{wrong}");
+        let anonymous = open(None).err().unwrap();
+        assert!(anonymous.detail.contains("not authorised"), "{anonymous}");
+
+        let readable = open(Some(write("open.toml", "br3ath-s3cret", 0o644)))
+            .err()
+            .unwrap();
+        assert!(
+            readable.detail.contains("readable by every user"),
+            "{readable}"
+        );
+        assert!(!readable.to_string().contains("br3ath"), "{readable}");
+
+        // The command line refuses to start, naming the file.
+        let config = dir.join("config.toml");
+        std::fs::write(
+            &config,
+            format!(
+                "{LIBRARY}\n[output.mqtt]\ncredentials_file = \"{}\"\n",
+                dir.join("open.toml").display()
+            ),
+        )
+        .unwrap();
+        let (status, _, stderr) = Running::spawn(&[
+            "run",
+            "--config",
+            config.to_str().unwrap(),
+            "--output",
+            &broker.mqtt_arg(),
+        ])
+        .finish();
+        assert_eq!(status.code(), Some(1), "{stderr}");
+        assert!(
+            stderr.contains("open.toml is readable by every user"),
+            "{stderr}"
+        );
+        assert!(!stderr.contains("br3ath"), "{stderr}");
+    });
+}
+
+/// A retained trigger of an event no longer in the library is deleted (an
+/// empty retained config), and the library's own are published.
+#[test]
+fn a_trigger_no_longer_in_the_library_is_deleted() {
+    mqtt_test(|dir| {
+        let broker = Broker::start(dir);
+        let old = "homeassistant/device_automation/sipnpuff/old_event/config";
+        broker.publish(old, r#"{"automation_type":"trigger"}"#, true);
+        let mut sub = Subscriber::start(broker.port);
+        sub.wait("the old retained config", |s| s.on(old).len() == 1);
+        let mut output = MqttOutput::open(&broker.settings(), &[event("lights_toggle")]).unwrap();
+        idle_until(&mut output, &mut sub, |s| s.on(old).len() == 2);
+        let deleted = sub.on(old)[1];
+        assert_eq!(deleted.payload, "", "{deleted:?}");
+        let report = output.close();
+        assert_eq!(
+            report.notes,
+            ["deleted 1 Home Assistant trigger(s) of events no longer in the library"]
+        );
+        let mut late = Subscriber::start(broker.port);
+        late.wait("the retained availability", |s| {
+            !s.on(AVAILABILITY).is_empty()
+        });
+        late.linger(Duration::from_millis(200));
+        assert!(late.on(old).is_empty(), "{}", late.listing());
+        assert_eq!(late.on(LIGHTS_CONFIG).len(), 1);
+    });
+}
+
+/// `open`'s errors, before anything runs: no broker, no event, TLS not
+/// built in.
+#[test]
+fn open_says_what_is_wrong_before_the_run() {
+    let settings = MqttSettings {
+        port: free_port(),
+        ..MqttSettings::default()
+    };
+    let e = MqttOutput::open(&settings, &[event("lights_toggle")])
+        .err()
+        .unwrap();
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "output mqtt: cannot connect to the broker at 127.0.0.1:{}: connection refused (no broker listens there)",
+            settings.port
+        )
+    );
+    let e = MqttOutput::open(&settings, &[]).err().unwrap();
+    assert!(e.detail.contains("fires no home event"), "{e}");
+    if !cfg!(feature = "mqtt-tls") {
+        let tls = MqttSettings {
+            tls: true,
+            ..settings
+        };
+        let e = MqttOutput::open(&tls, &[event("lights_toggle")])
+            .err()
+            .unwrap();
+        assert!(e.detail.contains("--features mqtt-tls"), "{e}");
+    }
+}
