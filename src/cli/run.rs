@@ -18,6 +18,7 @@ use crate::cli::display::{Display, DisplayArgs};
 use crate::cli::output::{self, StdoutEvents, invalid};
 use crate::config::Config;
 use crate::control::target::{HomeEvent, Target};
+#[cfg(feature = "mqtt")]
 use crate::output::mqtt::MqttOutput;
 use crate::output::settings::MqttSettings;
 use crate::output::{Output, OutputSpec};
@@ -183,8 +184,15 @@ fn open_uinput(_config: &Config) -> anyhow::Result<Box<dyn Output>> {
 
 /// `--output mqtt`: connects now, so a wrong address, a broker that is
 /// down or refused credentials stop the run before it starts.
+#[cfg(feature = "mqtt")]
 fn open_mqtt(settings: &MqttSettings, events: &[HomeEvent]) -> anyhow::Result<Box<dyn Output>> {
     Ok(Box::new(MqttOutput::open(settings, events)?))
+}
+
+/// `--output mqtt` in a build without it.
+#[cfg(not(feature = "mqtt"))]
+fn open_mqtt(_settings: &MqttSettings, _events: &[HomeEvent]) -> anyhow::Result<Box<dyn Output>> {
+    anyhow::bail!("--output mqtt: this sipnpuff was built without the `mqtt` feature")
 }
 
 /// Runs the loop with the chosen sensor and arm; prints events as they

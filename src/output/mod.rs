@@ -18,6 +18,7 @@ use serde::Serialize;
 
 use crate::control::output_command::OutputCommand;
 
+#[cfg(feature = "mqtt")]
 pub mod mqtt;
 pub mod settings;
 
