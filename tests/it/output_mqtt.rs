@@ -793,6 +793,57 @@ fn a_broker_restarted_mid_run_loses_nothing_after_it_and_repeats_nothing() {
     });
 }
 
+/// A broker that stops answering mid-run (SIGSTOP: connected, reading
+/// nothing) never holds up the loop: no allocation, and the run ends on
+/// time (closing waits at most 2 s for acknowledgements, then says so).
+#[test]
+fn a_stalled_broker_never_holds_up_the_loop() {
+    crate::common::real_time(|| {
+        mqtt_test(|dir| {
+            let mut broker = Broker::start(dir);
+            let (library, csv) = session(dir, &[true, false], None);
+            let mut run = Running::spawn(&[
+                "run",
+                "--sensor",
+                &format!("csv:{csv}"),
+                "--config",
+                &library,
+                "--output",
+                &broker.mqtt_arg(),
+                "--json",
+            ]);
+            run.wait_for("\"event\":\"burst\""); // running, and connected since before
+            broker.signal(libc::SIGSTOP);
+            let stalled = Instant::now();
+            let (status, lines, stderr) = run.finish();
+            let after_stall = stalled.elapsed().as_secs_f64();
+            broker.kill();
+            assert!(status.success(), "{stderr}");
+            let r = report(&lines);
+            assert_eq!(r["control_thread_allocations"], 0);
+            let o = &r["outputs"][0];
+            assert_eq!(matches(&lines).len(), 2, "{lines:?}");
+            assert_eq!((&o["applied"], &o["lost"]), (&json!(0), &json!(2)), "{o}");
+            assert_eq!(
+                o["notes"],
+                json!([
+                    "2 events were lost: 2 sent but not acknowledged by the end (the broker stopped answering; they may have arrived)"
+                ])
+            );
+            eprintln!(
+                "stalled_broker: the run ended {after_stall:.1} s after the stall (the recording had {:.1} s left); {} missed deadlines, {} skipped ticks, {} allocations",
+                (r["stats"]["ticks_run"].as_f64().unwrap() - 1200.0) / 1000.0,
+                r["stats"]["missed_deadlines"],
+                r["stats"]["skipped_ticks"],
+                r["control_thread_allocations"]
+            );
+            // The recording's rest after the first burst, plus the 2 s
+            // close and the 2 s goodbye bounds, plus a loaded machine's slack.
+            assert!(after_stall < 12.0, "{after_stall} s");
+        });
+    });
+}
+
 /// Drives `output` (as its thread does, every ms) until `done` or
 /// [`PATIENCE`].
 fn idle_until(output: &mut MqttOutput, sub: &mut Subscriber, done: impl Fn(&Subscriber) -> bool) {

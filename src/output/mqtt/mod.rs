@@ -131,6 +131,9 @@ struct Tally {
     queue_full: u64,
     /// Still waiting when the output closed.
     unsent_at_close: u64,
+    /// Written, and not acknowledged when the output closed (a broker
+    /// that stopped answering).
+    unacked_at_close: u64,
     /// Times the connection broke.
     outages: u64,
     /// Time without a connection.
@@ -213,9 +216,10 @@ impl MqttOutput {
 
         let mut output = MqttOutput {
             describe: format!(
-                "mqtt {address} (device \"{}\", {} home events)",
+                "mqtt {address} (device \"{}\", {} home event{})",
                 settings.device_id,
-                unique.len()
+                unique.len(),
+                if unique.len() == 1 { "" } else { "s" }
             ),
             client,
             configs: discovery::configs(settings, &unique),
@@ -385,9 +389,11 @@ impl MqttOutput {
     /// The client's thread ended: nothing more can be sent.
     fn on_gone(&mut self) {
         if let Link::Down { since, .. } = self.link {
-            self.tally.down += since.elapsed();
+            let down = since.elapsed();
+            self.tally.down += down;
+            self.tally.longest_down = self.tally.longest_down.max(down);
         }
-        self.tally.unconfirmed += self.unacked.len() as u64;
+        self.tally.unacked_at_close += self.unacked.len() as u64;
         self.unacked.clear();
         for handed in self.handed.drain(..) {
             if let Handed::Event(_) = handed {
@@ -523,7 +529,7 @@ impl MqttOutput {
         }
         self.stop_thread();
         let t = &mut self.tally;
-        t.unconfirmed += self.unacked.len() as u64;
+        t.unacked_at_close += self.unacked.len() as u64;
         self.unacked.clear();
         t.unsent_at_close += self.queue.len() as u64;
         self.queue.clear();
@@ -544,7 +550,11 @@ impl MqttOutput {
 
 impl Tally {
     fn lost(&self) -> u64 {
-        self.unconfirmed + self.expired + self.queue_full + self.unsent_at_close
+        self.unconfirmed
+            + self.expired
+            + self.queue_full
+            + self.unsent_at_close
+            + self.unacked_at_close
     }
 
     /// What went wrong, in plain words.
@@ -584,6 +594,12 @@ impl Tally {
                 parts.push(format!(
                     "{} found {QUEUE} events already waiting",
                     self.queue_full
+                ));
+            }
+            if self.unacked_at_close > 0 {
+                parts.push(format!(
+                    "{} sent but not acknowledged by the end (the broker stopped answering; they may have arrived)",
+                    self.unacked_at_close
                 ));
             }
             if self.unsent_at_close > 0 {
