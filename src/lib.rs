@@ -54,6 +54,7 @@
 //! use sipnpuff::control::mode::{Direction, Mode, ModeState};
 //! use sipnpuff::control::pipeline::{Pipeline, TickOutput};
 //! use sipnpuff::control::sample::Sample;
+//! use sipnpuff::control::target::Target;
 //!
 //! // Built-in library: two short puffs select forward/backward.
 //! let mut core = Pipeline::new(Config::default().core());
@@ -73,7 +74,7 @@
 //! breathe(&mut core, &mut out, 2.5, 300);
 //! breathe(&mut core, &mut out, 4.0, 150); // short puff
 //! let events = breathe(&mut core, &mut out, 2.5, 10);
-//! assert!(events.iter().any(|e| matches!(e, Event::Match { mode: Mode::TranslateX, .. })));
+//! assert!(events.iter().any(|e| matches!(e, Event::Match { target: Target::Mode(Mode::TranslateX), .. })));
 //!
 //! // Hold-to-run: a puff now means "forward" for as long as it is held.
 //! breathe(&mut core, &mut out, 3.8, 20);
