@@ -39,4 +39,5 @@ mod sensors;
 mod sessions;
 mod stress;
 mod study;
+mod uinput;
 mod watchdog;
