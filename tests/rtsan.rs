@@ -20,7 +20,8 @@ use sipnpuff::rt::control_loop::StopReason;
 use sipnpuff::rt::simulated::{run_simulated, run_simulated_measured};
 use sipnpuff::sensor::Sensor;
 use sipnpuff::sensor::synthetic::SyntheticSensor;
-use sipnpuff::sim::script::every_path_session;
+use sipnpuff::sim::script::{every_path_session, outputs_session};
+use sipnpuff::sim::sensor_model::SignalParams;
 
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
@@ -66,6 +67,29 @@ fn control_loop_ticks_with_a_measuring_arm_are_realtime_safe() {
     assert_eq!(run.stop_reason, StopReason::SensorEnded, "{run:?}");
     assert!(run.last_arm_command.is_zero(), "{run:?}");
     assert_eq!(run.arm_commands, run.ticks / 10, "{run:?}");
+}
+
+/// A library that drives the computer and the home
+/// (`fixtures/computer-and-home.toml`), every entry used: pointer moves
+/// at 100 Hz, a drag, a click, a chord and home events offered to both
+/// outputs' rings — no tick allocates, locks or blocks.
+#[test]
+fn control_loop_ticks_driving_the_computer_and_the_home_are_realtime_safe() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/computer-and-home.toml"
+    );
+    let config = Config::from_file(std::path::Path::new(path)).unwrap();
+    let script = outputs_session(&config);
+    let params = SignalParams::clean(config.core().detector(), 1).with_noise(0.01);
+    let sensor = SyntheticSensor::new(params, script).start().unwrap();
+    let run = run_simulated(config.core(), sensor.samples);
+    assert_eq!(run.allocations, 0, "{run:?}");
+    assert_eq!(run.output_drops, 0, "{run:?}");
+    // Pointer moves at 100 Hz while a pointer mode is held, and the
+    // actions: hundreds of commands.
+    assert!(run.output_commands > 200, "{run:?}");
+    assert_eq!(run.stop_reason, StopReason::SensorEnded, "{run:?}");
 }
 
 /// A tick that does the core's work and then formats a log line, the kind

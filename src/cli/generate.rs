@@ -13,7 +13,9 @@ use crate::config::Config;
 use crate::control::mode::Mode;
 use crate::fit::protocol::{DEFAULT_COUNT, DEFAULT_HOLDS, Protocol};
 use crate::sim::breather::{Breather, Session, practice_session, protocol_session};
-use crate::sim::script::{demo_script, parse_sequences, random_session, sequences_script};
+use crate::sim::script::{
+    demo_script, outputs_session, parse_sequences, random_session, sequences_script,
+};
 use crate::sim::sensor_model::{Crossings, SignalGenerator, SignalParams, write_csv};
 
 /// `generate`'s options.
@@ -33,6 +35,13 @@ pub struct GenerateArgs {
     /// save and go to a point, a finger end stop, the reach limit.
     #[arg(long, conflicts_with = "sequences")]
     demo: bool,
+    /// Instead of a random session, every entry of the configured
+    /// library in turn, used: each mode held a puff and a sip, each key,
+    /// click and home event fired, a drag around a pointer move (e.g.
+    /// with `--config fixtures/computer-and-home.toml`, to drive
+    /// `run --output`).
+    #[arg(long, conflicts_with_all = ["sequences", "demo"])]
+    each_entry: bool,
     /// Instead of a random session, enter these sequences in order, e.g.
     /// `--sequences "1,2,-1 1,2 2,1"` (codes: 1 short sip, 2 long sip,
     /// -1 short puff, -2 long puff).
@@ -103,6 +112,7 @@ pub fn generate(args: GenerateArgs) -> anyhow::Result<()> {
         .with_spikes_every(args.spike_every_ms);
     let (script, length) = match &args.sequences {
         None if args.demo => (demo_script(&config).0, usize::MAX),
+        None if args.each_entry => (outputs_session(&config), usize::MAX),
         Some(text) => {
             let sequences = parse_sequences(text).map_err(anyhow::Error::msg)?;
             (sequences_script(&config, &sequences), usize::MAX)

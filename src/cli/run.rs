@@ -17,7 +17,11 @@ use crate::cli::args::{
 use crate::cli::display::{Display, DisplayArgs};
 use crate::cli::output::{self, StdoutEvents, invalid};
 use crate::config::Config;
+use crate::control::target::{HomeEvent, Target};
+use crate::output::settings::MqttSettings;
+use crate::output::{Output, OutputSpec};
 use crate::rt::control_loop::StopReason;
+use crate::rt::output_thread::Serves;
 use crate::rt::recorder::SessionRecorder;
 use crate::rt::report::RunReport;
 use crate::rt::signals;
@@ -60,6 +64,15 @@ pub struct RunArgs {
     /// Settings: `[arm]` in the config (docs/arms.md).
     #[arg(long, default_value = "sim", value_parser = ArmSpec::parse)]
     arm: ArmSpec,
+    /// Also drive the computer or the home (repeatable): `uinput` (a
+    /// virtual keyboard and pointer through /dev/uinput: the library's
+    /// `key`, `click`, pointer modes and `drag`; settings in
+    /// `[output.uinput]`) or `mqtt` / `mqtt:HOST:PORT` (Home Assistant
+    /// over MQTT: the library's `event`s; settings in `[output.mqtt]`).
+    /// Set-up for each, the udev rule and a Home Assistant automation:
+    /// docs/outputs.md.
+    #[arg(long = "output", value_name = "OUTPUT", value_parser = OutputSpec::parse)]
+    outputs: Vec<OutputSpec>,
     /// Selection interface (default: the config's `interface.kind`).
     #[arg(long, value_enum)]
     interface: Option<InterfaceArg>,
@@ -112,6 +125,66 @@ fn open_arm(spec: &ArmSpec, config: &Config) -> anyhow::Result<Box<dyn Arm>> {
     })
 }
 
+/// Opens the `--output` backends, each with what it serves; says which
+/// of the library's entries would do nothing without one.
+fn open_outputs(
+    specs: &[OutputSpec],
+    config: &Config,
+) -> anyhow::Result<Vec<(Serves, Box<dyn Output>)>> {
+    let library = config.core().sequences();
+    let computer = library.iter().any(|e| match e.target {
+        Target::Mode(mode) => mode.is_pointer(),
+        Target::Home(_) => false,
+        _ => true,
+    });
+    let events: Vec<HomeEvent> = library
+        .iter()
+        .filter_map(|e| match e.target {
+            Target::Home(event) => Some(event),
+            _ => None,
+        })
+        .collect();
+    let given = |kind: &str| specs.iter().any(|s| s.kind() == kind);
+    if computer && !given("uinput") {
+        note!(
+            "sipnpuff: the library types keys, clicks or moves the pointer, but no `--output uinput` is given: those entries will do nothing"
+        );
+    }
+    if !events.is_empty() && !given("mqtt") {
+        note!(
+            "sipnpuff: the library sends home events, but no `--output mqtt` is given: they will go nowhere"
+        );
+    }
+    let mut opened: Vec<(Serves, Box<dyn Output>)> = Vec::new();
+    for (i, spec) in specs.iter().enumerate() {
+        if specs[..i].iter().any(|s| s.kind() == spec.kind()) {
+            anyhow::bail!("--output {}: given twice", spec.kind());
+        }
+        opened.push(match spec {
+            OutputSpec::Uinput => (Serves::Computer, open_uinput(config)?),
+            OutputSpec::Mqtt { address } => {
+                let mut settings = config.output().mqtt.clone();
+                if let Some((host, port)) = address {
+                    settings.host = host.clone();
+                    settings.port = *port;
+                }
+                (Serves::Home, open_mqtt(&settings, &events)?)
+            }
+        });
+    }
+    Ok(opened)
+}
+
+/// `--output uinput`.
+fn open_uinput(_config: &Config) -> anyhow::Result<Box<dyn Output>> {
+    anyhow::bail!("--output uinput: the uinput backend is being merged")
+}
+
+/// `--output mqtt`.
+fn open_mqtt(_settings: &MqttSettings, _events: &[HomeEvent]) -> anyhow::Result<Box<dyn Output>> {
+    anyhow::bail!("--output mqtt: the MQTT backend is being merged")
+}
+
 /// Runs the loop with the chosen sensor and arm; prints events as they
 /// happen, then the report. Returns the exit status ([`output`]): 0
 /// completed, 1 failed, 128 + N stopped by signal N, 141 stdout's reader
@@ -145,14 +218,17 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     // error now, not a display missing later.
     let display = Display::open(&args.display)?;
     let display = &display;
-    // The backends, one line each.
+    // The backends, one line each; the outputs opened before anything
+    // starts (a missing device or an unreachable address is said now).
     let arm = open_arm(&args.arm, &config)?;
+    let outputs = open_outputs(&args.outputs, &config)?;
     let mut events = StdoutEvents {
         quiet: args.display.tui,
         ..StdoutEvents::default()
     };
     let start = Start {
         arm,
+        outputs,
         settings: &options,
         events: &mut events,
         record,
@@ -276,6 +352,7 @@ pub fn open_sensor<O: OnSensor>(
 /// terminal back before it.
 struct Start<'a> {
     arm: Box<dyn Arm>,
+    outputs: Vec<(Serves, Box<dyn Output>)>,
     settings: &'a LoopSettings,
     events: &'a mut StdoutEvents,
     record: Option<&'a Record<'a>>,
@@ -288,6 +365,7 @@ impl OnSensor for Start<'_> {
     fn on<S: Sensor>(self, config: &Config, sensor: S) -> anyhow::Result<RunReport> {
         let Start {
             arm,
+            outputs,
             settings,
             events,
             record,
@@ -307,6 +385,7 @@ impl OnSensor for Start<'_> {
                 recorder: recorder.as_mut().map(|r| r as &mut dyn SessionRecorder),
                 observer: showing.observer(),
             },
+            outputs,
             ..RunOptions::new(sensor, arm, settings.clone())
         };
         let mut result = threads::run(config.core(), options);

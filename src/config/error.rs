@@ -74,15 +74,6 @@ impl Problems {
         });
     }
 
-    /// Whether a problem with a key inside `key` (`key.…`) is recorded.
-    pub(super) fn has_under(&self, key: &str) -> bool {
-        self.errors.iter().any(|e| {
-            e.key
-                .strip_prefix(key)
-                .is_some_and(|rest| rest.starts_with('.'))
-        })
-    }
-
     /// Whether a problem with `key` is recorded already.
     pub(super) fn has(&self, key: &str) -> bool {
         self.errors.iter().any(|e| e.key == key)

@@ -720,6 +720,29 @@ gain = 0
     }
 
     #[test]
+    fn entries_that_fire_actions_are_checked_all_at_once() {
+        let text = "[[sequence]]\nactions = [1]\nkey = \"ctrl+hyper\"\n\
+                    [[sequence]]\nactions = [-1]\nevent = \"lights_toggle\"\n\
+                    [[sequence]]\nactions = [-2]\nevent = \"lights_toggle\"\n\
+                    [[sequence]]\nactions = [1, 1]\nclick = \"middle\"\n\
+                    [[sequence]]\nactions = [2]\nmode = \"scroll\"\n";
+        assert_eq!(
+            problems(text),
+            [
+                "sequence #1.key: \"ctrl+hyper\" cannot be typed: `hyper` is not a key the virtual keyboard can type (keys: a–z, 0–9, f1–f12, enter, space, tab, esc, arrows, media keys…; modifiers ctrl, shift, alt, super, altgr)",
+                "sequence #3.event: \"lights_toggle\" is used twice: each home event has one sequence",
+                "sequence #4.click: \"middle\" is not a click (known: left, right, double)",
+            ]
+        );
+        let good = "[[sequence]]\nactions = [1]\nkey = \"ctrl+alt+t\"\n\
+                    [[sequence]]\nactions = [2]\nmode = \"drag\"\n";
+        let config = Config::from_toml_str(good).unwrap();
+        let printed = config.to_toml().unwrap();
+        assert!(printed.contains("key = \"ctrl+alt+t\""), "{printed}");
+        assert_eq!(Config::from_toml_str(&printed).unwrap(), config);
+    }
+
+    #[test]
     fn every_missing_key_of_an_entry_is_named_and_a_wrong_entry_is_not_compared() {
         // Entry 2's actions are wrong and entry 3 has none: the built-in
         // actions standing in for them ([-1, -1], as entry 1's) are not
@@ -730,8 +753,8 @@ gain = 0
             [
                 "sequence #2.actions: 9 not an action (1 = short sip, 2 = long sip, -1 = short puff, -2 = long puff)",
                 "sequence #3.actions: missing",
-                "sequence #3.mode: missing",
-                "sequence #3.speed: unknown key (known: actions, mode)",
+                "sequence #3: says nothing to do: give one of `mode`, `key`, `click`, `event`",
+                "sequence #3.speed: unknown key (known: actions, mode, key, click, event)",
             ]
         );
     }

@@ -140,7 +140,10 @@ impl Reader<'_> {
         let key = self.key(&path);
         // A library entry whose target key was wrong (and is dropped) says
         // nothing more about having no target.
-        if self.is_entry(&path) && self.problems.has_under(&key) {
+        let target_problem = TARGET_KEYS
+            .iter()
+            .any(|k| self.problems.has(&format!("{key}.{k}")));
+        if self.is_entry(&path) && target_problem {
             return self.replace(path);
         }
         let value = get(&self.file, &path);

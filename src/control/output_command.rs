@@ -41,9 +41,9 @@ impl OutputCommand {
         !matches!(self, OutputCommand::Home { .. })
     }
 
-    /// For the home (events, and letting go on a stop).
+    /// For the home: its events (it holds nothing to let go of).
     pub const fn is_for_home(&self) -> bool {
-        matches!(self, OutputCommand::Home { .. } | OutputCommand::ReleaseAll)
+        matches!(self, OutputCommand::Home { .. })
     }
 }
 

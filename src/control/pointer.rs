@@ -1,8 +1,9 @@
 //! The computer's pointer: in a pointer mode a held puff moves it one way
 //! and a held sip the other, its speed ramping jerk-limited from rest
-//! (Ruckig, as the arm's), so a short breath nudges it a count or two and
-//! a long one crosses the screen; and the drag, the left button held while
-//! the pointer moves. The motion is integrated and handed out in whole
+//! (Ruckig, as the arm's), so a short breath nudges it a count and a long
+//! one crosses the screen; it stops when the breath ends (a pointer has
+//! no mass to brake, and a coast would overshoot the target the user let
+//! go at). And the drag, the left button held while the pointer moves. The motion is integrated and handed out in whole
 //! counts every 10 ticks (100 Hz), the fractions carried over, so the
 //! moves sum to the travel commanded.
 
@@ -37,13 +38,14 @@ pub struct PointerConfig {
 }
 
 impl Default for PointerConfig {
-    /// Full speed (800 counts/s) after about 0.75 s; a 100 ms breath moves
-    /// the pointer about one count, a 1 s breath about 460.
+    /// A creep that gathers speed: a 150 ms breath moves the pointer
+    /// about one count, a 0.5 s breath about 30, a 1 s breath about 250,
+    /// and from 1.4 s on it runs at 800 counts/s.
     fn default() -> Self {
         PointerConfig {
             pointer_speed: 800.0,
             pointer_acceleration: 1600.0,
-            pointer_jerk: 6400.0,
+            pointer_jerk: 1600.0,
             scroll_speed: 8.0,
             scroll_acceleration: 32.0,
             scroll_jerk: 256.0,
@@ -152,6 +154,13 @@ impl Pointer {
                 _ => {}
             }
         }
+        // Released, or turned the other way: that axis stops at once.
+        for (dof, &asked) in target.iter().enumerate() {
+            let moving = self.channel.velocity(dof);
+            if moving != 0.0 && asked * moving <= 0.0 {
+                self.channel.restart_from_rest(dof);
+            }
+        }
         let asked_nothing = target == [0.0; 3];
         if !(asked_nothing && self.channel.resting()) {
             self.channel.ask_velocities(target);
@@ -160,7 +169,7 @@ impl Pointer {
                 *travel += self.channel.velocity(dof) * CYCLE_S;
             }
         }
-        if now % MOVE_EVERY_TICKS == 0 {
+        if now.is_multiple_of(MOVE_EVERY_TICKS) {
             let mut whole = [0i32; 3];
             for ((travel, sent), delta) in self.travel.iter().zip(&mut self.sent).zip(&mut whole) {
                 let now_whole = travel.round() as i64;
@@ -216,29 +225,45 @@ mod tests {
     fn a_short_breath_nudges_and_a_long_one_travels() {
         let mut p = Pointer::new(&PointerConfig::default());
         let mut t = 1;
-        run(
-            &mut p,
-            &mut t,
-            held(Mode::PointerX, Direction::Positive),
-            100,
-        );
-        let nudge = run(&mut p, &mut t, ModeOutput::default(), 500);
+        let pointer_x = held(Mode::PointerX, Direction::Positive);
+        let nudge = run(&mut p, &mut t, pointer_x, 300);
+        let after = run(&mut p, &mut t, ModeOutput::default(), 500);
         let total = p.travel[X];
-        assert!((1.0..=4.0).contains(&total), "{total}");
-        assert_eq!(nudge.dy, 0);
+        assert!((5.0..=9.0).contains(&total), "{total}");
+        // Nothing moves once the breath ends (but the last rounding).
+        assert!(nudge.dy == 0 && after.dx.abs() <= 1, "{nudge:?} {after:?}");
         let mut p = Pointer::new(&PointerConfig::default());
         let mut t = 1;
-        let moved = run(
-            &mut p,
-            &mut t,
-            held(Mode::PointerX, Direction::Positive),
-            2000,
-        );
+        let moved = run(&mut p, &mut t, pointer_x, 2000);
         let coasted = run(&mut p, &mut t, ModeOutput::default(), 1000);
         // Full speed, 800 counts/s, after the ramp: well over 1000 counts.
         assert!(moved.dx > 1000, "{moved:?}");
         // Every count of the travel went out, to within the rounding.
         assert!((f64::from(moved.dx + coasted.dx) - p.travel[X]).abs() <= 0.5);
+    }
+
+    /// The figures the default's doc comment and the configuration doc
+    /// give: a breath's travel, counts; nothing moves once it ends.
+    #[test]
+    fn the_defaults_creep_then_run() {
+        let travel = |ms: u64| {
+            let mut p = Pointer::new(&PointerConfig::default());
+            let mut t = 1;
+            run(
+                &mut p,
+                &mut t,
+                held(Mode::PointerX, Direction::Positive),
+                ms,
+            );
+            run(&mut p, &mut t, ModeOutput::default(), 1500);
+            p.travel[X]
+        };
+        let (tap, half, second, two) = (travel(150), travel(500), travel(1000), travel(2000));
+        assert!((0.5..1.5).contains(&tap), "{tap}");
+        assert!((25.0..40.0).contains(&half), "{half}");
+        assert!((220.0..290.0).contains(&second), "{second}");
+        // From about 1.4 s on, 800 counts a second.
+        assert!((two - second - 770.0).abs() < 50.0, "{second} {two}");
     }
 
     #[test]

@@ -26,6 +26,7 @@ use crate::control::view::CoreView;
 use crate::rt::alloc_counter;
 use crate::rt::clock::Clock;
 use crate::rt::core_input::{ArmInput, ArmPose, CoreInput};
+use crate::rt::output_thread::OutputLane;
 use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
 use crate::rt::setup::{RtOptions, Setting, setup_current_thread};
 pub use crate::rt::stop::StopReason;
@@ -108,6 +109,9 @@ pub struct OutputRings {
     /// for the session recorder (the 100 Hz stream the core produced,
     /// whatever the arm ring drops).
     pub recorded: Option<rtrb::Producer<ArmCommand>>,
+    /// The outputs beyond the arm (`run --output`), each offered the
+    /// commands it serves.
+    pub outputs: Vec<OutputLane>,
 }
 
 /// The production tick: sensor → pipeline → rings, with the safe stop.
@@ -248,6 +252,11 @@ impl<S: Samples> TickWork for ControlTick<S> {
                 && recorded.push(command).is_err()
             {
                 self.drops.recorded_commands += 1;
+            }
+        }
+        for command in out.outputs.iter() {
+            for lane in &mut self.rings.outputs {
+                lane.offer(command);
             }
         }
         let mut events = 0u8;

@@ -10,7 +10,9 @@
 //!   (which ones, and their handlers) and failed outputs;
 //! * [`control_loop`]: the 1 kHz loop and the production tick;
 //! * [`core_input`]: the core's whole input on one tick, as recorded;
-//! * [`arm_thread`]: the 100 Hz arm stream;
+//! * [`arm_thread`]: the 100 Hz arm stream; [`output_thread`]: the
+//!   outputs beyond the arm (keyboard and pointer, home), each on its own
+//!   thread;
 //! * [`threads`]: `run`, one run's options and its threads; [`rings`]:
 //!   the rings between them;
 //! * [`telemetry_thread`]: the thread that empties the rings for the
@@ -27,6 +29,7 @@ pub mod arm_thread;
 pub mod clock;
 pub mod control_loop;
 pub mod core_input;
+pub mod output_thread;
 pub mod recorder;
 pub mod report;
 pub mod rings;

@@ -8,6 +8,7 @@ use serde::Serialize;
 
 use crate::arm::ArmState;
 use crate::control::motion::stream::ArmCommand;
+use crate::output::OutputReport;
 use crate::rt::arm_thread::ArmReport;
 use crate::rt::control_loop::{LoopResult, StopReason};
 use crate::rt::recorder::RecordingReport;
@@ -87,6 +88,8 @@ pub struct RunReport {
     /// Why the core stopped the arm, if the arm failed or its measured
     /// pose could not be trusted (also in `errors`).
     pub arm_fault: Option<String>,
+    /// What each output beyond the arm did (`run --output`).
+    pub outputs: Vec<OutputReport>,
 }
 
 /// What the run itself saw, besides its threads' figures.
@@ -159,6 +162,7 @@ impl RunReport {
             measured_pose_drops: arm.feedback_drops,
             largest_correction_m: work.largest_correction_m,
             arm_fault,
+            outputs: Vec::new(),
         }
     }
 
@@ -276,6 +280,15 @@ impl RunReport {
             "stream ended with a zero command and the arm stopped: {}\n",
             self.stream_ended_with_zero
         );
+        for output in &self.outputs {
+            s += &format!(
+                "output {}: {} commands carried out, {} dropped (ring full), {} lost\n",
+                output.output, output.applied, output.dropped, output.lost
+            );
+            for note in &output.notes {
+                s += &format!("  {note}\n");
+            }
+        }
         if let Some(recording) = &self.recording {
             s += &recording.to_line();
         }

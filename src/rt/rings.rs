@@ -53,6 +53,7 @@ impl Rings {
                 arm,
                 events,
                 recorded,
+                outputs: Vec::new(),
             },
             records,
             arm: arm_rx,

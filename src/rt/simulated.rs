@@ -13,11 +13,14 @@ use rtrb::RingBuffer;
 
 use crate::control::core_config::CoreConfig;
 use crate::control::motion::stream::ArmCommand;
+use crate::control::output_command::OutputCommand;
 use crate::control::pipeline::Pipeline;
+use crate::output::{Output, OutputReport};
 use crate::rt::clock::SimClock;
 use crate::rt::control_loop::{
     ControlTick, LoopOptions, StopReason, TickOutcome, TickWork, WorkSummary, control_loop,
 };
+use crate::rt::output_thread::{OutputThread, Serves};
 use crate::rt::rings::{FEEDBACK_RING, Rings};
 use crate::rt::scheduler::Wake;
 use crate::rt::setup::RtOptions;
@@ -90,13 +93,59 @@ pub struct SimulatedRun {
     pub last_arm_command: ArmCommand,
     /// Measured poses the core took in ([`run_simulated_measured`]).
     pub measured_poses: u64,
+    /// Commands the two outputs (the computer's and the home's) carried
+    /// out, and dropped.
+    pub output_commands: u64,
+    /// Output commands dropped (a ring full).
+    pub output_drops: u64,
+}
+
+/// The simulated run's outputs: they count what they are given.
+#[derive(Default)]
+struct Counting {
+    applied: u64,
+}
+
+impl Output for Counting {
+    fn describe(&self) -> String {
+        "counting".into()
+    }
+
+    fn apply(&mut self, _command: &OutputCommand) {
+        self.applied += 1;
+    }
+
+    fn close(&mut self) -> OutputReport {
+        OutputReport {
+            applied: self.applied,
+            ..OutputReport::default()
+        }
+    }
 }
 
 /// Runs the loop fed by `samples` until they end and the arm brakes to a
 /// stop, asking for no real-time settings; its rings are drained on
 /// another thread, as in `run`.
 pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRun {
-    simulate(config, samples, false)
+    simulate(config, samples, false, counting_outputs()).0
+}
+
+/// [`run_simulated`] driving `outputs`, each on its thread as in `run`;
+/// returns their reports too.
+pub fn run_simulated_with_outputs<S: Samples>(
+    config: &CoreConfig,
+    samples: S,
+    outputs: Vec<(Serves, Box<dyn Output>)>,
+) -> (SimulatedRun, Vec<OutputReport>) {
+    simulate(config, samples, false, outputs)
+}
+
+/// Both kinds of output, counting what they are given.
+fn counting_outputs() -> Vec<(Serves, Box<dyn Output>)> {
+    vec![
+        (Serves::Computer, Box::new(Counting::default())),
+        (Serves::Home, Box::new(Counting::default())),
+    ]
 }
 
 /// [`run_simulated`] with an arm that measures its pose: after each
@@ -104,14 +153,19 @@ pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRu
 /// home) comes back through the measured-pose ring, so the ticks checked
 /// take in a measurement every 10 ms.
 pub fn run_simulated_measured<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRun {
-    simulate(config, samples, true)
+    simulate(config, samples, true, counting_outputs()).0
 }
 
-fn simulate<S: Samples>(config: &CoreConfig, samples: S, measured: bool) -> SimulatedRun {
+fn simulate<S: Samples>(
+    config: &CoreConfig,
+    samples: S,
+    measured: bool,
+    outputs_to_drive: Vec<(Serves, Box<dyn Output>)>,
+) -> (SimulatedRun, Vec<OutputReport>) {
     // With the recorder's command ring: the loop checked is the loop of
     // `run --record`.
     let Rings {
-        outputs,
+        mut outputs,
         mut records,
         arm: mut arm_rx,
         telemetry:
@@ -128,6 +182,17 @@ fn simulate<S: Samples>(config: &CoreConfig, samples: S, measured: bool) -> Simu
         stop: StopRequest::new(),
         arm_fault: Arc::new(AtomicBool::new(false)),
     };
+    // The outputs, each on its thread as in `run`: the loop checked
+    // offers them its commands.
+    let mut output_threads = Vec::new();
+    for (serves, output) in outputs_to_drive {
+        if let Ok((thread, lane)) =
+            OutputThread::start(serves, output, std::time::SystemTime::now())
+        {
+            output_threads.push(thread);
+            outputs.outputs.push(lane);
+        }
+    }
     let work = ControlTick::new(Pipeline::new(config), samples, outputs, true);
     let home = config.home().pose();
     let (poses, poses_rx) = RingBuffer::new(FEEDBACK_RING);
@@ -180,7 +245,10 @@ fn simulate<S: Samples>(config: &CoreConfig, samples: S, measured: bool) -> Simu
         let counts = drain.join().unwrap_or_default();
         (result, counts)
     });
-    SimulatedRun {
+    let reports: Vec<OutputReport> = output_threads.into_iter().map(OutputThread::join).collect();
+    let output_commands = reports.iter().map(|r| r.applied).sum();
+    let output_drops = reports.iter().map(|r| r.dropped).sum();
+    let run = SimulatedRun {
         ticks: ticks + result.drops.records,
         events: events + result.drops.events,
         arm_commands: arm_commands + result.drops.arm_commands,
@@ -190,5 +258,8 @@ fn simulate<S: Samples>(config: &CoreConfig, samples: S, measured: bool) -> Simu
         stop_reason: result.work.stop_reason,
         last_arm_command: result.work.last_arm_command,
         measured_poses: result.work.measured_poses,
-    }
+        output_commands,
+        output_drops,
+    };
+    (run, reports)
 }

@@ -6,6 +6,8 @@
 //!    │ rtrb
 //!    ▼
 //! control thread (SCHED_FIFO, pinned, no allocation) ─rtrb─► arm thread (100 Hz, zero command at the end)
+//!    │                                                 └rtrb─► one thread per output (`--output`: keys and
+//!    │                                                         pointer, home events; lets go of all at the end)
 //!    │ rtrb: tick records, events
 //!    ▼
 //! telemetry (the calling thread): histograms, events, the report;
@@ -26,7 +28,7 @@ use std::fmt;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::thread;
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime};
 
 use rtrb::RingBuffer;
 
@@ -34,9 +36,11 @@ use crate::arm::{Arm, ArmError, ArmState};
 use crate::control::core_config::CoreConfig;
 use crate::control::motion::workspace;
 use crate::control::pipeline::Pipeline;
+use crate::output::Output;
 use crate::rt::arm_thread::{ArmStream, run_arm};
 use crate::rt::clock::MonotonicClock;
 use crate::rt::control_loop::{ControlTick, LoopOptions, TickWork, control_loop};
+use crate::rt::output_thread::{OutputThread, Serves};
 use crate::rt::recorder::SessionRecorder;
 use crate::rt::report::{RunFacts, RunReport};
 use crate::rt::rings::{FEEDBACK_RING, Rings};
@@ -116,6 +120,9 @@ pub struct RunOptions<'a, S, W = Production> {
     pub work: W,
     /// The event sink, the recorder and the observer.
     pub watchers: Watchers<'a>,
+    /// The outputs beyond the arm (opened by the caller), each with what
+    /// it serves.
+    pub outputs: Vec<(Serves, Box<dyn Output>)>,
 }
 
 impl<'a, S: Sensor> RunOptions<'a, S> {
@@ -127,6 +134,7 @@ impl<'a, S: Sensor> RunOptions<'a, S> {
             settings,
             work: Production,
             watchers: Watchers::default(),
+            outputs: Vec::new(),
         }
     }
 }
@@ -135,6 +143,12 @@ impl<'a, S, W> RunOptions<'a, S, W> {
     /// Gives each event to `sink` as it arrives.
     pub fn events(mut self, sink: &'a mut dyn EventSink) -> Self {
         self.watchers.events = Some(sink);
+        self
+    }
+
+    /// Drives `output` too, with the commands it serves.
+    pub fn output(mut self, serves: Serves, output: Box<dyn Output>) -> Self {
+        self.outputs.push((serves, output));
         self
     }
 
@@ -185,8 +199,9 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
         settings,
         work,
         mut watchers,
+        outputs,
     } = options;
-    let rings = Rings::new(watchers.recorder.is_some());
+    let mut rings = Rings::new(watchers.recorder.is_some());
     let sensor_name = sensor.describe();
     let arm_name = arm.describe();
     if let Some(recorder) = watchers.recorder.as_deref_mut() {
@@ -209,6 +224,16 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     };
     let arm_measured = measured.is_some();
     let limit_ticks = settings.seconds.map(|s| (s * 1000.0).round() as u64);
+    // The outputs' threads: each closes its output when the control
+    // thread's end of its ring goes, however the loop ends.
+    let tick_zero = SystemTime::now() + Duration::from_millis(1);
+    let mut output_threads = Vec::with_capacity(outputs.len());
+    for (serves, output) in outputs {
+        let (thread, lane) = OutputThread::start(serves, output, tick_zero)
+            .map_err(|e| RunError::Thread(format!("cannot start an output's thread: {e}")))?;
+        output_threads.push(thread);
+        rings.outputs.outputs.push(lane);
+    }
     let core = Pipeline::new(config);
     let mut tick = ControlTick::new(core, started.samples, rings.outputs, limit_ticks.is_none());
     if let Some((start, feedback)) = feedback {
@@ -265,6 +290,7 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     let arm = arm_thread.join();
     let looped = looped.map_err(|_| RunError::Thread("the control thread panicked".into()))?;
     let arm = arm.map_err(|_| RunError::Thread("the arm thread panicked".into()))?;
+    let outputs = output_threads.into_iter().map(OutputThread::join).collect();
     let telemetry = telemetry.finish(&looped.drops);
     let run = RunFacts {
         sensor: sensor_name,
@@ -273,7 +299,9 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
         sensor_error,
         cpu_percent,
     };
-    Ok(RunReport::new(run, looped, telemetry, arm))
+    let mut report = RunReport::new(run, looped, telemetry, arm);
+    report.outputs = outputs;
+    Ok(report)
 }
 
 /// The pose a measuring arm reports after connecting (its backend waits

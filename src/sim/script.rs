@@ -9,6 +9,7 @@ use crate::config::Config;
 use crate::control::action::{Action, ActionSeq, Breath};
 use crate::control::detector::DetectorConfig;
 use crate::control::mode::Mode;
+use crate::control::target::Target;
 use crate::fit::protocol::{Ask, Protocol};
 use crate::sim::sensor_model::{DEFAULT_RAMP_MS, SignalParams, Step};
 
@@ -110,6 +111,48 @@ pub fn demo_script(config: &Config) -> (Vec<Step>, Vec<Mode>) {
             (Mode::TranslateY, &[(Sip, 800)]),
         ],
     )
+}
+
+/// The computer-and-home user: every entry of the library in turn, used
+/// as a person would: a mode's sequence, then a held puff (1.2 s) and a
+/// held sip (0.6 s); an action's sequence alone; a drag begun, a pointer
+/// mode held and the drag let go again. Each use ends with rest enough to
+/// return to selection. For a library such as
+/// `fixtures/computer-and-home.toml` (the outputs' tests and their proofs
+/// against the kernel and a broker).
+pub fn outputs_session(config: &Config) -> Vec<Step> {
+    use Breath::{Puff, Sip};
+    let core = config.core();
+    let rest = core.matcher().sequence_timeout_ms + core.command().inactivity_timeout_ms + 500;
+    let library = core.sequences();
+    let mut script = vec![Step::Rest { ms: 1000 }];
+    let select = |script: &mut Vec<Step>, target: Target, holds: &[(Breath, u32)]| {
+        if let Some(entry) = library.iter().find(|e| e.target == target) {
+            script.extend(sequence_steps(entry.actions.as_slice(), Timing::DEFAULT));
+            for &(breath, ms) in holds {
+                script.push(Step::Breath { breath, ms });
+                script.push(Step::Rest { ms: 300 });
+            }
+            script.push(Step::Rest { ms: rest });
+        }
+    };
+    let holds: [(Breath, u32); 2] = [(Puff, 1200), (Sip, 600)];
+    for entry in library {
+        let uses: &[(Breath, u32)] = match entry.target {
+            Target::Mode(_) => &holds,
+            _ => &[],
+        };
+        select(&mut script, entry.target, uses);
+    }
+    if let Some(pointer) = library
+        .iter()
+        .find(|e| matches!(e.target, Target::Mode(m) if m.is_pointer()))
+    {
+        select(&mut script, Target::Drag, &[]);
+        select(&mut script, pointer.target, &[(Puff, 1000)]);
+        select(&mut script, Target::Drag, &[]);
+    }
+    script
 }
 
 /// The built-in user of `sipnpuff run` (about 22 s): saves the home pose,

@@ -94,6 +94,7 @@ pub fn bench_latency<S: Sensor>(
         settings,
         work: Interleave { block },
         watchers: Watchers::default(),
+        outputs: Vec::new(),
     };
     run(config.core(), options)
 }

@@ -26,7 +26,7 @@ const CRATE_NAME: &str = "sipnpuff";
 /// with module path `to` (`[]` = lib.rs), if any. One message per offending reference.
 pub fn rule_violation(from_role: &str, to: &[String]) -> Option<&'static str> {
     let top = to.first().map_or("<crate root>", String::as_str);
-    let port_root = matches!(top, "sensor" | "arm") && to.len() == 1;
+    let port_root = matches!(top, "sensor" | "arm" | "output") && to.len() == 1;
     match from_role {
         "control" | "rt" if matches!(top, "sim" | "tools") => {
             Some("rule 3: sim/ and tools/ are never imported by control/ or rt/")
@@ -38,12 +38,14 @@ pub fn rule_violation(from_role: &str, to: &[String]) -> Option<&'static str> {
             Some("rule 1: control/ is the pure core and imports nothing else of the crate")
         }
         "rt" if matches!(top, "control" | "rt") || port_root => None,
-        "rt" if matches!(top, "sensor" | "arm") => {
-            Some("rule 2: rt/ may use only the sensor/arm module roots (mod.rs), not backends")
+        "rt" if matches!(top, "sensor" | "arm" | "output") => Some(
+            "rule 2: rt/ may use only the sensor/arm/output module roots (mod.rs), not backends",
+        ),
+        "rt" => {
+            Some("rule 2: rt/ may import only control/, rt/ and the sensor/arm/output module roots")
         }
-        "rt" => Some("rule 2: rt/ may import only control/, rt/ and the sensor/arm module roots"),
-        "sensor" | "arm" if top == "rt" => {
-            Some("rule 2: the runtime depends on the sensor/arm seams, never the reverse")
+        "sensor" | "arm" | "output" if top == "rt" => {
+            Some("rule 2: the runtime depends on the sensor/arm/output seams, never the reverse")
         }
         _ => None,
     }

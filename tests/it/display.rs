@@ -394,3 +394,33 @@ fn a_calibrations_frames_carry_the_guides_words_sounds_and_summary() {
     assert_eq!(end.headline, "fitted — the profile is written");
     assert_eq!(end.outcome.unwrap().profile.as_deref(), Some("p.toml"));
 }
+
+/// A library for the computer and the home: each entry shows as what it
+/// does, in the library's order.
+#[test]
+fn entries_show_as_what_they_do() {
+    let path = common::fixture("computer-and-home.toml");
+    let config = sipnpuff::config::Config::from_file(&path).unwrap();
+    let screen = sipnpuff::display::screen::Screen::new(config.core(), "sim");
+    let shown: Vec<(&str, &str)> = screen
+        .setup()
+        .modes
+        .iter()
+        .map(|m| (m.mode.as_str(), m.label.as_str()))
+        .collect();
+    assert_eq!(
+        shown,
+        [
+            ("translate_x", "Forward / back"),
+            ("fingers", "Fingers"),
+            ("pointer_x", "Pointer ←→"),
+            ("pointer_y", "Pointer ↑↓"),
+            ("scroll", "Scroll ↑↓"),
+            ("drag", "Drag"),
+            ("click:left", "Click: left"),
+            ("key:ctrl+alt+t", "Ctrl+Alt+T"),
+            ("event:lights_toggle", "Lights: toggle"),
+            ("event:call_for_help", "Call for help"),
+        ]
+    );
+}

@@ -29,6 +29,7 @@ mod fit_live;
 mod golden;
 mod motion;
 mod motion_safety;
+mod outputs;
 mod peers;
 mod properties;
 mod recording;

@@ -377,6 +377,7 @@ fn a_late_wake_up_faults_and_discards_the_sensors_backlog() {
             arm: arm_tx,
             events: events_tx,
             recorded: None,
+            outputs: Vec::new(),
         },
         false,
     );

@@ -52,9 +52,9 @@ pub(super) fn scanning(p: &mut Problems, c: &ScanningConfig) {
     }
 }
 
-/// `[[sequence]]`: how many, none empty, none listed twice. An entry
-/// whose `actions` (or the entry itself) the reader found wrong holds the
-/// built-in value in its place and is not compared.
+/// `[[sequence]]`: how many, none empty, none listed twice, no home
+/// event used twice. An entry whose actions or target the reader found
+/// wrong holds the built-in entry in its place and is not compared.
 pub(super) fn library(p: &mut Problems, entries: &[SequenceEntry]) {
     let count = entries.len();
     if count == 0 {
@@ -71,7 +71,11 @@ pub(super) fn library(p: &mut Problems, entries: &[SequenceEntry]) {
     for (i, entry) in entries.iter().enumerate() {
         let entry_key = format!("sequence #{}", i + 1);
         let key = format!("{entry_key}.actions");
-        if p.has(&entry_key) || p.has(&key) {
+        // Replaced by the built-in entry (an unknown key is only dropped).
+        let replaced = ["", ".actions", ".mode", ".key", ".click", ".event"]
+            .iter()
+            .any(|k| p.has(&format!("{entry_key}{k}")));
+        if replaced {
             continue;
         }
         if entry.actions.is_empty() {

@@ -1,0 +1,127 @@
+//! The outputs beyond the arm, each on its own thread: the control thread
+//! hands each output the commands it serves through a bounded ring
+//! ([`OutputLane`]) and never waits for it — a full ring drops the command
+//! and counts it. The output's thread carries the commands out as they
+//! come and, when the control thread's end of the ring goes (the run
+//! ended, stopped, faulted or its thread died), closes the output: every
+//! key and button held is let go before the device or connection goes.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::thread;
+use std::time::{Duration, SystemTime};
+
+use rtrb::RingBuffer;
+
+use crate::control::output_command::OutputCommand;
+use crate::output::{Output, OutputReport};
+
+/// Commands to one output: 2 s of pointer moves at 100 Hz, with room for
+/// the actions of a burst of matches.
+const OUTPUT_RING: usize = 256;
+/// How long an output's thread sleeps when there is nothing to do.
+const IDLE_SLEEP: Duration = Duration::from_millis(1);
+
+/// Which commands an output serves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Serves {
+    /// The keyboard and pointer: keys, clicks, the button, pointer moves,
+    /// letting go.
+    Computer,
+    /// Home events.
+    Home,
+}
+
+impl Serves {
+    /// Whether `command` is for this kind of output. RT-safe.
+    pub fn wants(self, command: &OutputCommand) -> bool {
+        match self {
+            Serves::Computer => command.is_for_computer(),
+            Serves::Home => command.is_for_home(),
+        }
+    }
+}
+
+/// The control thread's end of one output's ring. RT-safe to push into.
+pub struct OutputLane {
+    serves: Serves,
+    ring: rtrb::Producer<OutputCommand>,
+    dropped: Arc<AtomicU64>,
+}
+
+impl OutputLane {
+    /// Hands `command` on if the output serves it; a full ring drops it
+    /// (counted in the output's report). RT-safe: never blocks.
+    pub fn offer(&mut self, command: &OutputCommand) {
+        if self.serves.wants(command) && self.ring.push(*command).is_err() {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+}
+
+/// One output on its own thread, until the control thread's end of its
+/// ring goes.
+pub struct OutputThread {
+    handle: thread::JoinHandle<OutputReport>,
+    describe: String,
+}
+
+impl OutputThread {
+    /// Starts `output`'s thread; returns it and the lane the control
+    /// thread pushes into. Commands are given times from `tick_zero`.
+    pub fn start(
+        serves: Serves,
+        mut output: Box<dyn Output>,
+        tick_zero: SystemTime,
+    ) -> std::io::Result<(OutputThread, OutputLane)> {
+        let (ring, mut commands) = RingBuffer::new(OUTPUT_RING);
+        let dropped = Arc::new(AtomicU64::new(0));
+        let lane = OutputLane {
+            serves,
+            ring,
+            dropped: dropped.clone(),
+        };
+        let describe = output.describe();
+        let handle = thread::Builder::new()
+            .name(format!("output {}", short_name(&describe)))
+            .spawn(move || {
+                output.begin(tick_zero);
+                loop {
+                    let mut worked = false;
+                    while let Ok(command) = commands.pop() {
+                        output.apply(&command);
+                        worked = true;
+                    }
+                    if commands.is_abandoned() && commands.is_empty() {
+                        break;
+                    }
+                    output.idle();
+                    if !worked {
+                        thread::sleep(IDLE_SLEEP);
+                    }
+                }
+                let mut report = output.close();
+                report.dropped += dropped.load(Ordering::Relaxed);
+                report
+            })?;
+        Ok((OutputThread { handle, describe }, lane))
+    }
+
+    /// Waits for the output to close (its lane must be gone) and returns
+    /// its report; a thread that died says so.
+    pub fn join(self) -> OutputReport {
+        self.handle.join().unwrap_or_else(|_| OutputReport {
+            output: self.describe.clone(),
+            notes: vec![format!(
+                "the output's thread died: {} may not have let go of what it held",
+                self.describe
+            )],
+            ..OutputReport::default()
+        })
+    }
+}
+
+/// The first word of an output's description (a thread's name is short).
+fn short_name(describe: &str) -> &str {
+    describe.split_whitespace().next().unwrap_or("output")
+}
