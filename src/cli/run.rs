@@ -19,6 +19,7 @@ use crate::cli::output::{self, StdoutEvents, invalid};
 use crate::config::Config;
 use crate::control::target::{HomeEvent, Target};
 use crate::output::settings::MqttSettings;
+use crate::output::uinput::UinputOutput;
 use crate::output::{Output, OutputSpec};
 use crate::rt::control_loop::StopReason;
 use crate::rt::output_thread::Serves;
@@ -176,8 +177,8 @@ fn open_outputs(
 }
 
 /// `--output uinput`.
-fn open_uinput(_config: &Config) -> anyhow::Result<Box<dyn Output>> {
-    anyhow::bail!("--output uinput: the uinput backend is being merged")
+fn open_uinput(config: &Config) -> anyhow::Result<Box<dyn Output>> {
+    Ok(Box::new(UinputOutput::open(&config.output().uinput)?))
 }
 
 /// `--output mqtt`.
