@@ -668,11 +668,6 @@ impl UinputOutput {
             node,
         })
     }
-
-    /// The device's `/dev/input/eventN`, if it has one.
-    pub fn event_node(&self) -> Option<&Path> {
-        self.node.as_deref().ok()
-    }
 }
 
 impl Output for UinputOutput {
@@ -749,10 +744,10 @@ fn open_error(path: &Path, error: &io::Error) -> OutputError {
 fn wait_for_node(sys: &Path, limit: Duration) -> Result<PathBuf, String> {
     let start = Instant::now();
     loop {
-        if let Some(node) = event_node_in(sys, Path::new("/dev/input")) {
-            if node.exists() {
-                return Ok(node);
-            }
+        if let Some(node) = event_node_in(sys, Path::new("/dev/input"))
+            && node.exists()
+        {
+            return Ok(node);
         }
         if start.elapsed() >= limit {
             return Err(format!(

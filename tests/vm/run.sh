@@ -242,7 +242,7 @@ cp "$HERE/guest/init" "$RD/init"
 chmod 755 "$RD/init"
 cp "$BUILD"/bin/* "$RD/harness/bin/"
 cp "$kernel"/modules/* "$RD/harness/modules/"
-cp "$HERE/pattern.txt" "$HERE/pattern-unplug.txt" "$HERE/guest.toml" "$HERE/guest/events.sed" \
+cp "$HERE/pattern.txt" "$HERE/pattern-unplug.txt" "$HERE/uinput-pattern.txt" "$HERE/guest.toml" "$HERE/guest/events.sed" \
     "$OUT/pattern.csv" "$OUT/uinput.csv" "$OUT/uinput.toml" "$RD/harness/"
 cp "$EXP"/*.txt "$EXP"/*.jsonl "$RD/harness/expected/"
 if [ -n "${VM_TESTS:-}" ]; then
