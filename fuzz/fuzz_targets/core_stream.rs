@@ -1,8 +1,10 @@
 //! Arbitrary sample streams (levels anywhere in and out of 0–5 V, NaN,
 //! infinities, missing samples, a device gone) through the whole core and
-//! motion layer, with the built-in library or the paper's (with prefixes),
-//! and process stalls (ticks that jump ahead): never a panic; matches only
-//! from the library; nothing but finite numbers reaching the arm; and the
+//! motion layer, with the built-in library, the paper's (with prefixes) or
+//! one for the computer and the home (keys, clicks, pointer modes, a drag,
+//! home events), and process stalls (ticks that jump ahead): never a
+//! panic; matches only from the library; a drag's button never left down
+//! after a fault's release; nothing but finite numbers reaching the arm; and the
 //! safety monitor's promises at every tick (`sipnpuff::tools::safety`: the
 //! workspace by the margin as a normal distance, the orientation limits,
 //! speed, acceleration and jerk vectors within the limits, still within
@@ -15,21 +17,25 @@ use std::sync::OnceLock;
 use libfuzzer_sys::fuzz_target;
 use sipnpuff::config::Config;
 use sipnpuff::control::event::Event;
+use sipnpuff::control::output_command::OutputCommand;
 use sipnpuff::control::pipeline::{Pipeline, TickOutput};
 use sipnpuff::control::sample::Sample;
 use sipnpuff::tools::safety::SafetyMonitor;
 
 const PAPER_LIBRARY: &str = include_str!("../../fixtures/paper-example.toml");
+const OUTPUTS_LIBRARY: &str = include_str!("../../fixtures/computer-and-home.toml");
 /// Bound on one input's length, so each run stays short.
 const MAX_TICKS: u64 = 30_000;
 
-/// The built-in configuration and the paper's library, read once (not
-/// once an input: the same text every time).
-fn configs() -> &'static [Config; 2] {
-    static CONFIGS: OnceLock<[Config; 2]> = OnceLock::new();
+/// The built-in configuration, the paper's library and the computer and
+/// home's, read once (not once an input: the same text every time).
+fn configs() -> &'static [Config; 3] {
+    static CONFIGS: OnceLock<[Config; 3]> = OnceLock::new();
     CONFIGS.get_or_init(|| {
         let paper = Config::from_toml_str(PAPER_LIBRARY).expect("the paper's example is valid");
-        [Config::default(), paper]
+        let outputs =
+            Config::from_toml_str(OUTPUTS_LIBRARY).expect("the outputs' library is valid");
+        [Config::default(), paper, outputs]
     })
 }
 
@@ -69,14 +75,14 @@ fn check(config: &Config, o: &TickOutput, monitor: &mut SafetyMonitor) {
         assert!(norm(&c.angular) <= m.angular_speed_radps * tol, "{c:?}");
     }
     for event in o.events.iter() {
-        if let Event::Match { sequence, mode } = event {
+        if let Event::Match { sequence, target } = event {
             assert!(
                 config
                     .core()
                     .sequences()
                     .iter()
-                    .any(|e| e.actions == *sequence && e.mode == *mode),
-                "{sequence:?} → {mode:?} is not in the library"
+                    .any(|e| e.actions == *sequence && e.target == *target),
+                "{sequence:?} → {target:?} is not in the library"
             );
         }
     }
@@ -86,11 +92,13 @@ fuzz_target!(|data: &[u8]| {
     let Some((&choice, chunks)) = data.split_first() else {
         return;
     };
-    let config = &configs()[usize::from(choice % 2)];
+    let config = &configs()[usize::from(choice % 3)];
     let mut core = Pipeline::new(config.core());
     let mut monitor = SafetyMonitor::new(config.core());
     let mut out = TickOutput::default();
     let mut tick = 0u64;
+    // The drag's button as the outputs would hold it.
+    let mut button_down = false;
     for chunk in chunks.chunks_exact(3) {
         let (kind, level, len) = (chunk[0], chunk[1], chunk[2]);
         // Hold each level 4 ms to 1 s, so breaths, sequences and holds form.
@@ -99,6 +107,17 @@ fuzz_target!(|data: &[u8]| {
             tick += stalled;
             core.step(tick, sample, &mut out);
             check(config, &out, &mut monitor);
+            for command in out.outputs.iter() {
+                match command {
+                    OutputCommand::Button { down } => button_down = *down,
+                    OutputCommand::ReleaseAll => button_down = false,
+                    _ => {}
+                }
+            }
+            assert!(
+                !(out.faulted && button_down),
+                "a fault left the drag's button down"
+            );
             tick += 1;
             if tick >= MAX_TICKS {
                 return;
