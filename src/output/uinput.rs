@@ -317,8 +317,9 @@ impl<S: Sink> Driver<S> {
             Ok(()) => self.applied += 1,
             Err(error) => {
                 self.lost(command, &error.to_string());
-                // Whatever this command pressed (or may have: a failed
-                // write's events are not known to be undone) goes up now.
+                // Everything held goes up now, on the safe side: this
+                // command's keys (a failed write may still have pressed
+                // them) and a drag's button alike.
                 let _ = self.release_all();
             }
         }
