@@ -1,7 +1,8 @@
 //! `--output uinput`: the computer's keyboard and pointer, as a virtual
 //! input device made through `/dev/uinput` (kernel
-//! `Documentation/input/uinput.rst`). The desktop sees one more keyboard
-//! and mouse; a chord is typed and a click clicked as by a real one.
+//! `Documentation/input/uinput.rst`) with the evdev crate's
+//! [`VirtualDevice`]. The desktop sees one more keyboard and mouse; a
+//! chord is typed and a click clicked as by a real one.
 //!
 //! The device registers exactly the keys a chord may name
 //! ([`KEYS`](crate::control::keys::KEYS)), the left, right and middle
@@ -12,14 +13,17 @@
 //! device is destroyed. Nothing may stay pressed: a stuck Ctrl would turn
 //! the person's next keystrokes into shortcuts they did not ask for.
 
-use std::ffi::CString;
 use std::fs::OpenOptions;
 use std::io;
-use std::os::fd::{AsRawFd, OwnedFd};
+use std::os::unix::fs::{FileTypeExt, MetadataExt};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime};
 
-use evdev::{EventType, KeyCode, RelativeAxisCode, SynchronizationCode};
+use evdev::uinput::VirtualDevice;
+use evdev::{
+    AttributeSet, BusType, EventType, InputEvent, InputId, KeyCode, RelativeAxisCode,
+    SynchronizationCode,
+};
 
 use crate::control::keys::{self, KEYS};
 use crate::control::output_command::OutputCommand;
@@ -475,114 +479,36 @@ fn key_names(codes: &[u16]) -> String {
 
 // ------------------------------------------------------------ the device
 
-/// `_IOC(dir, 'U', nr, size)` (dir 0 none, 1 write, 2 read).
-const fn ioc(dir: u64, nr: u64, size: usize) -> u64 {
-    (dir << 30) | ((size as u64) << 16) | ((b'U' as u64) << 8) | nr
-}
-const UI_DEV_CREATE: u64 = ioc(0, 1, 0);
-const UI_DEV_DESTROY: u64 = ioc(0, 2, 0);
-const UI_DEV_SETUP: u64 = ioc(1, 3, size_of::<libc::uinput_setup>());
-const UI_SET_EVBIT: u64 = ioc(1, 100, size_of::<libc::c_int>());
-const UI_SET_KEYBIT: u64 = ioc(1, 101, size_of::<libc::c_int>());
-const UI_SET_RELBIT: u64 = ioc(1, 102, size_of::<libc::c_int>());
-/// `UI_GET_SYSNAME(len)`: the device's name under /sys/devices/virtual/input.
-const fn ui_get_sysname(len: usize) -> u64 {
-    ioc(2, 44, len)
-}
-/// `BUS_VIRTUAL`.
-const BUS_VIRTUAL: u16 = 0x06;
+/// `UINPUT_MINOR`: uinput is the misc (major 10) character device 223.
+const UINPUT_DEV: (u32, u32) = (10, 223);
 
-/// The created device: destroyed when dropped.
+/// Longest device name: the kernel's `UINPUT_MAX_NAME_SIZE` is 80 with
+/// its terminating zero, and evdev's builder asserts (panics) unless the
+/// name and its zero are shorter than that, so 78 bytes.
+pub const MAX_NAME: usize = 78;
+
+/// The made device, as a [`Sink`]; closing it (dropping) destroys it.
 struct Device {
-    fd: OwnedFd,
-}
-
-impl Device {
-    /// An ioctl whose argument is an integer (or none).
-    fn ioctl_int(&self, request: u64, arg: libc::c_int) -> io::Result<()> {
-        // SAFETY: the UI_* requests used with this take an integer
-        // argument by value (or ignore it); the fd is open.
-        let rc = unsafe { libc::ioctl(self.fd.as_raw_fd(), request as _, arg) };
-        if rc < 0 {
-            return Err(io::Error::last_os_error());
-        }
-        Ok(())
-    }
-
-    /// "input12": the device's directory under /sys/devices/virtual/input.
-    fn sysname(&self) -> io::Result<String> {
-        let mut name = [0u8; 64];
-        // SAFETY: UI_GET_SYSNAME(64) writes at most 64 bytes into `name`,
-        // which is valid and writable for that size.
-        let rc = unsafe {
-            libc::ioctl(
-                self.fd.as_raw_fd(),
-                ui_get_sysname(name.len()) as _,
-                name.as_mut_ptr(),
-            )
-        };
-        if rc < 0 {
-            return Err(io::Error::last_os_error());
-        }
-        let end = name.iter().position(|&b| b == 0).unwrap_or(name.len());
-        Ok(String::from_utf8_lossy(name.get(..end).unwrap_or(&[])).into_owned())
-    }
+    device: VirtualDevice,
+    /// The frame being written, as evdev's events.
+    events: Vec<InputEvent>,
 }
 
 impl Sink for Device {
+    /// `emit` writes the events and then one `SYN_REPORT 0`: the frame's
+    /// closing `SYN` is that one (a frame without one gets it).
     fn write(&mut self, events: &[Event]) -> io::Result<()> {
-        // SAFETY: all-zero bytes are a valid `input_event` (integers and
-        // a timeval, which uinput ignores: the kernel stamps the event).
-        let zero: libc::input_event = unsafe { std::mem::zeroed() };
-        let mut raw = [zero; 16];
-        for chunk in events.chunks(raw.len()) {
-            for (slot, e) in raw.iter_mut().zip(chunk) {
-                slot.type_ = e.kind;
-                slot.code = e.code;
-                slot.value = e.value;
-            }
-            let bytes = size_of_val(&raw[0]) * chunk.len();
-            let mut done = 0;
-            while done < bytes {
-                // SAFETY: `raw` holds `bytes` initialised bytes from its
-                // start; `done < bytes`, so the pointer and length stay
-                // inside it.
-                let n = unsafe {
-                    libc::write(
-                        self.fd.as_raw_fd(),
-                        raw.as_ptr().cast::<u8>().add(done).cast(),
-                        bytes - done,
-                    )
-                };
-                if n < 0 {
-                    let error = io::Error::last_os_error();
-                    if error.kind() == io::ErrorKind::Interrupted {
-                        continue;
-                    }
-                    return Err(error);
-                }
-                if n == 0 {
-                    return Err(io::Error::new(
-                        io::ErrorKind::WriteZero,
-                        "the device took no events",
-                    ));
-                }
-                done += n as usize;
-            }
-        }
-        Ok(())
+        let body = events.strip_suffix(&[Event::SYN]).unwrap_or(events);
+        self.events.clear();
+        self.events.extend(
+            body.iter()
+                .map(|e| InputEvent::new(e.kind, e.code, e.value)),
+        );
+        self.device.emit(&self.events)
     }
 
     fn pause(&mut self, duration: Duration) {
         std::thread::sleep(duration);
-    }
-}
-
-impl Drop for Device {
-    fn drop(&mut self) {
-        // Closing the fd destroys the device too; destroying it first says
-        // so plainly.
-        let _ = self.ioctl_int(UI_DEV_DESTROY, 0);
     }
 }
 
@@ -599,18 +525,9 @@ impl UinputOutput {
     /// through `/dev/uinput`. No uinput module, or no permission: an error
     /// that says how to fix it, before anything starts.
     pub fn open(settings: &UinputSettings) -> Result<UinputOutput, OutputError> {
-        UinputOutput::open_at(Path::new(UINPUT_PATH), settings)
-    }
-
-    /// [`UinputOutput::open`] through the uinput device at `path`.
-    fn open_at(path: &Path, settings: &UinputSettings) -> Result<UinputOutput, OutputError> {
         let name = device_name(&settings.name)?;
-        let file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .open(path)
-            .map_err(|e| open_error(path, &e))?;
-        let device = Device { fd: file.into() };
+        let path = Path::new(UINPUT_PATH);
+        check_uinput(path)?;
         let refused = |what: &str, e: io::Error| OutputError {
             output: "uinput",
             detail: format!(
@@ -618,50 +535,38 @@ impl UinputOutput {
                 path.display()
             ),
         };
-        device
-            .ioctl_int(UI_SET_EVBIT, libc::c_int::from(EV_KEY))
-            .map_err(|e| refused("UI_SET_EVBIT", e))?;
-        for code in KEYS.iter().map(|k| k.code).chain(BUTTONS) {
-            device
-                .ioctl_int(UI_SET_KEYBIT, libc::c_int::from(code))
-                .map_err(|e| refused("UI_SET_KEYBIT", e))?;
-        }
-        device
-            .ioctl_int(UI_SET_EVBIT, libc::c_int::from(EV_REL))
-            .map_err(|e| refused("UI_SET_EVBIT", e))?;
-        for code in AXES {
-            device
-                .ioctl_int(UI_SET_RELBIT, libc::c_int::from(code))
-                .map_err(|e| refused("UI_SET_RELBIT", e))?;
-        }
-        // SAFETY: all-zero bytes are a valid `uinput_setup` (integers).
-        let mut setup: libc::uinput_setup = unsafe { std::mem::zeroed() };
-        setup.id.bustype = BUS_VIRTUAL;
-        setup.id.version = 1;
-        for (slot, &byte) in setup.name.iter_mut().zip(name.as_bytes()) {
-            *slot = byte as libc::c_char;
-        }
-        // SAFETY: UI_DEV_SETUP reads one `uinput_setup` from `setup`.
-        let rc = unsafe { libc::ioctl(device.fd.as_raw_fd(), UI_DEV_SETUP as _, &setup) };
-        if rc < 0 {
-            return Err(refused(
-                "UI_DEV_SETUP (Linux 4.5 or later)",
-                io::Error::last_os_error(),
-            ));
-        }
-        device
-            .ioctl_int(UI_DEV_CREATE, 0)
-            .map_err(|e| refused("UI_DEV_CREATE", e))?;
-        let node = device
-            .sysname()
-            .map_err(|e| format!("no name under /sys ({e})"))
-            .and_then(|sys| {
-                wait_for_node(
-                    &Path::new("/sys/devices/virtual/input").join(sys),
-                    NODE_WAIT,
-                )
-            });
-        let mut driver = Driver::new(device);
+        let keys: AttributeSet<KeyCode> = KEYS
+            .iter()
+            .map(|k| k.code)
+            .chain(BUTTONS)
+            .map(KeyCode)
+            .collect();
+        let axes: AttributeSet<RelativeAxisCode> = AXES.into_iter().map(RelativeAxisCode).collect();
+        // The builder opens UINPUT_PATH again, as `check_uinput` did.
+        let mut device = VirtualDevice::builder()
+            .map_err(|e| open_error(path, &e))?
+            .name(name)
+            .input_id(InputId::new(BusType::BUS_VIRTUAL, 0, 0, 1))
+            .with_keys(&keys)
+            .map_err(|e| refused("UI_SET_EVBIT or UI_SET_KEYBIT", e))?
+            .with_relative_axes(&axes)
+            .map_err(|e| refused("UI_SET_EVBIT or UI_SET_RELBIT", e))?
+            .build()
+            .map_err(|e| refused("UI_DEV_SETUP (Linux 4.5 or later) or UI_DEV_CREATE", e))?;
+        let node = match device.get_syspath() {
+            Err(e) => Err(format!("no name under /sys ({e})")),
+            Ok(sys) => wait_for_node(&sys, NODE_WAIT, || {
+                device
+                    .enumerate_dev_nodes_blocking()
+                    .ok()?
+                    .filter_map(Result::ok)
+                    .find(|node| node.exists())
+            }),
+        };
+        let mut driver = Driver::new(Device {
+            device,
+            events: Vec::with_capacity(16),
+        });
         driver.sink.pause(SETTLE);
         Ok(UinputOutput {
             driver,
@@ -699,21 +604,57 @@ impl Output for UinputOutput {
     }
 }
 
-/// The name as the kernel takes it: at most 79 bytes, no NUL.
-fn device_name(name: &str) -> Result<CString, OutputError> {
-    let max = libc::UINPUT_MAX_NAME_SIZE - 1;
-    if name.len() > max {
+/// The name as the device takes it: at most [`MAX_NAME`] bytes, no NUL.
+fn device_name(name: &str) -> Result<&str, OutputError> {
+    if name.len() > MAX_NAME {
         return Err(OutputError {
             output: "uinput",
             detail: format!(
-                "the device name is {} bytes; the kernel keeps at most {max}",
+                "the device name is {} bytes; at most {MAX_NAME} fit",
                 name.len()
             ),
         });
     }
-    CString::new(name).map_err(|_| OutputError {
+    if name.contains('\0') {
+        return Err(OutputError {
+            output: "uinput",
+            detail: "the device name holds a NUL character".to_owned(),
+        });
+    }
+    Ok(name)
+}
+
+/// That `path` opens for reading and writing and is the kernel's uinput
+/// device, or an error that says what to do. evdev's builder opens
+/// [`UINPUT_PATH`] itself and answers only with an `io::Error`; this
+/// check comes first so the person reads which fix they need.
+fn check_uinput(path: &Path) -> Result<(), OutputError> {
+    let file = OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(path)
+        .map_err(|e| open_error(path, &e))?;
+    let meta = file.metadata().map_err(|e| open_error(path, &e))?;
+    let rdev = meta.rdev();
+    let found = (libc::major(rdev), libc::minor(rdev));
+    if meta.file_type().is_char_device() && found == UINPUT_DEV {
+        return Ok(());
+    }
+    let what = if meta.file_type().is_char_device() {
+        format!("the character device {}:{}", found.0, found.1)
+    } else if meta.is_file() {
+        "a regular file".to_owned()
+    } else {
+        "not a character device".to_owned()
+    };
+    Err(OutputError {
         output: "uinput",
-        detail: "the device name holds a NUL character".to_owned(),
+        detail: format!(
+            "{} is {what}: it is not the kernel's uinput device (the character device {}:{})",
+            path.display(),
+            UINPUT_DEV.0,
+            UINPUT_DEV.1
+        ),
     })
 }
 
@@ -740,14 +681,17 @@ fn open_error(path: &Path, error: &io::Error) -> OutputError {
     }
 }
 
-/// The event node (`/dev/input/eventN`) of the input device whose sysfs
-/// directory is `sys`, once both exist; waits up to `limit`.
-fn wait_for_node(sys: &Path, limit: Duration) -> Result<PathBuf, String> {
+/// The device's event node (`/dev/input/eventN`), once `find` finds it;
+/// `sys` is the device's directory under /sys, for the message. Waits up
+/// to `limit`.
+fn wait_for_node(
+    sys: &Path,
+    limit: Duration,
+    mut find: impl FnMut() -> Option<PathBuf>,
+) -> Result<PathBuf, String> {
     let start = Instant::now();
     loop {
-        if let Some(node) = event_node_in(sys, Path::new("/dev/input"))
-            && node.exists()
-        {
+        if let Some(node) = find() {
             return Ok(node);
         }
         if start.elapsed() >= limit {
@@ -759,20 +703,6 @@ fn wait_for_node(sys: &Path, limit: Duration) -> Result<PathBuf, String> {
         }
         std::thread::sleep(Duration::from_millis(5));
     }
-}
-
-/// `dev/eventN` for the `eventN` entry of the sysfs directory `sys`.
-fn event_node_in(sys: &Path, dev: &Path) -> Option<PathBuf> {
-    std::fs::read_dir(sys)
-        .ok()?
-        .filter_map(Result::ok)
-        .map(|entry| entry.file_name())
-        .find(|name| {
-            name.to_str()
-                .and_then(|n| n.strip_prefix("event"))
-                .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
-        })
-        .map(|name| dev.join(name))
 }
 
 #[cfg(test)]
@@ -1109,13 +1039,9 @@ mod tests {
         }
     }
 
-    fn settings() -> UinputSettings {
-        UinputSettings::default()
-    }
-
     fn open_err(path: &Path) -> OutputError {
-        match UinputOutput::open_at(path, &settings()) {
-            Ok(_) => panic!("{} opened", path.display()),
+        match check_uinput(path) {
+            Ok(()) => panic!("{} passed as uinput", path.display()),
             Err(e) => e,
         }
     }
@@ -1161,10 +1087,11 @@ mod tests {
         std::fs::write(&path, b"").unwrap();
         std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o000)).unwrap();
         let error = open_err(&path);
-        // SAFETY: geteuid has no preconditions.
-        if unsafe { libc::geteuid() } == 0 {
-            // Root opens it anyway; the file then is no uinput device.
-            assert_eq!(error.detail, not_uinput(&path));
+        let opens = OpenOptions::new().read(true).write(true).open(&path);
+        if opens.is_ok() {
+            // Root (CAP_DAC_OVERRIDE) opens it anyway; it then is no
+            // uinput device.
+            assert_eq!(error.detail, not_uinput(&path, "a regular file"));
         } else {
             let eacces = io::Error::from_raw_os_error(libc::EACCES);
             assert_eq!(
@@ -1177,11 +1104,10 @@ mod tests {
         }
     }
 
-    fn not_uinput(path: &Path) -> String {
+    fn not_uinput(path: &Path, what: &str) -> String {
         format!(
-            "{} refused UI_SET_EVBIT ({}): it is not the kernel's uinput device",
+            "{} is {what}: it is not the kernel's uinput device (the character device 10:223)",
             path.display(),
-            io::Error::from_raw_os_error(libc::ENOTTY)
         )
     }
 
@@ -1190,57 +1116,46 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("uinput");
         std::fs::write(&path, b"").unwrap();
-        assert_eq!(open_err(&path).detail, not_uinput(&path));
-    }
-
-    #[test]
-    fn names_the_kernel_cannot_keep_are_refused() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("uinput");
-        let with = |name: &str| UinputSettings { name: name.into() };
-        let err = |name: &str| match UinputOutput::open_at(&path, &with(name)) {
-            Ok(_) => panic!("opened"),
-            Err(e) => e.detail,
-        };
+        assert_eq!(open_err(&path).detail, not_uinput(&path, "a regular file"));
+        // A character device, but another one.
+        let null = Path::new("/dev/null");
         assert_eq!(
-            err(&"x".repeat(80)),
-            "the device name is 80 bytes; the kernel keeps at most 79"
-        );
-        assert_eq!(err("a\0b"), "the device name holds a NUL character");
-    }
-
-    #[test]
-    fn the_event_node_is_found_under_sys() {
-        let dir = tempfile::tempdir().unwrap();
-        let sys = dir.path().join("input7");
-        std::fs::create_dir_all(sys.join("capabilities")).unwrap();
-        std::fs::write(sys.join("name"), "sipnpuff\n").unwrap();
-        std::fs::write(sys.join("eventual"), "").unwrap();
-        assert_eq!(event_node_in(&sys, Path::new("/dev/input")), None);
-        std::fs::create_dir(sys.join("event12")).unwrap();
-        assert_eq!(
-            event_node_in(&sys, Path::new("/dev/input")),
-            Some(PathBuf::from("/dev/input/event12"))
-        );
-        let error = wait_for_node(&dir.path().join("input8"), Duration::from_millis(20));
-        assert_eq!(
-            error,
-            Err(format!(
-                "no /dev/input/event node for {} after 20 ms: is the evdev module loaded?",
-                dir.path().join("input8").display()
-            ))
+            open_err(null).detail,
+            not_uinput(null, "the character device 1:3")
         );
     }
 
     #[test]
-    fn ioctl_numbers_are_the_kernels() {
-        // linux/uinput.h on x86_64.
-        assert_eq!(UI_DEV_CREATE, 0x5501);
-        assert_eq!(UI_DEV_DESTROY, 0x5502);
-        assert_eq!(UI_DEV_SETUP, 0x405c_5503);
-        assert_eq!(UI_SET_EVBIT, 0x4004_5564);
-        assert_eq!(UI_SET_KEYBIT, 0x4004_5565);
-        assert_eq!(UI_SET_RELBIT, 0x4004_5566);
-        assert_eq!(ui_get_sysname(64), 0x8040_552c);
+    fn names_that_do_not_fit_are_refused() {
+        // 79 bytes would fit the kernel, but evdev's builder panics on it.
+        let fits = "x".repeat(MAX_NAME);
+        assert_eq!(device_name(&fits).unwrap(), fits);
+        assert_eq!(
+            device_name(&"x".repeat(79)).unwrap_err().detail,
+            "the device name is 79 bytes; at most 78 fit"
+        );
+        assert_eq!(
+            device_name("a\0b").unwrap_err().detail,
+            "the device name holds a NUL character"
+        );
+    }
+
+    #[test]
+    fn the_event_node_is_waited_for() {
+        let sys = Path::new("/sys/devices/virtual/input/input8");
+        let mut calls = 0;
+        let found = wait_for_node(sys, Duration::from_secs(5), || {
+            calls += 1;
+            (calls == 3).then(|| PathBuf::from("/dev/input/event12"))
+        });
+        assert_eq!(found, Ok(PathBuf::from("/dev/input/event12")));
+        assert_eq!(calls, 3);
+        assert_eq!(
+            wait_for_node(sys, Duration::from_millis(20), || None),
+            Err(
+                "no /dev/input/event node for /sys/devices/virtual/input/input8 after 20 ms: is the evdev module loaded?"
+                    .to_owned()
+            )
+        );
     }
 }
