@@ -21,6 +21,7 @@ use crate::control::target::{HomeEvent, Target};
 #[cfg(feature = "mqtt")]
 use crate::output::mqtt::MqttOutput;
 use crate::output::settings::MqttSettings;
+use crate::output::uinput::UinputOutput;
 use crate::output::{Output, OutputSpec};
 use crate::rt::control_loop::StopReason;
 use crate::rt::output_thread::Serves;
@@ -178,8 +179,8 @@ fn open_outputs(
 }
 
 /// `--output uinput`.
-fn open_uinput(_config: &Config) -> anyhow::Result<Box<dyn Output>> {
-    anyhow::bail!("--output uinput: the uinput backend is being merged")
+fn open_uinput(config: &Config) -> anyhow::Result<Box<dyn Output>> {
+    Ok(Box::new(UinputOutput::open(&config.output().uinput)?))
 }
 
 /// `--output mqtt`: connects now, so a wrong address, a broker that is

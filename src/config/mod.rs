@@ -246,6 +246,27 @@ mod tests {
     }
 
     #[test]
+    fn a_uinput_name_of_79_bytes_is_refused() {
+        // The kernel would keep 79, but evdev's builder panics on it.
+        let named = |n: usize| format!("[output.uinput]\nname = \"{}\"\n", "x".repeat(n));
+        assert_eq!(
+            Config::from_toml_str(&named(78))
+                .unwrap()
+                .output()
+                .uinput
+                .name
+                .len(),
+            78
+        );
+        let e = errors(&named(79));
+        let found: Vec<(&str, &str)> = e
+            .iter()
+            .map(|e| (e.key.as_str(), e.message.as_str()))
+            .collect();
+        assert_eq!(found, [("output.uinput.name", "79 bytes: at most 78 fit")]);
+    }
+
+    #[test]
     fn the_scanning_interface_and_its_errors() {
         let c = Config::from_toml_str(
             r#"

@@ -71,7 +71,14 @@ pub fn draw(out: &mut ratatui::Frame<'_>, setup: &Setup, frame: &Frame) {
     let [banner, body] = Layout::vertical([Constraint::Length(3), Constraint::Min(0)]).areas(area);
     let title = match (frame.state, &frame.command) {
         ("stopped", _) => "STOPPED — the arm is not moving".to_string(),
-        (_, Some(c)) => format!("{} — puff and sip move the arm", label(setup, c.mode)),
+        (_, Some(c)) => {
+            let moved = if ["pointer_x", "pointer_y", "scroll"].contains(&c.mode) {
+                "the pointer"
+            } else {
+                "the arm"
+            };
+            format!("{} — puff and sip move {moved}", label(setup, c.mode))
+        }
         _ if setup.interface == "asp" => "Choose a mode: breathe its sequence".into(),
         _ => "Choose a mode: puff when it is lit".into(),
     };

@@ -41,4 +41,5 @@ mod sensors;
 mod sessions;
 mod stress;
 mod study;
+mod uinput;
 mod watchdog;

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The VM harness: proves sipnpuff's sensor paths through the real Linux
 # kernel (USB HID and CDC-ACM gadgets on dummy_hcd, an ADS1115 on i2c-stub
-# with the real IIO driver, Debian's PREEMPT_RT kernel) in a QEMU guest.
+# with the real IIO driver, Debian's PREEMPT_RT kernel) in a QEMU guest,
+# and its keyboard and pointer output through uinput and evdev.
 #
 #   bash tests/vm/run.sh
 #
@@ -9,7 +10,8 @@
 # busybox-static, kmod, cpio, rt-tests), downloads Debian's PREEMPT_RT
 # kernel once (cached under target/vm/kernel/), builds sipnpuff and the C
 # test drivers (tests/vm/feeders/), computes the expected events on the
-# host (`sipnpuff replay` of tests/vm/pattern.txt), packs an initramfs,
+# host (`sipnpuff replay` of tests/vm/pattern.txt and
+# tests/vm/uinput-pattern.txt), packs an initramfs,
 # boots it under QEMU (TCG: nested KVM hangs here), and reads the guest's
 # `PASS name ...` / `FAIL name ...` lines from the serial console. Exits 1
 # on any FAIL, on a test of tests/vm/tests.txt that printed nothing, or on
@@ -175,8 +177,8 @@ pattern_csv() { # PATTERN GAP > CSV
 pattern_csv "$HERE/pattern.txt" none >"$OUT/pattern.csv" || die "bad pattern"
 pattern_ms=$(($(wc -l <"$OUT/pattern.csv") - 1))
 
-expected_from() { # CSV NAME: replay it, keep the events and their bursts and modes
-    "$SIPNPUFF" replay "$1" --config "$HERE/guest.toml" --events "$EXP/$2.jsonl" 2>"$EXP/$2.replay.txt" ||
+expected_from() { # CSV NAME [CONFIG]: replay it, keep the events and their bursts and modes
+    "$SIPNPUFF" replay "$1" --config "${3:-$HERE/guest.toml}" --events "$EXP/$2.jsonl" 2>"$EXP/$2.replay.txt" ||
         die "sipnpuff replay $1 failed: $(cat "$EXP/$2.replay.txt")"
     sed -n -f "$HERE/guest/events.sed" "$EXP/$2.jsonl" >"$EXP/$2.txt"
     [ -s "$EXP/$2.txt" ] || die "the replay of $1 gave no burst and no mode: the pattern selects nothing"
@@ -197,6 +199,14 @@ expected_from "$OUT/unplug.csv" unplug
 pattern_csv "$HERE/pattern-unplug.txt" 1000 >"$OUT/reconnect.csv" || die "bad pattern"
 expected_from "$OUT/reconnect.csv" reconnect
 echo "vm-harness: unplugged: $(tr '\n' ' ' <"$EXP/unplug.txt"); reconnecting: $(tr '\n' ' ' <"$EXP/reconnect.txt")"
+
+# The keyboard and pointer (--output uinput): the breaths of
+# uinput-pattern.txt with the library of uinput-library.toml (a chord, a
+# click, a double click, the pointer's axes).
+cat "$HERE/guest.toml" "$HERE/uinput-library.toml" >"$OUT/uinput.toml"
+pattern_csv "$HERE/uinput-pattern.txt" none >"$OUT/uinput.csv" || die "bad pattern"
+expected_from "$OUT/uinput.csv" uinput "$OUT/uinput.toml"
+echo "vm-harness: uinput: $(tr '\n' ' ' <"$EXP/uinput.txt")"
 
 # A dialect samples the pattern every P ms; the loop holds each value until
 # the next. Which ms the samples fall on is chance: replay four phases. The
@@ -232,8 +242,8 @@ cp "$HERE/guest/init" "$RD/init"
 chmod 755 "$RD/init"
 cp "$BUILD"/bin/* "$RD/harness/bin/"
 cp "$kernel"/modules/* "$RD/harness/modules/"
-cp "$HERE/pattern.txt" "$HERE/pattern-unplug.txt" "$HERE/guest.toml" "$HERE/guest/events.sed" \
-    "$OUT/pattern.csv" "$RD/harness/"
+cp "$HERE/pattern.txt" "$HERE/pattern-unplug.txt" "$HERE/uinput-pattern.txt" "$HERE/guest.toml" "$HERE/guest/events.sed" \
+    "$OUT/pattern.csv" "$OUT/uinput.csv" "$OUT/uinput.toml" "$RD/harness/"
 cp "$EXP"/*.txt "$EXP"/*.jsonl "$RD/harness/expected/"
 if [ -n "${VM_TESTS:-}" ]; then
     printf "%s\n" $VM_TESTS >"$RD/harness/tests.txt" # one name a line

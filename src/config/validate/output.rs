@@ -5,9 +5,11 @@ use crate::config::error::Problems;
 use crate::control::pointer::PointerConfig;
 use crate::output::settings::OutputSettings;
 
-/// Longest uinput device name the kernel keeps (`UINPUT_MAX_NAME_SIZE`
-/// is 80 with its terminating zero).
-const MAX_DEVICE_NAME: usize = 79;
+/// Longest uinput device name: 78 bytes. The kernel's
+/// `UINPUT_MAX_NAME_SIZE` is 80 with the terminating zero, but evdev's
+/// builder asserts (panics) unless the name and its zero are shorter than
+/// 80, so a 79-byte name must be refused here, before the run.
+const MAX_DEVICE_NAME: usize = crate::output::uinput::MAX_NAME;
 /// Highest pointer speed, counts/s (a 4K screen in under a second).
 const MAX_POINTER_SPEED: f64 = 5000.0;
 /// Highest scroll speed, detents/s.
@@ -24,10 +26,7 @@ pub(super) fn output(p: &mut Problems, output: &OutputSettings, pointer: &Pointe
     } else if name.len() > MAX_DEVICE_NAME {
         p.add(
             "output.uinput.name",
-            format!(
-                "{} bytes: the kernel keeps at most {MAX_DEVICE_NAME}",
-                name.len()
-            ),
+            format!("{} bytes: at most {MAX_DEVICE_NAME} fit", name.len()),
         );
     }
     let key = |k: &str| format!("output.uinput.{k}");

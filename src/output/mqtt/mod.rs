@@ -544,6 +544,7 @@ impl MqttOutput {
             dropped: 0,
             lost: t.lost(),
             notes: t.notes(self.max_delay),
+            pointer_travel: None,
         }
     }
 }
