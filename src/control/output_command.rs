@@ -107,9 +107,4 @@ impl OutputCommands {
     pub fn iter(&self) -> impl Iterator<Item = &OutputCommand> {
         self.items.iter().map_while(Option::as_ref)
     }
-
-    /// No command.
-    pub fn is_empty(&self) -> bool {
-        self.iter().next().is_none()
-    }
 }
