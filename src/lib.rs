@@ -93,6 +93,7 @@ pub mod arm;
 pub mod cli;
 pub mod config;
 pub mod control;
+pub mod design;
 #[cfg(feature = "display")]
 pub mod display;
 pub mod fit;

@@ -24,6 +24,7 @@ macro_rules! progress {
 pub mod args;
 pub mod bench;
 pub mod config;
+pub mod design;
 pub mod display;
 pub mod fit;
 pub mod generate;
@@ -62,6 +63,10 @@ enum Command {
     /// three tasks with both interfaces (ASP and BSP) through the
     /// production core; completion times compared with the paper's.
     Study(study::StudyArgs),
+    /// Designs the sequence library for a person: `--check` analyses one
+    /// (time and errors per entry), without it the search for the
+    /// library that costs them least, tried in the study.
+    Design(design::DesignArgs),
     /// Write a synthetic recording of a scripted user (seeded, repeatable).
     Generate(generate::GenerateArgs),
     /// Fit the interface to a user: measure their breaths in a
@@ -103,6 +108,7 @@ pub fn main() -> ExitCode {
         Command::Run(args) => run::run(args),
         Command::Replay(args) => replay::replay(args),
         Command::Study(args) => study::study(args).map(|()| output::COMPLETED),
+        Command::Design(args) => design::design(args).map(|()| output::COMPLETED),
         Command::Generate(args) => generate::generate(args).map(|()| output::COMPLETED),
         Command::Fit(args) => fit::fit(args),
         Command::Bench { what } => bench::bench(what),

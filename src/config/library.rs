@@ -21,7 +21,7 @@ pub(super) const TARGET_KEYS: [&str; 4] = ["mode", "key", "click", "event"];
 
 /// One library entry, read and written in the file's form.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct LibraryEntry(pub(super) SequenceEntry);
+pub(crate) struct LibraryEntry(pub(crate) SequenceEntry);
 
 impl Serialize for LibraryEntry {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {

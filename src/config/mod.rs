@@ -20,7 +20,7 @@ mod defaults;
 pub mod diff;
 pub mod error;
 mod file;
-mod library;
+pub(crate) mod library;
 mod lines;
 mod names;
 pub mod print;

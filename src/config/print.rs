@@ -46,3 +46,14 @@ fn describe(entry: &SequenceEntry) -> String {
         .collect();
     format!("{}: {}", bursts.join(", "), entry.target.description())
 }
+
+/// One library entry as a `[[sequence]]` table a file holds.
+pub fn entry_toml(entry: &SequenceEntry) -> Result<String, toml::ser::Error> {
+    #[derive(serde::Serialize)]
+    struct One {
+        sequence: [crate::config::library::LibraryEntry; 1],
+    }
+    toml::to_string(&One {
+        sequence: [crate::config::library::LibraryEntry(*entry)],
+    })
+}

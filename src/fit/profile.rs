@@ -8,7 +8,7 @@ use std::fmt::Write;
 use crate::config::Config;
 use crate::fit::Fit;
 use crate::fit::check::Confusion;
-use crate::fit::predict::Rates;
+use crate::fit::predict::{KindRates, Rates};
 
 /// Who and when, for the header.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -123,4 +123,93 @@ pub fn same(a: &str, b: &str) -> bool {
         (Ok(x), Ok(y)) => x == y,
         _ => a == b,
     }
+}
+
+/// What a profile's header says about the person: each burst's length
+/// and the predicted misreadings at the profile's settings, read back
+/// from the lines [`text`] writes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measured {
+    /// Length (mean, SD) in ms of each burst, in [`Action::ALL`]'s order.
+    ///
+    /// [`Action::ALL`]: crate::control::action::Action::ALL
+    pub lengths_ms: [(f64, f64); 4],
+    /// The shorter of the two longest comfortable holds, ms.
+    pub hold_ms: Option<f64>,
+    /// The predicted misreadings, this profile's column.
+    pub rates: Option<Rates>,
+}
+
+impl Measured {
+    /// The length (mean, SD) of `a`, ms.
+    pub fn length_ms(&self, a: crate::control::action::Action) -> (f64, f64) {
+        self.lengths_ms[crate::design::breathing::index(a)]
+    }
+}
+
+/// The header of a profile [`text`] wrote, read back. An error says
+/// which measurement is missing (a configuration not written by `fit`
+/// has none).
+pub fn measured(text: &str) -> Result<Measured, String> {
+    use crate::control::action::{Action, Breath};
+    use crate::fit::protocol::Ask;
+    let class = |ask: Ask| -> Option<(f64, f64)> {
+        let words = ask.words();
+        text.lines().find_map(|line| {
+            let rest = line.strip_prefix("# ")?;
+            let (_, after) = rest.split_once(" × ")?;
+            let after = after.strip_prefix(words)?.strip_prefix(": ")?;
+            // "plateau … V (weakest …), 224 ± 38 ms (143–257)"
+            let (_, lengths) = after.split_once("), ")?;
+            let (mean, rest) = lengths.split_once(" ± ")?;
+            let (sd, _) = rest.split_once(" ms")?;
+            Some((mean.parse().ok()?, sd.parse().ok()?))
+        })
+    };
+    let mut lengths_ms = [(0.0, 0.0); 4];
+    let mut missing = Vec::new();
+    for (i, a) in Action::ALL.into_iter().enumerate() {
+        match class(Ask::Breath(a)) {
+            Some(l) => lengths_ms[i] = l,
+            None => missing.push(a.to_string()),
+        }
+    }
+    if !missing.is_empty() {
+        return Err(format!(
+            "no measured {} (the `# 8 × short puff: …` lines `sipnpuff fit` writes at the top of a profile)",
+            missing.join(", ")
+        ));
+    }
+    let hold_ms = [Breath::Puff, Breath::Sip]
+        .into_iter()
+        .filter_map(|b| class(Ask::Hold(b)).map(|(mean, _)| mean))
+        .reduce(f64::min);
+    Ok(Measured {
+        lengths_ms,
+        hold_ms,
+        rates: text.lines().find_map(predicted_rates),
+    })
+}
+
+/// The profile's column of the "predicted misreadings" line: the number
+/// before each " vs ", in the order [`rates_line`] writes them.
+fn predicted_rates(line: &str) -> Option<Rates> {
+    let (_, rates) = line.split_once("this profile vs the settings before: ")?;
+    let firsts: Vec<f64> = rates
+        .split(" vs ")
+        .filter_map(|before| before.rsplit(' ').next()?.parse().ok())
+        .collect();
+    let [pm, sm, psl, ssl, pls, sls, false_per_hour] = firsts.as_slice() else {
+        return None;
+    };
+    let kind = |missed: f64, short_as_long: f64, long_as_short: f64| KindRates {
+        missed: missed / 100.0,
+        short_as_long: short_as_long / 100.0,
+        long_as_short: long_as_short / 100.0,
+    };
+    Some(Rates {
+        puff: kind(*pm, *psl, *pls),
+        sip: kind(*sm, *ssl, *sls),
+        false_per_hour: *false_per_hour,
+    })
 }

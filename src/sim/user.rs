@@ -119,6 +119,12 @@ pub struct TaskRun {
     pub unintended_mm: f64,
     /// The same for rotation, rad.
     pub unintended_rad: f64,
+    /// ASP: time from deciding to select a mode to being in it, summed
+    /// over the run's mode changes (retries and wrong selections
+    /// included), s.
+    pub selecting_s: f64,
+    /// ASP: the mode changes `selecting_s` sums.
+    pub selections_timed: u32,
 }
 
 /// Longest a task may take in simulation before it is abandoned, ticks.
@@ -158,6 +164,10 @@ struct Agent<'a> {
     rng: ChaCha8Rng,
     highlighted: Option<Mode>,
     run: TaskRun,
+    /// ASP: when the user decided to select the mode they are selecting.
+    selecting_since: Option<Tick>,
+    /// The tick of the last match the interface made.
+    matched_at: Tick,
 }
 
 impl Agent<'_> {
@@ -285,6 +295,7 @@ impl Agent<'_> {
                         } else {
                             self.run.slips += 1;
                         }
+                        self.selecting_since.get_or_insert(now);
                         self.enter_sequence(step.mode, signal);
                         self.phase = Phase::AwaitMatch {
                             target: step.mode,
@@ -294,6 +305,7 @@ impl Agent<'_> {
                     }
                     ModeState::Detection => match self.config.core().interface() {
                         Interface::Asp => {
+                            self.selecting_since.get_or_insert(now);
                             self.enter_sequence(step.mode, signal);
                             self.phase = Phase::AwaitMatch {
                                 target: step.mode,
@@ -357,6 +369,11 @@ impl Agent<'_> {
                         Event::Match {
                             target: matched, ..
                         } if matched.mode() == Some(target) => {
+                            if let Some(since) = self.selecting_since.take() {
+                                self.run.selecting_s +=
+                                    self.matched_at.saturating_sub(since) as f64 / 1000.0;
+                                self.run.selections_timed += 1;
+                            }
                             return Some(Phase::Decide);
                         }
                         Event::Match { .. } => {
@@ -559,6 +576,8 @@ fn simulate(
         rng: ChaCha8Rng::seed_from_u64(seed ^ 0x005e_1ec7),
         highlighted: None,
         run: TaskRun::default(),
+        selecting_since: None,
+        matched_at: 0,
     };
     let mut events: Vec<Event> = Vec::new();
     let mut state = ModeState::Detection;
@@ -584,6 +603,7 @@ fn simulate(
                 Event::Match { .. } => {
                     agent.run.selections += 1;
                     agent.highlighted = None;
+                    agent.matched_at = tick;
                 }
                 _ => {}
             }

@@ -6,6 +6,7 @@
 //! times, side by side with the paper's figures.
 
 pub mod atypical;
+pub mod libraries;
 pub mod plot;
 pub mod stats;
 pub mod tasks;

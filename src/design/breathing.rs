@@ -1,0 +1,207 @@
+//! How a person breathes, as the designer needs it: how long each of the
+//! four bursts takes them, how long they rest between bursts and react,
+//! and how often the detector reads each burst as another (missed, or the
+//! other length). From the study's simulated user or from the statistics
+//! a fitted profile carries.
+
+use serde::Serialize;
+
+use crate::config::Config;
+use crate::control::action::{Action, Breath};
+use crate::control::detector::DetectorConfig;
+use crate::fit::profile::Measured;
+use crate::fit::stats::normal_cdf;
+use crate::sim::sensor_model::DEFAULT_RAMP_MS;
+use crate::sim::user::UserModel;
+
+/// One burst kind as this person breathes it and the detector reads it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Burst {
+    /// Mean length, ms.
+    pub mean_ms: f64,
+    /// Standard deviation of the length, ms.
+    pub sd_ms: f64,
+    /// Chance the detector reads no burst at all.
+    pub missed: f64,
+    /// Chance the detector reads it as the other length (a long one as
+    /// short, a short one as long).
+    pub other_length: f64,
+}
+
+/// A person's breathing and the detector settings reading it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Breathing {
+    /// Who this is, in words.
+    pub source: String,
+    /// From seeing the interface ready to starting the first burst, ms.
+    pub reaction_ms: f64,
+    /// The four bursts, in [`Action::ALL`]'s order.
+    pub bursts: [Burst; 4],
+    /// Rest between the bursts of a sequence, ms.
+    pub gap_ms: f64,
+    /// The time a burst's signal takes to rise to the threshold and fall
+    /// back from it, beyond its length, ms.
+    pub edge_ms: f64,
+    /// Chance per selection that the person breathes one burst of it at
+    /// the wrong length (their mistake, not the detector's).
+    pub error_rate: f64,
+    /// Bursts per hour nobody breathed (noise passing a threshold).
+    pub false_per_hour: f64,
+    /// The longest breath they can hold, ms (`None`: no limit measured).
+    pub hold_capacity_ms: Option<f64>,
+}
+
+impl Breathing {
+    /// The study's simulated participant read by `d`: the same lengths
+    /// for sips and puffs, misreadings from the normal spread of each
+    /// length around the detector's boundaries.
+    pub fn of_model(user: &UserModel, d: &DetectorConfig, source: &str) -> Breathing {
+        let bursts = Action::ALL.map(|a| {
+            let (mean_ms, sd_ms) = if a.is_long() {
+                user.long_ms
+            } else {
+                user.short_ms
+            };
+            burst_read_by(a, mean_ms, sd_ms, d)
+        });
+        Breathing {
+            source: source.to_string(),
+            // The participants' mean reaction is the population's times a
+            // log-normal factor of mean exp(σ²/2).
+            reaction_ms: user.reaction_ms.0 * (user.between_users.powi(2) / 2.0).exp(),
+            bursts,
+            gap_ms: user.gap_ms.0,
+            edge_ms: EDGE_MS,
+            error_rate: user.error_rate,
+            false_per_hour: 0.0,
+            hold_capacity_ms: user.hold_capacity_ms.is_finite().then_some(user.hold_capacity_ms),
+        }
+    }
+
+    /// The person a fitted profile measured, read by the profile's own
+    /// detector settings: each burst's length as measured, the fit's
+    /// predicted misreadings where the profile states them (they know the
+    /// signal's heights too) and the normal spread otherwise. What the
+    /// calibration does not measure (reaction, gaps, the person's own
+    /// mistakes) is the study population's.
+    pub fn of_profile(measured: &Measured, config: &Config, source: &str) -> Breathing {
+        let d = config.core().detector();
+        let population = Breathing::of_model(&UserModel::POPULATION, d, source);
+        let bursts = Action::ALL.map(|a| {
+            let (mean_ms, sd_ms) = measured.length_ms(a);
+            let mut burst = burst_read_by(a, mean_ms, sd_ms, d);
+            if let Some(rates) = &measured.rates {
+                let kind = rates.of(a.breath());
+                burst.missed = kind.missed;
+                burst.other_length = if a.is_long() {
+                    kind.long_as_short
+                } else {
+                    kind.short_as_long
+                };
+            }
+            burst
+        });
+        Breathing {
+            bursts,
+            false_per_hour: measured.rates.as_ref().map_or(0.0, |r| r.false_per_hour),
+            hold_capacity_ms: measured.hold_ms,
+            ..population
+        }
+    }
+
+    /// The burst `a` as this person breathes it.
+    pub fn burst(&self, a: Action) -> &Burst {
+        &self.bursts[index(a)]
+    }
+
+    /// A study participant who breathes like this: sips and puffs share
+    /// the mean of their lengths (the simulated user has one length per
+    /// class), with the larger spread.
+    pub fn user_model(&self) -> UserModel {
+        let class = |long: bool| {
+            let (sip, puff) = (
+                self.burst(Action::new(Breath::Sip, long)),
+                self.burst(Action::new(Breath::Puff, long)),
+            );
+            ((sip.mean_ms + puff.mean_ms) / 2.0, sip.sd_ms.max(puff.sd_ms))
+        };
+        UserModel {
+            short_ms: class(false),
+            long_ms: class(true),
+            gap_ms: (self.gap_ms, UserModel::POPULATION.gap_ms.1),
+            error_rate: self.error_rate,
+            hold_capacity_ms: self.hold_capacity_ms.unwrap_or(f64::INFINITY),
+            ..UserModel::POPULATION
+        }
+    }
+}
+
+/// A burst's rise and fall outside its threshold crossings, ms: the
+/// study sensor's ramps (30–80 ms, uniform) spend 0.84 of their length
+/// there at the default thresholds and a 1.2 V breath. Calibration does
+/// not measure it, so a profile's person takes it too.
+pub const EDGE_MS: f64 = 0.84 * (DEFAULT_RAMP_MS.0 + DEFAULT_RAMP_MS.1) / 2.0;
+
+/// Where `a` sits in [`Action::ALL`].
+pub fn index(a: Action) -> usize {
+    match a {
+        Action::ShortSip => 0,
+        Action::LongSip => 1,
+        Action::ShortPuff => 2,
+        Action::LongPuff => 3,
+    }
+}
+
+/// A burst of length N(mean, sd) read by `d`: under `min_burst_ms` it is
+/// missed; past `long_burst_ms` it is long.
+fn burst_read_by(a: Action, mean_ms: f64, sd_ms: f64, d: &DetectorConfig) -> Burst {
+    let below = |ms: f64| {
+        if sd_ms > 0.0 {
+            normal_cdf((ms - mean_ms) / sd_ms)
+        } else if mean_ms < ms {
+            1.0
+        } else {
+            0.0
+        }
+    };
+    let missed = below(f64::from(d.min_burst_ms));
+    let short = below(f64::from(d.long_burst_ms)) - missed;
+    Burst {
+        mean_ms,
+        sd_ms,
+        missed,
+        other_length: if a.is_long() { short } else { 1.0 - missed - short },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_study_user_misreads_a_long_burst_one_time_in_160() {
+        let b = Breathing::of_model(
+            &UserModel::POPULATION,
+            &DetectorConfig::default(),
+            "the study's user",
+        );
+        // 800 ± 120 ms against the 500 ms boundary: 2.5 SD, Φ(−2.5).
+        let long = b.burst(Action::LongPuff);
+        assert!((long.other_length - 0.00621).abs() < 1e-4, "{long:?}");
+        // 150 ± 35 ms: 10 SD below 500 ms, 3.1 SD above 40 ms.
+        let short = b.burst(Action::ShortSip);
+        assert!(short.other_length < 1e-12);
+        assert!((short.missed - 0.00083).abs() < 1e-4, "{short:?}");
+        assert_eq!(b.gap_ms, 300.0);
+        assert!((b.reaction_ms - 450.0 * 0.02f64.exp()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_user_model_round_trips_the_classes() {
+        let b = Breathing::of_model(&UserModel::POPULATION, &DetectorConfig::default(), "x");
+        let u = b.user_model();
+        assert_eq!(u.short_ms, UserModel::POPULATION.short_ms);
+        assert_eq!(u.long_ms, UserModel::POPULATION.long_ms);
+        assert_eq!(u.error_rate, 0.05);
+    }
+}

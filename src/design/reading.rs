@@ -1,0 +1,259 @@
+//! What the interface may read when a sequence is meant, and what the
+//! matcher then does with it.
+//!
+//! A meant sequence is read as breathed, or with one thing wrong: one
+//! burst at the other length (the detector's misreading or the person's
+//! own mistake), one burst missed, or one burst nobody breathed (noise).
+//! Two things wrong at once is left out: at the rates measured here
+//! (under 1 % per burst) it is a hundredth of the one-burst cases.
+//!
+//! The matcher's rules are the production matcher's, applied to whole
+//! sequences: after each burst, a library sequence nothing longer starts
+//! with matches at once; one a longer sequence starts with matches at the
+//! timeout; a proper prefix waits and resets at the timeout; anything
+//! else resets at once and the next burst starts afresh. The first match
+//! ends the selection: later bursts are breathed in the matched mode.
+
+use crate::control::action::{Action, ActionSeq, Breath};
+use crate::design::breathing::Breathing;
+
+/// How a meant sequence was read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Deviation {
+    /// Read as breathed.
+    None,
+    /// Burst `i` read (or breathed) at the other length.
+    Length(usize),
+    /// Burst `i` not read.
+    Missed(usize),
+    /// A burst nobody breathed, read before burst `i` (or after the last).
+    Extra(usize),
+}
+
+/// One way of reading a meant sequence: what was read and its chance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reading {
+    /// What went wrong.
+    pub deviation: Deviation,
+    /// The bursts the matcher receives.
+    pub read: ActionSeq,
+    /// Chance of this reading.
+    pub p: f64,
+}
+
+/// What the matcher does with a reading.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// Library entry `i` is selected after burst `at` (counted in the
+    /// reading), at once or after the timeout.
+    Match {
+        /// The entry.
+        entry: usize,
+        /// The last burst it took.
+        at: usize,
+        /// The matcher waited the timeout (a longer sequence starts with it).
+        waited: bool,
+    },
+    /// Nothing is selected; the last reset came at the timeout or not.
+    Nothing {
+        /// The reset came after the timeout.
+        waited: bool,
+    },
+}
+
+/// The same burst at the other length.
+pub fn other_length(a: Action) -> Action {
+    Action::new(a.breath(), !a.is_long())
+}
+
+/// Every reading of `meant` with one thing wrong at most, with its chance,
+/// for this person. The chances sum to 1.
+pub fn readings(meant: &[Action], who: &Breathing) -> Vec<Reading> {
+    let n = meant.len();
+    let mut out = Vec::with_capacity(3 * n + 2);
+    // The person's own mistake: one burst, chosen evenly, at the other length.
+    let mistake = if n == 0 {
+        0.0
+    } else {
+        who.error_rate / n as f64
+    };
+    // Noise: a false burst while the sequence is breathed, split evenly
+    // over where it lands and which breath it is.
+    let breathing_ms: f64 = meant.iter().map(|a| who.burst(*a).mean_ms).sum::<f64>()
+        + n.saturating_sub(1) as f64 * who.gap_ms;
+    let extra = (who.false_per_hour * breathing_ms / 3_600_000.0).min(0.5);
+    let mut rest = 1.0;
+    for (i, a) in meant.iter().enumerate() {
+        let burst = who.burst(*a);
+        let p = mistake + burst.other_length;
+        let mut read = meant.to_vec();
+        read[i] = other_length(*a);
+        out.push(reading(Deviation::Length(i), &read, p));
+        let mut read = meant.to_vec();
+        read.remove(i);
+        out.push(reading(Deviation::Missed(i), &read, burst.missed));
+        rest -= p + burst.missed;
+    }
+    if extra > 0.0 {
+        for i in 0..=n {
+            for breath in [Breath::Sip, Breath::Puff] {
+                let mut read = meant.to_vec();
+                read.insert(i, Action::new(breath, false));
+                let p = extra / (2 * (n + 1)) as f64;
+                out.push(reading(Deviation::Extra(i), &read, p));
+                rest -= p;
+            }
+        }
+    }
+    out.push(reading(Deviation::None, meant, rest.max(0.0)));
+    out.retain(|r| r.p > 0.0);
+    out
+}
+
+fn reading(deviation: Deviation, read: &[Action], p: f64) -> Reading {
+    Reading {
+        deviation,
+        // A burst more than the longest sequence reads as nothing.
+        read: ActionSeq::from_slice(read).unwrap_or(ActionSeq::EMPTY),
+        p,
+    }
+}
+
+/// What the matcher makes of `read` with `library` (each entry's bursts).
+pub fn outcome<'a>(read: &[Action], library: impl Fn(usize) -> Option<&'a [Action]>) -> Outcome {
+    let entries = || (0..).map_while(&library).enumerate();
+    let mut start = 0;
+    for end in 1..=read.len() {
+        let cs = &read[start..end];
+        let is_entry = entries().find(|(_, e)| *e == cs).map(|(i, _)| i);
+        let extended = entries().any(|(_, e)| e.len() > cs.len() && e.starts_with(cs));
+        match (is_entry, extended) {
+            (Some(entry), false) => {
+                return Outcome::Match {
+                    entry,
+                    at: end,
+                    waited: false,
+                };
+            }
+            (_, true) => {}
+            (None, false) => start = end,
+        }
+    }
+    let cs = &read[start..];
+    if cs.is_empty() {
+        return Outcome::Nothing { waited: false };
+    }
+    match entries().find(|(_, e)| *e == cs) {
+        Some((entry, _)) => Outcome::Match {
+            entry,
+            at: read.len(),
+            waited: true,
+        },
+        None => Outcome::Nothing { waited: true },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::action::Action::{LongPuff, LongSip, ShortPuff, ShortSip};
+    use crate::control::selection::SequenceEntry;
+    use crate::control::selection::matcher::{MatchEvent, SequenceMatcher};
+    use crate::control::detector::Burst;
+    use crate::control::mode::Mode;
+    use crate::sim::user::UserModel;
+    use proptest::prelude::*;
+
+    fn lib<'a>(entries: &'a [&'a [Action]]) -> impl Fn(usize) -> Option<&'a [Action]> {
+        move |i| entries.get(i).copied()
+    }
+
+    #[test]
+    fn the_matcher_rules_on_whole_sequences() {
+        let library: &[&[Action]] = &[&[ShortPuff], &[ShortPuff, ShortSip], &[LongPuff, LongSip]];
+        // A prefix of a longer entry matches at the timeout.
+        assert_eq!(
+            outcome(&[ShortPuff], lib(library)),
+            Outcome::Match { entry: 0, at: 1, waited: true }
+        );
+        // Nothing longer starts with it: at once.
+        assert_eq!(
+            outcome(&[ShortPuff, ShortSip], lib(library)),
+            Outcome::Match { entry: 1, at: 2, waited: false }
+        );
+        // A prefix that is no entry resets at the timeout.
+        assert_eq!(outcome(&[LongPuff], lib(library)), Outcome::Nothing { waited: true });
+        // Neither resets at once, and the next burst starts afresh.
+        assert_eq!(
+            outcome(&[LongSip, ShortPuff, ShortSip], lib(library)),
+            Outcome::Match { entry: 1, at: 3, waited: false }
+        );
+    }
+
+    #[test]
+    fn readings_sum_to_one_and_a_mistake_flips_one_burst() {
+        let who = Breathing::of_model(
+            &UserModel::POPULATION,
+            &crate::control::detector::DetectorConfig::default(),
+            "x",
+        );
+        let r = readings(&[LongPuff, ShortSip], &who);
+        let total: f64 = r.iter().map(|r| r.p).sum();
+        assert!((total - 1.0).abs() < 1e-12);
+        let flipped_first = r
+            .iter()
+            .find(|r| r.deviation == Deviation::Length(0))
+            .unwrap();
+        // Half the 5 % mistakes, plus Φ(−2.5) of long puffs read short.
+        assert!((flipped_first.p - (0.025 + 0.00621)).abs() < 1e-4);
+        assert_eq!(flipped_first.read.as_slice(), [ShortPuff, ShortSip]);
+    }
+
+    fn action() -> impl Strategy<Value = Action> {
+        prop::sample::select(Action::ALL.to_vec())
+    }
+
+    proptest! {
+        /// The whole-sequence rules agree with the production matcher fed
+        /// the same bursts a gap apart, for any library and any reading.
+        #[test]
+        fn the_rules_are_the_production_matchers(
+            entries in prop::collection::vec(prop::collection::vec(action(), 1..4), 1..8),
+            read in prop::collection::vec(action(), 1..5),
+        ) {
+            let mut library: Vec<Vec<Action>> = Vec::new();
+            for e in entries {
+                if !library.contains(&e) {
+                    library.push(e);
+                }
+            }
+            let production: Vec<SequenceEntry> = library
+                .iter()
+                .map(|e| SequenceEntry::mode(ActionSeq::from_slice(e).unwrap(), Mode::TranslateX))
+                .collect();
+            let mut matcher = SequenceMatcher::new(&production, 1000);
+            let position = |sequence: ActionSeq| {
+                library.iter().position(|e| e.as_slice() == sequence.as_slice()).unwrap()
+            };
+            let mut got = None;
+            let mut tick = 0;
+            for (i, a) in read.iter().enumerate() {
+                tick += 300;
+                let burst = Burst { action: *a, start: tick - 100, end: tick };
+                if let Some(MatchEvent::Match { sequence, .. }) = matcher.on_burst(&burst) {
+                    got = Some(Outcome::Match { entry: position(sequence), at: i + 1, waited: false });
+                    break;
+                }
+            }
+            let got = got.unwrap_or_else(|| match matcher.on_tick(tick + 1000, false) {
+                Some(MatchEvent::Match { sequence, .. }) => {
+                    Outcome::Match { entry: position(sequence), at: read.len(), waited: true }
+                }
+                Some(MatchEvent::Reset { .. }) => Outcome::Nothing { waited: true },
+                None => Outcome::Nothing { waited: false },
+            });
+            let slices: Vec<&[Action]> = library.iter().map(Vec::as_slice).collect();
+            prop_assert_eq!(outcome(&read, lib(&slices)), got);
+        }
+    }
+}
