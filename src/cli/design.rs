@@ -184,6 +184,7 @@ fn inputs(args: &DesignArgs) -> anyhow::Result<Inputs> {
 struct DesignReport<'a> {
     search: &'a Found,
     gap_pct: f64,
+    verdict: String,
     designed: &'a Analysis,
     before: &'a Analysis,
     study: Option<&'a StudyCheck>,
@@ -284,6 +285,7 @@ pub fn design(args: DesignArgs) -> anyhow::Result<()> {
         let report = DesignReport {
             search: &found,
             gap_pct: found.gap_pct(),
+            verdict: verdict(&designed, &before, &inputs.library_name),
             designed: &designed,
             before: &before,
             study: study.as_ref(),
@@ -442,6 +444,29 @@ fn search_text(found: &Found, designed: &Analysis, before: &Analysis, name: &str
         100.0 * before.p_wrong_per_selection,
         100.0 * designed.p_wrong_per_selection
     );
+    out += &format!("{}\n\n", verdict(designed, before, name));
     out += &analysis::text(designed);
     out
 }
+
+/// Whether the designed library is worth the change, in words: under
+/// 2 % faster and under a quarter fewer wrong selections is not.
+fn verdict(designed: &Analysis, before: &Analysis, name: &str) -> String {
+    let faster = 1.0 - designed.expected_ms_per_selection / before.expected_ms_per_selection;
+    let fewer_wrong = 1.0 - designed.p_wrong_per_selection / before.p_wrong_per_selection.max(1e-12);
+    if faster < NEAR_OPTIMAL && fewer_wrong < 0.25 {
+        format!(
+            "{name} is already near-optimal for this user: within {:.1} % of the least cost there is; keep it",
+            100.0 * faster.max(0.0)
+        )
+    } else {
+        format!(
+            "the designed library is {:.1} % faster and {:.0} % less often wrong than {name}",
+            100.0 * faster,
+            100.0 * fewer_wrong
+        )
+    }
+}
+
+/// A designed library less than this much faster is not worth relearning.
+const NEAR_OPTIMAL: f64 = 0.02;

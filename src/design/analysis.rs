@@ -19,7 +19,7 @@ use crate::control::action::Action;
 use crate::control::selection::SequenceEntry;
 use crate::control::target::Target;
 use crate::design::breathing::Breathing;
-use crate::design::reading::{Deviation, Outcome, outcome, readings};
+use crate::design::reading::{Deviation, Outcome, Reading, outcome, readings};
 use crate::design::usage::Usage;
 
 /// The times an attempt is made of, ms.
@@ -149,14 +149,25 @@ pub fn entry_cost<'a>(
     library: &'a [&'a [Action]],
     who: &Breathing,
     t: &Timing,
+    landed: impl FnMut(usize, f64, Deviation),
+) -> EntryCost {
+    entry_cost_of(&readings(library[meant], who), meant, library, who, t, landed)
+}
+
+/// [`entry_cost`] with the meant entry's readings given.
+pub fn entry_cost_of<'a>(
+    readings: &[Reading],
+    meant: usize,
+    library: &'a [&'a [Action]],
+    who: &Breathing,
+    t: &Timing,
     mut landed: impl FnMut(usize, f64, Deviation),
 ) -> EntryCost {
-    let sequence = library[meant];
     let lookup = |i: usize| library.get(i).copied();
     let (mut mean_attempt, mut p_ok, mut p_wrong, mut p_retry) = (0.0, 0.0, 0.0, 0.0);
     let mut attempt_ms = 0.0;
     let mut waits = false;
-    for r in readings(sequence, who) {
+    for r in readings {
         let read = r.read.as_slice();
         let all = breathed_ms(read, read.len(), who, t);
         let ms = match outcome(read, lookup) {
@@ -354,7 +365,7 @@ fn findings(a: &Analysis, library: &[SequenceEntry], who: &Breathing) -> Vec<Str
         .entries
         .iter()
         .max_by(|x, y| x.usage.total_cmp(&y.usage))
-        .filter(|_| a.entries.len() > 1)
+        .filter(|top| a.entries.iter().any(|e| e.usage < top.usage))
     {
         out.push(format!(
             "the most used entry, `{}` ({:.0} % of selections), takes {:.2} s",

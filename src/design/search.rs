@@ -12,12 +12,15 @@
 //! gives the first incumbent; if time runs out first, the search says how
 //! far the best library found can be from the best there is.
 
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
 use crate::control::action::{Action, ActionSeq};
-use crate::design::analysis::{Timing, entry_cost};
+use crate::design::analysis::{Timing, entry_cost, entry_cost_of};
+use crate::design::reading::Reading;
 use crate::design::breathing::Breathing;
 
 /// What to place and under which rules.
@@ -98,96 +101,229 @@ pub fn cost(p: &Problem, sequences: &[ActionSeq]) -> f64 {
         .sum()
 }
 
+/// Threads the branching runs on.
+const THREADS: usize = 2;
+
+/// The sequences the search places and each one's readings, computed once.
+struct Space<'a> {
+    p: &'a Problem,
+    /// The free candidates, then each fixed entry's sequence.
+    sequences: Vec<ActionSeq>,
+    readings: Vec<Vec<Reading>>,
+    /// How many of `sequences` are free candidates.
+    free: usize,
+    /// Entries placed most used first (fixed ones excluded).
+    order: Vec<usize>,
+    /// Whether a thread took each job (a branch of the second entry).
+    jobs: Vec<AtomicBool>,
+}
+
+impl Space<'_> {
+    /// The cost of `placed` (indices into `sequences`) among themselves:
+    /// each placed entry's usage-weighted cost, and each unused free
+    /// candidate's cost as the next entry.
+    fn partial(&self, placed: &[Option<usize>], used: &[bool]) -> (f64, Vec<(usize, f64)>) {
+        let p = self.p;
+        let entries: Vec<(usize, usize)> = placed
+            .iter()
+            .enumerate()
+            .filter_map(|(i, s)| s.map(|s| (i, s)))
+            .collect();
+        let mut library: Vec<&[Action]> =
+            entries.iter().map(|(_, s)| self.sequences[*s].as_slice()).collect();
+        let placed_cost: f64 = entries
+            .iter()
+            .enumerate()
+            .map(|(k, (i, s))| {
+                p.usage[*i]
+                    * entry_cost_of(&self.readings[*s], k, &library, &p.who, &p.timing, |_, _, _| {})
+                        .expected_ms
+            })
+            .sum();
+        let k = library.len();
+        let mut costs = Vec::with_capacity(self.free);
+        for c in 0..self.free {
+            if used[c] {
+                continue;
+            }
+            library.push(self.sequences[c].as_slice());
+            let cost = entry_cost_of(&self.readings[c], k, &library, &p.who, &p.timing, |_, _, _| {});
+            costs.push((c, cost.expected_ms));
+            library.pop();
+        }
+        (placed_cost, costs)
+    }
+}
+
 /// Finds the cheapest library: exact if the time allows.
 pub fn search(p: &Problem) -> Found {
     let started = Instant::now();
     let n = p.usage.len();
-    // Most used first; fixed entries are placed from the start.
     let mut order: Vec<usize> = (0..n).filter(|i| p.fixed[*i].is_none()).collect();
     order.sort_by(|a, b| p.usage[*b].total_cmp(&p.usage[*a]).then(a.cmp(b)));
-    let free: Vec<ActionSeq> = p
+    let mut sequences: Vec<ActionSeq> = p
         .candidates
         .iter()
         .filter(|c| !p.fixed.iter().any(|f| f.as_ref() == Some(c)))
         .copied()
         .collect();
-    let start = local_search(p, &order, &free);
-    let mut state = Branch {
+    let free = sequences.len();
+    let mut placed: Vec<Option<usize>> = vec![None; n];
+    for (i, f) in p.fixed.iter().enumerate() {
+        if let Some(seq) = f {
+            placed[i] = Some(sequences.len());
+            sequences.push(*seq);
+        }
+    }
+    let readings = sequences
+        .iter()
+        .map(|s| crate::design::reading::readings(s.as_slice(), &p.who))
+        .collect();
+    let space = Space {
         p,
-        order: &order,
-        free: &free,
-        best: start.clone(),
-        best_cost: cost(p, &start),
-        nodes: 0,
-        deadline: started + p.time_limit,
-        aborted: false,
-        open_bound: f64::INFINITY,
+        sequences,
+        readings,
+        free,
+        order,
+        jobs: (0..free * free).map(|_| AtomicBool::new(false)).collect(),
     };
-    let local_search_ms = state.best_cost;
-    let mut placed: Vec<Option<ActionSeq>> = p.fixed.clone();
-    let mut used = vec![false; free.len()];
-    state.branch(0, &mut placed, &mut used, None);
-    let bound_ms = if state.aborted {
-        state.open_bound.min(state.best_cost)
-    } else {
-        state.best_cost
+    let start = local_search(p, &space.order, &space.sequences[..free]);
+    let local_search_ms = cost(p, &start);
+    let best = Shared {
+        cost: AtomicU64::new(local_search_ms.to_bits()),
+        library: Mutex::new(start),
     };
+    let deadline = started + p.time_limit;
+    let results: Vec<(u64, bool, f64)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..THREADS)
+            .map(|_| {
+                let (space, best, placed) = (&space, &best, placed.clone());
+                scope.spawn(move || {
+                    let mut b = Branch {
+                        space,
+                        best,
+                        nodes: 0,
+                        deadline,
+                        aborted: false,
+                        open_bound: f64::INFINITY,
+                        seen: 0,
+                    };
+                    let mut placed = placed;
+                    let mut used = vec![false; space.free];
+                    b.branch(0, &mut placed, &mut used, None);
+                    (b.nodes, b.aborted, b.open_bound)
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or((0, true, 0.0)))
+            .collect()
+    });
+    let best_cost = f64::from_bits(best.cost.load(Ordering::Relaxed));
+    let aborted = results.iter().any(|r| r.1);
+    let open_bound = results.iter().map(|r| r.2).fold(f64::INFINITY, f64::min);
+    let sequences = best
+        .library
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     Found {
-        cost_ms: state.best_cost,
-        sequences: state.best,
-        bound_ms,
-        complete: !state.aborted,
-        nodes: state.nodes,
+        cost_ms: best_cost,
+        sequences,
+        bound_ms: if aborted {
+            open_bound.min(best_cost)
+        } else {
+            best_cost
+        },
+        complete: !aborted,
+        nodes: results.iter().map(|r| r.0).sum(),
         seconds: started.elapsed().as_secs_f64(),
         local_search_ms,
     }
 }
 
+/// The best library so far, shared by the threads.
+struct Shared {
+    /// Its cost's bits (positive costs order as their bits do).
+    cost: AtomicU64,
+    library: Mutex<Vec<ActionSeq>>,
+}
+
 struct Branch<'a> {
-    p: &'a Problem,
-    order: &'a [usize],
-    free: &'a [ActionSeq],
-    best: Vec<ActionSeq>,
-    best_cost: f64,
+    space: &'a Space<'a>,
+    best: &'a Shared,
     nodes: u64,
     deadline: Instant,
     aborted: bool,
     /// The least bound of the partial libraries left unexplored.
     open_bound: f64,
+    /// Jobs this thread has passed.
+    seen: usize,
 }
 
 impl Branch<'_> {
+    /// Whether this thread takes the next job (no other thread has).
+    fn take_job(&mut self) -> bool {
+        let job = self.seen;
+        self.seen += 1;
+        self.space
+            .jobs
+            .get(job)
+            .is_some_and(|taken| !taken.swap(true, Ordering::Relaxed))
+    }
+
+    fn best_cost(&self) -> f64 {
+        f64::from_bits(self.best.cost.load(Ordering::Relaxed))
+    }
+
     /// Places `order[depth..]`; `previous` is the candidate the entry
     /// before took.
     fn branch(
         &mut self,
         depth: usize,
-        placed: &mut Vec<Option<ActionSeq>>,
+        placed: &mut Vec<Option<usize>>,
         used: &mut [bool],
         previous: Option<usize>,
     ) {
         self.nodes += 1;
-        if depth == self.order.len() {
-            let sequences: Vec<ActionSeq> = placed.iter().map(|s| s.unwrap_or_default()).collect();
-            let c = cost(self.p, &sequences);
-            if c < self.best_cost {
-                self.best_cost = c;
-                self.best = sequences;
+        let space = self.space;
+        if depth == space.order.len() {
+            let sequences: Vec<ActionSeq> = placed
+                .iter()
+                .map(|s| s.map_or_else(ActionSeq::default, |s| space.sequences[s]))
+                .collect();
+            let c = cost(space.p, &sequences);
+            if c < self.best_cost() {
+                let mut library = self
+                    .best
+                    .library
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
+                if c < self.best_cost() {
+                    self.best.cost.store(c.to_bits(), Ordering::Relaxed);
+                    *library = sequences;
+                }
             }
             return;
         }
-        let (placed_cost, mut candidate_costs) = self.partial(placed, used);
+        let (placed_cost, mut candidate_costs) = space.partial(placed, used);
         candidate_costs.sort_by(|a, b| a.1.total_cmp(&b.1));
-        let entry = self.order[depth];
+        let entry = space.order[depth];
         // The usages still to place after this entry, largest first.
-        let rest: Vec<f64> = self.order[depth + 1..]
+        let rest: Vec<f64> = space.order[depth + 1..]
             .iter()
-            .map(|i| self.p.usage[*i])
+            .map(|i| space.p.usage[*i])
             .collect();
         let same_as_before =
-            depth > 0 && self.p.usage[self.order[depth - 1]] == self.p.usage[entry];
+            depth > 0 && space.p.usage[space.order[depth - 1]] == space.p.usage[entry];
         for (rank, &(c, c_cost)) in candidate_costs.iter().enumerate() {
             if same_as_before && previous.is_some_and(|p| c <= p) {
+                continue;
+            }
+            // The second entry's branches are the threads' jobs: every
+            // thread walks the first level alike, so they number the jobs
+            // alike, and each job goes to the first thread to reach it.
+            if depth == 1 && !self.take_job() {
                 continue;
             }
             // This entry on `c`, the rest on the cheapest others (adding
@@ -198,9 +334,9 @@ impl Branch<'_> {
                 .filter(|(r, _)| *r != rank)
                 .map(|(_, (_, cost))| *cost);
             let bound = placed_cost
-                + self.p.usage[entry] * c_cost
+                + space.p.usage[entry] * c_cost
                 + rest.iter().zip(others).map(|(u, c)| u * c).sum::<f64>();
-            if bound >= self.best_cost * (1.0 - 1e-12) {
+            if depth > 0 && bound >= self.best_cost() * (1.0 - 1e-12) {
                 continue;
             }
             if self.aborted || (self.nodes % 64 == 0 && Instant::now() >= self.deadline) {
@@ -208,39 +344,12 @@ impl Branch<'_> {
                 self.open_bound = self.open_bound.min(bound);
                 continue;
             }
-            placed[entry] = Some(self.free[c]);
+            placed[entry] = Some(c);
             used[c] = true;
             self.branch(depth + 1, placed, used, Some(c));
             placed[entry] = None;
             used[c] = false;
         }
-    }
-
-    /// The placed entries' cost among themselves, and each unused
-    /// candidate's cost as the next entry among them.
-    fn partial(&self, placed: &[Option<ActionSeq>], used: &[bool]) -> (f64, Vec<(usize, f64)>) {
-        let indices: Vec<usize> = (0..placed.len()).filter(|i| placed[*i].is_some()).collect();
-        let mut library: Vec<&[Action]> = indices
-            .iter()
-            .filter_map(|i| placed[*i].as_ref().map(ActionSeq::as_slice))
-            .collect();
-        let p = self.p;
-        let placed_cost: f64 = indices
-            .iter()
-            .enumerate()
-            .map(|(k, i)| p.usage[*i] * entry_cost(k, &library, &p.who, &p.timing, |_, _, _| {}).expected_ms)
-            .sum();
-        let k = library.len();
-        let mut costs = Vec::with_capacity(self.free.len());
-        for (c, seq) in self.free.iter().enumerate() {
-            if used[c] {
-                continue;
-            }
-            library.push(seq.as_slice());
-            costs.push((c, entry_cost(k, &library, &p.who, &p.timing, |_, _, _| {}).expected_ms));
-            library.pop();
-        }
-        (placed_cost, costs)
     }
 }
 
@@ -307,6 +416,111 @@ fn local_search(p: &Problem, order: &[usize], free: &[ActionSeq]) -> Vec<ActionS
         }
         if !improved {
             return sequences;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+    use crate::control::detector::DetectorConfig;
+    use crate::control::selection::SequenceEntry;
+    use crate::sim::user::UserModel;
+    use proptest::prelude::*;
+
+    fn problem(usage: Vec<f64>, allowed: &[Action], min: usize, max: usize) -> Problem {
+        let who = Breathing::of_model(&UserModel::POPULATION, &DetectorConfig::default(), "x");
+        let timing = Timing::of(&who, &Config::default(), None);
+        Problem {
+            fixed: vec![None; usage.len()],
+            usage,
+            candidates: candidates(allowed, min, max),
+            who,
+            timing,
+            time_limit: Duration::from_secs(600),
+        }
+    }
+
+    /// The least cost over every assignment, by trying them all.
+    fn exhaustive(p: &Problem) -> f64 {
+        fn place(p: &Problem, chosen: &mut Vec<ActionSeq>, best: &mut f64) {
+            if chosen.len() == p.usage.len() {
+                *best = best.min(cost(p, chosen));
+                return;
+            }
+            for c in &p.candidates {
+                if !chosen.contains(c) {
+                    chosen.push(*c);
+                    place(p, chosen, best);
+                    chosen.pop();
+                }
+            }
+        }
+        let mut best = f64::INFINITY;
+        place(p, &mut Vec::new(), &mut best);
+        best
+    }
+
+    #[test]
+    fn branch_and_bound_finds_what_trying_every_library_finds() {
+        let short_and_long_puffs = [Action::ShortPuff, Action::LongPuff, Action::ShortSip];
+        for usage in [vec![0.4, 0.3, 0.2, 0.1], vec![0.25; 4]] {
+            let p = problem(usage, &short_and_long_puffs, 1, 2);
+            let found = search(&p);
+            assert!(found.complete);
+            let truth = exhaustive(&p);
+            assert!((found.cost_ms - truth).abs() < 1e-9, "{} vs {truth}", found.cost_ms);
+            assert_eq!(found.bound_ms, found.cost_ms);
+        }
+    }
+
+    #[test]
+    fn out_of_time_it_reports_a_bound_below_its_cost() {
+        let mut p = problem(vec![1.0 / 12.0; 12], &Action::ALL, 2, 3);
+        p.time_limit = Duration::ZERO;
+        let found = search(&p);
+        assert!(!found.complete);
+        assert!(found.bound_ms < found.cost_ms, "{found:?}");
+        assert!(found.gap_pct() > 0.0);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(16))]
+        /// Whatever the constraints, the library proposed is one the
+        /// validator accepts: every sequence distinct, of allowed bursts
+        /// and lengths, the fixed entries on their own.
+        #[test]
+        fn the_designer_proposes_only_valid_libraries(
+            allowed in prop::sample::subsequence(Action::ALL.to_vec(), 2..=4),
+            keep_first in any::<bool>(),
+            max in 2usize..=3,
+        ) {
+            let config = Config::default();
+            let library = config.core().sequences();
+            let mut p = problem(vec![1.0 / 9.0; 9], &allowed, 2, max);
+            p.time_limit = Duration::from_millis(200);
+            if keep_first {
+                p.fixed[0] = Some(library[0].actions);
+            }
+            prop_assume!(p.candidates.len() >= 9);
+            let found = search(&p);
+            let designed: Vec<SequenceEntry> = library
+                .iter()
+                .zip(&found.sequences)
+                .map(|(e, s)| SequenceEntry { actions: *s, target: e.target })
+                .collect();
+            prop_assert!(config.clone().with_sequences(designed).is_ok());
+            for (i, s) in found.sequences.iter().enumerate() {
+                prop_assert!(found.sequences[..i].iter().all(|t| t != s));
+                if keep_first && i == 0 {
+                    prop_assert_eq!(*s, library[0].actions);
+                } else {
+                    prop_assert!((2..=max).contains(&s.len()));
+                    prop_assert!(s.as_slice().iter().all(|a| allowed.contains(a)));
+                }
+            }
+            prop_assert!(found.bound_ms <= found.cost_ms);
         }
     }
 }
