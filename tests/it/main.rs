@@ -19,6 +19,7 @@ mod arm_ros1;
 mod arm_ros2;
 mod breathers;
 mod cli;
+mod design;
 mod common;
 mod display;
 mod display_browser;
