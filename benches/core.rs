@@ -22,6 +22,10 @@
 //! * `replay/*`: `sipnpuff replay` end to end on 60 s of noisy recording
 //!   (CSV parsing, core, simulated arm, JSON events to a sink) against the
 //!   core alone and the CSV reading alone on the same samples.
+//! * `design/*`: `design --check`'s analysis of a library for the study's
+//!   user (the built-in 9 entries; 12 entries with prefixes), against one
+//!   simulated participant doing the study's first task (the unit a
+//!   study or a search's verification is made of).
 
 use std::hint::black_box;
 
@@ -373,8 +377,40 @@ fn replay_throughput(c: &mut Criterion) {
     group.finish();
 }
 
+fn design(c: &mut Criterion) {
+    use sipnpuff::design::analysis::{Timing, analyse};
+    use sipnpuff::design::breathing::Breathing;
+    use sipnpuff::design::usage::Usage;
+    use sipnpuff::sim::study::tasks::TASKS;
+    use sipnpuff::sim::user::{UserModel, run_task};
+    let config = Config::default();
+    let who = Breathing::of_model(&UserModel::POPULATION, config.core().detector(), "study");
+    let timing = Timing::of(&who, &config, None);
+    let mut group = c.benchmark_group("design");
+    group.bench_function("reference_study_task_run", |b| {
+        b.iter(|| black_box(run_task(&config, &TASKS[0], &UserModel::POPULATION, 7)))
+    });
+    let builtin = config.core().sequences().to_vec();
+    let mut twelve = builtin.clone();
+    for (actions, mode) in [
+        (&[Action::ShortSip, Action::ShortSip, Action::ShortSip][..], Mode::PointerX),
+        (&[Action::ShortSip, Action::ShortSip, Action::ShortPuff][..], Mode::PointerY),
+        (&[Action::ShortSip, Action::ShortPuff, Action::ShortSip][..], Mode::Scroll),
+    ] {
+        twelve.push(SequenceEntry::mode(ActionSeq::from_slice(actions).unwrap(), mode));
+    }
+    for (name, library) in [("analyse_9", &builtin), ("analyse_12_with_prefixes", &twelve)] {
+        let usage = Usage::uniform(library);
+        group.bench_function(name, |b| {
+            b.iter(|| black_box(analyse(library, &who, &usage, &timing)))
+        });
+    }
+    group.finish();
+}
+
 criterion_group!(
     benches,
+    design,
     per_sample,
     matcher_per_burst,
     ruckig_updates,
