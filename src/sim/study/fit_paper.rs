@@ -225,8 +225,8 @@ const P_WEIGHT: f64 = 10.0;
 /// fit: the paper's p is the smallest the test gives with 8 pairs, reached
 /// whenever every participant is faster with ASP, so its term is a penalty
 /// against parameters that make some participant faster with BSP, not a
-/// figure to trade against the reductions (a lost pair, p 5.86e-3 → 1.09e-2,
-/// costs 7.3 pp²).
+/// figure to trade against the reductions (the smallest pair lost, p
+/// 5.86e-3 → 8.65e-3, costs 2.9 pp²).
 fn objective(summaries: &[TaskSummary], targets: &Targets) -> f64 {
     summaries
         .iter()
