@@ -18,7 +18,9 @@ use crate::design::breathing::Breathing;
 use crate::design::search::{self, Found, Problem, candidates};
 use crate::design::usage::{Mix, Usage};
 use crate::design::{library_file, plot};
+use crate::control::selection::Interface;
 use crate::sim::study::libraries::{self, LibraryComparison};
+use crate::sim::study::missing_modes;
 
 /// `design`'s options.
 #[derive(clap::Args, Debug)]
@@ -263,7 +265,15 @@ pub fn design(args: DesignArgs) -> anyhow::Result<()> {
         &inputs.usage,
         &inputs.timing,
     );
+    let missing = missing_modes(&inputs.config, Interface::Asp);
     let study = if args.no_study {
+        None
+    } else if !missing.is_empty() {
+        let names: Vec<&str> = missing.iter().map(|m| m.name()).collect();
+        note!(
+            "no study: its tasks need {}, which the library does not select",
+            names.join(", ")
+        );
         None
     } else {
         Some(study_check(&args, &inputs, &designed_config)?)

@@ -7,6 +7,7 @@ use anyhow::Context;
 use crate::cli::args::ConfigArg;
 use crate::cli::output;
 use crate::sim::study::atypical::{self, AtypicalOptions};
+use crate::sim::study::fit_paper::{self, FitPlan, Targets};
 use crate::sim::study::{
     StudyOptions, StudyReport, SweepParam, plot, run_study, study_text, sweep, sweep_text,
 };
@@ -37,6 +38,11 @@ pub struct StudyArgs {
     /// with their profile.
     #[arg(long, conflicts_with_all = ["sweep", "plot", "users"])]
     atypical: bool,
+    /// Instead, fit BSP's scan dwell, first-dwell factor and the users'
+    /// miss rate to the paper's reductions (35, 30, 42 %), and print the
+    /// fitted study beside the paper.
+    #[arg(long, conflicts_with_all = ["sweep", "plot", "atypical"])]
+    fit_paper: bool,
 }
 
 /// Runs the study (or a sweep) and prints it.
@@ -60,6 +66,25 @@ pub fn study(args: StudyArgs) -> anyhow::Result<()> {
         seed: args.seed,
         ..StudyOptions::default()
     };
+    if args.fit_paper {
+        let report = output::invalid(
+            fit_paper::fit(
+                &config,
+                &options,
+                &Targets::PAPER,
+                &FitPlan::default(),
+                |studies| progress!("\rfit: {studies} studies   "),
+            )
+            .map_err(anyhow::Error::from),
+        )?;
+        note!();
+        return if args.json {
+            output::stdout_line(&serde_json::to_string(&report)?)
+        } else {
+            output::stdout(&fit_paper::fit_text(&report))
+        }
+        .context("stdout");
+    }
     if let Some(param) = args.sweep {
         let rows = sweep(&config, &options, param, |label, done, total| {
             progress!("\r{label}: {done}/{total} runs   ");
@@ -73,9 +98,12 @@ pub fn study(args: StudyArgs) -> anyhow::Result<()> {
         .context("stdout")?;
         return Ok(());
     }
-    let results = run_study(&config, &options, |done, total| {
-        progress!("\r{done}/{total} runs");
-    })?;
+    let results = output::invalid(
+        run_study(&config, &options, |done, total| {
+            progress!("\r{done}/{total} runs");
+        })
+        .map_err(anyhow::Error::from),
+    )?;
     note!();
     if args.json {
         output::stdout_line(&serde_json::to_string(&StudyReport::of(

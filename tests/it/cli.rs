@@ -133,6 +133,47 @@ fn a_bad_config_names_the_file_line_and_column() {
 }
 
 #[test]
+fn study_refuses_a_library_without_the_tasks_modes_at_start() {
+    // Only two of the six modes the tasks use: the simulated users would
+    // wait for the others until the time cap.
+    let (_dir, path) = scratch_file(
+        "two-modes.toml",
+        "[[sequence]]\nactions = [-1, -1]\nmode = \"translate_x\"\n\
+         [[sequence]]\nactions = [1, 1]\nmode = \"translate_z\"\n",
+    );
+    for extra in [&[][..], &["--fit-paper"][..]] {
+        let mut args = vec!["study", "--config", path.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let out = sipnpuff(&args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_exit(out.status, &stderr, 2, "a library without the modes");
+        assert!(out.stdout.is_empty(), "{args:?} printed a study");
+        assert!(
+            stderr.contains(
+                "sequence: no sequence in the library for translate_y, rotate_x, rotate_y, fingers: \
+                 the study's tasks need translate_x, translate_y, translate_z, rotate_x, rotate_y, fingers"
+            ),
+            "{stderr}"
+        );
+        assert!(!stderr.contains("runs"), "it ran before refusing: {stderr}");
+    }
+}
+
+#[test]
+fn study_fit_paper_refuses_the_other_modes() {
+    for other in [
+        &["--sweep", "bsp-dwell"][..],
+        &["--atypical"][..],
+        &["--plot", "x.svg"][..],
+    ] {
+        let mut args = vec!["study", "--fit-paper"];
+        args.extend_from_slice(other);
+        let e = refused(&args);
+        assert!(e.contains("cannot be used with"), "{e}");
+    }
+}
+
+#[test]
 fn config_prints_every_key_and_reads_back() {
     let out = sipnpuff(&[
         "config",

@@ -56,7 +56,10 @@ pub struct LibraryComparison {
 }
 
 /// Runs `users` participants drawn from `population` through the three
-/// tasks with `a`'s and `b`'s library (sequence matching).
+/// tasks with `a`'s and `b`'s library (sequence matching). Both must
+/// select every mode the tasks need ([`missing_modes`] is empty).
+///
+/// [`missing_modes`]: crate::sim::study::missing_modes
 pub fn compare(
     a: &Config,
     b: &Config,

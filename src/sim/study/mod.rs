@@ -6,6 +6,7 @@
 //! times, side by side with the paper's figures.
 
 pub mod atypical;
+pub mod fit_paper;
 pub mod libraries;
 pub mod plot;
 pub mod stats;
@@ -13,7 +14,8 @@ pub mod tasks;
 
 use serde::Serialize;
 
-use crate::config::{Config, ConfigErrors};
+use crate::config::{Config, ConfigError, ConfigErrors};
+use crate::control::mode::Mode;
 use crate::control::selection::Interface;
 use crate::control::selection::scanning::ScanningConfig;
 use crate::sim::user::{TaskRun, UserModel, run_task};
@@ -156,7 +158,9 @@ fn run_seed(seed: u64, user: usize, task: u8, interface: Interface) -> u64 {
 }
 
 /// Runs every participant through every task with both interfaces.
-/// `progress(done, total)` after each run.
+/// `progress(done, total)` after each run. Refuses, before any run, a
+/// configuration that cannot select every mode the tasks need (the
+/// simulated user would wait for it until the time cap).
 pub fn run_study(
     config: &Config,
     options: &StudyOptions,
@@ -164,42 +168,130 @@ pub fn run_study(
 ) -> Result<Vec<TaskResults>, ConfigErrors> {
     let asp = config.clone().with_interface(Interface::Asp)?;
     let bsp = config.clone().with_interface(Interface::Bsp)?;
-    let participants: Vec<UserModel> = (0..options.users)
+    check_modes(config)?;
+    let total = TASKS.len() * options.users * 2;
+    let mut done = 0;
+    let mut tick = || {
+        done += 1;
+        progress(done, total);
+    };
+    let asp_runs = run_interface(&asp, options, &mut tick);
+    let bsp_runs = run_interface(&bsp, options, &mut tick);
+    Ok(TASKS
+        .iter()
+        .zip(asp_runs.into_iter().zip(bsp_runs))
+        .map(|(task, (asp, bsp))| TaskResults {
+            task: *task,
+            asp,
+            bsp,
+        })
+        .collect())
+}
+
+/// The participants of a study, drawn from its population.
+fn participants(options: &StudyOptions) -> Vec<UserModel> {
+    (0..options.users)
         .map(|u| {
             options
                 .population
                 .participant(options.seed ^ (u as u64 + 1) << 32)
         })
-        .collect();
-    let total = TASKS.len() * options.users * 2;
-    let mut done = 0;
-    Ok(TASKS
+        .collect()
+}
+
+/// Every participant through every task on `config`'s interface: the runs
+/// by task, then participant. `run_done()` after each run.
+fn run_interface(
+    config: &Config,
+    options: &StudyOptions,
+    mut run_done: impl FnMut(),
+) -> Vec<Vec<TaskRun>> {
+    let interface = config.core().interface();
+    let participants = participants(options);
+    TASKS
         .iter()
         .map(|task| {
-            let mut results = TaskResults {
-                task: *task,
-                asp: Vec::new(),
-                bsp: Vec::new(),
-            };
-            for (u, user) in participants.iter().enumerate() {
-                for (interface, config) in [(Interface::Asp, &asp), (Interface::Bsp, &bsp)] {
+            participants
+                .iter()
+                .enumerate()
+                .map(|(u, user)| {
                     let run = run_task(
                         config,
                         task,
                         user,
                         run_seed(options.seed, u, task.number, interface),
                     );
-                    match interface {
-                        Interface::Asp => results.asp.push(run),
-                        Interface::Bsp => results.bsp.push(run),
-                    }
-                    done += 1;
-                    progress(done, total);
-                }
-            }
-            results
+                    run_done();
+                    run
+                })
+                .collect()
         })
-        .collect())
+        .collect()
+}
+
+/// The modes the study's tasks need, in [`Mode::ALL`]'s order.
+pub fn task_modes() -> Vec<Mode> {
+    Mode::ALL
+        .into_iter()
+        .filter(|m| TASKS.iter().any(|t| t.steps.iter().any(|s| s.mode == *m)))
+        .collect()
+}
+
+/// The modes the tasks need that `config` cannot select with
+/// `interface`: ASP, those without a sequence in the library; BSP, those
+/// not in the scan order.
+pub fn missing_modes(config: &Config, interface: Interface) -> Vec<Mode> {
+    let core = config.core();
+    task_modes()
+        .into_iter()
+        .filter(|mode| match interface {
+            Interface::Asp => !core
+                .sequences()
+                .iter()
+                .any(|e| e.target.mode() == Some(*mode)),
+            Interface::Bsp => !core.scanning().modes().contains(mode),
+        })
+        .collect()
+}
+
+/// Every mode the tasks need selectable with both interfaces, or an error
+/// per interface naming the modes missing.
+fn check_modes(config: &Config) -> Result<(), ConfigErrors> {
+    let names = |modes: &[Mode]| {
+        modes
+            .iter()
+            .map(|m| m.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let needed = names(&task_modes());
+    let mut errors = Vec::new();
+    for (interface, key, what) in [
+        (Interface::Asp, "sequence", "no sequence in the library for"),
+        (
+            Interface::Bsp,
+            "scanning.order",
+            "the scan never highlights",
+        ),
+    ] {
+        let missing = missing_modes(config, interface);
+        if !missing.is_empty() {
+            errors.push(ConfigError {
+                key: key.into(),
+                line: None,
+                column: None,
+                message: format!(
+                    "{what} {}: the study's tasks need {needed}",
+                    names(&missing)
+                ),
+            });
+        }
+    }
+    if errors.is_empty() {
+        Ok(())
+    } else {
+        Err(ConfigErrors(errors))
+    }
 }
 
 /// The `--json` report: each task's comparison and every run, beside the
