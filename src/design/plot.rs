@@ -10,7 +10,7 @@ use crate::design::analysis::Analysis;
 pub fn analysis_svg(a: &Analysis, title: &str) -> String {
     let mut rows: Vec<_> = a.entries.iter().collect();
     rows.sort_by(|x, y| y.usage.total_cmp(&x.usage));
-    let (row_h, top, label_w, bar_w) = (22.0, 56.0, 260.0, 300.0);
+    let (row_h, top, label_w, bar_w) = (22.0, 72.0, 260.0, 300.0);
     let width = label_w + 2.0 * bar_w + 80.0;
     let height = top + row_h * rows.len() as f64 + 40.0;
     let max_ms = rows
