@@ -393,13 +393,28 @@ fn design(c: &mut Criterion) {
     let builtin = config.core().sequences().to_vec();
     let mut twelve = builtin.clone();
     for (actions, mode) in [
-        (&[Action::ShortSip, Action::ShortSip, Action::ShortSip][..], Mode::PointerX),
-        (&[Action::ShortSip, Action::ShortSip, Action::ShortPuff][..], Mode::PointerY),
-        (&[Action::ShortSip, Action::ShortPuff, Action::ShortSip][..], Mode::Scroll),
+        (
+            &[Action::ShortSip, Action::ShortSip, Action::ShortSip][..],
+            Mode::PointerX,
+        ),
+        (
+            &[Action::ShortSip, Action::ShortSip, Action::ShortPuff][..],
+            Mode::PointerY,
+        ),
+        (
+            &[Action::ShortSip, Action::ShortPuff, Action::ShortSip][..],
+            Mode::Scroll,
+        ),
     ] {
-        twelve.push(SequenceEntry::mode(ActionSeq::from_slice(actions).unwrap(), mode));
+        twelve.push(SequenceEntry::mode(
+            ActionSeq::from_slice(actions).unwrap(),
+            mode,
+        ));
     }
-    for (name, library) in [("analyse_9", &builtin), ("analyse_12_with_prefixes", &twelve)] {
+    for (name, library) in [
+        ("analyse_9", &builtin),
+        ("analyse_12_with_prefixes", &twelve),
+    ] {
         let usage = Usage::uniform(library);
         group.bench_function(name, |b| {
             b.iter(|| black_box(analyse(library, &who, &usage, &timing)))

@@ -12,13 +12,13 @@ use serde::Serialize;
 use crate::cli::output::{self, invalid};
 use crate::config::Config;
 use crate::control::action::{Action, ActionSeq};
+use crate::control::selection::Interface;
 use crate::control::selection::SequenceEntry;
 use crate::design::analysis::{self, Analysis, Timing, analyse};
 use crate::design::breathing::Breathing;
 use crate::design::search::{self, Found, Problem, candidates};
 use crate::design::usage::{Mix, Usage};
 use crate::design::{library_file, plot};
-use crate::control::selection::Interface;
 use crate::sim::study::libraries::{self, LibraryComparison};
 use crate::sim::study::missing_modes;
 
@@ -207,7 +207,10 @@ struct StudyCheck {
 
 /// Runs `design`.
 pub fn design(args: DesignArgs) -> anyhow::Result<()> {
-    if args.wrong_cost_ms.is_some_and(|ms| !(ms.is_finite() && ms >= 0.0)) {
+    if args
+        .wrong_cost_ms
+        .is_some_and(|ms| !(ms.is_finite() && ms >= 0.0))
+    {
         return invalid(Err(anyhow::anyhow!(
             "--wrong-cost-ms: must be 0 or more milliseconds"
         )));
@@ -338,7 +341,10 @@ fn problem(args: &DesignArgs, inputs: &Inputs) -> anyhow::Result<Problem> {
     }
     let mut fixed: Vec<Option<ActionSeq>> = vec![None; library.len()];
     for name in &args.keep {
-        let Some(i) = library.iter().position(|e| names(e).iter().any(|n| n == name)) else {
+        let Some(i) = library
+            .iter()
+            .position(|e| names(e).iter().any(|n| n == name))
+        else {
             let all: Vec<String> = library.iter().map(|e| names(e)[0].clone()).collect();
             return invalid(Err(anyhow::anyhow!(
                 "--keep {name}: the library has no such entry (it has {})",
@@ -463,7 +469,8 @@ fn search_text(found: &Found, designed: &Analysis, before: &Analysis, name: &str
 /// 2 % faster and under a quarter fewer wrong selections is not.
 fn verdict(designed: &Analysis, before: &Analysis, name: &str) -> String {
     let faster = 1.0 - designed.expected_ms_per_selection / before.expected_ms_per_selection;
-    let fewer_wrong = 1.0 - designed.p_wrong_per_selection / before.p_wrong_per_selection.max(1e-12);
+    let fewer_wrong =
+        1.0 - designed.p_wrong_per_selection / before.p_wrong_per_selection.max(1e-12);
     if faster < NEAR_OPTIMAL && fewer_wrong < 0.25 {
         format!(
             "{name} is already near-optimal for this user: within {:.1} % of the least cost there is; keep it",

@@ -41,6 +41,16 @@ impl Action {
         Action::LongPuff,
     ];
 
+    /// Where it sits in [`Action::ALL`].
+    pub const fn index(self) -> usize {
+        match self {
+            Action::ShortSip => 0,
+            Action::LongSip => 1,
+            Action::ShortPuff => 2,
+            Action::LongPuff => 3,
+        }
+    }
+
     /// The paper's integer code.
     pub const fn code(self) -> i8 {
         match self {

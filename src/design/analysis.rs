@@ -151,7 +151,14 @@ pub fn entry_cost<'a>(
     t: &Timing,
     landed: impl FnMut(usize, f64, Deviation),
 ) -> EntryCost {
-    entry_cost_of(&readings(library[meant], who), meant, library, who, t, landed)
+    entry_cost_of(
+        &readings(library[meant], who),
+        meant,
+        library,
+        who,
+        t,
+        landed,
+    )
 }
 
 /// [`entry_cost`] with the meant entry's readings given.
@@ -255,9 +262,8 @@ pub fn analyse(
             .map(|(p, share)| p * share)
             .sum();
     }
-    let weighted = |f: fn(&EntryAnalysis) -> f64| -> f64 {
-        entries.iter().map(|e| e.usage * f(e)).sum()
-    };
+    let weighted =
+        |f: fn(&EntryAnalysis) -> f64| -> f64 { entries.iter().map(|e| e.usage * f(e)).sum() };
     let mut analysis = Analysis {
         user: who.source.clone(),
         usage: usage.source.clone(),
@@ -332,7 +338,9 @@ fn findings(a: &Analysis, library: &[SequenceEntry], who: &Breathing) -> Vec<Str
                 .iter()
                 .filter(|o| {
                     o.actions.len() > library[i].actions.len()
-                        && o.actions.as_slice().starts_with(library[i].actions.as_slice())
+                        && o.actions
+                            .as_slice()
+                            .starts_with(library[i].actions.as_slice())
                 })
                 .map(|o| format!("`{}`", o.target.label()))
                 .collect::<Vec<_>>();
@@ -406,7 +414,11 @@ pub fn text(a: &Analysis) -> String {
             e.wait_ms / 1000.0,
             100.0 * e.p_wrong,
             100.0 * e.p_retry,
-            if lands.is_empty() { "—".into() } else { lands }
+            if lands.is_empty() {
+                "—".into()
+            } else {
+                lands
+            }
         );
     }
     let _ = writeln!(
@@ -439,10 +451,16 @@ mod tests {
         let t = Timing::of(&who, &config, None);
         let a = analyse(library, &who, &Usage::uniform(library), &t);
         let x = &a.entries[0];
-        assert_eq!(x.target, Target::Mode(crate::control::mode::Mode::TranslateX));
+        assert_eq!(
+            x.target,
+            Target::Mode(crate::control::mode::Mode::TranslateX)
+        );
         // 459 ms reaction + 150 + 300 + 150 ms, one and a half edges and
         // 5 ms latency.
-        assert!((x.attempt_ms - (t.reaction_ms + 605.0 + 1.5 * t.edge_ms)).abs() < 1e-9, "{x:?}");
+        assert!(
+            (x.attempt_ms - (t.reaction_ms + 605.0 + 1.5 * t.edge_ms)).abs() < 1e-9,
+            "{x:?}"
+        );
         assert_eq!(x.wait_ms, 0.0);
         // Half the 5 % mistakes lengthen the first puff: rotate_x (long
         // puff, short puff). The other half lengthen the second: no entry
@@ -461,6 +479,10 @@ mod tests {
         let a = analyse(library, &who, &Usage::uniform(library), &t);
         let waits = a.entries.iter().filter(|e| e.wait_ms == 1000.0).count();
         assert_eq!(waits, 3);
-        assert!(a.findings.iter().any(|f| f.contains("waits the 1000 ms timeout")));
+        assert!(
+            a.findings
+                .iter()
+                .any(|f| f.contains("waits the 1000 ms timeout"))
+        );
     }
 }

@@ -74,7 +74,10 @@ impl Breathing {
             edge_ms: EDGE_MS,
             error_rate: user.error_rate,
             false_per_hour: 0.0,
-            hold_capacity_ms: user.hold_capacity_ms.is_finite().then_some(user.hold_capacity_ms),
+            hold_capacity_ms: user
+                .hold_capacity_ms
+                .is_finite()
+                .then_some(user.hold_capacity_ms),
         }
     }
 
@@ -111,7 +114,7 @@ impl Breathing {
 
     /// The burst `a` as this person breathes it.
     pub fn burst(&self, a: Action) -> &Burst {
-        &self.bursts[index(a)]
+        &self.bursts[a.index()]
     }
 
     /// A study participant who breathes like this: sips and puffs share
@@ -123,7 +126,10 @@ impl Breathing {
                 self.burst(Action::new(Breath::Sip, long)),
                 self.burst(Action::new(Breath::Puff, long)),
             );
-            ((sip.mean_ms + puff.mean_ms) / 2.0, sip.sd_ms.max(puff.sd_ms))
+            (
+                (sip.mean_ms + puff.mean_ms) / 2.0,
+                sip.sd_ms.max(puff.sd_ms),
+            )
         };
         UserModel {
             short_ms: class(false),
@@ -141,16 +147,6 @@ impl Breathing {
 /// there at the default thresholds and a 1.2 V breath. Calibration does
 /// not measure it, so a profile's person takes it too.
 pub const EDGE_MS: f64 = 0.84 * (DEFAULT_RAMP_MS.0 + DEFAULT_RAMP_MS.1) / 2.0;
-
-/// Where `a` sits in [`Action::ALL`].
-pub fn index(a: Action) -> usize {
-    match a {
-        Action::ShortSip => 0,
-        Action::LongSip => 1,
-        Action::ShortPuff => 2,
-        Action::LongPuff => 3,
-    }
-}
 
 /// A burst of length N(mean, sd) read by `d`: under `min_burst_ms` it is
 /// missed; past `long_burst_ms` it is long.
@@ -170,7 +166,11 @@ fn burst_read_by(a: Action, mean_ms: f64, sd_ms: f64, d: &DetectorConfig) -> Bur
         mean_ms,
         sd_ms,
         missed,
-        other_length: if a.is_long() { short } else { 1.0 - missed - short },
+        other_length: if a.is_long() {
+            short
+        } else {
+            1.0 - missed - short
+        },
     }
 }
 

@@ -157,10 +157,10 @@ pub fn outcome<'a>(read: &[Action], library: impl Fn(usize) -> Option<&'a [Actio
 mod tests {
     use super::*;
     use crate::control::action::Action::{LongPuff, LongSip, ShortPuff, ShortSip};
-    use crate::control::selection::SequenceEntry;
-    use crate::control::selection::matcher::{MatchEvent, SequenceMatcher};
     use crate::control::detector::Burst;
     use crate::control::mode::Mode;
+    use crate::control::selection::SequenceEntry;
+    use crate::control::selection::matcher::{MatchEvent, SequenceMatcher};
     use crate::sim::user::UserModel;
     use proptest::prelude::*;
 
@@ -174,19 +174,34 @@ mod tests {
         // A prefix of a longer entry matches at the timeout.
         assert_eq!(
             outcome(&[ShortPuff], lib(library)),
-            Outcome::Match { entry: 0, at: 1, waited: true }
+            Outcome::Match {
+                entry: 0,
+                at: 1,
+                waited: true
+            }
         );
         // Nothing longer starts with it: at once.
         assert_eq!(
             outcome(&[ShortPuff, ShortSip], lib(library)),
-            Outcome::Match { entry: 1, at: 2, waited: false }
+            Outcome::Match {
+                entry: 1,
+                at: 2,
+                waited: false
+            }
         );
         // A prefix that is no entry resets at the timeout.
-        assert_eq!(outcome(&[LongPuff], lib(library)), Outcome::Nothing { waited: true });
+        assert_eq!(
+            outcome(&[LongPuff], lib(library)),
+            Outcome::Nothing { waited: true }
+        );
         // Neither resets at once, and the next burst starts afresh.
         assert_eq!(
             outcome(&[LongSip, ShortPuff, ShortSip], lib(library)),
-            Outcome::Match { entry: 1, at: 3, waited: false }
+            Outcome::Match {
+                entry: 1,
+                at: 3,
+                waited: false
+            }
         );
     }
 

@@ -20,8 +20,8 @@ use serde::Serialize;
 
 use crate::control::action::{Action, ActionSeq};
 use crate::design::analysis::{Timing, entry_cost, entry_cost_of};
-use crate::design::reading::Reading;
 use crate::design::breathing::Breathing;
+use crate::design::reading::Reading;
 
 /// What to place and under which rules.
 #[derive(Debug, Clone)]
@@ -129,25 +129,38 @@ impl Space<'_> {
             .enumerate()
             .filter_map(|(i, s)| s.map(|s| (i, s)))
             .collect();
-        let mut library: Vec<&[Action]> =
-            entries.iter().map(|(_, s)| self.sequences[*s].as_slice()).collect();
+        let mut library: Vec<&[Action]> = entries
+            .iter()
+            .map(|(_, s)| self.sequences[*s].as_slice())
+            .collect();
         let placed_cost: f64 = entries
             .iter()
             .enumerate()
             .map(|(k, (i, s))| {
                 p.usage[*i]
-                    * entry_cost_of(&self.readings[*s], k, &library, &p.who, &p.timing, |_, _, _| {})
-                        .expected_ms
+                    * entry_cost_of(
+                        &self.readings[*s],
+                        k,
+                        &library,
+                        &p.who,
+                        &p.timing,
+                        |_, _, _| {},
+                    )
+                    .expected_ms
             })
             .sum();
         let k = library.len();
         let mut costs = Vec::with_capacity(self.free);
-        for c in 0..self.free {
-            if used[c] {
-                continue;
-            }
+        for (c, _) in used.iter().enumerate().filter(|(_, used)| !**used) {
             library.push(self.sequences[c].as_slice());
-            let cost = entry_cost_of(&self.readings[c], k, &library, &p.who, &p.timing, |_, _, _| {});
+            let cost = entry_cost_of(
+                &self.readings[c],
+                k,
+                &library,
+                &p.who,
+                &p.timing,
+                |_, _, _| {},
+            );
             costs.push((c, cost.expected_ms));
             library.pop();
         }
@@ -339,7 +352,7 @@ impl Branch<'_> {
             if depth > 0 && bound >= self.best_cost() * (1.0 - 1e-12) {
                 continue;
             }
-            if self.aborted || (self.nodes % 64 == 0 && Instant::now() >= self.deadline) {
+            if self.aborted || (self.nodes.is_multiple_of(64) && Instant::now() >= self.deadline) {
                 self.aborted = true;
                 self.open_bound = self.open_bound.min(bound);
                 continue;
@@ -361,7 +374,9 @@ fn local_search(p: &Problem, order: &[usize], free: &[ActionSeq]) -> Vec<ActionS
     let mut taken = vec![false; free.len()];
     for &entry in order {
         let mut placed: Vec<&[Action]> = (0..sequences.len())
-            .filter(|i| p.fixed[*i].is_some() || order.iter().take_while(|o| **o != entry).any(|o| o == i))
+            .filter(|i| {
+                p.fixed[*i].is_some() || order.iter().take_while(|o| **o != entry).any(|o| o == i)
+            })
             .map(|i| sequences[i].as_slice())
             .collect();
         let k = placed.len();
@@ -398,7 +413,7 @@ fn local_search(p: &Problem, order: &[usize], free: &[ActionSeq]) -> Vec<ActionS
                 }
             }
             let i = order[a];
-            for (c, seq) in free.iter().enumerate() {
+            for seq in free {
                 if sequences.contains(seq) {
                     continue;
                 }
@@ -408,7 +423,6 @@ fn local_search(p: &Problem, order: &[usize], free: &[ActionSeq]) -> Vec<ActionS
                 if new < current - 1e-9 {
                     current = new;
                     improved = true;
-                    let _ = c;
                 } else {
                     sequences[i] = old;
                 }
@@ -470,7 +484,11 @@ mod tests {
             let found = search(&p);
             assert!(found.complete);
             let truth = exhaustive(&p);
-            assert!((found.cost_ms - truth).abs() < 1e-9, "{} vs {truth}", found.cost_ms);
+            assert!(
+                (found.cost_ms - truth).abs() < 1e-9,
+                "{} vs {truth}",
+                found.cost_ms
+            );
             assert_eq!(found.bound_ms, found.cost_ms);
         }
     }

@@ -55,12 +55,21 @@ impl Usage {
             let mut previous = None;
             for step in task.steps {
                 if previous != Some(step.mode) {
-                    count(&mut counts, &mut elsewhere, library, Target::Mode(step.mode));
+                    count(
+                        &mut counts,
+                        &mut elsewhere,
+                        library,
+                        Target::Mode(step.mode),
+                    );
                 }
                 previous = Some(step.mode);
             }
         }
-        smoothed("the mode changes of the study's three tasks", counts, elsewhere)
+        smoothed(
+            "the mode changes of the study's three tasks",
+            counts,
+            elsewhere,
+        )
     }
 
     /// The `match` events of recordings: each path is a recording (a
@@ -111,8 +120,8 @@ fn read_matches(
     counts: &mut [u64],
     elsewhere: &mut u64,
 ) -> Result<(), String> {
-    let text =
-        std::fs::read_to_string(file).map_err(|e| format!("cannot read {}: {e}", file.display()))?;
+    let text = std::fs::read_to_string(file)
+        .map_err(|e| format!("cannot read {}: {e}", file.display()))?;
     let targets: Vec<serde_json::Value> = library
         .iter()
         .map(|e| serde_json::to_value(e.target).unwrap_or_default())

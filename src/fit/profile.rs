@@ -143,7 +143,7 @@ pub struct Measured {
 impl Measured {
     /// The length (mean, SD) of `a`, ms.
     pub fn length_ms(&self, a: crate::control::action::Action) -> (f64, f64) {
-        self.lengths_ms[crate::design::breathing::index(a)]
+        self.lengths_ms[a.index()]
     }
 }
 

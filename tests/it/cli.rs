@@ -11,11 +11,7 @@ use sipnpuff::config::Config;
 use crate::common::{ENDED_WITH_ZERO, Running, STOPPED_AT_REST, fixture};
 use crate::scratch::Scratch;
 
-fn sipnpuff(args: &[&str]) -> Output {
-    let mut command = crate::common::sipnpuff();
-    command.args(args);
-    crate::watchdog::output(&mut command)
-}
+use crate::common::sipnpuff_output as sipnpuff;
 
 /// Runs a command that must fail, returning its standard error.
 fn refused(args: &[&str]) -> String {

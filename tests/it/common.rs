@@ -147,6 +147,13 @@ pub fn sipnpuff() -> std::process::Command {
     command
 }
 
+/// `sipnpuff ARGS…` run to its end under the watchdog.
+pub fn sipnpuff_output(args: &[&str]) -> std::process::Output {
+    let mut command = sipnpuff();
+    command.args(args);
+    crate::watchdog::output(&mut command)
+}
+
 /// A process a test runs (sipnpuff or a peer): its stdout lines arrive on
 /// a channel, its stderr is collected (neither pipe can fill and stall
 /// it); killed if still running when dropped.

@@ -4,7 +4,6 @@
 //! errors for what cannot be designed.
 
 use std::path::Path;
-use std::process::Output;
 
 use serde_json::Value;
 use sipnpuff::config::Config;
@@ -16,11 +15,7 @@ use sipnpuff::sim::user::UserModel;
 
 use crate::scratch::Scratch;
 
-fn sipnpuff(args: &[&str]) -> Output {
-    let mut command = crate::common::sipnpuff();
-    command.args(args);
-    crate::watchdog::output(&mut command)
-}
+use crate::common::sipnpuff_output as sipnpuff;
 
 /// Runs a command that must succeed and parses its one JSON line.
 fn json(args: &[&str]) -> Value {
@@ -49,11 +44,21 @@ fn profile(dir: &Scratch, name: &str) -> String {
     let profile = dir.join(format!("{name}.toml"));
     let s = |p: &Path| p.to_str().unwrap().to_owned();
     let generated = sipnpuff(&[
-        "generate", "--breather", name, "--protocol", "--holds", "--out", &s(&signal),
+        "generate",
+        "--breather",
+        name,
+        "--protocol",
+        "--holds",
+        "--out",
+        &s(&signal),
     ]);
     assert!(generated.status.success());
     let fitted = sipnpuff(&["fit", "--from", &s(&signal), "--out", &s(&profile)]);
-    assert!(fitted.status.success(), "{}", String::from_utf8_lossy(&fitted.stderr));
+    assert!(
+        fitted.status.success(),
+        "{}",
+        String::from_utf8_lossy(&fitted.stderr)
+    );
     s(&profile)
 }
 
@@ -72,7 +77,12 @@ fn the_check_gives_each_entry_its_time_and_error() {
     // rotate_z (long puff, long puff) takes two long breaths: the slowest.
     let slowest = entries
         .iter()
-        .max_by(|x, y| x["expected_ms"].as_f64().unwrap().total_cmp(&y["expected_ms"].as_f64().unwrap()))
+        .max_by(|x, y| {
+            x["expected_ms"]
+                .as_f64()
+                .unwrap()
+                .total_cmp(&y["expected_ms"].as_f64().unwrap())
+        })
         .unwrap();
     assert_eq!(slowest["mode"], "rotate_z");
     assert!(a["expected_ms_per_selection"].as_f64().unwrap() > 1000.0);
@@ -98,7 +108,9 @@ fn a_designed_library_is_a_configuration_the_other_commands_read() {
     );
     assert!(
         check["expected_ms_per_selection"].as_f64().unwrap()
-            < report["before"]["expected_ms_per_selection"].as_f64().unwrap()
+            < report["before"]["expected_ms_per_selection"]
+                .as_f64()
+                .unwrap()
     );
     let text = std::fs::read_to_string(out).unwrap();
     assert!(text.contains("% of selections;"), "{text}");
@@ -113,7 +125,10 @@ fn a_profile_designs_for_its_person_and_a_plain_config_is_refused() {
     let a = json(&["design", "--check", "--user", &short, "--json"]);
     assert!(a["user"].as_str().unwrap().contains("short_capacity.toml"));
     let typical = json(&["design", "--check", "--json"]);
-    assert_ne!(a["expected_ms_per_selection"], typical["expected_ms_per_selection"]);
+    assert_ne!(
+        a["expected_ms_per_selection"],
+        typical["expected_ms_per_selection"]
+    );
     let plain = dir.join("plain.toml");
     std::fs::write(&plain, "[matcher]\nsequence_timeout_ms = 800\n").unwrap();
     let e = refused(&["design", "--check", "--user", plain.to_str().unwrap()]);
@@ -123,8 +138,18 @@ fn a_profile_designs_for_its_person_and_a_plain_config_is_refused() {
 #[test]
 fn impossible_constraints_say_what_to_change() {
     let e = refused(&["design", "--keep", "spin_around"]);
-    assert!(e.contains("--keep spin_around") && e.contains("translate_x"), "{e}");
-    let e = refused(&["design", "--max-breaths", "2", "--without", "long_sip", "long_puff"]);
+    assert!(
+        e.contains("--keep spin_around") && e.contains("translate_x"),
+        "{e}"
+    );
+    let e = refused(&[
+        "design",
+        "--max-breaths",
+        "2",
+        "--without",
+        "long_sip",
+        "long_puff",
+    ]);
     assert!(e.contains("9 entries to place but only 4 sequences"), "{e}");
     let e = refused(&["design", "--min-breaths", "3", "--max-breaths", "2"]);
     assert!(e.contains("--min-breaths 3"), "{e}");
@@ -143,5 +168,8 @@ fn the_model_predicts_the_studys_selection_time_within_5_percent() {
     let study = compare(&config, &config, &UserModel::POPULATION, 8, 1).unwrap();
     let measured = study.a_selection_s;
     let error = (predicted - measured) / measured;
-    assert!(error.abs() < 0.05, "predicted {predicted:.3} s, measured {measured:.3} s");
+    assert!(
+        error.abs() < 0.05,
+        "predicted {predicted:.3} s, measured {measured:.3} s"
+    );
 }
