@@ -48,6 +48,11 @@ pub struct DesignArgs {
     /// selection).
     #[arg(long)]
     wrong_cost_ms: Option<f64>,
+    /// Chance a burst is read as the other breath (a sip as a puff), for a
+    /// person a clinician has seen it happen to: calibration does not
+    /// measure it (default 0).
+    #[arg(long, default_value_t = 0.0)]
+    swap_rate: f64,
     /// Most bursts in a designed sequence.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(1..=4))]
     max_breaths: u8,
@@ -171,6 +176,10 @@ fn inputs(args: &DesignArgs) -> anyhow::Result<Inputs> {
     } else {
         Usage::recordings(library, &args.usage).map_err(anyhow::Error::msg)?
     };
+    let who = Breathing {
+        swap_rate: args.swap_rate,
+        ..who
+    };
     let timing = Timing::of(&who, &config, args.wrong_cost_ms);
     Ok(Inputs {
         who,
@@ -213,6 +222,12 @@ pub fn design(args: DesignArgs) -> anyhow::Result<()> {
     {
         return invalid(Err(anyhow::anyhow!(
             "--wrong-cost-ms: must be 0 or more milliseconds"
+        )));
+    }
+    if !(0.0..=0.2).contains(&args.swap_rate) {
+        return invalid(Err(anyhow::anyhow!(
+            "--swap-rate {}: a chance per burst from 0 to 0.2",
+            args.swap_rate
         )));
     }
     if args.min_breaths > args.max_breaths {

@@ -288,6 +288,12 @@ fn how(deviation: Deviation, meant: &[Action]) -> String {
             meant[i],
             crate::design::reading::other_length(meant[i])
         ),
+        Deviation::Swapped(i) => format!(
+            "its {} burst ({}) read as {}",
+            nth(i),
+            meant[i],
+            crate::design::reading::other_breath(meant[i])
+        ),
         Deviation::Missed(i) => format!("its {} burst ({}) missed", nth(i), meant[i]),
         Deviation::Extra(i) => format!("a false burst before its {} burst", nth(i)),
     }
@@ -468,6 +474,29 @@ mod tests {
         assert_eq!(x.p_wrong, 0.025);
         assert_eq!(x.confusions[0].label, "rotate_x");
         assert!((x.p_retry - 0.025).abs() < 0.002, "{x:?}");
+    }
+
+    #[test]
+    fn a_breath_read_as_the_other_lands_in_the_mirror_entry() {
+        let config = Config::default();
+        let library = config.core().sequences();
+        let who = Breathing {
+            swap_rate: 0.01,
+            ..study_user()
+        };
+        let t = Timing::of(&who, &config, None);
+        let a = analyse(library, &who, &Usage::uniform(library), &t);
+        // translate_x (short puff, short puff) with its 1st puff read as a
+        // sip is fingers (short sip, short puff); with its 2nd, translate_y.
+        let x = &a.entries[0];
+        let to = |label: &str| x.confusions.iter().find(|c| c.label == label).unwrap();
+        assert_eq!(to("fingers").p, 0.01);
+        assert_eq!(
+            to("fingers").how,
+            "its 1st burst (short puff) read as short sip"
+        );
+        assert_eq!(to("translate_y").p, 0.01);
+        assert!((x.p_wrong - 0.045).abs() < 1e-12, "{x:?}");
     }
 
     #[test]

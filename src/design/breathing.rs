@@ -47,6 +47,10 @@ pub struct Breathing {
     pub error_rate: f64,
     /// Bursts per hour nobody breathed (noise passing a threshold).
     pub false_per_hour: f64,
+    /// Chance a burst is read as the other breath (a sip as a puff):
+    /// nothing measures it, so 0 unless a clinician gives it
+    /// (`design --swap-rate`).
+    pub swap_rate: f64,
     /// The longest breath they can hold, ms (`None`: no limit measured).
     pub hold_capacity_ms: Option<f64>,
 }
@@ -74,6 +78,7 @@ impl Breathing {
             edge_ms: EDGE_MS,
             error_rate: user.error_rate,
             false_per_hour: 0.0,
+            swap_rate: 0.0,
             hold_capacity_ms: user
                 .hold_capacity_ms
                 .is_finite()

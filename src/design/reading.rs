@@ -3,7 +3,8 @@
 //!
 //! A meant sequence is read as breathed, or with one thing wrong: one
 //! burst at the other length (the detector's misreading or the person's
-//! own mistake), one burst missed, or one burst nobody breathed (noise).
+//! own mistake), one burst as the other breath, one burst missed, or one
+//! burst nobody breathed (noise).
 //! Two things wrong at once is left out: at the rates measured here
 //! (under 1 % per burst) it is a hundredth of the one-burst cases.
 //!
@@ -24,6 +25,8 @@ pub enum Deviation {
     None,
     /// Burst `i` read (or breathed) at the other length.
     Length(usize),
+    /// Burst `i` read as the other breath (a sip as a puff).
+    Swapped(usize),
     /// Burst `i` not read.
     Missed(usize),
     /// A burst nobody breathed, read before burst `i` (or after the last).
@@ -66,6 +69,15 @@ pub fn other_length(a: Action) -> Action {
     Action::new(a.breath(), !a.is_long())
 }
 
+/// The same length of the other breath.
+pub fn other_breath(a: Action) -> Action {
+    let breath = match a.breath() {
+        Breath::Sip => Breath::Puff,
+        Breath::Puff => Breath::Sip,
+    };
+    Action::new(breath, a.is_long())
+}
+
 /// Every reading of `meant` with one thing wrong at most, with its chance,
 /// for this person. The chances sum to 1.
 pub fn readings(meant: &[Action], who: &Breathing) -> Vec<Reading> {
@@ -89,6 +101,12 @@ pub fn readings(meant: &[Action], who: &Breathing) -> Vec<Reading> {
         let mut read = meant.to_vec();
         read[i] = other_length(*a);
         out.push(reading(Deviation::Length(i), &read, p));
+        if who.swap_rate > 0.0 {
+            let mut read = meant.to_vec();
+            read[i] = other_breath(*a);
+            out.push(reading(Deviation::Swapped(i), &read, who.swap_rate));
+            rest -= who.swap_rate;
+        }
         let mut read = meant.to_vec();
         read.remove(i);
         out.push(reading(Deviation::Missed(i), &read, burst.missed));
