@@ -51,19 +51,8 @@ impl Usage {
     pub fn tasks(library: &[SequenceEntry]) -> Usage {
         let mut counts = vec![0u64; library.len()];
         let mut elsewhere = 0;
-        for task in &TASKS {
-            let mut previous = None;
-            for step in task.steps {
-                if previous != Some(step.mode) {
-                    count(
-                        &mut counts,
-                        &mut elsewhere,
-                        library,
-                        Target::Mode(step.mode),
-                    );
-                }
-                previous = Some(step.mode);
-            }
+        for mode in TASKS.iter().flat_map(|t| t.mode_changes()) {
+            count(&mut counts, &mut elsewhere, library, Target::Mode(mode));
         }
         smoothed(
             "the mode changes of the study's three tasks",

@@ -159,19 +159,11 @@ pub fn mean_over_task_selections(
     library: &[crate::control::selection::SequenceEntry],
     per_entry: impl Fn(usize) -> f64,
 ) -> f64 {
-    let mut values = Vec::new();
-    for task in &TASKS {
-        let mut previous = None;
-        for step in task.steps {
-            if previous != Some(step.mode)
-                && let Some(i) = library
-                    .iter()
-                    .position(|e| e.target.mode() == Some(step.mode))
-            {
-                values.push(per_entry(i));
-            }
-            previous = Some(step.mode);
-        }
-    }
+    let values: Vec<f64> = TASKS
+        .iter()
+        .flat_map(|t| t.mode_changes())
+        .filter_map(|mode| library.iter().position(|e| e.target.mode() == Some(mode)))
+        .map(per_entry)
+        .collect();
     mean(&values)
 }

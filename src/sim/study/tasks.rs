@@ -39,11 +39,16 @@ impl Task {
     /// Mode changes the task needs (consecutive steps in one mode share a
     /// selection).
     pub fn selections(&self) -> usize {
+        self.mode_changes().count()
+    }
+
+    /// The mode selected at each mode change, in order.
+    pub fn mode_changes(&self) -> impl Iterator<Item = Mode> + '_ {
         self.steps
             .iter()
             .enumerate()
             .filter(|(i, s)| *i == 0 || self.steps[i - 1].mode != s.mode)
-            .count()
+            .map(|(_, s)| s.mode)
     }
 }
 
