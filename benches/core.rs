@@ -37,10 +37,11 @@ use sipnpuff::control::detector::{Burst, BurstDetector};
 use sipnpuff::control::event::Event;
 use sipnpuff::control::mode::{Held, Mode};
 use sipnpuff::control::modes::ModeMachine;
-use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::sample::Sample;
 use sipnpuff::control::selection::SequenceEntry;
 use sipnpuff::control::selection::matcher::SequenceMatcher;
+use sipnpuff::control::tick::{TickInput, TickOutput};
 use sipnpuff::sensor::csv::CsvSignal;
 use sipnpuff::sim::script::random_session;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, write_csv};
@@ -93,7 +94,7 @@ fn per_sample(c: &mut Criterion) {
         .iter()
         .enumerate()
         .map(|(t, &v)| {
-            core.step(t as u64, Sample::Volts(v), &mut out);
+            core.step(&TickInput::volts(t as u64, v), &mut out);
             let matched = out.events.iter().find_map(|e| match e {
                 Event::Match { target, .. } => target.mode(),
                 _ => None,
@@ -121,7 +122,7 @@ fn per_sample(c: &mut Criterion) {
     group.bench_function("core", |b| {
         b.iter(|| {
             for &v in &samples {
-                core.step(tick, black_box(Sample::Volts(v)), &mut out);
+                core.step(&TickInput::new(tick, black_box(Sample::Volts(v))), &mut out);
                 black_box(&out);
                 tick += 1;
             }
@@ -261,7 +262,7 @@ fn in_translate_x(config: &Config) -> (Pipeline, SimulatedJaco, u64) {
     // Two short puffs select translate_x in the built-in library.
     let mut feed = |volts: f64, ms: u64, core: &mut Pipeline, arm: &mut SimulatedJaco| {
         for _ in 0..ms {
-            core.step(tick, Sample::Volts(volts), &mut out);
+            core.step(&TickInput::volts(tick, volts), &mut out);
             arm.tick(out.motion.arm_command.as_ref());
             tick += 1;
         }
@@ -293,12 +294,15 @@ fn full_tick(c: &mut Criterion) {
     let mut out = TickOutput::default();
     let mut tick = 0u64;
     for _ in 0..5000 {
-        core.step(tick, Sample::Volts(2.5), &mut out);
+        core.step(&TickInput::volts(tick, 2.5), &mut out);
         tick += 1;
     }
     group.bench_function("at_rest", |b| {
         b.iter(|| {
-            core.step(tick, black_box(Sample::Volts(2.5)), &mut out);
+            core.step(
+                &TickInput::new(tick, black_box(Sample::Volts(2.5))),
+                &mut out,
+            );
             tick += 1;
             black_box(&out);
         })
@@ -307,12 +311,15 @@ fn full_tick(c: &mut Criterion) {
     let (mut core, mut arm, mut tick) = in_translate_x(&config);
     // Into steady forward motion (0.2 m/s after 0.51 s).
     for _ in 0..1000 {
-        core.step(tick, Sample::Volts(3.8), &mut out);
+        core.step(&TickInput::volts(tick, 3.8), &mut out);
         tick += 1;
     }
     group.bench_function("steady", |b| {
         b.iter(|| {
-            core.step(tick, black_box(Sample::Volts(3.8)), &mut out);
+            core.step(
+                &TickInput::new(tick, black_box(Sample::Volts(3.8))),
+                &mut out,
+            );
             arm.tick(out.motion.arm_command.as_ref());
             tick += 1;
             black_box(&out);
@@ -324,7 +331,10 @@ fn full_tick(c: &mut Criterion) {
     group.bench_function("new_target", |b| {
         b.iter(|| {
             let volts = if tick % 2 == 0 { 3.8 } else { 1.2 };
-            core.step(tick, black_box(Sample::Volts(volts)), &mut out);
+            core.step(
+                &TickInput::new(tick, black_box(Sample::Volts(volts))),
+                &mut out,
+            );
             debug_assert!(out.motion.recalculated);
             arm.tick(out.motion.arm_command.as_ref());
             tick += 1;
@@ -351,7 +361,7 @@ fn replay_throughput(c: &mut Criterion) {
             let mut core = Pipeline::new(config.core());
             let mut out = TickOutput::default();
             for (t, &v) in samples.iter().enumerate() {
-                core.step(t as u64, Sample::Volts(v), &mut out);
+                core.step(&TickInput::volts(t as u64, v), &mut out);
                 black_box(&out);
             }
         })

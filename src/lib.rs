@@ -6,7 +6,7 @@
 //!
 //! * [`control`]: the pure, deterministic core (detector → selection →
 //!   modes → motion), one [`control::pipeline::Pipeline::step`] per 1 ms
-//!   tick on one [`control::sample::Sample`]; no clock, no I/O, no
+//!   tick on one [`control::tick::TickInput`]; no clock, no I/O, no
 //!   allocation after start-up;
 //! * [`config`]: TOML into a validated [`config::Config`], every problem
 //!   named with its key and line;
@@ -35,8 +35,8 @@
 //! One sample's way from a serial sensor to a ROS 2 arm:
 //! `sensor/serial.rs` parses a line, `sensor/device.rs` and
 //! `sensor/held.rs` hand the newest value to the control thread as a
-//! [`sensor::Reading`]; `rt/control_loop.rs` gives it to the core through
-//! `rt/core_input.rs`; `control/pipeline.rs` runs the detector, the
+//! [`sensor::Reading`]; `rt/control_loop.rs` gives it to the core in a
+//! [`control::tick::TickInput`]; `control/pipeline.rs` runs the detector, the
 //! matcher (`control/selection/matcher.rs`), the mode machine
 //! (`control/modes.rs`) and the motion layer (`control/motion/`), whose
 //! decimator (`control/motion/stream.rs`) makes the 100 Hz
@@ -52,9 +52,9 @@
 //! use sipnpuff::config::Config;
 //! use sipnpuff::control::event::Event;
 //! use sipnpuff::control::mode::{Direction, Mode, ModeState};
-//! use sipnpuff::control::pipeline::{Pipeline, TickOutput};
-//! use sipnpuff::control::sample::Sample;
+//! use sipnpuff::control::pipeline::Pipeline;
 //! use sipnpuff::control::target::Target;
+//! use sipnpuff::control::tick::{TickInput, TickOutput};
 //!
 //! // Built-in library: two short puffs select forward/backward.
 //! let mut core = Pipeline::new(Config::default().core());
@@ -63,7 +63,7 @@
 //! let mut breathe = |core: &mut Pipeline, out: &mut TickOutput, volts: f64, ms: u64| {
 //!     let mut events = Vec::new();
 //!     for _ in 0..ms {
-//!         core.step(tick, Sample::Volts(volts), out);
+//!         core.step(&TickInput::volts(tick, volts), out);
 //!         events.extend(out.events.iter().copied());
 //!         tick += 1;
 //!     }

@@ -13,8 +13,8 @@
 use std::process::Command;
 
 use sipnpuff::config::Config;
-use sipnpuff::control::pipeline::{Pipeline, TickOutput};
-use sipnpuff::control::sample::Sample;
+use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::tick::{TickInput, TickOutput};
 use sipnpuff::rt::alloc_counter::CountingAllocator;
 use sipnpuff::rt::control_loop::StopReason;
 use sipnpuff::rt::simulated::{run_simulated, run_simulated_measured};
@@ -103,8 +103,7 @@ fn allocating_tick() {
     let mut out = TickOutput::default();
     let _realtime = rtsan_standalone::ScopedSanitizeRealtime::default();
     core.step(
-        0,
-        Sample::Volts(config.core().detector().neutral_volts),
+        &TickInput::volts(0, config.core().detector().neutral_volts),
         &mut out,
     );
     let line = format!("tick {} state {:?}", out.tick, out.command.state);

@@ -9,8 +9,8 @@
 
 use libfuzzer_sys::fuzz_target;
 use sipnpuff::config::Config;
-use sipnpuff::control::pipeline::{Pipeline, TickOutput};
-use sipnpuff::control::sample::Sample;
+use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::tick::{TickInput, TickOutput};
 
 /// Numeric keys, by section.
 const KEYS: [(&str, &str); 22] = [
@@ -104,7 +104,7 @@ fuzz_target!(|data: &[u8]| {
             let mut core = Pipeline::new(config.core());
             let mut out = TickOutput::default();
             for tick in 0..200 {
-                core.step(tick, Sample::Volts(d.neutral_volts), &mut out);
+                core.step(&TickInput::volts(tick, d.neutral_volts), &mut out);
                 assert!(out.motion.arm_command.is_none_or(|c| c.is_zero()));
             }
         }

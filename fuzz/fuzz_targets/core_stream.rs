@@ -18,8 +18,9 @@ use libfuzzer_sys::fuzz_target;
 use sipnpuff::config::Config;
 use sipnpuff::control::event::Event;
 use sipnpuff::control::output_command::OutputCommand;
-use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::sample::Sample;
+use sipnpuff::control::tick::{TickInput, TickOutput};
 use sipnpuff::tools::safety::SafetyMonitor;
 
 const PAPER_LIBRARY: &str = include_str!("../../fixtures/paper-example.toml");
@@ -105,7 +106,7 @@ fuzz_target!(|data: &[u8]| {
         for _ in 0..(u64::from(len) + 1) * 4 {
             let (sample, stalled) = decode(kind, level);
             tick += stalled;
-            core.step(tick, sample, &mut out);
+            core.step(&TickInput::new(tick, sample), &mut out);
             check(config, &out, &mut monitor);
             for command in out.outputs.iter() {
                 match command {

@@ -16,7 +16,10 @@
 //! * [`pointer`] moves the computer's pointer in its modes, and
 //!   [`target`] says what a match selects or fires (a key chord, a click,
 //!   a home event): [`output_command`] carries them to the outputs;
-//! * [`pipeline`] wires them into one [`Pipeline::step`] per tick;
+//! * [`tick`] is what goes into the core on one tick (the sample, the
+//!   arm's news, the start of a safe stop) and what comes out;
+//! * [`pipeline`] wires the stages into one [`Pipeline::step`] per tick,
+//!   the only call that changes the core;
 //! * [`view`] is where the user is, for the display.
 //!
 //! Everything here is pure: time enters as a [`Tick`] argument; nothing
@@ -48,6 +51,7 @@ pub mod sample;
 pub mod selection;
 pub mod skip_count;
 pub mod target;
+pub mod tick;
 pub mod view;
 
 /// Time in the core: one tick is one millisecond, one sensor sample at 1 kHz.

@@ -3,69 +3,24 @@
 //! deterministic: the same samples give the same outputs in replay, in
 //! tests and on the real-time thread.
 
-use nalgebra::Isometry3;
-
 use crate::control::Tick;
 use crate::control::action::ActionSeq;
 use crate::control::core_config::CoreConfig;
 use crate::control::detector::{BurstDetector, DetectorEvent, DetectorOutput};
-use crate::control::event::{Event, Events};
-use crate::control::mode::{Direction, Held, ModeState};
-use crate::control::modes::{ModeMachine, ModeOutput};
+use crate::control::event::Event;
+use crate::control::mode::{Direction, ModeState};
+use crate::control::modes::ModeMachine;
+use crate::control::motion::Motion;
 use crate::control::motion::feedback::ArmFault;
 use crate::control::motion::stream::ARM_STOPS_AFTER_TICKS;
-use crate::control::motion::{Motion, MotionOutput};
-use crate::control::output_command::{OutputCommand, OutputCommands};
+use crate::control::output_command::OutputCommand;
 use crate::control::pointer::Pointer;
-use crate::control::sample::Sample;
 use crate::control::selection::Interface;
 use crate::control::selection::matcher::{MatchEvent, ResetReason, SequenceMatcher};
 use crate::control::selection::scanning::Scanner;
 use crate::control::target::Target;
+use crate::control::tick::{ArmInput, ArmPose, TickInput, TickOutput};
 use crate::control::view::CoreView;
-
-/// Everything the core says about one tick. `Copy`, RT-safe.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct TickOutput {
-    /// The tick this output belongs to.
-    pub tick: Tick,
-    /// Mode, direction and strength for the motion layer.
-    pub command: ModeOutput,
-    /// The breath held right now, whatever the mode.
-    pub held: Held,
-    /// The sensor is in fault.
-    pub faulted: bool,
-    /// The commanded motion (and, every 10 ticks, the arm's command).
-    pub motion: MotionOutput,
-    /// What happened on this tick.
-    pub events: Events,
-    /// What the computer's and the home's outputs are to do.
-    pub outputs: OutputCommands,
-    /// Events that did not fit in `events` (always 0; counted, never
-    /// silently lost).
-    pub dropped_events: u8,
-}
-
-impl TickOutput {
-    /// The start of tick `now`'s output: nothing held, nothing happened
-    /// (`motion` is written whole by the motion step).
-    fn restart(&mut self, now: Tick) {
-        self.tick = now;
-        self.command = ModeOutput::default();
-        self.held = Held::default();
-        self.faulted = false;
-        self.events.clear();
-        self.outputs.clear();
-        self.dropped_events = 0;
-    }
-
-    /// Logs `event` on this tick (counted in `dropped_events` if full).
-    fn log(&mut self, event: Event) {
-        if self.events.push(event).is_err() {
-            self.dropped_events = self.dropped_events.saturating_add(1);
-        }
-    }
-}
 
 /// The deterministic core's pipeline. Build with [`Pipeline::new`] at
 /// start-up (allocates the matcher's library); [`Pipeline::step`] is
@@ -82,10 +37,6 @@ pub struct Pipeline {
     released: bool,
     /// The previous tick, to see gaps.
     last_tick: Option<Tick>,
-    /// The newest measured arm pose not yet taken in.
-    measured: Option<Isometry3<f64>>,
-    /// The arm's backend lost its link; taken in on the next step.
-    link_lost: bool,
     /// The arm fault, once there is one (it never clears).
     arm_fault: Option<ArmFault>,
     /// The direction commanded on the last tick (for [`Pipeline::view`]).
@@ -105,15 +56,20 @@ impl Pipeline {
     /// Takes in what the arm said since the last step: its link lost, a
     /// measured pose (logged if it moved the estimate), or silence.
     /// Returns a new arm fault.
-    fn take_arm_news(&mut self, now: Tick, out: &mut TickOutput) -> Option<ArmFault> {
-        if std::mem::take(&mut self.link_lost) {
+    fn take_arm_news(
+        &mut self,
+        now: Tick,
+        arm: &ArmInput,
+        out: &mut TickOutput,
+    ) -> Option<ArmFault> {
+        if arm.link_lost {
             return Some(ArmFault::LinkLost);
         }
         if self.arm_fault.is_some() {
             return None;
         }
-        if let Some(pose) = self.measured.take() {
-            match self.motion.measure(now, &pose) {
+        if let Some((ArmPose::Measured, pose)) = &arm.pose {
+            match self.motion.measure(now, pose) {
                 Err(fault) => return Some(fault),
                 Ok(Some(event)) => out.log(Event::Motion(event)),
                 Ok(None) => {}
@@ -139,48 +95,15 @@ impl Pipeline {
             pointer: Pointer::new(config.pointer()),
             released: true,
             last_tick: None,
-            measured: None,
-            link_lost: false,
             arm_fault: None,
             direction: Direction::Still,
         }
-    }
-
-    /// The arm measures its pose: motion starts from `pose` (measured
-    /// before the first tick) instead of the configured home, and from
-    /// now on measurements are expected ([`Pipeline::observe_arm`]): the
-    /// limits use them, and their silence or disagreement with the
-    /// commanded motion is an [`ArmFault`]. Call before the first step.
-    /// RT-safe.
-    pub fn start_measured(&mut self, pose: Isometry3<f64>) {
-        self.motion.start_measured(pose);
-    }
-
-    /// A pose the arm measured: taken in at the next step (the newest
-    /// wins). RT-safe.
-    pub fn observe_arm(&mut self, pose: &Isometry3<f64>) {
-        self.measured = Some(*pose);
-    }
-
-    /// The arm's backend lost its link (the receiver, the master or the
-    /// device went away): at the next step, an arm fault; the arm brakes
-    /// and the interface stays in detection mode. RT-safe.
-    pub fn arm_link_lost(&mut self) {
-        self.link_lost = true;
     }
 
     /// The arm fault, if there was one (the run should end once the arm
     /// is still).
     pub fn arm_fault(&self) -> Option<ArmFault> {
         self.arm_fault
-    }
-
-    /// Safe stop: from the next tick the interface is in detection mode for
-    /// good, so every target is zero and the arm brakes through Ruckig
-    /// under the usual limits. Keep stepping until the motion is still.
-    /// RT-safe.
-    pub fn begin_stop(&mut self) {
-        self.modes.stop();
     }
 
     /// The motion layer (pose estimate, saved point).
@@ -229,19 +152,32 @@ impl Pipeline {
         &self.detector
     }
 
-    /// Takes tick `now`'s input from the sensor and writes what the core
-    /// says about the tick into `out` (a previous tick's output, or
-    /// [`TickOutput::default`] before the first: it is written whole).
-    /// RT-safe.
-    pub fn step(&mut self, now: Tick, sample: Sample, out: &mut TickOutput) {
-        let detected = self.detector.step(now, sample);
+    /// Takes tick `input.tick`'s whole input and writes what the core says
+    /// about the tick into `out` (a previous tick's output, or
+    /// [`TickOutput::default`] before the first: it is written whole). The
+    /// only call that changes the core. RT-safe.
+    pub fn step(&mut self, input: &TickInput, out: &mut TickOutput) {
+        if let Some((ArmPose::Start, pose)) = input.arm.pose {
+            self.motion.start_measured(pose);
+        }
+        if input.stop {
+            self.modes.stop();
+        }
+        let now = input.tick;
+        let detected = self.detector.step(now, input.sample);
         out.restart(now);
-        self.process(now, detected, out);
+        self.process(now, detected, &input.arm, out);
     }
 
     /// One tick into `out`: the arm's news, the selection (the paper's
     /// Figs. 2 and 3), the mode machine (Fig. 1), the motion layer.
-    fn process(&mut self, now: Tick, detected: DetectorOutput, out: &mut TickOutput) {
+    fn process(
+        &mut self,
+        now: Tick,
+        detected: DetectorOutput,
+        arm: &ArmInput,
+        out: &mut TickOutput,
+    ) {
         let gap = self.last_tick.map(|last| now.saturating_sub(last));
         self.last_tick = Some(now);
         if gap.is_some_and(|g| g > ARM_STOPS_AFTER_TICKS) {
@@ -256,7 +192,7 @@ impl Pipeline {
 
         out.held = detected.held;
         out.faulted = detected.faulted;
-        if let Some(fault) = self.take_arm_news(now, out) {
+        if let Some(fault) = self.take_arm_news(now, arm, out) {
             if self.arm_fault.is_none() {
                 self.arm_fault = Some(fault);
                 out.log(Event::ArmFault { reason: fault });

@@ -1,8 +1,7 @@
-//! What the core is given on one tick: the sensor's sample, or the fact
-//! that none came, or that the sensor's device is gone. The one input of
-//! [`Pipeline::step`](crate::control::pipeline::Pipeline::step) and of the
-//! detector, whoever calls them: the control loop, replay, recordings, the
-//! study, the fuzzers, the benches and the tests.
+//! What the sensor gave the core on one tick: a sample, or the fact that
+//! none came, or that the sensor's device is gone. Part of every
+//! [`TickInput`](crate::control::tick::TickInput), and the one input of the
+//! detector.
 
 /// One tick's input from the sensor. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -6,6 +6,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use crate::control::sample::Sample;
+use crate::control::tick::TickInput;
 use crate::sensor::csv::CsvSignal;
 use crate::tools::recording::format::samples::SampleItem;
 use crate::tools::recording::read::Recording;
@@ -70,7 +71,7 @@ impl Signal {
         let mut samples = Vec::new();
         let mut first = None;
         while let Some(item) = decoder.next_item().map_err(|e| in_dir(&e))? {
-            let SampleItem::Input { tick, sample, .. } = item else {
+            let SampleItem::Input(TickInput { tick, sample, .. }) = item else {
                 continue;
             };
             if let Sample::Lost = sample {

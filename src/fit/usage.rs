@@ -10,7 +10,8 @@ use crate::config::Config;
 use crate::control::action::{Action, Breath};
 use crate::control::event::Event;
 use crate::control::mode::{Direction, ModeState};
-use crate::control::pipeline::{Pipeline, TickOutput};
+use crate::control::pipeline::Pipeline;
+use crate::control::tick::{TickInput, TickOutput};
 use crate::fit::breaths::{self, Found, Region, Rest};
 use crate::fit::protocol::{Ask, Block, Protocol};
 use crate::fit::session::{Answer, Answers};
@@ -60,7 +61,7 @@ pub fn measure(signal: &Signal, in_use: &Config) -> Result<Use, FitError> {
     for (tick, &sample) in signal.samples.iter().enumerate() {
         let tick = tick as u64;
         let before = out.command.state;
-        core.step(tick, sample, &mut out);
+        core.step(&TickInput::new(tick, sample), &mut out);
         for event in out.events.iter() {
             match *event {
                 Event::Burst(b) => {

@@ -21,11 +21,11 @@ use nalgebra::Isometry3;
 use crate::control::event::TimedEvent;
 use crate::control::motion::feedback::ArmFault;
 use crate::control::motion::stream::ArmCommand;
-use crate::control::pipeline::{Pipeline, TickOutput};
+use crate::control::pipeline::Pipeline;
+use crate::control::tick::{ArmInput, ArmPose, TickInput, TickOutput};
 use crate::control::view::CoreView;
 use crate::rt::alloc_counter;
 use crate::rt::clock::Clock;
-use crate::rt::core_input::{ArmInput, ArmPose, CoreInput};
 use crate::rt::output_thread::{OutputLane, TickZero};
 use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
 use crate::rt::setup::{RtOptions, Setting, setup_current_thread};
@@ -54,7 +54,7 @@ pub struct TickOutcome {
     /// The work is done: the loop ends after this tick.
     pub finished: bool,
     /// What the core was given (not on a `reference` tick).
-    pub input: CoreInput,
+    pub input: TickInput,
     /// Where the user is after the tick (for the display).
     pub view: CoreView,
 }
@@ -138,6 +138,8 @@ pub struct ControlTick<S: Samples> {
     start_pose: Option<Isometry3<f64>>,
     /// The core was told the arm's link is lost.
     told_link_lost: bool,
+    /// The safe stop was decided on the last tick: it begins on this one.
+    stop_next: bool,
     /// The core's output, written in place each tick (no copy of it).
     out: TickOutput,
 }
@@ -163,14 +165,14 @@ impl<S: Samples> ControlTick<S> {
             measured: None,
             start_pose: None,
             told_link_lost: false,
+            stop_next: false,
             out: TickOutput::default(),
         }
     }
 
-    /// The arm measures its pose: the motion starts at `start` (given to
-    /// the core on the first tick, [`Pipeline::start_measured`]), then each
-    /// tick the newest measurement from `measured` goes to the core before
-    /// the sample.
+    /// The arm measures its pose: the motion starts at `start` (the first
+    /// tick's [`ArmPose::Start`]), then each tick gives the core the newest
+    /// measurement from `measured`.
     pub fn with_measured_poses(
         mut self,
         start: Isometry3<f64>,
@@ -229,16 +231,14 @@ impl<S: Samples> TickWork for ControlTick<S> {
             }
             arm.pose = newest.map(|pose| (ArmPose::Measured, pose));
         }
-        // What the arm said and the sample become the core's calls in
-        // one place, here and in the replay of a recording; what the core
-        // was given is recorded.
-        let mut input = CoreInput {
+        // The core's whole input on this tick, as recorded and replayed.
+        let input = TickInput {
             tick,
-            arm,
             sample: reading.sample,
-            began_stop: false,
+            arm,
+            stop: std::mem::take(&mut self.stop_next),
         };
-        input.apply(&mut self.core, &mut self.out);
+        self.core.step(&input, &mut self.out);
         let out = &self.out;
         // The core found the arm untrustworthy (its measured pose silent
         // or off the commanded path): the run ends once it is still.
@@ -273,14 +273,13 @@ impl<S: Samples> TickWork for ControlTick<S> {
         if self.stopping_since.is_none() {
             let sensor_ended = self.stop_when_sensor_ends && self.sensor.ended();
             if let Some(reason) = stop.or(sensor_ended.then_some(StopReason::SensorEnded)) {
-                // From the next tick the core is in detection mode for
-                // good: every target is zero and the arm brakes through
-                // Ruckig under the usual limits.
+                // The core's next input begins the safe stop: from then on
+                // it is in detection mode for good, every target is zero
+                // and the arm brakes through Ruckig under the usual limits.
                 self.stop_reason = reason;
                 self.stopping_since = Some(wake.tick);
                 self.velocity_at_stop = out.motion.velocity();
-                self.core.begin_stop();
-                input.began_stop = true;
+                self.stop_next = true;
             }
         }
         let mut finished = false;

@@ -9,7 +9,6 @@
 //! * [`stop`], [`signals`]: why a run stops; stop requests, from signals
 //!   (which ones, and their handlers) and failed outputs;
 //! * [`control_loop`]: the 1 kHz loop and the production tick;
-//! * [`core_input`]: the core's whole input on one tick, as recorded;
 //! * [`arm_thread`]: the 100 Hz arm stream; [`output_thread`]: the
 //!   outputs beyond the arm (keyboard and pointer, home), each on its own
 //!   thread;
@@ -28,7 +27,6 @@ pub mod alloc_counter;
 pub mod arm_thread;
 pub mod clock;
 pub mod control_loop;
-pub mod core_input;
 pub mod output_thread;
 pub mod recorder;
 pub mod report;

@@ -1,7 +1,7 @@
 //! The session recorder's seam on the telemetry side (`run --record`).
 //!
 //! The control thread already sends the telemetry thread all a recording
-//! needs: each tick's [`CoreInput`] in its tick record, each event, and
+//! needs: each tick's [`TickInput`] in its tick record, each event, and
 //! (when recording) a copy of each arm command on a ring of its own. The
 //! telemetry thread hands them on to a [`SessionRecorder`], which must
 //! never block it: the implementation (`tools::recording`) queues them,
@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use crate::control::Tick;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
-use crate::rt::core_input::CoreInput;
+use crate::control::tick::TickInput;
 use crate::rt::telemetry::Drops;
 
 /// Where the telemetry thread hands what the control thread sent it.
@@ -26,7 +26,7 @@ pub trait SessionRecorder {
     fn start(&mut self, sensor: &str, arm: &str);
 
     /// One tick's input to the core, in tick order.
-    fn input(&mut self, input: &CoreInput);
+    fn input(&mut self, input: &TickInput);
 
     /// One arm command the core produced, in order.
     fn command(&mut self, command: &ArmCommand);

@@ -1,7 +1,7 @@
 //! Measure in the loop, aggregate elsewhere: the control thread pushes one
 //! small `Copy` [`TickRecord`] per tick (and each event) through rtrb rings;
 //! the telemetry side owns the HdrHistograms, logs events, builds the
-//! report and, with `run --record`, hands each tick's [`CoreInput`] to the
+//! report and, with `run --record`, hands each tick's [`TickInput`] to the
 //! session recorder.
 
 use std::io::Write;
@@ -12,8 +12,8 @@ use serde::{Serialize, Serializer};
 
 use crate::control::Tick;
 use crate::control::event::TimedEvent;
+use crate::control::tick::TickInput;
 use crate::control::view::CoreView;
-use crate::rt::core_input::CoreInput;
 
 /// Items dropped because a ring was full, cumulative. A full ring never
 /// blocks the control thread: the item is dropped and counted here.
@@ -56,7 +56,7 @@ pub struct TickRecord {
     pub drops: Drops,
     /// What the core was given (meaningless on a `reference` tick, where
     /// the core did not run).
-    pub input: CoreInput,
+    pub input: TickInput,
     /// Where the user is after the tick: what the display shows.
     pub view: CoreView,
 }
@@ -284,7 +284,7 @@ mod tests {
         // pose is in the core's input, the display's view of the core in
         // the record). A change here should update the doc comments and
         // docs/runtime.md.
-        assert_eq!(std::mem::size_of::<CoreInput>(), 104);
+        assert_eq!(std::mem::size_of::<TickInput>(), 104);
         assert_eq!(std::mem::size_of::<CoreView>(), 120);
         assert_eq!(std::mem::size_of::<TickRecord>(), 312);
     }

@@ -200,7 +200,7 @@ mod tests {
     use super::*;
     use crate::control::event::Event;
     use crate::control::modes::DetectionReason;
-    use crate::rt::core_input::CoreInput;
+    use crate::control::tick::TickInput;
     use crate::rt::stop::StopReason;
 
     /// The control thread's ends of a telemetry's rings.
@@ -248,9 +248,9 @@ mod tests {
                 records: dropped_records,
                 ..Drops::default()
             },
-            input: CoreInput {
+            input: TickInput {
                 tick,
-                ..CoreInput::default()
+                ..TickInput::default()
             },
             ..TickRecord::default()
         }
@@ -279,7 +279,7 @@ mod tests {
 
     impl SessionRecorder for Log {
         fn start(&mut self, _: &str, _: &str) {}
-        fn input(&mut self, input: &CoreInput) {
+        fn input(&mut self, input: &TickInput) {
             self.0.push(format!("input {}", input.tick));
         }
         fn command(&mut self, command: &ArmCommand) {

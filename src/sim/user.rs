@@ -15,9 +15,9 @@ use crate::control::Tick;
 use crate::control::action::{Action, Breath};
 use crate::control::event::Event;
 use crate::control::mode::{Direction, Mode, ModeState};
-use crate::control::pipeline::{Pipeline, TickOutput};
-use crate::control::sample::Sample;
+use crate::control::pipeline::Pipeline;
 use crate::control::selection::Interface;
+use crate::control::tick::{TickInput, TickOutput};
 use crate::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 use crate::sim::study::tasks::{Task, TaskStep};
 
@@ -595,7 +595,7 @@ fn simulate(
             agent.decide(tick, state, &events, &mut signal);
             events.clear();
         };
-        core.step(tick, Sample::Volts(volts), &mut out);
+        core.step(&TickInput::volts(tick, volts), &mut out);
         arm.tick(out.motion.arm_command.as_ref());
         for event in out.events.iter() {
             match event {

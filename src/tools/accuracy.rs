@@ -10,8 +10,8 @@ use crate::config::Config;
 use crate::control::detector::{Burst, FaultReason};
 use crate::control::event::Event;
 use crate::control::mode::Mode;
-use crate::control::pipeline::{Pipeline, TickOutput};
-use crate::control::sample::Sample;
+use crate::control::pipeline::Pipeline;
+use crate::control::tick::{TickInput, TickOutput};
 use crate::rt::alloc_counter;
 use crate::sim::script::random_session;
 use crate::sim::sensor_model::{ScriptedBreath, SignalGenerator, SignalParams, Step};
@@ -143,7 +143,7 @@ pub fn observe(config: &Config, params: SignalParams, script: &[Step]) -> Observ
             seen.scripted.push(b);
         }
         let before = alloc_counter::thread_allocations();
-        core.step(tick, Sample::Volts(volts), &mut out);
+        core.step(&TickInput::volts(tick, volts), &mut out);
         seen.core_allocations += alloc_counter::thread_allocations() - before;
         for event in out.events.iter() {
             match *event {

@@ -18,7 +18,8 @@ use serde::Serialize;
 
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
-use crate::control::pipeline::{Pipeline, TickOutput};
+use crate::control::pipeline::Pipeline;
+use crate::control::tick::TickOutput;
 use crate::tools::recording::format::commands::CommandItem;
 use crate::tools::recording::format::samples::SampleItem;
 use crate::tools::recording::read::{Recording, RecordingError};

@@ -16,8 +16,8 @@ use serde::Serialize;
 
 use crate::arm::sim::SimulatedJaco;
 use crate::config::Config;
-use crate::control::pipeline::{Pipeline, TickOutput};
-use crate::control::sample::Sample;
+use crate::control::pipeline::Pipeline;
+use crate::control::tick::{TickInput, TickOutput};
 use crate::rt::alloc_counter;
 use crate::rt::telemetry::{PERCENTILES, Percentiles, histogram};
 use crate::sim::script::demo_script;
@@ -77,7 +77,7 @@ pub fn bench_tick(config: &Config, seconds: u64) -> TickBench {
         let r0 = Instant::now();
         let r1 = Instant::now();
         let start = Instant::now();
-        core.step(t as u64, Sample::Volts(volts), &mut out);
+        core.step(&TickInput::volts(t as u64, volts), &mut out);
         arm.tick(out.motion.arm_command.as_ref());
         let end = Instant::now();
         let tick_ns = (end - start).as_nanos() as u64;

@@ -8,8 +8,8 @@ use std::io::{Read, Write};
 use crate::arm::sim::SimulatedJaco;
 use crate::control::core_config::CoreConfig;
 use crate::control::event::TimedEvent;
-use crate::control::pipeline::{Pipeline, TickOutput};
-use crate::control::sample::Sample;
+use crate::control::pipeline::Pipeline;
+use crate::control::tick::{TickInput, TickOutput};
 use crate::sensor::csv::CsvSignal;
 use crate::tools::replay::{ReplayError, ReplaySummary};
 use crate::tools::trace::{TRACE_HEADER, TraceRows};
@@ -32,7 +32,7 @@ pub fn replay<R: Read>(
     let mut output = TickOutput::default();
     let mut rows = TraceRows::default();
     while let Some(volts) = signal.next_sample()? {
-        core.step(summary.samples, Sample::Volts(volts), &mut output);
+        core.step(&TickInput::volts(summary.samples, volts), &mut output);
         let output = &output;
         for &event in output.events.iter() {
             let line = TimedEvent {

@@ -21,7 +21,7 @@ use crate::control::motion::orientation::{OrientationLimits, tilt_and_twist};
 use crate::control::motion::stream::ARM_STOPS_AFTER_TICKS;
 use crate::control::motion::workspace;
 use crate::control::motion::{CYCLE_S, MotionOutput};
-use crate::control::pipeline::TickOutput;
+use crate::control::tick::TickOutput;
 
 /// Relative tolerance on every limit.
 pub const RELATIVE: f64 = 1e-9;

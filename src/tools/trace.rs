@@ -5,7 +5,7 @@ use std::io::Write;
 
 use crate::arm::sim::SimulatedJaco;
 use crate::control::motion::rest::{PoseBits, VelocityBits, pose_bits, velocity_bits};
-use crate::control::pipeline::TickOutput;
+use crate::control::tick::TickOutput;
 use crate::tools::float_text::push_f64;
 
 /// Header of the `--trace` CSV.

@@ -13,14 +13,15 @@ use sipnpuff::control::action::{Action, Breath};
 use sipnpuff::control::event::Event;
 use sipnpuff::control::motion::feedback::ArmFault;
 use sipnpuff::control::motion::stream::{ARM_STREAM_PERIOD_TICKS, ArmCommand};
-use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::tick::{ArmInput, TickOutput};
 use sipnpuff::rt::alloc_counter;
 use sipnpuff::sim::script::{Timing, run_script, sequence_steps};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
 use crate::motion::clearance;
 
-use crate::common::TickByTick;
+use crate::common::{TickByTick, arm_measured, arm_starts_at};
 use Action::{ShortPuff, ShortSip};
 const TRANSLATE_X: [Action; 2] = [ShortPuff, ShortPuff];
 const TRANSLATE_Z: [Action; 2] = [ShortSip, ShortSip];
@@ -96,19 +97,21 @@ fn session(
     mut each: impl FnMut(u64, &mut RealArm),
 ) -> Vec<Tick> {
     let mut core: Pipeline = Pipeline::new(config.core());
-    if feedback {
-        core.start_measured(arm.pose);
-    }
+    let mut news = if feedback {
+        arm_starts_at(arm.pose)
+    } else {
+        ArmInput::default()
+    };
     let params = SignalParams::clean(config.core().detector(), 7);
     let mut ticks = Vec::new();
     for (t, volts) in SignalGenerator::new(params, script).enumerate() {
         let t = t as u64;
-        let out = core.tick(t, volts);
+        let out = core.tick_after(t, volts, std::mem::take(&mut news));
         each(t, &mut arm);
         if let Some(measured) = arm.tick(t, out.motion.arm_command.as_ref())
             && feedback
         {
-            core.observe_arm(&measured);
+            news = arm_measured(measured);
         }
         ticks.push(Tick {
             out,
@@ -234,11 +237,11 @@ fn a_whole_session_with_an_imperfect_arm_is_no_fault() {
     };
     let mut arm = RealArm::at(home(&config), 0.97, 50);
     let mut core: Pipeline = Pipeline::new(config.core());
-    core.start_measured(arm.pose);
+    let mut news = arm_starts_at(arm.pose);
     let params = SignalParams::clean(config.core().detector(), 7);
     let mut matched = Vec::new();
     for (t, volts) in SignalGenerator::new(params, &script).enumerate() {
-        let out = core.tick(t as u64, volts);
+        let out = core.tick_after(t as u64, volts, std::mem::take(&mut news));
         for e in out.events.iter() {
             assert!(!matches!(e, Event::ArmFault { .. }), "tick {t}: {e:?}");
             if let Event::Match { target, .. } = e {
@@ -247,7 +250,7 @@ fn a_whole_session_with_an_imperfect_arm_is_no_fault() {
         }
         if let Some(mut measured) = arm.tick(t as u64, out.motion.arm_command.as_ref()) {
             measured.translation.vector += Vector3::new(noise(), noise(), noise());
-            core.observe_arm(&measured);
+            news = arm_measured(measured);
         }
     }
     assert_eq!(matched, modes, "the session went as scripted");
@@ -362,14 +365,14 @@ fn a_silent_pose_is_a_fault_exactly_after_the_timeout() {
     let config = Config::default();
     let timeout = u64::from(config.core().feedback().timeout_ms);
     let mut core: Pipeline = Pipeline::new(config.core());
-    core.start_measured(home(&config));
+    let mut news = arm_starts_at(home(&config));
     let neutral = config.core().detector().neutral_volts;
     let mut fault_at = None;
     for t in 0..2000u64 {
-        if t <= 500 && t.is_multiple_of(10) {
-            core.observe_arm(&home(&config)); // last one at tick 500
+        if t > 0 && t <= 500 && t.is_multiple_of(10) {
+            news = arm_measured(home(&config)); // last one at tick 500
         }
-        let out = core.tick(t, neutral);
+        let out = core.tick_after(t, neutral, std::mem::take(&mut news));
         for e in out.events.iter() {
             if let Event::ArmFault { reason } = e {
                 assert!(fault_at.is_none());
@@ -393,13 +396,14 @@ fn a_lost_link_is_a_fault_on_the_next_tick_and_the_arm_brakes() {
     script.push(hold(Breath::Puff, 3000));
     let params = SignalParams::clean(config.core().detector(), 7);
     let mut core: Pipeline = Pipeline::new(config.core());
+    let mut news = ArmInput::default();
     let mut lost_at = None;
     let mut outs = Vec::new();
     for (t, volts) in SignalGenerator::new(params, &script).enumerate() {
         let t = t as u64;
-        let out = core.tick(t, volts);
+        let out = core.tick_after(t, volts, std::mem::take(&mut news));
         if lost_at.is_none() && out.motion.linear[0] >= 0.2 {
-            core.arm_link_lost();
+            news.link_lost = true;
             lost_at = Some(t);
         }
         outs.push(out);
@@ -429,14 +433,14 @@ fn taking_in_measurements_allocates_nothing() {
     let params = SignalParams::clean(config.core().detector(), 7);
     let samples: Vec<f64> = SignalGenerator::new(params, &script).collect();
     let mut core: Pipeline = Pipeline::new(config.core());
-    core.start_measured(home(&config));
+    let mut news = arm_starts_at(home(&config));
     let mut arm = RealArm::at(home(&config), 1.02, 0);
     arm.in_flight.reserve(16);
     let before = alloc_counter::thread_allocations();
     for (t, volts) in samples.iter().enumerate() {
-        let out = core.tick(t as u64, *volts);
+        let out = core.tick_after(t as u64, *volts, std::mem::take(&mut news));
         if let Some(measured) = arm.tick(t as u64, out.motion.arm_command.as_ref()) {
-            core.observe_arm(&measured);
+            news = arm_measured(measured);
         }
     }
     assert_eq!(alloc_counter::thread_allocations() - before, 0);
@@ -462,12 +466,12 @@ fn a_measured_pose_past_the_margin_lets_the_arm_move_away_only() {
     let mut arm = RealArm::at(start, 1.0, 0);
     arm.pose.translation.vector.z -= 0.008;
     let mut core: Pipeline = Pipeline::new(config.core());
-    core.start_measured(start);
+    let mut news = arm_starts_at(start);
     let params = SignalParams::clean(config.core().detector(), 7);
     let (mut lowest_command, mut highest) = (0.0f64, f64::MIN);
     let mut limits = 0;
     for (t, volts) in SignalGenerator::new(params, &script).enumerate() {
-        let out = core.tick(t as u64, volts);
+        let out = core.tick_after(t as u64, volts, std::mem::take(&mut news));
         lowest_command = lowest_command.min(out.motion.linear[2]);
         highest = highest.max(arm.pose.translation.vector.z);
         limits += out
@@ -483,7 +487,7 @@ fn a_measured_pose_past_the_margin_lets_the_arm_move_away_only() {
             out.events
         );
         if let Some(measured) = arm.tick(t as u64, out.motion.arm_command.as_ref()) {
-            core.observe_arm(&measured);
+            news = arm_measured(measured);
         }
     }
     assert_eq!(lowest_command, 0.0, "nothing moved down");
@@ -509,18 +513,18 @@ fn a_pose_that_is_not_a_pose_is_a_fault_and_never_reaches_the_estimate() {
     let cases: [Spoil; 3] = [&nan, &inf, &zero_quaternion];
     for spoil in cases {
         let mut core: Pipeline = Pipeline::new(config.core());
-        core.start_measured(home(&config));
+        let mut news = arm_starts_at(home(&config));
         let neutral = config.core().detector().neutral_volts;
         let mut faults = Vec::new();
         for t in 0..300u64 {
             if t == 100 {
                 let mut bad = home(&config);
                 spoil(&mut bad);
-                core.observe_arm(&bad);
-            } else if t.is_multiple_of(10) {
-                core.observe_arm(&home(&config));
+                news = arm_measured(bad);
+            } else if t > 0 && t.is_multiple_of(10) {
+                news = arm_measured(home(&config));
             }
-            let out = core.tick(t, neutral);
+            let out = core.tick_after(t, neutral, std::mem::take(&mut news));
             let p = out.motion.pose.translation.vector;
             assert!(p.iter().all(|v| v.is_finite()), "tick {t}: {p:?}");
             faults.extend(out.events.iter().filter_map(|e| match e {
@@ -551,13 +555,13 @@ fn an_arm_held_still_at_a_turned_pose_stays_trusted_for_minutes() {
     let mut pose = home(&config);
     pose.rotation = r;
     let mut core: Pipeline = Pipeline::new(config.core());
-    core.start_measured(pose);
+    let mut news = arm_starts_at(pose);
     let neutral = config.core().detector().neutral_volts;
     for t in 0..180_000u64 {
-        if t.is_multiple_of(10) {
-            core.observe_arm(&pose);
+        if t > 0 && t.is_multiple_of(10) {
+            news = arm_measured(pose);
         }
-        let out = core.tick(t, neutral);
+        let out = core.tick_after(t, neutral, std::mem::take(&mut news));
         assert!(out.events.is_empty(), "tick {t}: {:?}", out.events);
         let q = out.motion.pose.rotation.quaternion().norm();
         assert!((q - 1.0).abs() < 1e-12, "tick {t}: |q| = {q}");

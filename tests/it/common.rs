@@ -6,8 +6,9 @@ use sipnpuff::control::action::Breath;
 use sipnpuff::control::event::Event;
 use sipnpuff::control::mode::Mode;
 use sipnpuff::control::motion::MotionEvent;
-use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::sample::Sample;
+use sipnpuff::control::tick::{ArmInput, ArmPose, TickInput, TickOutput};
 use sipnpuff::sim::sensor_model::Step;
 
 /// The core driven one tick at a time, each tick's output returned: how
@@ -17,6 +18,11 @@ pub trait TickByTick {
     fn tick(&mut self, t: Tick, volts: f64) -> TickOutput;
     /// Tick `t` with `sample` (a sample, none, or the device gone).
     fn tick_with(&mut self, t: Tick, sample: Sample) -> TickOutput;
+    /// Tick `t` with a sample of `volts` and what the arm said since the
+    /// last tick.
+    fn tick_after(&mut self, t: Tick, volts: f64, arm: ArmInput) -> TickOutput;
+    /// Tick `input.tick` with its whole input.
+    fn tick_input(&mut self, input: &TickInput) -> TickOutput;
 }
 
 impl TickByTick for Pipeline {
@@ -25,9 +31,36 @@ impl TickByTick for Pipeline {
     }
 
     fn tick_with(&mut self, t: Tick, sample: Sample) -> TickOutput {
+        self.tick_input(&TickInput::new(t, sample))
+    }
+
+    fn tick_after(&mut self, t: Tick, volts: f64, arm: ArmInput) -> TickOutput {
+        self.tick_input(&TickInput {
+            arm,
+            ..TickInput::volts(t, volts)
+        })
+    }
+
+    fn tick_input(&mut self, input: &TickInput) -> TickOutput {
         let mut out = TickOutput::default();
-        self.step(t, sample, &mut out);
+        self.step(input, &mut out);
         out
+    }
+}
+
+/// The arm's news: it starts at `pose` (a measuring arm, first tick).
+pub fn arm_starts_at(pose: nalgebra::Isometry3<f64>) -> ArmInput {
+    ArmInput {
+        pose: Some((ArmPose::Start, pose)),
+        link_lost: false,
+    }
+}
+
+/// The arm's news: it measured `pose`.
+pub fn arm_measured(pose: nalgebra::Isometry3<f64>) -> ArmInput {
+    ArmInput {
+        pose: Some((ArmPose::Measured, pose)),
+        link_lost: false,
     }
 }
 

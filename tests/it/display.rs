@@ -8,8 +8,8 @@ use sipnpuff::control::Tick;
 use sipnpuff::control::event::{Event, TimedEvent};
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::sample::Sample;
+use sipnpuff::control::tick::TickInput;
 use sipnpuff::display::screen::{Cue, Frame, Screen};
-use sipnpuff::rt::core_input::CoreInput;
 use sipnpuff::rt::telemetry::TickRecord;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
@@ -48,10 +48,10 @@ impl Session {
             let out = self.core.tick_with(self.tick, sample);
             let record = TickRecord {
                 tick: self.tick,
-                input: CoreInput {
+                input: TickInput {
                     tick: self.tick,
                     sample,
-                    ..CoreInput::default()
+                    ..TickInput::default()
                 },
                 view: self.core.view(),
                 ..TickRecord::default()

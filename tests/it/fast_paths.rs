@@ -13,12 +13,13 @@ use sipnpuff::arm::sim::SimulatedJaco;
 use sipnpuff::config::Config;
 use sipnpuff::control::event::Event;
 use sipnpuff::control::motion::rest::pose_bits;
-use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::tick::{TickInput, TickOutput};
 use sipnpuff::sim::script::{demo_script, random_session};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
-use crate::common::TickByTick;
 use crate::common::paper_config;
+use crate::common::{TickByTick, arm_measured, arm_starts_at};
 use sipnpuff::control::sample::Sample;
 
 /// The floats of a tick's output, as bits (`==` would take −0 for 0).
@@ -85,10 +86,11 @@ impl Pair {
 
     /// Steps both at tick `t` and checks that every field of the outputs,
     /// the views and the arms' poses are the same, floats bit for bit.
-    fn step(&mut self, t: u64, sample: Sample) -> &TickOutput {
+    fn step(&mut self, input: &TickInput) -> &TickOutput {
+        let t = input.tick;
         let (fast, a) = (&mut self.fast, &mut self.out);
-        fast.step(t, sample, a);
-        let b = self.full.tick_with(t, sample);
+        fast.step(input, a);
+        let b = self.full.tick_input(input);
         assert_eq!(*a, b, "tick {t}");
         assert_eq!(float_bits(a), float_bits(&b), "tick {t}");
         assert_eq!(fast.view(), self.full.view(), "tick {t}");
@@ -161,7 +163,7 @@ fn side_by_side(config: &Config, samples: impl Iterator<Item = f64>) -> Skipped 
     let mut pair = Pair::new(config);
     let mut ticks = 0;
     for (t, volts) in samples.enumerate() {
-        pair.step(t as u64, Sample::Volts(volts));
+        pair.step(&TickInput::volts(t as u64, volts));
         ticks += 1;
     }
     pair.skipped(ticks)
@@ -173,17 +175,15 @@ fn side_by_side(config: &Config, samples: impl Iterator<Item = f64>) -> Skipped 
 /// lost at `link_lost_at`.
 fn side_by_side_measured(config: &Config, inputs: &[Sample], link_lost_at: u64) -> Skipped {
     let mut pair = Pair::new(config);
-    let start = pair.fast_arm.state().pose;
-    pair.fast.start_measured(start);
-    pair.full.start_measured(start);
+    let mut news = arm_starts_at(pair.fast_arm.state().pose);
     let mut faulted = false;
-    for (t, &input) in inputs.iter().enumerate() {
+    for (t, &sample) in inputs.iter().enumerate() {
         let t = t as u64;
-        if t == link_lost_at {
-            pair.fast.arm_link_lost();
-            pair.full.arm_link_lost();
-        }
-        let out = pair.step(t, input);
+        news.link_lost = t == link_lost_at;
+        let out = pair.step(&TickInput {
+            arm: std::mem::take(&mut news),
+            ..TickInput::new(t, sample)
+        });
         faulted |= out
             .events
             .iter()
@@ -191,8 +191,7 @@ fn side_by_side_measured(config: &Config, inputs: &[Sample], link_lost_at: u64) 
         if t.is_multiple_of(10) {
             let mut measured = pair.full_arm.state().pose;
             measured.translation.vector.x += if t.is_multiple_of(20) { 1e-4 } else { -1e-4 };
-            pair.fast.observe_arm(&measured);
-            pair.full.observe_arm(&measured);
+            news = arm_measured(measured);
         }
     }
     assert!(

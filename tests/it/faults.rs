@@ -8,8 +8,9 @@ use sipnpuff::control::detector::FaultReason;
 use sipnpuff::control::event::{Event, TimedEvent};
 use sipnpuff::control::mode::{Mode, ModeState};
 use sipnpuff::control::modes::DetectionReason;
-use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::target::Target;
+use sipnpuff::control::tick::TickOutput;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
 /// Steps a pipeline sample by sample, keeping every event with its tick.

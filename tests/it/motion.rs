@@ -12,8 +12,9 @@ use sipnpuff::control::event::Event;
 use sipnpuff::control::mode::{Direction, ModeState};
 use sipnpuff::control::motion::MotionEvent;
 use sipnpuff::control::motion::workspace::{self, Boundary};
-use sipnpuff::control::pipeline::{Pipeline, TickOutput};
+use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::sample::Sample;
+use sipnpuff::control::tick::TickOutput;
 use sipnpuff::sim::script::{Timing, demo_script, random_session, sequence_steps};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 

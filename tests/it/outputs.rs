@@ -17,6 +17,7 @@ use sipnpuff::control::output_command::{OutputCommand, PointerMove};
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::sample::Sample;
 use sipnpuff::control::target::{Chord, Click, HomeEvent};
+use sipnpuff::control::tick::TickInput;
 use sipnpuff::output::{Output, OutputReport};
 use sipnpuff::rt::output_thread::Serves;
 use sipnpuff::rt::simulated::run_simulated_with_outputs;
@@ -199,10 +200,10 @@ fn a_fault_or_a_stop_lets_go_of_a_held_drag_once() {
     let mut core = Pipeline::new(config.core());
     let mut released = 0;
     for (t, &v) in samples.iter().enumerate().take(drag_at as usize + 500) {
-        if t as Tick == drag_at + 200 {
-            core.begin_stop();
-        }
-        let out = core.tick(t as Tick, v);
+        let out = core.tick_input(&TickInput {
+            stop: t as Tick == drag_at + 200,
+            ..TickInput::volts(t as Tick, v)
+        });
         released += out
             .outputs
             .iter()

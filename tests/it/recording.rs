@@ -15,7 +15,7 @@ use sipnpuff::arm::sim::SimArm;
 use sipnpuff::config::Config;
 use sipnpuff::control::motion::stream::ArmCommand;
 use sipnpuff::control::sample::Sample;
-use sipnpuff::rt::core_input::CoreInput;
+use sipnpuff::control::tick::TickInput;
 use sipnpuff::rt::threads::{LoopSettings, RunOptions, run};
 use sipnpuff::sensor::synthetic::SyntheticSensor;
 use sipnpuff::tools::recording::format::commands::{CommandDecoder, CommandEncoder, CommandItem};
@@ -107,30 +107,16 @@ fn assert_replays_bit_for_bit(dir: &Path, run_stdout: &[String]) -> Value {
     let replayed: Vec<&str> = replayed.lines().collect();
     assert_eq!(replayed, events, "replay's events are the run's");
     // The safe stop began on the recorded tick: if the core was in
-    // command mode, it left it for good on the next tick it ran.
+    // command mode, it left it for good on that tick.
     let stop_tick = meta["stop_tick"].as_u64().expect("a recorded stop");
     if let Some(stop) = events
         .iter()
         .map(|l| serde_json::from_str::<Value>(l).unwrap())
         .find(|e| e["event"] == "detection" && e["reason"] == "stop")
     {
-        assert_eq!(stop["tick"], next_tick_after(dir, stop_tick), "{meta}");
+        assert_eq!(stop["tick"], stop_tick, "{meta}");
     }
     meta
-}
-
-/// The first tick in `samples.bin` after `tick`.
-fn next_tick_after(dir: &Path, tick: u64) -> u64 {
-    let file = std::io::BufReader::new(std::fs::File::open(dir.join("samples.bin")).unwrap());
-    let mut samples = SampleDecoder::new(file).unwrap();
-    while let Some(item) = samples.next_item().unwrap() {
-        if let SampleItem::Input { tick: t, .. } = item
-            && t > tick
-        {
-            return t;
-        }
-    }
-    panic!("no tick after {tick}")
 }
 
 /// 8 s of the built-in user (save the pose, then forward; the time is up
@@ -157,7 +143,7 @@ fn a_recorded_run_of_the_built_in_user_replays_bit_for_bit() {
         let (status, stdout, stderr) = run.finish();
         assert!(status.success(), "{status}\n{stderr}");
         // The stop came in command mode, mid-move: the core braked the arm
-        // after `begin_stop`, and the replay must too.
+        // from the tick whose input began the stop, and the replay must too.
         assert!(
             stdout.iter().any(|l| l.contains("\"reason\":\"stop\"")),
             "not stopped in command mode: {stdout:?}"
@@ -266,10 +252,10 @@ fn a_recorded_serial_device_that_is_unplugged_replays_bit_for_bit() {
         let mut samples = SampleDecoder::new(file).unwrap();
         let mut gone = 0;
         while let Some(item) = samples.next_item().unwrap() {
-            if let SampleItem::Input {
+            if let SampleItem::Input(TickInput {
                 sample: Sample::Lost,
                 ..
-            } = item
+            }) = item
             {
                 gone += 1;
             }
@@ -451,11 +437,11 @@ fn dropped_items_are_marked_in_the_streams_and_replay_does_not_claim_equality() 
         for (tick, volts) in samples.enumerate() {
             let tick = tick as u64;
             let out = core.tick(tick, volts);
-            recorder.input(&CoreInput {
+            recorder.input(&TickInput {
                 tick,
                 sample: Sample::Volts(volts),
-                began_stop: false,
-                ..CoreInput::default()
+                stop: false,
+                ..TickInput::default()
             });
             for &event in out.events.iter() {
                 recorder.event(&TimedEvent { tick, event });
@@ -769,15 +755,15 @@ proptest! {
     #[test]
     fn samples_round_trip(first in 0u64..5, items in inputs(), losses in prop::collection::vec((0usize..400, 1u64..1000), 0..3)) {
         let mut tick = first;
-        let inputs: Vec<CoreInput> = items
+        let inputs: Vec<TickInput> = items
             .iter()
-            .map(|&(gap, sample, began_stop)| {
+            .map(|&(gap, sample, stop)| {
                 tick = tick.wrapping_add(gap);
-                let input = CoreInput {
+                let input = TickInput {
                     tick,
                     sample,
-                    began_stop,
-                    ..CoreInput::default()
+                    stop,
+                    ..TickInput::default()
                 };
                 tick = tick.wrapping_add(1);
                 input
@@ -794,10 +780,7 @@ proptest! {
                 }
             }
             enc.input(&mut ops, input);
-            expected.push(SampleItem::Input { tick: input.tick, arm: input.arm, sample: input.sample });
-            if input.began_stop {
-                expected.push(SampleItem::BeginStop);
-            }
+            expected.push(SampleItem::Input(*input));
             // Commit in pieces, as the writer does.
             if i % 37 == 0 {
                 file.write(&ops).unwrap();
@@ -815,11 +798,12 @@ proptest! {
         prop_assert_eq!(back.len(), expected.len());
         for (a, b) in back.iter().zip(&expected) {
             let bits = |item: &SampleItem| match *item {
-                SampleItem::Input { tick, sample: Sample::Volts(v), .. } => (0, tick, v.to_bits()),
-                SampleItem::Input { tick, sample: Sample::Missing, .. } => (1, tick, 0),
-                SampleItem::Input { tick, sample: Sample::Lost, .. } => (4, tick, 0),
-                SampleItem::BeginStop => (2, 0, 0),
-                SampleItem::Lost(n) => (3, n, 0),
+                SampleItem::Input(TickInput { tick, sample, stop, .. }) => match sample {
+                    Sample::Volts(v) => (0, tick, v.to_bits(), stop),
+                    Sample::Missing => (1, tick, 0, stop),
+                    Sample::Lost => (4, tick, 0, stop),
+                },
+                SampleItem::Lost(n) => (3, n, 0, false),
             };
             prop_assert_eq!(bits(a), bits(b));
         }

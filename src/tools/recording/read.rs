@@ -213,9 +213,8 @@ impl Recording {
             .map_err(|e| RecordingError::format(self.path(SAMPLES), e))?
         {
             match item {
-                SampleItem::Input { .. } => contents.ticks += 1,
+                SampleItem::Input(_) => contents.ticks += 1,
                 SampleItem::Lost(_) => contents.losses += 1,
-                SampleItem::BeginStop => {}
             }
         }
         let mut commands = self.commands()?;

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use crate::config::Config;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
-use crate::rt::core_input::CoreInput;
+use crate::control::tick::TickInput;
 use crate::rt::recorder::{Lost, RecordingReport, RecordingSummary, SessionRecorder};
 use crate::rt::report::RunReport;
 use crate::tools::recording::writer::{Finish, Item, RecordOptions, Writer, one, problems};
@@ -222,7 +222,7 @@ impl SessionRecorder for Recorder {
         });
     }
 
-    fn input(&mut self, input: &CoreInput) {
+    fn input(&mut self, input: &TickInput) {
         self.send(Item::Input(*input));
     }
 
@@ -374,11 +374,11 @@ mod tests {
         recorder.start("test", "test");
         for batch in 0..3u64 {
             for t in batch * 100..(batch + 1) * 100 {
-                recorder.input(&CoreInput {
+                recorder.input(&TickInput {
                     tick: t,
                     sample: Sample::Volts(2.5 + t as f64 * 1e-3),
-                    began_stop: false,
-                    ..CoreInput::default()
+                    stop: false,
+                    ..TickInput::default()
                 });
             }
             // The writer commits between batches (every 200 ms).
@@ -405,11 +405,7 @@ mod tests {
         while let Some(item) = decoder.next_item().unwrap() {
             assert_eq!(
                 item,
-                SampleItem::Input {
-                    tick: ticks,
-                    arm: Default::default(),
-                    sample: Sample::Volts(2.5 + ticks as f64 * 1e-3)
-                }
+                SampleItem::Input(TickInput::volts(ticks, 2.5 + ticks as f64 * 1e-3))
             );
             ticks += 1;
         }

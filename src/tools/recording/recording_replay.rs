@@ -1,6 +1,6 @@
 //! Replaying a recording (`replay DIR`): a fresh core is given exactly
 //! the recorded calls (each tick's step at its recorded tick, with its
-//! sample or none; `begin_stop` where the safe stop began), and its events
+//! sample or none, the arm's news and the start of the safe stop), and its events
 //! and arm commands are compared with the recorded ones as they come:
 //! events as their JSON lines (`serde_json` writes the shortest text that
 //! reads back to the same bits), arm commands field by field, bit for bit.
@@ -13,8 +13,8 @@ use crate::config::Config;
 use crate::control::Tick;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
-use crate::control::pipeline::{Pipeline, TickOutput};
-use crate::rt::core_input::{ArmPose, CoreInput};
+use crate::control::pipeline::Pipeline;
+use crate::control::tick::{ArmPose, TickOutput};
 use crate::tools::recording::format::commands::{CommandDecoder, CommandItem};
 use crate::tools::recording::format::samples::SampleItem;
 use crate::tools::recording::read::{EventLines, Recording, RecordingError};
@@ -263,26 +263,15 @@ impl Comparer<'_> {
     }
 }
 
-/// Makes the core's calls one item of `samples.bin` stands for, as the
-/// control tick made them ([`CoreInput::apply`]), into `out`; the safe
-/// stop's `begin_stop` (a separate item in the file); nothing for lost
-/// ticks. The tick stepped, if any. The replay and `bench replay`'s
-/// core-alone rounds both give the core its input through this.
+/// Gives the core the input one item of `samples.bin` holds, its output
+/// into `out`; nothing for lost ticks. The tick stepped, if any. The
+/// replay and `bench replay`'s core-alone rounds both give the core its
+/// input through this.
 pub fn give_to_core(item: SampleItem, core: &mut Pipeline, out: &mut TickOutput) -> Option<Tick> {
     match item {
-        SampleItem::Input { tick, arm, sample } => {
-            let input = CoreInput {
-                tick,
-                arm,
-                sample,
-                began_stop: false,
-            };
-            input.apply(core, out);
-            Some(tick)
-        }
-        SampleItem::BeginStop => {
-            core.begin_stop();
-            None
+        SampleItem::Input(input) => {
+            core.step(&input, out);
+            Some(input.tick)
         }
         SampleItem::Lost(_) => None,
     }
@@ -367,13 +356,15 @@ pub fn replay(
         .map_err(|e| RecordingError::format(recording.path(SAMPLES), e))?
     {
         match item {
-            SampleItem::Input { arm: news, .. } => {
-                if let Some((ArmPose::Start, pose)) = news.pose {
+            SampleItem::Input(input) => {
+                if let Some((ArmPose::Start, pose)) = input.arm.pose {
                     // The trace's arm starts where the real one did.
                     arm.move_to(pose);
                 }
+                if input.stop {
+                    v.stop_tick = Some(input.tick);
+                }
             }
-            SampleItem::BeginStop => v.stop_tick = v.last_tick,
             // What follows is not the core's whole input.
             SampleItem::Lost(_) => cmp.comparing = false,
         }

@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use crate::control::Tick;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
-use crate::rt::core_input::CoreInput;
+use crate::control::tick::TickInput;
 use crate::rt::recorder::{Lost, RecordingReport, RecordingSummary};
 use crate::rt::report::RunReport;
 use crate::tools::recording::format::commands::CommandEncoder;
@@ -62,7 +62,7 @@ impl Default for RecordOptions {
 /// What goes through the queue.
 pub(super) enum Item {
     Start { sensor: String, arm: String },
-    Input(CoreInput),
+    Input(TickInput),
     Command(ArmCommand),
     Event(TimedEvent),
     Lost(Lost),
@@ -286,7 +286,7 @@ impl Writer {
                 g.ticks += 1;
                 g.first_tick.get_or_insert(input.tick);
                 g.last_tick = Some(input.tick);
-                if input.began_stop {
+                if input.stop {
                     g.stop_tick = Some(input.tick);
                 }
             }

@@ -18,12 +18,13 @@
 //! header   "SIPNPUFF" kind ('S' or 'C') version (2; version 1 lacks the arm's ops)
 //! samples  0x01 bits:u64le    one tick, a new value          0x02 n   n ticks repeating the last value
 //!          0x03 n             n ticks without a sample        0x04 n   n ticks skipped before the next
-//!          0x05 t             the next tick is t (absolute)   0x06     begin_stop after the last tick
+//!          0x05 t             the next tick is t (absolute)   0x06     the safe stop begins
 //!          0x07 n             n ticks lost (not recorded)      0x08 n   n ticks with the device gone
 //!          0x09 bits:u64le×7  the arm's measured start pose     0x0a bits:u64le×7  a measured pose
-//!          0x0b               the arm's link lost               (each before the next tick's step;
-//!                                                              a pose is x, y, z, then the unit
-//!                                                              quaternion i, j, k, w)
+//!          0x0b               the arm's link lost               (0x06, 0x09–0x0b are part of the
+//!                                                              next tick's input; a pose is x, y,
+//!                                                              z, then the unit quaternion i, j,
+//!                                                              k, w)
 //! commands 0x00–0x7f mask Δtick [bits:u64le per set bit]       one command: the mask says which of
 //!                                                              v(3), ω(3), fingers changed
 //!          0x80 seq           the next command's number       0x81 n   n commands lost

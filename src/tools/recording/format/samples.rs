@@ -6,7 +6,7 @@ use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 
 use crate::control::Tick;
 use crate::control::sample::Sample;
-use crate::rt::core_input::{ArmInput, ArmPose, CoreInput};
+use crate::control::tick::{ArmInput, ArmPose, TickInput};
 use crate::tools::recording::format::{Bytes, FormatError, Stream, op};
 
 const VALUE: u8 = 0x01;
@@ -54,7 +54,7 @@ pub struct SampleEncoder {
 
 impl SampleEncoder {
     /// Appends one tick's input.
-    pub fn input(&mut self, out: &mut Vec<u8>, input: &CoreInput) {
+    pub fn input(&mut self, out: &mut Vec<u8>, input: &TickInput) {
         if input.tick != self.next_tick {
             self.flush(out);
             if input.tick > self.next_tick {
@@ -63,7 +63,7 @@ impl SampleEncoder {
                 op(out, AT_TICK, input.tick);
             }
         }
-        if !input.arm.is_empty() {
+        if !input.arm.is_empty() || input.stop {
             self.flush(out);
             if let Some((kind, pose)) = &input.arm.pose {
                 out.push(match kind {
@@ -76,6 +76,9 @@ impl SampleEncoder {
             }
             if input.arm.link_lost {
                 out.push(LINK_LOST);
+            }
+            if input.stop {
+                out.push(STOP);
             }
         }
         let kind = match input.sample {
@@ -100,10 +103,6 @@ impl SampleEncoder {
             }
         }
         self.next_tick = input.tick.wrapping_add(1);
-        if input.began_stop {
-            self.flush(out);
-            out.push(STOP);
-        }
     }
 
     /// Appends a mark for `n` ticks that were lost before reaching the
@@ -131,17 +130,8 @@ impl SampleEncoder {
 /// One item of `samples.bin`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SampleItem {
-    /// One tick's step.
-    Input {
-        /// The tick.
-        tick: Tick,
-        /// What the arm said before it.
-        arm: ArmInput,
-        /// Its sample, or none.
-        sample: Sample,
-    },
-    /// `begin_stop` after the last step.
-    BeginStop,
+    /// One tick's whole input.
+    Input(TickInput),
     /// Ticks lost before reaching the recording: what follows is not the
     /// core's whole input.
     Lost(u64),
@@ -157,6 +147,8 @@ pub struct SampleDecoder<R: Read> {
     run: Option<(u64, Sample)>,
     /// What the arm said before the next tick.
     arm: ArmInput,
+    /// The safe stop begins on the next tick.
+    stop: bool,
     ended: bool,
 }
 
@@ -171,6 +163,7 @@ impl<R: Read> SampleDecoder<R> {
             last: None,
             run: None,
             arm: ArmInput::default(),
+            stop: false,
             ended: false,
         })
     }
@@ -183,7 +176,12 @@ impl<R: Read> SampleDecoder<R> {
         } else {
             std::mem::take(&mut self.arm)
         };
-        SampleItem::Input { tick, arm, sample }
+        SampleItem::Input(TickInput {
+            tick,
+            sample,
+            arm,
+            stop: std::mem::take(&mut self.stop),
+        })
     }
 
     /// The next item; `Ok(None)` after a valid end marker.
@@ -245,7 +243,7 @@ impl<R: Read> SampleDecoder<R> {
                     self.arm.pose = Some((kind, pose_from_bits(bits)));
                 }
                 LINK_LOST => self.arm.link_lost = true,
-                STOP => return Ok(Some(SampleItem::BeginStop)),
+                STOP => self.stop = true,
                 _ => {
                     let lost = self.bytes.loss_or_end(tag, LOST_TICKS)?;
                     self.ended = lost.is_none();
@@ -261,16 +259,11 @@ mod tests {
     use super::*;
     use crate::tools::recording::format::StreamFile;
 
-    fn input(tick: Tick, volts: Option<f64>) -> CoreInput {
-        CoreInput {
-            tick,
-            arm: ArmInput::default(),
-            sample: volts.map_or(Sample::Missing, Sample::Volts),
-            began_stop: false,
-        }
+    fn input(tick: Tick, volts: Option<f64>) -> TickInput {
+        TickInput::new(tick, volts.map_or(Sample::Missing, Sample::Volts))
     }
 
-    fn encode_samples(inputs: &[CoreInput]) -> Vec<u8> {
+    fn encode_samples(inputs: &[TickInput]) -> Vec<u8> {
         let mut file = StreamFile::start(Vec::new(), Stream::Samples).unwrap();
         let mut enc = SampleEncoder::default();
         let mut ops = Vec::new();
@@ -293,7 +286,7 @@ mod tests {
 
     #[test]
     fn a_held_value_costs_one_run() {
-        let inputs: Vec<CoreInput> = (0..10_000).map(|t| input(t, Some(2.5))).collect();
+        let inputs: Vec<TickInput> = (0..10_000).map(|t| input(t, Some(2.5))).collect();
         let bytes = encode_samples(&inputs);
         // Header, one value, one run of 9999, the end marker.
         assert_eq!(bytes.len(), 10 + 9 + 3 + 5, "{bytes:?}");
@@ -301,23 +294,14 @@ mod tests {
         assert_eq!(items.len(), 10_000);
         assert_eq!(
             items[9_999],
-            SampleItem::Input {
-                tick: 9_999,
-                arm: ArmInput::default(),
-                sample: Sample::Volts(2.5)
-            }
+            SampleItem::Input(TickInput::volts(9_999, 2.5))
         );
     }
 
     #[test]
     fn gaps_missing_runs_stops_and_bits_survive() {
         let nan = f64::from_bits(0x7ff8_0000_dead_beef);
-        let gone = |tick| CoreInput {
-            tick,
-            arm: ArmInput::default(),
-            sample: Sample::Lost,
-            began_stop: false,
-        };
+        let gone = |tick| TickInput::new(tick, Sample::Lost);
         let mut inputs = vec![
             input(5, Some(-0.0)),
             input(6, Some(0.0)),
@@ -330,7 +314,7 @@ mod tests {
             input(2009, Some(nan)),
             input(3, Some(1.0)),
         ];
-        inputs[8].began_stop = true;
+        inputs[8].stop = true;
         // The arm's news, in the middle of runs too: a start pose (an
         // awkward quaternion: its bits must survive), a measurement, a lost
         // link with a measurement.
@@ -344,22 +328,16 @@ mod tests {
         };
         let bytes = encode_samples(&inputs);
         let items = decode_samples(&bytes).unwrap();
-        let mut back = Vec::new();
-        for item in items {
-            match item {
-                SampleItem::Input { tick, arm, sample } => back.push(CoreInput {
-                    tick,
-                    arm,
-                    sample,
-                    began_stop: false,
-                }),
-                SampleItem::BeginStop => back.last_mut().unwrap().began_stop = true,
+        let back: Vec<TickInput> = items
+            .into_iter()
+            .map(|item| match item {
+                SampleItem::Input(input) => input,
                 SampleItem::Lost(_) => panic!("nothing was lost"),
-            }
-        }
+            })
+            .collect();
         assert_eq!(back.len(), inputs.len());
         for (a, b) in back.iter().zip(&inputs) {
-            assert_eq!((a.tick, a.began_stop), (b.tick, b.began_stop));
+            assert_eq!((a.tick, a.stop), (b.tick, b.stop));
             let arm_bits = |arm: &ArmInput| {
                 (
                     arm.pose.map(|(kind, pose)| (kind, pose_bits(&pose))),
@@ -377,8 +355,37 @@ mod tests {
     }
 
     #[test]
+    fn a_stop_written_after_a_tick_begins_on_the_next() {
+        // The layout of files whose writer put the stop after the tick that
+        // decided it, before a gap: the next tick's input carries it.
+        let mut ops = vec![VALUE];
+        ops.extend_from_slice(&2.5f64.to_bits().to_le_bytes());
+        ops.push(STOP);
+        op(&mut ops, GAP, 5);
+        ops.push(VALUE);
+        ops.extend_from_slice(&2.6f64.to_bits().to_le_bytes());
+        let mut file = StreamFile::start(Vec::new(), Stream::Samples).unwrap();
+        file.write(&ops).unwrap();
+        let items = decode_samples(&file.end().unwrap()).unwrap();
+        let stopping = TickInput {
+            stop: true,
+            ..TickInput::volts(6, 2.6)
+        };
+        assert_eq!(
+            items,
+            [
+                SampleItem::Input(TickInput::volts(0, 2.5)),
+                SampleItem::Input(stopping)
+            ]
+        );
+        // Written today: the stop with the tick it begins on, same items.
+        let inputs = [TickInput::volts(0, 2.5), stopping];
+        assert_eq!(decode_samples(&encode_samples(&inputs)).unwrap(), items);
+    }
+
+    #[test]
     fn truncation_and_corruption_name_the_offset() {
-        let inputs: Vec<CoreInput> = (0..100)
+        let inputs: Vec<TickInput> = (0..100)
             .map(|t| input(t, Some(f64::from(t as u32) * 0.01)))
             .collect();
         let bytes = encode_samples(&inputs);
