@@ -16,21 +16,27 @@
 //! is unreachable and sent once when it is back. An event written to a
 //! connection that broke before the broker acknowledged it is *not* sent
 //! again — it may or may not have arrived, and a home event such as a
-//! light's toggle must never act twice — and is counted lost. The loop
-//! never waits: [`Output::apply`] only queues and hands messages to the
-//! client's bounded channel.
+//! light's toggle must never act twice — and is counted lost.
+//!
+//! [`delivery`] decides all of that, without I/O (time is an argument);
+//! [`MqttOutput`] is its shell: it holds rumqttc's client and its network
+//! thread, reads the clock, feeds the delivery what the network reports
+//! and hands the client what the delivery asks for. The loop never waits:
+//! [`Output::apply`] only queues and hands messages to the client's
+//! bounded channel.
 
 pub mod credentials;
+mod delivery;
 pub mod discovery;
 mod network;
+mod tally;
 
-use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime};
 
-use rumqttc::{Client, Event, Incoming, LastWill, MqttOptions, Outgoing, QoS};
+use rumqttc::{Client, LastWill, MqttOptions, QoS};
 
 use crate::control::output_command::OutputCommand;
 use crate::control::target::HomeEvent;
@@ -38,11 +44,12 @@ use crate::output::settings::MqttSettings;
 use crate::output::{Output, OutputError, OutputReport};
 
 use credentials::Credentials;
-use discovery::{OFFLINE, ONLINE, Topics};
-use network::{Gate, Notice};
+use delivery::{Delivery, Handed, Notice, Qos, Request};
+use discovery::{OFFLINE, Topics};
+use network::Gate;
 
-/// Most events waiting for the broker; more are dropped and counted.
-pub const QUEUE: usize = 64;
+pub use delivery::QUEUE;
+
 /// Requests rumqttc's channel holds (the discovery configs of a large
 /// library fit at once).
 const CHANNEL: usize = 512;
@@ -53,100 +60,24 @@ const NOTICES: usize = 4096;
 const KEEP_ALIVE: Duration = Duration::from_secs(5);
 /// How long connecting may take, s.
 const CONNECT_TIMEOUT_S: u64 = 5;
-/// How long [`Output::close`] waits for the events still queued or in
-/// flight to be acknowledged, then for the goodbye to be written.
-const CLOSE_WAIT: Duration = Duration::from_secs(2);
+/// Longest wait for a notice while closing, between looks at the clock.
+const CLOSE_POLL: Duration = Duration::from_millis(20);
 /// Largest packet either way (a library's discovery config fits).
 const MAX_PACKET: usize = 256 * 1024;
 
-/// Home Assistant over MQTT. See the module's documentation.
+/// Home Assistant over MQTT: rumqttc's client and its network thread
+/// around a [`Delivery`], which decides. See the module's documentation.
 pub struct MqttOutput {
     describe: String,
     client: Client,
-    topics: Topics,
-    /// Retained discovery configs, `(topic, JSON)`.
-    configs: Vec<(String, String)>,
-    /// The library's event names (a retained trigger config of any other
-    /// is deleted).
-    events: Vec<String>,
-    max_delay: Duration,
-    tick_zero: Option<SystemTime>,
     gate: Arc<Gate>,
     notices: Receiver<Notice>,
     /// Dropped to stop the network thread.
     stop: Option<Sender<()>>,
     thread: Option<JoinHandle<()>>,
-    link: Link,
-    /// Events not handed to the client yet, oldest first.
-    queue: VecDeque<Waiting>,
-    /// What was handed to the client on this connection and not yet
-    /// written, in order.
-    handed: VecDeque<Handed>,
-    /// Events written on this connection, by packet id, not yet
-    /// acknowledged.
-    unacked: Vec<(u16, Waiting)>,
-    tally: Tally,
+    delivery: Delivery,
+    tick_zero: Option<SystemTime>,
     report: Option<OutputReport>,
-}
-
-/// One event on its way.
-#[derive(Debug, Clone)]
-struct Waiting {
-    message: String,
-    /// When it was applied: it expires `max_delay` later.
-    at: Instant,
-}
-
-/// A request handed to the client.
-#[derive(Debug)]
-enum Handed {
-    Event(Waiting),
-    /// Discovery, availability, a subscription or the disconnect.
-    Other,
-}
-
-/// The broker's reachability.
-#[derive(Debug, Clone)]
-enum Link {
-    Up,
-    Down {
-        since: Instant,
-        why: String,
-    },
-    /// The client's thread has ended (only after close, or a failure of
-    /// the client itself).
-    Gone,
-}
-
-/// What happened to the events, for the report.
-#[derive(Debug, Default, Clone)]
-struct Tally {
-    /// Acknowledged by the broker.
-    confirmed: u64,
-    /// Written to a connection that broke before the acknowledgement.
-    unconfirmed: u64,
-    /// Waited longer than `max_delay_ms` for the broker.
-    expired: u64,
-    /// Refused because [`QUEUE`] events were already waiting.
-    queue_full: u64,
-    /// Still waiting when the output closed.
-    unsent_at_close: u64,
-    /// Written, and not acknowledged when the output closed (a broker
-    /// that stopped answering).
-    unacked_at_close: u64,
-    /// Times the connection broke.
-    outages: u64,
-    /// Time without a connection.
-    down: Duration,
-    longest_down: Duration,
-    /// The last reason the broker could not be reached.
-    last_why: Option<String>,
-    /// Times Home Assistant came online and discovery went again.
-    rediscoveries: u64,
-    /// Retained configs of events no longer in the library, deleted.
-    deleted_configs: u64,
-    /// Discovery or availability messages the client's channel refused.
-    announcements_refused: u64,
 }
 
 impl MqttOutput {
@@ -161,11 +92,9 @@ impl MqttOutput {
             output: "mqtt",
             detail,
         };
-        let mut names: Vec<String> = Vec::new();
         let mut unique: Vec<HomeEvent> = Vec::new();
         for event in events {
-            if !names.iter().any(|n| n == event.as_str()) {
-                names.push(event.as_str().to_owned());
+            if !unique.iter().any(|u| u.as_str() == event.as_str()) {
                 unique.push(*event);
             }
         }
@@ -184,7 +113,7 @@ impl MqttOutput {
             .set_clean_session(true)
             .set_max_packet_size(MAX_PACKET, MAX_PACKET)
             .set_last_will(LastWill::new(
-                topics.availability.clone(),
+                topics.availability,
                 OFFLINE,
                 QoS::AtLeastOnce,
                 true,
@@ -222,263 +151,112 @@ impl MqttOutput {
                 if unique.len() == 1 { "" } else { "s" }
             ),
             client,
-            configs: discovery::configs(settings, &unique),
-            topics,
-            events: names,
-            max_delay: Duration::from_millis(u64::from(settings.max_delay_ms)),
-            tick_zero: None,
             gate,
             notices,
             stop: Some(stop),
             thread: Some(thread),
-            link: Link::Down {
-                since: Instant::now(),
-                why: "not connected yet".into(),
-            },
-            queue: VecDeque::new(),
-            handed: VecDeque::new(),
-            unacked: Vec::new(),
-            tally: Tally::default(),
+            delivery: Delivery::new(settings, &unique),
+            tick_zero: None,
             report: None,
         };
         // The first answer: the CONNACK, or why there is none.
         let wait = Duration::from_secs(CONNECT_TIMEOUT_S + 1);
-        match output.notices.recv_timeout(wait) {
-            Ok(Notice::Event(event)) => output.on_event(event),
-            Ok(Notice::Broken(why)) => {
+        match output.receive(wait) {
+            Some(Notice::Broken(why)) => {
                 output.stop_thread();
-                return Err(error(format!(
+                Err(error(format!(
                     "cannot connect to the broker at {address}: {why}"
-                )));
+                )))
             }
-            Err(_) => {
+            None | Some(Notice::Gone) => {
                 output.stop_thread();
-                return Err(error(format!(
+                Err(error(format!(
                     "cannot connect to the broker at {address}: no answer within {} s",
                     wait.as_secs()
-                )));
+                )))
             }
-        }
-        // The wait to connect is no outage.
-        output.tally.down = Duration::ZERO;
-        output.tally.longest_down = Duration::ZERO;
-        output.pump();
-        Ok(output)
-    }
-
-    /// Takes every notice waiting, then sends what the queue holds.
-    fn pump(&mut self) {
-        loop {
-            match self.notices.try_recv() {
-                Ok(notice) => self.on_notice(notice),
-                Err(TryRecvError::Empty) => break,
-                Err(TryRecvError::Disconnected) => {
-                    self.on_gone();
-                    break;
-                }
-            }
-        }
-        self.flush();
-    }
-
-    fn on_notice(&mut self, notice: Notice) {
-        match notice {
-            Notice::Event(event) => self.on_event(event),
-            Notice::Broken(why) => self.on_broken(why),
-        }
-    }
-
-    fn on_event(&mut self, event: Event) {
-        match event {
-            Event::Incoming(Incoming::ConnAck(_)) => self.on_connected(),
-            Event::Incoming(Incoming::PubAck(ack)) => {
-                if let Some(i) = self.unacked.iter().position(|(id, _)| *id == ack.pkid) {
-                    self.unacked.swap_remove(i);
-                    self.tally.confirmed += 1;
-                }
-            }
-            Event::Incoming(Incoming::Publish(publish)) => {
-                self.on_message(&publish.topic, &publish.payload, publish.retain);
-            }
-            // A request leaves rumqttc's channel: the next one handed.
-            Event::Outgoing(Outgoing::Publish(pkid)) => {
-                if let Some(Handed::Event(waiting)) = self.handed.pop_front() {
-                    self.unacked.push((pkid, waiting));
-                }
-            }
-            Event::Outgoing(
-                Outgoing::Subscribe(_) | Outgoing::Unsubscribe(_) | Outgoing::Disconnect,
-            ) => {
-                self.handed.pop_front();
-            }
-            _ => {}
-        }
-    }
-
-    /// A connection is up: end the outage, announce the device, send what
-    /// waited.
-    fn on_connected(&mut self) {
-        if let Link::Down { since, .. } = self.link {
-            let down = since.elapsed();
-            self.tally.down += down;
-            self.tally.longest_down = self.tally.longest_down.max(down);
-        }
-        self.link = Link::Up;
-        // Retained configs of events no longer in the library come back
-        // on this subscription (before the new ones are published).
-        self.subscribe(self.topics.trigger_configs(), QoS::AtMostOnce);
-        self.subscribe(self.topics.ha_status.clone(), QoS::AtLeastOnce);
-        self.announce();
-    }
-
-    /// Availability `online` and every discovery config, retained.
-    fn announce(&mut self) {
-        let availability = self.topics.availability.clone();
-        self.hand_other(&availability, ONLINE.to_owned());
-        for (topic, config) in self.configs.clone() {
-            self.hand_other(&topic, config);
-        }
-    }
-
-    fn on_message(&mut self, topic: &str, payload: &[u8], retain: bool) {
-        if topic == self.topics.ha_status {
-            // A retained `online` is an old birth; discovery just went.
-            if payload == ONLINE.as_bytes() && !retain {
-                self.tally.rediscoveries += 1;
-                self.announce();
-            }
-        } else if let Some(event) = self.topics.trigger_of(topic) {
-            let stale = retain && !payload.is_empty() && !self.events.iter().any(|e| e == event);
-            if stale {
-                // An empty retained config deletes the trigger.
-                let topic = topic.to_owned();
-                self.hand_other(&topic, String::new());
-                self.tally.deleted_configs += 1;
+            Some(answer) => {
+                output.turn(Some(answer), None);
+                Ok(output)
             }
         }
     }
 
-    /// The connection broke: what was written and not acknowledged is
-    /// lost; what was handed and never written waits for the next one.
-    fn on_broken(&mut self, why: String) {
-        self.tally.unconfirmed += self.unacked.len() as u64;
-        self.unacked.clear();
-        let never_written: Vec<Waiting> = self
-            .handed
-            .drain(..)
-            .filter_map(|h| match h {
-                Handed::Event(w) => Some(w),
-                Handed::Other => None,
-            })
-            .collect();
-        for waiting in never_written.into_iter().rev() {
-            self.queue.push_front(waiting);
-        }
-        if matches!(self.link, Link::Up) {
-            self.tally.outages += 1;
-            self.link = Link::Down {
-                since: Instant::now(),
-                why: why.clone(),
-            };
-        } else if let Link::Down { why: last, .. } = &mut self.link {
-            last.clone_from(&why);
-        }
-        self.tally.last_why = Some(why);
-    }
-
-    /// The client's thread ended: nothing more can be sent.
-    fn on_gone(&mut self) {
-        if let Link::Down { since, .. } = self.link {
-            let down = since.elapsed();
-            self.tally.down += down;
-            self.tally.longest_down = self.tally.longest_down.max(down);
-        }
-        self.tally.unacked_at_close += self.unacked.len() as u64;
-        self.unacked.clear();
-        for handed in self.handed.drain(..) {
-            if let Handed::Event(_) = handed {
-                self.tally.unsent_at_close += 1;
-            }
-        }
-        self.link = Link::Gone;
-    }
-
-    /// Hands the waiting events to the client while connected, oldest
-    /// first; gives up those that waited longer than `max_delay`.
-    fn flush(&mut self) {
-        while let Some(front) = self.queue.front() {
-            let up = matches!(self.link, Link::Up);
-            if up && self.hand_event(front.message.clone()) {
-                if let Some(waiting) = self.queue.pop_front() {
-                    self.handed.push_back(Handed::Event(waiting));
-                }
-            } else if front.at.elapsed() > self.max_delay {
-                self.queue.pop_front();
-                self.tally.expired += 1;
+    /// One turn, and the only place the clock is read: feeds the delivery
+    /// `first` and every notice waiting, then `message` (a match), then
+    /// hands the client what the delivery asks for. Returns the time read.
+    fn turn(&mut self, first: Option<Notice>, message: Option<String>) -> Instant {
+        let now = Instant::now();
+        let mut next = first.or_else(|| self.receive(Duration::ZERO));
+        while let Some(notice) = next {
+            // Once gone, the channel says so at every look: once is enough.
+            let gone = notice == Notice::Gone;
+            self.delivery.notice(notice, now);
+            next = if gone {
+                None
             } else {
-                break; // down, closing, or the client's channel is full
+                self.receive(Duration::ZERO)
+            };
+        }
+        if let Some(message) = message {
+            self.delivery.apply(message, now);
+        }
+        while let Some(request) = self.delivery.poll(now) {
+            let outcome = self.hand(request);
+            if !self.delivery.handed(outcome) {
+                break;
             }
+        }
+        now
+    }
+
+    /// The next notice, waiting up to `wait` for it; [`Notice::Gone`]
+    /// once the network thread has ended.
+    fn receive(&self, wait: Duration) -> Option<Notice> {
+        let got = if wait.is_zero() {
+            self.notices
+                .try_recv()
+                .map_err(|e| e == TryRecvError::Disconnected)
+        } else {
+            self.notices
+                .recv_timeout(wait)
+                .map_err(|e| e == RecvTimeoutError::Disconnected)
+        };
+        match got {
+            Ok(notice) => Some(notice),
+            Err(true) => Some(Notice::Gone),
+            Err(false) => None,
         }
     }
 
-    /// Hands one event's message to the client if the connection is
-    /// open; whether it took it.
-    fn hand_event(&self, message: String) -> bool {
-        let open = self.gate.lock();
-        *open
-            && self
-                .client
-                .try_publish(self.topics.events.clone(), QoS::AtLeastOnce, false, message)
-                .is_ok()
-    }
-
-    /// Hands a retained message that is not an event (discovery,
-    /// availability) to the client, if the connection is open.
-    fn hand_other(&mut self, topic: &str, payload: String) {
+    /// Hands one request to rumqttc if the connection is open (under the
+    /// gate: it then belongs to that connection), without waiting.
+    fn hand(&self, request: Request) -> Handed {
         let open = self.gate.lock();
         if !*open {
-            return;
+            return Handed::Closed;
         }
-        match self
-            .client
-            .try_publish(topic, QoS::AtLeastOnce, true, payload)
-        {
-            Ok(()) => self.handed.push_back(Handed::Other),
-            Err(_) => self.tally.announcements_refused += 1,
-        }
-    }
-
-    fn subscribe(&mut self, filter: String, qos: QoS) {
-        let open = self.gate.lock();
-        if *open && self.client.try_subscribe(filter, qos).is_ok() {
-            self.handed.push_back(Handed::Other);
-        }
-    }
-
-    /// Whether every event has been acknowledged (or can no longer be).
-    fn settled(&self) -> bool {
-        !matches!(self.link, Link::Up)
-            || (self.queue.is_empty()
-                && self.unacked.is_empty()
-                && !self.handed.iter().any(|h| matches!(h, Handed::Event(_))))
-    }
-
-    /// Waits for the next notice until `deadline`; whether one came.
-    fn wait_notice(&mut self, deadline: Instant) -> bool {
-        let left = deadline.saturating_duration_since(Instant::now());
-        match self
-            .notices
-            .recv_timeout(left.min(Duration::from_millis(20)))
-        {
-            Ok(notice) => {
-                self.on_notice(notice);
-                true
+        let taken = match request {
+            Request::Publish {
+                topic,
+                payload,
+                retain,
+            } => self
+                .client
+                .try_publish(topic, QoS::AtLeastOnce, retain, payload),
+            Request::Subscribe { filter, qos } => {
+                let qos = match qos {
+                    Qos::AtMostOnce => QoS::AtMostOnce,
+                    Qos::AtLeastOnce => QoS::AtLeastOnce,
+                };
+                self.client.try_subscribe(filter, qos)
             }
-            Err(RecvTimeoutError::Timeout) => false,
-            Err(RecvTimeoutError::Disconnected) => {
-                self.on_gone();
-                false
-            }
+            Request::Disconnect => self.client.try_disconnect(),
+        };
+        if taken.is_ok() {
+            Handed::Taken
+        } else {
+            Handed::Full
         }
     }
 
@@ -494,149 +272,24 @@ impl MqttOutput {
         }
     }
 
+    /// Closes: the delivery's bounded wait for acknowledgements and the
+    /// goodbye, then the report.
     fn finish(&mut self) -> OutputReport {
-        let deadline = Instant::now() + CLOSE_WAIT;
-        // The events still queued or in flight, acknowledged.
+        let mut now = self.turn(None, None);
+        self.delivery.close(now);
+        let mut wait = Duration::ZERO;
         loop {
-            self.pump();
-            if self.settled() || Instant::now() >= deadline {
+            let first = self.receive(wait);
+            now = self.turn(first, None);
+            let Some(until) = self.delivery.closing_until() else {
                 break;
-            }
-            self.wait_notice(deadline);
-        }
-        // The goodbye: `offline` (retained), then DISCONNECT, so the
-        // broker keeps `offline` and drops the last will.
-        if matches!(self.link, Link::Up) {
-            let availability = self.topics.availability.clone();
-            self.hand_other(&availability, OFFLINE.to_owned());
-            let asked = {
-                let open = self.gate.lock();
-                *open && self.client.try_disconnect().is_ok()
             };
-            if asked {
-                self.handed.push_back(Handed::Other);
-                let deadline = Instant::now() + CLOSE_WAIT;
-                while !matches!(self.link, Link::Gone) && Instant::now() < deadline {
-                    self.wait_notice(deadline);
-                }
-            }
-        }
-        if let Link::Down { since, .. } = self.link {
-            let down = since.elapsed();
-            self.tally.down += down;
-            self.tally.longest_down = self.tally.longest_down.max(down);
-            self.link = Link::Gone;
+            wait = until.saturating_duration_since(now).min(CLOSE_POLL);
         }
         self.stop_thread();
-        let t = &mut self.tally;
-        t.unacked_at_close += self.unacked.len() as u64;
-        self.unacked.clear();
-        t.unsent_at_close += self.queue.len() as u64;
-        self.queue.clear();
-        t.unsent_at_close += self
-            .handed
-            .drain(..)
-            .filter(|h| matches!(h, Handed::Event(_)))
-            .count() as u64;
-        OutputReport {
-            output: self.describe.clone(),
-            applied: t.confirmed,
-            dropped: 0,
-            lost: t.lost(),
-            notes: t.notes(self.max_delay),
-            pointer_travel: None,
-        }
+        self.delivery.finish(now);
+        self.delivery.report(self.describe.clone())
     }
-}
-
-impl Tally {
-    fn lost(&self) -> u64 {
-        self.unconfirmed
-            + self.expired
-            + self.queue_full
-            + self.unsent_at_close
-            + self.unacked_at_close
-    }
-
-    /// What went wrong, in plain words.
-    fn notes(&self, max_delay: Duration) -> Vec<String> {
-        let mut notes = Vec::new();
-        if self.outages > 0 || !self.down.is_zero() {
-            let times = match self.outages {
-                0 | 1 => String::new(),
-                n => format!(" ({n} times, the longest {:.1} s)", secs(self.longest_down)),
-            };
-            let why = self
-                .last_why
-                .as_deref()
-                .map_or_else(String::new, |w| format!("; last: {w}"));
-            notes.push(format!(
-                "the broker was unreachable for {:.1} s{times}{why}",
-                secs(self.down)
-            ));
-        }
-        let lost = self.lost();
-        if lost > 0 {
-            let mut parts = Vec::new();
-            if self.unconfirmed > 0 {
-                parts.push(format!(
-                    "{} sent as the connection broke, never acknowledged (not sent again: it may have arrived, never twice)",
-                    self.unconfirmed
-                ));
-            }
-            if self.expired > 0 {
-                parts.push(format!(
-                    "{} waited longer than {:.1} s for the broker",
-                    self.expired,
-                    secs(max_delay)
-                ));
-            }
-            if self.queue_full > 0 {
-                parts.push(format!(
-                    "{} found {QUEUE} events already waiting",
-                    self.queue_full
-                ));
-            }
-            if self.unacked_at_close > 0 {
-                parts.push(format!(
-                    "{} sent but not acknowledged by the end (the broker stopped answering; they may have arrived)",
-                    self.unacked_at_close
-                ));
-            }
-            if self.unsent_at_close > 0 {
-                parts.push(format!(
-                    "{} still waiting for the broker at the end",
-                    self.unsent_at_close
-                ));
-            }
-            notes.push(format!(
-                "{lost} {} lost: {}",
-                if lost == 1 {
-                    "event was"
-                } else {
-                    "events were"
-                },
-                parts.join("; ")
-            ));
-        }
-        if self.announcements_refused > 0 {
-            notes.push(format!(
-                "{} discovery or availability messages could not be queued",
-                self.announcements_refused
-            ));
-        }
-        if self.deleted_configs > 0 {
-            notes.push(format!(
-                "deleted {} Home Assistant trigger(s) of events no longer in the library",
-                self.deleted_configs
-            ));
-        }
-        notes
-    }
-}
-
-fn secs(d: Duration) -> f64 {
-    d.as_secs_f64()
 }
 
 impl Output for MqttOutput {
@@ -657,24 +310,16 @@ impl Output for MqttOutput {
         else {
             return; // the computer's commands; nothing to let go of here
         };
-        self.pump();
         let matched_at = self
             .tick_zero
-            .map_or_else(SystemTime::now, |zero| zero + Duration::from_millis(*tick));
+            .and_then(|zero| zero.checked_add(Duration::from_millis(*tick)))
+            .unwrap_or_else(SystemTime::now);
         let message = discovery::event_message(event, *tick, sequence, matched_at);
-        if self.queue.len() >= QUEUE {
-            self.tally.queue_full += 1;
-        } else {
-            self.queue.push_back(Waiting {
-                message,
-                at: Instant::now(),
-            });
-        }
-        self.flush();
+        self.turn(None, Some(message));
     }
 
     fn idle(&mut self) {
-        self.pump();
+        self.turn(None, None);
     }
 
     fn close(&mut self) -> OutputReport {

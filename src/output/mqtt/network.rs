@@ -1,7 +1,8 @@
 //! The MQTT client's own thread: it drives rumqttc's connection (connect,
 //! read, write, keep-alive, reconnect with backoff) and reports what
-//! happened, in order, to the output's thread. Nothing here waits on the
-//! output, and the output never waits on the network.
+//! happened, in order and as plain [`Notice`]s, to the output's thread.
+//! Nothing here waits on the output, and the output never waits on the
+//! network.
 //!
 //! At-most-once delivery rests on two things done here. The session is
 //! clean, and when a connection breaks this thread closes the [`Gate`],
@@ -16,7 +17,11 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TryRecvError};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use rumqttc::{ConnectReturnCode, Connection, ConnectionError, Event, Outgoing, StateError};
+use rumqttc::{
+    ConnectReturnCode, Connection, ConnectionError, Event, Incoming, Outgoing, StateError,
+};
+
+use super::delivery::{Notice, Written};
 
 /// First wait before reconnecting; it doubles up to [`MAX_BACKOFF`].
 const FIRST_BACKOFF: Duration = Duration::from_millis(100);
@@ -37,16 +42,6 @@ impl Gate {
     }
 }
 
-/// What the network thread reports, in the order it happened.
-#[derive(Debug)]
-pub enum Notice {
-    /// A packet received or sent (rumqttc's notification).
-    Event(Event),
-    /// The connection broke, or an attempt to connect failed: why, in
-    /// plain words. Every request handed before it has been dropped.
-    Broken(String),
-}
-
 /// Runs `connection` until the output is gone or asked to stop, sending
 /// [`Notice`]s. Not RT-safe (the MQTT client's own thread).
 pub fn run(
@@ -60,13 +55,14 @@ pub fn run(
     loop {
         match connection.recv() {
             Ok(Ok(event)) => {
-                let connected = matches!(event, Event::Incoming(rumqttc::Packet::ConnAck(_)));
+                let connected = matches!(event, Event::Incoming(Incoming::ConnAck(_)));
                 if connected {
                     *gate.lock() = true;
                     backoff = FIRST_BACKOFF;
                 }
                 let disconnected = matches!(event, Event::Outgoing(Outgoing::Disconnect));
-                if notices.send(Notice::Event(event)).is_err() || disconnected || stopped(&stop) {
+                let sent = notice_of(event).is_none_or(|notice| notices.send(notice).is_ok());
+                if !sent || disconnected || stopped(&stop) {
                     return; // the output is gone or closed, or closed the connection
                 }
             }
@@ -81,8 +77,8 @@ pub fn run(
                     eventloop.pending.clear();
                     eventloop.state.events.drain(..).collect()
                 };
-                for event in leftovers {
-                    if notices.send(Notice::Event(event)).is_err() {
+                for notice in leftovers.into_iter().filter_map(notice_of) {
+                    if notices.send(notice).is_err() {
                         return;
                     }
                 }
@@ -102,6 +98,26 @@ pub fn run(
             Err(_) => return,
         }
     }
+}
+
+/// What the delivery needs to know of one of rumqttc's notifications
+/// (pings and the acknowledgements this client sends are not).
+fn notice_of(event: Event) -> Option<Notice> {
+    Some(match event {
+        Event::Incoming(Incoming::ConnAck(_)) => Notice::Connected,
+        Event::Incoming(Incoming::PubAck(ack)) => Notice::Acked(ack.pkid),
+        Event::Incoming(Incoming::Publish(publish)) => Notice::Message {
+            topic: publish.topic,
+            payload: publish.payload.to_vec(),
+            retain: publish.retain,
+        },
+        Event::Outgoing(Outgoing::Publish(pkid)) => Notice::Written(Written::Publish(pkid)),
+        Event::Outgoing(Outgoing::Subscribe(_) | Outgoing::Unsubscribe(_)) => {
+            Notice::Written(Written::Subscribe)
+        }
+        Event::Outgoing(Outgoing::Disconnect) => Notice::Written(Written::Disconnect),
+        _ => return None,
+    })
 }
 
 /// Whether the output has asked this thread to end (it drops its end).
