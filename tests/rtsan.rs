@@ -19,9 +19,9 @@ use sipnpuff::rt::alloc_counter::CountingAllocator;
 use sipnpuff::rt::control_loop::StopReason;
 use sipnpuff::rt::simulated::{run_simulated, run_simulated_measured};
 use sipnpuff::sensor::Sensor;
-use sipnpuff::sensor::synthetic::SyntheticSensor;
 use sipnpuff::sim::script::{every_path_session, outputs_session};
 use sipnpuff::sim::sensor_model::SignalParams;
+use sipnpuff::sim::synthetic_sensor::SyntheticSensor;
 
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;

@@ -11,7 +11,7 @@ use crate::cli::output;
 use crate::cli::run::stop_request;
 use crate::rt::control_loop::StopReason;
 use crate::rt::threads::LoopSettings;
-use crate::sensor::synthetic::SyntheticSensor;
+use crate::sim::synthetic_sensor::SyntheticSensor;
 use crate::tools::accuracy::{GridOptions, GridReport, accuracy_grid, grid_table};
 use crate::tools::bench_replay::bench_replay;
 use crate::tools::bench_tick::bench_tick;

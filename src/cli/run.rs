@@ -36,8 +36,8 @@ use crate::sensor::evdev::EvdevSensor;
 use crate::sensor::iio::IioSensor;
 use crate::sensor::rezero;
 use crate::sensor::serial::SerialSensor;
-use crate::sensor::synthetic::SyntheticSensor;
 use crate::sensor::{Prepared, Sensor, SensorSpec};
+use crate::sim::synthetic_sensor::SyntheticSensor;
 use crate::tools::recording::recorder::{Recorder, check_dir};
 use crate::tools::recording::writer::{MIN_BYTES, RecordOptions};
 

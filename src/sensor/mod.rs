@@ -10,7 +10,7 @@
 //! How samples reach the control thread: a backend that reads a file runs
 //! a producer thread into a bounded ring ([`ring`]), a device's reader
 //! thread holds its latest value ([`held`]), and the synthetic sensor
-//! computes its samples in the loop. The control thread takes the sample
+//! (`sim::synthetic_sensor`) computes its samples in the loop. The control thread takes the sample
 //! due each tick and never waits; what it throws away is counted: the
 //! samples of skipped ticks, a backlog past two (a producer running ahead
 //! adds at most 2 ms), everything queued over a stall longer than
@@ -18,8 +18,7 @@
 //! the core [`Sample::Missing`]: after `stale_ms` the core faults and the
 //! arm brakes.
 //!
-//! Backends: [`synthetic`] (the built-in scripted user), [`csv`]
-//! (recordings played in real time), and the devices: [`evdev`] (USB HID
+//! Backends: [`csv`] (recordings played in real time) and the devices: [`evdev`] (USB HID
 //! sip-and-puff devices: an analog axis or switches), [`serial`] (a
 //! microcontroller's stream, the FLipMouse and LipSync dialects) and
 //! [`iio`] (an ADC through the kernel's IIO subsystem). A device's neutral
@@ -36,7 +35,6 @@ pub mod rezero;
 pub mod ring;
 pub mod serial;
 pub mod settings;
-pub mod synthetic;
 
 use std::fmt;
 use std::path::PathBuf;

@@ -1,5 +1,5 @@
 //! Simulation: the seeded sensor model, the scripts and simulated users
-//! that breathe into it, simulated people with known breathing for
+//! that breathe into it (played live by the synthetic sensor), simulated people with known breathing for
 //! calibration, and the paper's study run with them through the
 //! production core. Set-up and tooling code: it may allocate, and neither
 //! the core nor the runtime imports it.
@@ -8,4 +8,5 @@ pub mod breather;
 pub mod script;
 pub mod sensor_model;
 pub mod study;
+pub mod synthetic_sensor;
 pub mod user;

@@ -12,7 +12,7 @@
 //! rails, and clipping to the sensor's 0–5 V.
 //!
 //! The generator is an iterator that never allocates as it plays, so a
-//! real-time loop may use it as its sensor (`sensor::synthetic`). It
+//! real-time loop may use it as its sensor (`sim::synthetic_sensor`). It
 //! borrows or owns its script; a live generator owns a script its caller
 //! extends as it plays (the study's simulated users). The scripts
 //! themselves are in [`super::script`].

@@ -22,9 +22,9 @@ use sipnpuff::output::{Output, OutputReport};
 use sipnpuff::rt::output_thread::Serves;
 use sipnpuff::rt::simulated::run_simulated_with_outputs;
 use sipnpuff::sensor::Sensor;
-use sipnpuff::sensor::synthetic::SyntheticSensor;
 use sipnpuff::sim::script::outputs_session;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams};
+use sipnpuff::sim::synthetic_sensor::SyntheticSensor;
 
 use crate::common::{TickByTick, fixture};
 

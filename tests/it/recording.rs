@@ -17,7 +17,7 @@ use sipnpuff::control::motion::stream::ArmCommand;
 use sipnpuff::control::sample::Sample;
 use sipnpuff::control::tick::TickInput;
 use sipnpuff::rt::threads::{LoopSettings, RunOptions, run};
-use sipnpuff::sensor::synthetic::SyntheticSensor;
+use sipnpuff::sim::synthetic_sensor::SyntheticSensor;
 use sipnpuff::tools::recording::format::commands::{CommandDecoder, CommandEncoder, CommandItem};
 use sipnpuff::tools::recording::format::samples::{SampleDecoder, SampleEncoder, SampleItem};
 use sipnpuff::tools::recording::format::{Stream, StreamFile};

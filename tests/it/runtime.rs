@@ -21,7 +21,7 @@ use sipnpuff::rt::scheduler::Scheduler;
 use sipnpuff::rt::setup::RtOptions;
 use sipnpuff::rt::stop::StopRequest;
 use sipnpuff::rt::threads::{LoopSettings, RunOptions, run};
-use sipnpuff::sensor::synthetic::SyntheticSensor;
+use sipnpuff::sim::synthetic_sensor::SyntheticSensor;
 
 use crate::common::Running;
 use crate::common::TickByTick;

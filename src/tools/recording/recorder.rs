@@ -312,7 +312,7 @@ mod tests {
     use crate::arm::sim::SimArm;
     use crate::control::sample::Sample;
     use crate::rt::threads::{LoopSettings, RunOptions, run};
-    use crate::sensor::synthetic::SyntheticSensor;
+    use crate::sim::synthetic_sensor::SyntheticSensor;
     use crate::tools::recording::format::samples::{SampleDecoder, SampleItem};
     use crate::tools::recording::meta::Meta;
     use crate::tools::recording::{COMMANDS, SAMPLES};
