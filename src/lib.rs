@@ -10,10 +10,10 @@
 //!   allocation after start-up;
 //! * [`config`]: TOML into a validated [`config::Config`], every problem
 //!   named with its key and line;
-//! * [`sensor`]: the [`sensor::Sensor`] seam and its backends: the
-//!   synthetic scripted user, CSV recordings, and the devices — evdev (USB
-//!   HID sip-and-puff devices), serial (LipSync, FLipMouse, plain volts)
-//!   and IIO (an ADC through the kernel);
+//! * [`sensor`]: the [`sensor::Sensor`] seam and its backends: CSV
+//!   recordings and the devices — evdev (USB HID sip-and-puff devices),
+//!   serial (LipSync, FLipMouse, plain volts) and IIO (an ADC through the
+//!   kernel);
 //! * [`arm`]: the [`arm::Arm`] seam and its backends: the simulated JACO,
 //!   ROS 2 (DDS), ROS 1 (a rosmaster) and Kinova's SDK;
 //! * [`output`]: the [`output::Output`] seam beyond the arm and its
@@ -27,9 +27,11 @@
 //!   measured, their settings proposed with reasons, checked by replay,
 //!   written as a profile;
 //! * [`sim`]: the sensor model, simulated users (and breathers with known
-//!   breathing) and the paper's study;
-//! * [`tools`]: replay, session recordings, benchmarks, the accuracy
-//!   scorer and the safety monitor;
+//!   breathing), the synthetic sensor that plays one live, and the
+//!   paper's study;
+//! * [`tools`]: replay, session recordings and their loaders, benchmarks,
+//!   the accuracy scorer and the safety monitor;
+//! * [`design`]: designing the sequence library for a person;
 //! * [`cli`]: the `sipnpuff` command line, one file per command.
 //!
 //! One sample's way from a serial sensor to a ROS 2 arm:
@@ -43,10 +45,11 @@
 //! [`control::motion::stream::ArmCommand`]; `rt/arm_thread.rs` sends it
 //! through the [`arm::Arm`] seam to `arm/ros2/mod.rs`.
 //!
-//! Import rules (checked by `tests/it/architecture.rs`): `control` imports
-//! nothing else of the crate; `rt` imports `control` and the sensor and
-//! arm seams only; concrete backends are chosen in `cli`; no import cycle
-//! between files.
+//! Import rules (checked by `tests/it/architecture.rs`): the modules stand
+//! on floors — `control`; `sensor`, `arm`, `output`; `config`, `rt`; `fit`;
+//! `sim`, `display`; `tools`; `design`; `cli` — and each imports only from
+//! the floors below its own (`rt` only the seams' roots); concrete
+//! backends are chosen in `cli`; no import cycle between files.
 //!
 //! ```
 //! use sipnpuff::config::Config;

@@ -21,6 +21,7 @@ use crate::design::usage::{Mix, Usage};
 use crate::design::{library_file, plot};
 use crate::sim::study::libraries::{self, LibraryComparison};
 use crate::sim::study::missing_modes;
+use crate::tools::recording::matches::read_matches;
 
 /// `design`'s options.
 #[derive(clap::Args, Debug)]
@@ -174,7 +175,8 @@ fn inputs(args: &DesignArgs) -> anyhow::Result<Inputs> {
             Mix::Tasks => Usage::tasks(library),
         }
     } else {
-        Usage::recordings(library, &args.usage).map_err(anyhow::Error::msg)?
+        let found = read_matches(&args.usage).map_err(anyhow::Error::msg)?;
+        Usage::recorded(library, &found.events, found.recordings)
     };
     let who = Breathing {
         swap_rate: args.swap_rate,

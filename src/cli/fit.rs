@@ -43,6 +43,7 @@ use crate::sim::synthetic_sensor::SyntheticSensor;
 use crate::tools::recording::read::Recording;
 use crate::tools::recording::recorder::{Recorder, check_dir};
 use crate::tools::recording::writer::RecordOptions;
+use crate::tools::signal_file::{read_signal, recorded_signal};
 
 /// The profile's name in a live session's directory (without `--out`).
 pub const PROFILE: &str = "profile.toml";
@@ -117,7 +118,7 @@ pub fn fit(args: FitArgs) -> anyhow::Result<u8> {
     let Some(from) = &args.from else {
         return live(&args, &current, &protocol);
     };
-    let signal = Signal::read(from).map_err(anyhow::Error::msg)?;
+    let signal = read_signal(from).map_err(anyhow::Error::msg)?;
     let fitted = recorded(&args, from, &signal, &protocol, &current)?;
     let source = from.display().to_string();
     let (status, _) = conclude(&args, fitted, &current, &source, args.out.as_deref())?;
@@ -294,7 +295,7 @@ fn live(args: &FitArgs, current: &Config, protocol: &Protocol) -> anyhow::Result
         showing.conclude(&outcome, SUMMARY_WAIT);
         return Ok(status);
     }
-    let (status, mut outcome) = match Signal::from_recording(&dir) {
+    let (status, mut outcome) = match recorded_signal(&dir) {
         Ok(signal) => {
             let source = format!("a guided session recorded in {kept}");
             let fitted = fitting::fit(&signal, protocol, current);

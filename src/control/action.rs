@@ -18,6 +18,16 @@ pub enum Breath {
     Puff,
 }
 
+impl Breath {
+    /// Plain words: "sip" or "puff".
+    pub const fn word(self) -> &'static str {
+        match self {
+            Breath::Sip => "sip",
+            Breath::Puff => "puff",
+        }
+    }
+}
+
 /// One detected burst, coded as in the paper: short sip = 1, long sip = 2,
 /// short puff = −1, long puff = −2.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]

@@ -3,14 +3,11 @@
 //! Counted mixes give every entry one selection more, so an entry never
 //! seen still has a place that costs something.
 
-use std::path::{Path, PathBuf};
-
 use serde::Serialize;
 
 use crate::control::selection::SequenceEntry;
 use crate::control::target::Target;
 use crate::sim::study::tasks::TASKS;
-use crate::tools::recording::EVENTS;
 
 /// Each entry's share of selections, in the library's order.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -61,79 +58,35 @@ impl Usage {
         )
     }
 
-    /// The `match` events of recordings: each path is a recording (a
-    /// directory with `events.jsonl`) or a directory of recordings.
-    pub fn recordings(library: &[SequenceEntry], paths: &[PathBuf]) -> Result<Usage, String> {
-        let mut files = Vec::new();
-        for path in paths {
-            if path.join(EVENTS).is_file() {
-                files.push(path.join(EVENTS));
-                continue;
-            }
-            let dir = std::fs::read_dir(path).map_err(|e| {
-                format!(
-                    "--usage {}: {e} (give a recording made with `run --record DIR`, or a directory of them)",
-                    path.display()
-                )
-            })?;
-            let mut inside: Vec<PathBuf> = dir
-                .filter_map(|e| e.ok().map(|e| e.path().join(EVENTS)))
-                .filter(|p| p.is_file())
-                .collect();
-            if inside.is_empty() {
-                return Err(format!(
-                    "--usage {}: no recording there (no {EVENTS} in it or in a directory inside it)",
-                    path.display()
-                ));
-            }
-            inside.sort();
-            files.append(&mut inside);
-        }
+    /// As the person selected them: `matches` are the `match` events of
+    /// `recordings` recordings of their own use, as `run` wrote them.
+    pub fn recorded(
+        library: &[SequenceEntry],
+        matches: &[serde_json::Value],
+        recordings: usize,
+    ) -> Usage {
+        let targets: Vec<serde_json::Value> = library
+            .iter()
+            .map(|e| serde_json::to_value(e.target).unwrap_or_default())
+            .collect();
         let mut counts = vec![0u64; library.len()];
         let mut elsewhere = 0;
-        for file in &files {
-            read_matches(file, library, &mut counts, &mut elsewhere)?;
+        for event in matches {
+            let same = |t: &serde_json::Value| {
+                t.as_object()
+                    .is_some_and(|t| t.iter().all(|(k, v)| event.get(k) == Some(v)))
+            };
+            match targets.iter().position(same) {
+                Some(i) => counts[i] += 1,
+                None => elsewhere += 1,
+            }
         }
-        Ok(smoothed(
-            &format!("the matches of {} recording(s)", files.len()),
+        smoothed(
+            &format!("the matches of {recordings} recording(s)"),
             counts,
             elsewhere,
-        ))
+        )
     }
-}
-
-/// Counts the `match` lines of one event log.
-fn read_matches(
-    file: &Path,
-    library: &[SequenceEntry],
-    counts: &mut [u64],
-    elsewhere: &mut u64,
-) -> Result<(), String> {
-    let text = std::fs::read_to_string(file)
-        .map_err(|e| format!("cannot read {}: {e}", file.display()))?;
-    let targets: Vec<serde_json::Value> = library
-        .iter()
-        .map(|e| serde_json::to_value(e.target).unwrap_or_default())
-        .collect();
-    for (n, line) in text.lines().enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let value: serde_json::Value = serde_json::from_str(line)
-            .map_err(|e| format!("{} line {}: not JSON ({e})", file.display(), n + 1))?;
-        if value.get("event").and_then(|v| v.as_str()) != Some("match") {
-            continue;
-        }
-        let same = |t: &serde_json::Value| {
-            t.as_object()
-                .is_some_and(|t| t.iter().all(|(k, v)| value.get(k) == Some(v)))
-        };
-        match targets.iter().position(same) {
-            Some(i) => counts[i] += 1,
-            None => *elsewhere += 1,
-        }
-    }
-    Ok(())
 }
 
 fn count(counts: &mut [u64], elsewhere: &mut u64, library: &[SequenceEntry], target: Target) {
@@ -177,26 +130,30 @@ mod tests {
     }
 
     #[test]
-    fn a_recording_counts_its_matches() {
+    fn recorded_matches_count_for_their_entries_and_others_apart() {
         let config = Config::default();
         let library = config.core().sequences();
-        let dir = std::env::temp_dir().join(format!("sipnpuff-usage-{}", std::process::id()));
-        let rec = dir.join("one");
-        std::fs::create_dir_all(&rec).unwrap();
-        std::fs::copy(
-            concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/demo.events.jsonl"),
-            rec.join(EVENTS),
-        )
-        .unwrap();
-        let usage = Usage::recordings(library, std::slice::from_ref(&dir)).unwrap();
-        let matches = std::fs::read_to_string(rec.join(EVENTS))
-            .unwrap()
-            .lines()
-            .filter(|l| l.contains("\"match\""))
-            .count() as u64;
-        assert_eq!(usage.counted + usage.elsewhere, matches);
-        assert!(usage.counted > 0);
-        let _ = std::fs::remove_dir_all(&dir);
-        assert!(Usage::recordings(library, &[dir]).is_err());
+        let target = |t: Target| {
+            let mut event = serde_json::json!({"tick": 7, "event": "match", "sequence": [-1]});
+            for (k, v) in serde_json::to_value(t).unwrap().as_object().unwrap() {
+                event[k] = v.clone();
+            }
+            event
+        };
+        let first = library[0].target;
+        let matches = [
+            target(first),
+            target(first),
+            target(Target::Click(crate::control::target::Click::Left)),
+        ];
+        let usage = Usage::recorded(library, &matches, 2);
+        assert_eq!((usage.counted, usage.elsewhere), (2, 1));
+        let n = library.len() as f64;
+        assert!((usage.shares[0] - 3.0 / (2.0 + n)).abs() < 1e-12);
+        assert!((usage.shares[1] - 1.0 / (2.0 + n)).abs() < 1e-12);
+        assert_eq!(
+            usage.source,
+            "the matches of 2 recording(s) (2 selections, each entry one more)"
+        );
     }
 }

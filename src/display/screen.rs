@@ -34,16 +34,9 @@ pub struct Symbol {
 impl Symbol {
     fn of(action: Action) -> Symbol {
         Symbol {
-            breath: breath_name(action.breath()),
+            breath: action.breath().word(),
             long: action.is_long(),
         }
-    }
-}
-
-fn breath_name(breath: Breath) -> &'static str {
-    match breath {
-        Breath::Sip => "sip",
-        Breath::Puff => "puff",
     }
 }
 
@@ -291,7 +284,7 @@ impl Calibration {
             total: view.total,
             rest_volts: view.band.map(|b| b.level),
             band_volts: view.band.map(|b| b.outside),
-            held: view.held.map(breath_name),
+            held: view.held.map(Breath::word),
             outcome: None,
         }
     }
@@ -692,7 +685,7 @@ impl Screen {
             pressure: Pressure {
                 volts: self.volts,
                 neutral_volts: view.neutral_volts,
-                held: view.held.map(|(b, _)| breath_name(b)),
+                held: view.held.map(|(b, _)| b.word()),
                 held_ms,
             },
             notices,

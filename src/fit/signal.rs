@@ -1,15 +1,10 @@
 //! A calibration's signal in memory: one sample per millisecond from the
-//! first tick, read from a `tick,volts` CSV or a `run --record` directory.
+//! first tick (`tools::signal_file` reads one from a CSV or a recording).
 //! A calibration lasts minutes, so it fits in memory.
 
 use std::fmt;
-use std::path::{Path, PathBuf};
 
 use crate::control::sample::Sample;
-use crate::control::tick::TickInput;
-use crate::sensor::csv::CsvSignal;
-use crate::tools::recording::format::samples::SampleItem;
-use crate::tools::recording::read::Recording;
 
 /// Why a signal could not be read or fitted. Every message says what to do.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -51,54 +46,6 @@ impl Signal {
         }
     }
 
-    /// Reads the `volts` column of a CSV recording (1 kHz).
-    pub fn from_csv(path: &Path) -> Result<Signal, FitError> {
-        let in_file = |e: &dyn fmt::Display| FitError::new(format!("{}: {e}", path.display()));
-        let mut csv = CsvSignal::open(path).map_err(|e| in_file(&e))?;
-        let mut volts = Vec::new();
-        while let Some(v) = csv.next_sample().map_err(|e| in_file(&e))? {
-            volts.push(v);
-        }
-        Ok(Signal::from_volts(volts))
-    }
-
-    /// Reads the samples of a `run --record` directory. A device lost
-    /// during the session makes the signal unusable for fitting.
-    pub fn from_recording(dir: &Path) -> Result<Signal, FitError> {
-        let in_dir = |e: &dyn fmt::Display| FitError::new(format!("{}: {e}", dir.display()));
-        let recording = Recording::open(dir).map_err(|e| in_dir(&e))?;
-        let mut decoder = recording.samples().map_err(|e| in_dir(&e))?;
-        let mut samples = Vec::new();
-        let mut first = None;
-        while let Some(item) = decoder.next_item().map_err(|e| in_dir(&e))? {
-            let SampleItem::Input(TickInput { tick, sample, .. }) = item else {
-                continue;
-            };
-            if let Sample::Lost = sample {
-                return Err(lost(dir, tick));
-            }
-            let first = *first.get_or_insert(tick);
-            let at = usize::try_from(tick - first).unwrap_or(usize::MAX);
-            if at >= MAX_SAMPLES {
-                return Err(in_dir(&"longer than a day: not a calibration"));
-            }
-            if samples.len() < at {
-                samples.resize(at, Sample::Missing);
-            }
-            samples.push(sample);
-        }
-        Ok(Signal { samples })
-    }
-
-    /// Reads a CSV file or a recording directory.
-    pub fn read(path: &Path) -> Result<Signal, FitError> {
-        if path.is_dir() {
-            Signal::from_recording(path)
-        } else {
-            Signal::from_csv(path)
-        }
-    }
-
     /// Milliseconds of signal.
     pub fn len(&self) -> usize {
         self.samples.len()
@@ -116,14 +63,4 @@ impl Signal {
             _ => None,
         }
     }
-}
-
-/// A day of samples: no calibration is longer.
-const MAX_SAMPLES: usize = 86_400_000;
-
-fn lost(dir: &Path, tick: u64) -> FitError {
-    FitError::new(format!(
-        "{}: the sensor was lost at tick {tick}: the session cannot be fitted; check the sensor's cable and record it again",
-        PathBuf::from(dir).display()
-    ))
 }

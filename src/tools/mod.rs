@@ -2,8 +2,9 @@
 //! a session recording, [`recording::recording_replay`], through the
 //! pipeline and the simulated arm; [`replay`] and [`trace`] are what both
 //! share), session recordings (`run --record`), the benches (`bench tick`,
-//! `bench latency`, `bench replay`), and the accuracy scorer (`bench
-//! accuracy`, the stress tests). Neither the core nor the runtime imports
+//! `bench latency`, `bench replay`), the accuracy scorer (`bench
+//! accuracy`, the stress tests), and a session's samples read for fitting
+//! ([`signal_file`]). Neither the core nor the runtime imports
 //! them.
 
 pub mod accuracy;
@@ -15,4 +16,5 @@ pub mod latency;
 pub mod recording;
 pub mod replay;
 pub mod safety;
+pub mod signal_file;
 pub mod trace;

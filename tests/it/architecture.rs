@@ -1,5 +1,6 @@
-//! Architecture test for `sipnpuff`: enforces which top-level modules may import which, and
-//! that no source files import each other in a cycle. Std only, so it costs nothing to keep.
+//! Architecture test for `sipnpuff`: the top-level modules stand on floors ([`FLOORS`]) and
+//! import only from floors below their own, the runtime uses only the seams' roots, and no
+//! source files import each other in a cycle. Std only, so it costs nothing to keep.
 //!
 //! How: every `.rs` file under `src/` is tokenised with comments and string/char literals
 //! skipped (so doc examples and "crate::x" strings don't count). Paths rooted at `crate::`,
@@ -22,33 +23,55 @@ const CRATE_NAME: &str = "sipnpuff";
 
 // ------------------------------------------------------------------------------------ rules
 
+/// The crate's top-level modules by floor, the ground first. A module
+/// imports only from floors below its own: the core knows nothing else;
+/// the seams (sensor, arm, output) know the core; configuration and the
+/// runtime know the seams; fitting knows the configuration; simulation
+/// and the display know fitting and the runtime; the tools, the designer
+/// and the command line sit on top, in that order.
+pub const FLOORS: &[&[&str]] = &[
+    &["control"],
+    &["sensor", "arm", "output"],
+    &["config", "rt"],
+    &["fit"],
+    &["sim", "display"],
+    &["tools"],
+    &["design"],
+    &["cli"],
+];
+
+/// The floor of top-level module `top` (1 = the ground); the crate root
+/// (lib.rs) is 0, an unknown module is above every floor.
+pub fn floor(top: &str) -> usize {
+    if top.is_empty() {
+        return 0;
+    }
+    FLOORS
+        .iter()
+        .position(|f| f.contains(&top))
+        .map_or(usize::MAX, |i| i + 1)
+}
+
 /// The rule broken by a reference from a file of top-level role `from_role` to the module file
 /// with module path `to` (`[]` = lib.rs), if any. One message per offending reference.
 pub fn rule_violation(from_role: &str, to: &[String]) -> Option<&'static str> {
-    let top = to.first().map_or("<crate root>", String::as_str);
-    let port_root = matches!(top, "sensor" | "arm" | "output") && to.len() == 1;
-    match from_role {
-        "control" | "rt" if matches!(top, "sim" | "tools") => {
-            Some("rule 3: sim/ and tools/ are never imported by control/ or rt/")
-        }
-        "control" if top == "config" => {
-            Some("rule 4: config/ may import control/, never the reverse")
-        }
-        "control" if top != "control" => {
-            Some("rule 1: control/ is the pure core and imports nothing else of the crate")
-        }
-        "rt" if matches!(top, "control" | "rt") || port_root => None,
-        "rt" if matches!(top, "sensor" | "arm" | "output") => Some(
-            "rule 2: rt/ may use only the sensor/arm/output module roots (mod.rs), not backends",
-        ),
-        "rt" => {
-            Some("rule 2: rt/ may import only control/, rt/ and the sensor/arm/output module roots")
-        }
-        "sensor" | "arm" | "output" if top == "rt" => {
-            Some("rule 2: the runtime depends on the sensor/arm/output seams, never the reverse")
-        }
-        _ => None,
+    let top = to.first().map_or("", String::as_str);
+    if top == from_role {
+        return None;
     }
+    if floor(from_role) == usize::MAX {
+        return Some("rule 1: every top-level module has a floor in FLOORS");
+    }
+    if floor(top) >= floor(from_role) {
+        return Some("rule 1: a module imports only from floors below its own");
+    }
+    let port_root = matches!(top, "sensor" | "arm" | "output") && to.len() == 1;
+    if from_role == "rt" && !port_root && top != "control" {
+        return Some(
+            "rule 2: rt/ may use only the sensor/arm/output module roots (mod.rs), not backends",
+        );
+    }
+    None
 }
 
 // ------------------------------------------------------------------------------------ lexing
@@ -349,7 +372,7 @@ pub fn edges(files: &[(String, String)]) -> Vec<Edge> {
 
 // ------------------------------------------------------------------------------------ checks
 
-/// Everything found wrong: layering violations and file import cycles (rule 5).
+/// Everything found wrong: layering violations and file import cycles (rule 3).
 #[derive(Debug, Default)]
 pub struct Report {
     pub violations: Vec<(Edge, &'static str)>,
@@ -424,7 +447,7 @@ impl fmt::Display for Report {
         let n = self.cycles.len();
         writeln!(
             f,
-            "{n} file import cycle(s) (rule 5: no import cycles between files):"
+            "{n} file import cycle(s) (rule 3: no import cycles between files):"
         )?;
         for scc in &self.cycles {
             writeln!(f, "  cycle between src/{}:", scc.join(", src/"))?;
@@ -594,14 +617,18 @@ fn forbidden_edges_are_reported_and_allowed_ones_are_not() {
     let report = analyse(&fixture(&[
         ("lib.rs", ""),
         ("control/mod.rs", "use crate::config::Config;"),
-        ("config/mod.rs", ""),
+        ("config/mod.rs", "use crate::sensor::settings::S;"),
         ("sensor/mod.rs", "pub trait Sensor {}"),
-        ("sensor/csv.rs", ""),
-        ("sim/mod.rs", ""),
+        ("sensor/settings.rs", ""),
+        ("sensor/csv.rs", "use crate::arm::Arm;"),
+        ("arm/mod.rs", ""),
+        ("sim/mod.rs", "use crate::tools::X;"),
+        ("tools/mod.rs", ""),
         (
             "rt/mod.rs",
             "use crate::sensor::{Sensor, csv::CsvSensor};\nuse crate::{control, sim::Plant};",
         ),
+        ("stray/mod.rs", "use crate::control::X;"),
     ]));
     let found: Vec<String> = report
         .violations
@@ -611,15 +638,30 @@ fn forbidden_edges_are_reported_and_allowed_ones_are_not() {
     assert_eq!(
         found,
         [
-            "control/mod.rs:1 rule 4",
+            "control/mod.rs:1 rule 1",
+            "sensor/csv.rs:1 rule 1",
+            "sim/mod.rs:1 rule 1",
             "rt/mod.rs:1 rule 2",
-            "rt/mod.rs:2 rule 3"
+            "rt/mod.rs:2 rule 1",
+            "stray/mod.rs:1 rule 1",
         ]
     );
     let text = report.to_string();
     assert!(text.contains(
         "src/rt/mod.rs:1: `crate::sensor::csv::CsvSensor` (-> src/sensor/csv.rs) breaks rule 2"
     ));
+}
+
+#[test]
+fn every_module_of_the_crate_has_a_floor() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    for (rel, _) in load_sources(&src) {
+        let role = role(&rel);
+        assert!(
+            role.is_empty() || floor(&role) != usize::MAX,
+            "src/{rel}: its module `{role}` is on no floor of FLOORS"
+        );
+    }
 }
 
 #[test]

@@ -6,13 +6,19 @@
 
 use std::process::Output;
 
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use sipnpuff::config::Config;
 use sipnpuff::control::action::Action;
+use sipnpuff::control::detector::DetectorConfig;
 use sipnpuff::fit::check::{bursts, read_right};
+use sipnpuff::fit::outcome::Outcome;
 use sipnpuff::fit::protocol::{Ask, Protocol};
 use sipnpuff::fit::signal::Signal;
 use sipnpuff::fit::{Fit, fit};
 use sipnpuff::sim::breather::{Breather, practice_session, protocol_session};
+use sipnpuff::sim::script::protocol_script;
+use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 
 use crate::scratch::Scratch;
 
@@ -340,4 +346,117 @@ fn a_recording_of_ordinary_use_is_fitted_and_its_drift_said() {
         (500..=1000).contains(&long),
         "short 400 ms, long 1500 ms: {long}"
     );
+}
+
+/// A user breathing the default protocol through the synthetic sensor:
+/// short breaths of `short` ms, long of `long` (±30 %), the rest at
+/// `level`.
+fn session(level: f64, short: f64, long: f64, seed: u64) -> Signal {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut script = vec![Step::Rest { ms: 6000 }];
+    for block in &Protocol::default().blocks {
+        let Ask::Breath(action) = block.ask else {
+            continue;
+        };
+        let mean = if action.is_long() { long } else { short };
+        for _ in 0..block.count {
+            let ms = (mean * rng.random_range(0.7..1.3)) as u32;
+            script.push(Step::Breath {
+                breath: action.breath(),
+                ms,
+            });
+            script.push(Step::Rest {
+                ms: rng.random_range(1000..2000),
+            });
+        }
+        script.push(Step::Rest { ms: 2500 });
+    }
+    let d = DetectorConfig::default().with_neutral(level);
+    let params = SignalParams::clean(&d, seed).with_noise(0.01);
+    Signal::from_volts(SignalGenerator::new(params, &script))
+}
+
+#[test]
+fn a_typical_user_is_read_right_with_their_settings() {
+    let signal = session(2.37, 150.0, 800.0, 1);
+    let fit = fit(&signal, &Protocol::default(), &Config::default()).unwrap();
+    assert!(
+        (fit.found.rest.level - 2.37).abs() < 0.005,
+        "{:?}",
+        fit.found.rest
+    );
+    assert_eq!(fit.answers.answers.len(), 32, "{:?}", fit.answers.notes);
+    assert_eq!(fit.replayed[1].right(), (32, 32), "{:?}", fit.replayed[1]);
+    assert!(fit.is_reliable());
+    let d = fit.proposal.detector;
+    // Midway between the rest's noise (±0.04 V) and the weakest
+    // plateaus (about 1.05 V): about 0.55 V from the rest.
+    assert!(
+        (d.puff_threshold_volts - d.neutral_volts - 0.55).abs() < 0.05,
+        "{d:?}"
+    );
+    assert!(
+        (d.neutral_volts - d.sip_threshold_volts - 0.55).abs() < 0.05,
+        "{d:?}"
+    );
+    // Short breaths of 105–195 ms, long of 560–1040 ms.
+    assert!((200..=400).contains(&d.long_burst_ms), "{d:?}");
+    let fitted = fit.config.core().detector();
+    assert_eq!(*fitted, d);
+    let short = fit
+        .classes
+        .iter()
+        .find(|c| c.ask == Ask::Breath(Action::ShortPuff))
+        .unwrap();
+    assert!((short.duration_ms.mean - 150.0).abs() < 20.0, "{short:?}");
+}
+
+#[test]
+fn overlapping_short_and_long_breaths_are_said_and_not_trusted() {
+    // Short 380 ms and long 480 ms, each ±30 %: no boundary separates
+    // them.
+    let b = Breather {
+        short_ms: 380,
+        long_ms: 480,
+        ..Breather::named("typical").unwrap()
+    };
+    let session = protocol_session(&b, &Protocol::default(), 2);
+    let signal = Signal::from_volts(session.signal());
+    let fit = fit(&signal, &Protocol::default(), &Config::default()).unwrap();
+    assert!(!fit.is_reliable());
+    let said = fit.overlap.unwrap();
+    assert!(
+        said.starts_with("your short and long breaths overlap"),
+        "{said}"
+    );
+}
+
+/// The user a live session plays on the synthetic sensor, three of
+/// each breath (`fit --count 3`): fitted, every breath read right,
+/// and the outcome the page shows says so against the settings now.
+#[test]
+fn the_live_sessions_synthetic_user_fits_with_three_of_each() {
+    let protocol = Protocol::new(3, 0);
+    let d = DetectorConfig::default();
+    let (params, script) = protocol_script(&d, &protocol, 1);
+    let signal = Signal::from_volts(SignalGenerator::new(params, &script));
+    let current = Config::default();
+    let fit = fit(&signal, &protocol, &current).unwrap();
+    assert!(fit.is_reliable());
+    assert_eq!(fit.answers.answers.len(), 12, "{:?}", fit.answers.notes);
+    assert_eq!(fit.replayed[1].right(), (12, 12));
+    let outcome = Outcome::of(&fit, &current);
+    let read = outcome.read_right.unwrap();
+    assert_eq!((read.proposed, read.asked), (12, 12));
+    let long = outcome
+        .changed
+        .iter()
+        .find(|c| c.key == "detector.long_burst_ms")
+        .expect("the boundary moves for this user");
+    assert_eq!(long.current, "500");
+    assert_eq!(
+        long.proposed,
+        fit.proposal.detector.long_burst_ms.to_string()
+    );
+    assert!(outcome.changed.iter().all(|c| c.current != c.proposed));
 }

@@ -383,34 +383,6 @@ impl Arm for KinovaSdkArm {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::Config;
-
-    #[test]
-    fn the_ethernet_and_timeout_keys_are_read_and_checked() {
-        let c = Config::from_toml_str(
-            "[arm.kinova_sdk]\nserial_number = \"PJ1\"\nrobot_ip = \"10.0.0.2\"\nrobot_port = 4000\n",
-        )
-        .unwrap();
-        let sdk = &c.arm().kinova_sdk;
-        assert_eq!(
-            (sdk.serial_number.as_str(), sdk.robot_ip.as_str()),
-            ("PJ1", "10.0.0.2")
-        );
-        assert_eq!((sdk.robot_port, sdk.local_cmd_port), (4000, 25000));
-        let errors = Config::from_toml_str(
-            "[arm.kinova_sdk]\nlocal_ip = \"10.0.0\"\nrobot_port = 0\ncall_timeout_ms = 0\n",
-        )
-        .unwrap_err()
-        .0;
-        let keys: Vec<&str> = errors.iter().map(|e| e.key.as_str()).collect();
-        for key in [
-            "arm.kinova_sdk.local_ip",
-            "arm.kinova_sdk.robot_port",
-            "arm.kinova_sdk.call_timeout_ms",
-        ] {
-            assert!(keys.contains(&key), "{key} in {keys:?}");
-        }
-    }
 
     #[test]
     fn a_missing_library_names_the_file_the_folder_and_the_key() {

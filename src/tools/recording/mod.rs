@@ -15,9 +15,11 @@
 //!
 //! [`recorder`] (the telemetry thread's side) and [`writer`] (its own
 //! thread) write one; [`read`] opens and checks one; [`recording_replay`]
-//! runs it through the core and compares.
+//! runs it through the core and compares; [`matches`] reads the `match`
+//! events of recordings for the designer.
 
 pub mod format;
+pub mod matches;
 pub mod meta;
 pub mod read;
 pub mod recorder;
