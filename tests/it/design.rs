@@ -15,6 +15,7 @@ use sipnpuff::sim::user::UserModel;
 
 use crate::scratch::Scratch;
 
+use crate::common::refused;
 use crate::common::sipnpuff_output as sipnpuff;
 
 /// Runs a command that must succeed and parses its one JSON line.
@@ -26,15 +27,6 @@ fn json(args: &[&str]) -> Value {
         String::from_utf8_lossy(&out.stderr)
     );
     serde_json::from_slice(&out.stdout).unwrap()
-}
-
-/// Runs a command that must fail and returns its standard error.
-fn refused(args: &[&str]) -> String {
-    let out = sipnpuff(args);
-    assert!(!out.status.success(), "{args:?} succeeded");
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    stderr
 }
 
 /// A fitted profile of the built-in breather `name`, as a clinician makes

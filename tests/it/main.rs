@@ -1,9 +1,11 @@
-//! The integration tests, in one binary (one link of the crate): golden
-//! replays, motion invariants, properties, stress, sessions, the runtime,
-//! session recordings, the study, the Ruckig oracle, allocations and the
-//! import rules.
-//! RealtimeSanitizer's tests are their own binary (`tests/rtsan.rs`): CI
-//! builds it again with the sanitizer's runtime.
+//! The first tier of tests: the whole logic on simulated clocks and
+//! in-process fakes, in one binary (one link of the crate) — golden
+//! replays, motion invariants, properties, stress, sessions, recordings,
+//! the study, the fit, the designer, the Ruckig oracle, allocations and
+//! the import rules. The second tier, which needs real seconds or an
+//! independent peer, is `tests/live`; RealtimeSanitizer's tests are their
+//! own binary (`tests/rtsan.rs`): CI builds it again with the sanitizer's
+//! runtime.
 
 use sipnpuff::rt::alloc_counter::CountingAllocator;
 
@@ -11,38 +13,42 @@ use sipnpuff::rt::alloc_counter::CountingAllocator;
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
 
+// The helpers both tiers share; each binary uses part of them.
+#[allow(dead_code)]
+#[path = "../support/common.rs"]
+mod common;
+#[allow(dead_code)]
+#[path = "../support/recordings.rs"]
+mod recordings;
+#[allow(dead_code)]
+#[path = "../support/scratch.rs"]
+mod scratch;
+#[allow(dead_code)]
+#[path = "../support/watchdog.rs"]
+mod watchdog;
+
 mod allocations;
 mod architecture;
 mod arm_feedback;
-mod arm_kinova_sdk;
-mod arm_ros1;
-mod arm_ros2;
 mod arm_sim;
 mod breathers;
 mod cli;
-mod common;
 mod design;
 mod display;
-mod display_browser;
 mod fast_paths;
 mod faults;
 mod fit;
-mod fit_live;
 mod fit_prompter;
 mod golden;
 mod motion;
 mod motion_safety;
-mod output_mqtt;
 mod outputs;
-mod peers;
 mod properties;
 mod recording;
 mod ruckig_oracle;
 mod runtime;
-mod scratch;
-mod sensors;
+mod scratch_folders;
 mod sessions;
 mod stress;
 mod study;
 mod uinput;
-mod watchdog;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The display's real other side: Debian's Chromium and ChromeDriver, for
-# tests/it/display_browser.rs (headless, driven through WebDriver).
+# tests/live/display_browser.rs (headless, driven through WebDriver).
 set -euo pipefail
 if [ -x /usr/bin/chromium ] && [ -x /usr/bin/chromedriver ]; then
     echo "browser peer: $(/usr/bin/chromium --version 2>/dev/null), $(/usr/bin/chromedriver --version 2>/dev/null | cut -d' ' -f1-2)"

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The home output's peers (tests/it/output_mqtt.rs): Debian's Mosquitto
+# The home output's peers (tests/live/output_mqtt.rs): Debian's Mosquitto
 # broker and clients (each test starts its own broker on a free port; the
 # packaged service, which would hold port 1883, is stopped and disabled),
 # and PyPI's paho-mqtt 2.x in a venv under target/peers/paho, the

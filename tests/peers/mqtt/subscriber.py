@@ -1,4 +1,4 @@
-"""The independent subscriber of tests/it/output_mqtt.rs (paho-mqtt 2.x).
+"""The independent subscriber of tests/live/output_mqtt.rs (paho-mqtt 2.x).
 
 Subscribes to every topic (`#`) at QoS 1 on the broker at 127.0.0.1:PORT
 and prints one JSON line per message: its wall-clock receive time (ns,

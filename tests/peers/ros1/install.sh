@@ -1,5 +1,5 @@
 #!/bin/sh
-# The ROS 1 peers of tests/it/arm_ros1.rs: Debian's own ROS 1 (Noetic-era
+# The ROS 1 peers of tests/live/arm_ros1.rs: Debian's own ROS 1 (Noetic-era
 # packages from bookworm's main archive): a real rosmaster/roscore, rospy
 # (whose rospy.AnyMsg subscriber receives the raw kinova_msgs bytes without
 # the kinova_msgs package) and geometry_msgs' Python classes (the tool-pose

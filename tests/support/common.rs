@@ -515,3 +515,26 @@ pub fn assert_rate(rate: f64, report: &serde_json::Value) {
         "rate {rate:.2} Hz, {expected:.2} Hz expected"
     );
 }
+
+/// The command ended with exit status `code` without panicking (`what`
+/// it was, for the message).
+pub fn assert_exit(status: std::process::ExitStatus, stderr: &str, code: i32, what: &str) {
+    assert_eq!(status.code(), Some(code), "{what}: {status}\n{stderr}");
+    assert!(!stderr.contains("panicked"), "{what}: {stderr}");
+}
+
+/// Runs a command that must be refused before it starts anything: it
+/// fails without panicking and prints nothing on stdout. Its standard
+/// error.
+pub fn refused(args: &[&str]) -> String {
+    let out = sipnpuff_output(args);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{args:?} succeeded:\n{stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    assert!(
+        out.stdout.is_empty(),
+        "{args:?} started before refusing:\n{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    stderr
+}

@@ -282,34 +282,3 @@ fn a_port_that_sends_nothing_is_an_error_at_start_saying_what_to_check() {
     assert!(stderr.contains("check the baud rate"), "{stderr}");
     assert!(started.elapsed() >= Duration::from_secs(2));
 }
-
-#[test]
-fn missing_devices_and_wrong_forms_are_clear_errors() {
-    for (sensor, says) in [
-        (
-            "serial:/dev/ttyNONE7",
-            "/dev/ttyNONE7: no such file or device",
-        ),
-        (
-            "evdev:/dev/input/event999",
-            "/dev/input/event999: no such file or device",
-        ),
-        (
-            "evdev:name=no such device",
-            "no input device's name contains \"no such device\"",
-        ),
-        (
-            "iio:/sys/bus/iio/devices/iio:device99/in_voltage0_raw",
-            "no such file or device",
-        ),
-    ] {
-        let out =
-            crate::watchdog::output(crate::common::sipnpuff().args(["run", "--sensor", sensor]));
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{sensor}: {stderr}");
-        assert!(stderr.contains(says), "{sensor}: {stderr}");
-    }
-    let out = crate::watchdog::output(crate::common::sipnpuff().args(["run", "--sensor", "usb:0"]));
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("evdev:name=SUBSTRING"));
-}

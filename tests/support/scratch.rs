@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 /// The environment variable that keeps a failed test's scratch folder.
-const KEEP: &str = "SIPNPUFF_KEEP_SCRATCH";
+pub const KEEP: &str = "SIPNPUFF_KEEP_SCRATCH";
 
 /// The running test's name (its function's). libtest runs each test on a
 /// thread named after the test's path (`arm_ros2::a_pose_from_…`), under
@@ -114,28 +114,10 @@ impl Drop for Scratch {
     }
 }
 
-/// A test's scratch folder is named after the test, and removed when the
-/// test fails (unless `SIPNPUFF_KEEP_SCRATCH=1` keeps it).
-#[test]
-fn a_failed_tests_scratch_folder_is_named_after_it_and_removed() {
-    let failed = std::panic::catch_unwind(|| {
-        let dir = Scratch::new();
-        std::fs::write(dir.join("a-file"), "").unwrap();
-        std::panic::panic_any(dir.to_path_buf());
-    });
-    let path = *failed
-        .expect_err("the test fails")
-        .downcast::<std::path::PathBuf>()
-        .expect("the folder's path");
-    let name = path.file_name().unwrap().to_string_lossy().into_owned();
-    assert!(
-        name.starts_with("sipnpuff-a_failed_tests_scratch_folder_is_named_after_it_and_removed-"),
-        "{name}"
-    );
-    if std::env::var(KEEP).as_deref() == Ok("1") {
-        assert!(path.join("a-file").exists(), "kept: {}", path.display());
-        std::fs::remove_dir_all(&path).unwrap();
-    } else {
-        assert!(!path.exists(), "{}", path.display());
-    }
+/// A file named `name` holding `contents`, in a new scratch folder.
+pub fn scratch_file(name: &str, contents: &str) -> (Scratch, PathBuf) {
+    let dir = Scratch::new();
+    let path = dir.join(name);
+    std::fs::write(&path, contents).unwrap();
+    (dir, path)
 }

@@ -1,0 +1,407 @@
+//! The real-time runtime in short real runs that assert structure, never
+//! timing (these machines are shared and noisy): the report, no
+//! allocation over ten seconds, signals, privileges, a refusing arm, a
+//! stopped process, a measuring arm and a lost link.
+
+use std::process::Command;
+use std::sync::Arc;
+use std::sync::Mutex;
+use std::time::Duration;
+
+use sipnpuff::arm::sim::SimArm;
+use sipnpuff::arm::{Arm, ArmError, ArmState};
+use sipnpuff::config::Config;
+use sipnpuff::control::event::Event;
+use sipnpuff::control::motion::stream::ArmCommand;
+use sipnpuff::rt::control_loop::StopReason;
+use sipnpuff::rt::report::RunReport;
+use sipnpuff::rt::setup::RtOptions;
+use sipnpuff::rt::stop::StopRequest;
+use sipnpuff::rt::threads::{LoopSettings, RunOptions, run};
+use sipnpuff::sim::synthetic_sensor::SyntheticSensor;
+
+use crate::common::Running;
+
+/// Real runs one at a time: they share the pinned CPU.
+static REAL_RUN: Mutex<()> = Mutex::new(());
+
+fn settings(seconds: f64) -> LoopSettings {
+    LoopSettings {
+        seconds: Some(seconds),
+        rt: RtOptions::default(),
+        spin_margin_ns: None,
+        stop: StopRequest::new(),
+    }
+}
+
+/// `run` for `seconds` with the built-in user and the simulated arm.
+fn real_run(seconds: f64) -> RunReport {
+    // Load stalls on this shared machine must not fault the scripted user.
+    let config = Config::from_file(&crate::common::fixture("shared-machine.toml")).unwrap();
+    let sensor = SyntheticSensor::built_in_user(&config);
+    let arm = Box::new(SimArm::new(config.core()));
+    run(
+        config.core(),
+        RunOptions::new(sensor, arm, settings(seconds)),
+    )
+    .unwrap()
+}
+
+fn check_structure(report: &RunReport, seconds: f64) {
+    let st = report.stats;
+    let ticks = (seconds * 1000.0) as u64;
+    // Ticks run and skipped cover the run (plus the safe stop's ticks).
+    assert!(st.ticks_run + st.skipped_ticks >= ticks, "{st:?}");
+    assert!(st.skipped_ticks >= st.missed_deadlines);
+    assert_eq!(report.drift_ticks, 0);
+    assert_eq!(report.full.wake.len(), st.ticks_run);
+    assert_eq!(report.control_thread_allocations, 0);
+    assert_eq!(report.final_velocity, [0.0; 7]);
+    assert!(report.last_arm_command.is_zero());
+    // One command per 10 ticks run: motion advances only on ticks run, and
+    // through a stall the arm gets nothing (a JACO2 stops when its stream
+    // stops), so the arm and the core's pose estimate stay in step.
+    assert_eq!(report.arm_commands, st.ticks_run / 10);
+    let text = report.to_text();
+    for section in [
+        "real-time settings:",
+        "SCHED_FIFO priority 80",
+        "ticks: ",
+        "wake-up latency",
+        "compute",
+        "period",
+        "rings: dropped",
+        "control thread heap allocations after start: 0",
+        "arm: ",
+        "final commanded velocity",
+    ] {
+        assert!(text.contains(section), "no {section:?} in\n{text}");
+    }
+}
+
+#[test]
+fn a_short_real_run_reports_its_structure() {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let report = real_run(2.0);
+    check_structure(&report, 2.0);
+    assert_eq!(report.stop_reason, StopReason::Time);
+
+    // --histogram-dir: one .hgrm per histogram, in the plotter's format,
+    // its total the number of ticks.
+    let dir = crate::scratch::Scratch::new();
+    let written = report.write_histograms(&dir).unwrap();
+    let names: Vec<_> = written
+        .iter()
+        .map(|p| p.file_name().unwrap().to_str().unwrap().to_string())
+        .collect();
+    assert_eq!(names, ["wake_latency.hgrm", "compute.hgrm", "period.hgrm"]);
+    let text = std::fs::read_to_string(&written[0]).unwrap();
+    assert!(
+        text.starts_with("       Value     Percentile TotalCount 1/(1-Percentile)"),
+        "{text}"
+    );
+    let total = format!("Total count    = {:>12}]", report.stats.ticks_run);
+    assert!(text.contains(&total), "{text}");
+}
+
+#[test]
+fn ten_seconds_of_running_allocate_nothing_on_the_control_thread() {
+    crate::common::real_time(|| {
+        let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+        let report = real_run(10.0);
+        check_structure(&report, 10.0);
+        // It did real work: selections, a save, motion.
+        assert!(report.events >= 8, "{} events", report.events);
+        let arm = report.arm.expect("the simulated arm reports its state");
+        assert!(arm.pose.translation.x > 0.3, "moved forward");
+    });
+}
+
+fn binary() -> Command {
+    crate::common::sipnpuff()
+}
+
+/// The real binary: `run` for `seconds` with the built-in user, on the
+/// shared machine's settings.
+fn spawn_run(seconds: &str) -> Running {
+    let config = crate::common::fixture("shared-machine.toml");
+    Running::spawn(&[
+        "run",
+        "--seconds",
+        seconds,
+        "--config",
+        config.to_str().unwrap(),
+    ])
+}
+
+#[test]
+fn sigint_stops_safely_with_a_report() {
+    crate::common::real_time(|| {
+        let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+        let mut run = spawn_run("60");
+        // Wait for translate_x, then interrupt 0.9 s later, mid-puff.
+        run.wait_for("\"mode\":\"translate_x\"");
+        std::thread::sleep(Duration::from_millis(900));
+        run.signal(libc::SIGINT);
+        let (status, seen, _) = run.finish();
+        let text = seen.join("\n");
+        assert_eq!(status.code(), Some(130), "{status}\n{text}");
+        assert!(text.contains("stopped by: signal SIGINT"), "{text}");
+        assert!(
+            text.contains("\"event\":\"detection\",\"reason\":\"stop\""),
+            "{text}"
+        );
+        assert!(text.contains(crate::common::STOPPED_AT_REST), "{text}");
+        assert!(text.contains(crate::common::NO_ALLOCATIONS), "{text}");
+    });
+}
+
+#[test]
+fn a_user_without_privileges_runs_and_is_told_what_it_lacks() {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    // SAFETY: geteuid has no preconditions.
+    let root = unsafe { libc::geteuid() } == 0;
+    let mut command = if root {
+        let mut c = Command::new("setpriv");
+        c.args(["--reuid=65534", "--regid=65534", "--clear-groups", "--"]);
+        c.arg(env!("CARGO_BIN_EXE_sipnpuff"));
+        c.env("SIPNPUFF_NO_DISPLAY", "1");
+        c
+    } else {
+        binary()
+    };
+    command.args(["run", "--seconds", "1.5"]);
+    let output = crate::watchdog::output(&mut command);
+    let text = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}\n{text}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let line = |name: &str| {
+        text.lines()
+            .find(|l| l.trim_start().starts_with(name))
+            .unwrap_or("")
+            .to_string()
+    };
+    assert!(line("SCHED_FIFO priority 80").contains("DENIED"), "{text}");
+    assert!(line("mlockall").contains("DENIED"), "{text}");
+    assert!(line("/dev/cpu_dma_latency").contains("DENIED"), "{text}");
+    assert!(
+        text.contains("final commanded velocity: linear (0, 0, 0)"),
+        "{text}"
+    );
+    assert!(text.contains(crate::common::NO_ALLOCATIONS), "{text}");
+}
+
+/// An arm that takes `good` commands, then refuses the next; it records
+/// every call so the test can see how the stream ended.
+struct RefusingArm {
+    good: usize,
+    sends: usize,
+    calls: Arc<Mutex<Vec<String>>>,
+}
+
+impl Arm for RefusingArm {
+    fn describe(&self) -> String {
+        "refusing".into()
+    }
+    fn connect(&mut self) -> Result<(), ArmError> {
+        Ok(())
+    }
+    fn send(&mut self, command: &ArmCommand) -> Result<(), ArmError> {
+        self.sends += 1;
+        if self.sends == self.good + 1 {
+            return Err(ArmError::Rejected {
+                detail: "over current".into(),
+            });
+        }
+        let mut calls = self.calls.lock().unwrap();
+        calls.push(format!("send {} zero {}", command.seq, command.is_zero()));
+        Ok(())
+    }
+    fn feedback(&mut self) -> Option<ArmState> {
+        None
+    }
+    fn stop(&mut self) -> Result<(), ArmError> {
+        self.calls.lock().unwrap().push("stop".into());
+        Ok(())
+    }
+}
+
+#[test]
+fn an_arm_that_refuses_a_command_stops_the_run_safely() {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let config = Config::default();
+    let calls = Arc::new(Mutex::new(Vec::new()));
+    let arm = Box::new(RefusingArm {
+        good: 300,
+        sends: 0,
+        calls: calls.clone(),
+    });
+    let sensor = SyntheticSensor::built_in_user(&config);
+    let report = run(config.core(), RunOptions::new(sensor, arm, settings(60.0))).unwrap();
+    assert_eq!(report.stop_reason, StopReason::ArmFault);
+    assert_eq!(report.errors, ["arm refused a command: over current"]);
+    assert!(report.stream_ended_with_zero);
+    assert!(report.to_text().contains("stopped by: arm fault"));
+    assert!(
+        report
+            .to_text()
+            .contains("ERROR: arm refused a command: over current")
+    );
+    // 300 commands, then the refused one: a zero command numbered after the
+    // last sent, then stop, and nothing after.
+    let calls = calls.lock().unwrap();
+    assert_eq!(calls.len(), 302, "{calls:?}");
+    assert_eq!(calls[300], "send 300 zero true");
+    assert_eq!(calls[301], "stop");
+    // The loop stopped well before its 60 s.
+    assert!(report.stats.ticks_run + report.stats.skipped_ticks < 60_000);
+    assert_eq!(report.final_velocity, [0.0; 7]);
+}
+
+/// The real binary stopped for about 2 s (SIGSTOP, as a debugger or a
+/// paused VM would) and continued: the event log has the stall as a fault
+/// giving the gap, and the run still ends with its safe stop and report.
+#[test]
+fn a_stopped_and_continued_process_reports_the_stall_and_stops_safely() {
+    crate::common::real_time(|| {
+        let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+        let mut run = spawn_run("8");
+        // The loop is running once the first selection is logged.
+        run.wait_for("\"event\":\"match\"");
+        run.pause(Duration::from_millis(2000));
+        let (status, seen, _) = run.finish();
+        let text = seen.join("\n");
+        assert!(status.success(), "{status}\n{text}");
+        let gaps: Vec<u64> = seen
+            .iter()
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .filter(|v| v["event"] == "fault")
+            .filter_map(|v| {
+                let reason = v["reason"].as_str()?.to_string();
+                let rest = reason.split("stalled for ").nth(1)?;
+                rest.split(' ').next()?.parse().ok()
+            })
+            .collect();
+        assert!(gaps.iter().any(|&ms| ms >= 1900), "{gaps:?}\n{text}");
+        assert!(text.contains("stopped by: time"), "{text}");
+        assert!(text.contains(crate::common::STOPPED_AT_REST), "{text}");
+    });
+}
+
+/// An arm that measures its pose (the commands executed exactly, reported
+/// every 10 ms) until `silent_after` sends, and whose link breaks after
+/// `lost_after` sends.
+struct MeasuringArm {
+    arm: SimArm,
+    sends: usize,
+    silent_after: usize,
+    lost_after: usize,
+    fresh: bool,
+}
+
+impl MeasuringArm {
+    fn new(config: &Config, silent_after: usize, lost_after: usize) -> Box<MeasuringArm> {
+        Box::new(MeasuringArm {
+            arm: SimArm::new(config.core()),
+            sends: 0,
+            silent_after,
+            lost_after,
+            fresh: true,
+        })
+    }
+}
+
+impl Arm for MeasuringArm {
+    fn describe(&self) -> String {
+        "measuring".into()
+    }
+    fn connect(&mut self) -> Result<(), ArmError> {
+        Ok(())
+    }
+    fn send(&mut self, command: &ArmCommand) -> Result<(), ArmError> {
+        self.sends += 1;
+        self.fresh = true;
+        self.arm.send(command)
+    }
+    fn feedback(&mut self) -> Option<ArmState> {
+        let fresh = std::mem::take(&mut self.fresh) && self.sends <= self.silent_after;
+        fresh.then(|| self.arm.feedback()).flatten()
+    }
+    fn measures_pose(&self) -> bool {
+        true
+    }
+    fn check_link(&mut self) -> Result<(), ArmError> {
+        if self.sends > self.lost_after {
+            return Err(ArmError::Disconnected {
+                detail: "the receiver went away".into(),
+            });
+        }
+        Ok(())
+    }
+    fn stop(&mut self) -> Result<(), ArmError> {
+        self.arm.stop()
+    }
+}
+
+/// Runs the built-in user with `arm` for up to 30 s; returns the report
+/// and the arm-fault events.
+fn measured_run(arm: Box<MeasuringArm>) -> (RunReport, Vec<String>) {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let config = Config::default();
+    let sensor = SyntheticSensor::built_in_user(&config);
+    let mut faults = Vec::new();
+    let mut arm_faults = |e: &sipnpuff::control::event::TimedEvent| {
+        if let Event::ArmFault { reason } = e.event {
+            faults.push(reason.to_string());
+        }
+    };
+    let options = RunOptions::new(sensor, arm, settings(30.0)).events(&mut arm_faults);
+    let report = run(config.core(), options).unwrap();
+    (report, faults)
+}
+
+#[test]
+fn a_measuring_arm_closes_the_loop_and_its_silence_stops_the_run() {
+    crate::common::real_time(|| {
+        let config = Config::default();
+        let (report, faults) = measured_run(MeasuringArm::new(&config, 400, usize::MAX));
+        assert!(report.arm_measured);
+        assert!(report.measured_poses >= 300, "{}", report.measured_poses);
+        assert_eq!(report.stop_reason, StopReason::ArmFault);
+        assert_eq!(faults.len(), 1, "{faults:?}");
+        // 251 ms after the last pose, or a little more if the loop skipped a
+        // tick just then (a loaded machine).
+        let ms: u64 = faults[0]
+            .strip_prefix("no measured arm pose for ")
+            .and_then(|rest| rest.split(' ').next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{faults:?}"));
+        assert!((251..1000).contains(&ms), "{faults:?}");
+        let text = report.to_text();
+        assert!(
+            text.contains(&format!("ERROR: arm: {}", faults[0])),
+            "{text}"
+        );
+        assert!(text.contains("final measured position"), "{text}");
+        assert!(text.contains("arm feedback: "), "{text}");
+        assert!(report.stream_ended_with_zero && report.last_arm_command.is_zero());
+        assert_eq!(report.final_velocity, [0.0; 7]);
+        assert_eq!(report.control_thread_allocations, 0);
+    });
+}
+
+#[test]
+fn a_lost_link_reaches_the_core_and_stops_the_run() {
+    crate::common::real_time(|| {
+        let config = Config::default();
+        let (report, faults) = measured_run(MeasuringArm::new(&config, usize::MAX, 500));
+        assert_eq!(report.stop_reason, StopReason::ArmFault);
+        assert_eq!(faults, ["arm link lost or a command refused — arm stopped"]);
+        assert_eq!(report.errors, ["arm disconnected: the receiver went away"]);
+        assert!(report.stream_ended_with_zero);
+        assert_eq!(report.final_velocity, [0.0; 7]);
+    });
+}
