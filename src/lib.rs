@@ -103,5 +103,7 @@ pub mod fit;
 pub mod output;
 pub mod rt;
 pub mod sensor;
+pub mod session;
 pub mod sim;
 pub mod tools;
+pub mod wiring;

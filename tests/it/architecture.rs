@@ -33,10 +33,10 @@ pub const FLOORS: &[&[&str]] = &[
     &["control"],
     &["sensor", "arm", "output"],
     &["config", "rt"],
-    &["fit"],
+    &["fit", "wiring"],
     &["sim", "display"],
     &["tools"],
-    &["design"],
+    &["design", "session"],
     &["cli"],
 ];
 
