@@ -169,14 +169,6 @@ fn writable(dir: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Creates `path` for writing, buffered.
-pub fn create(path: &Path) -> anyhow::Result<std::io::BufWriter<std::fs::File>> {
-    let file =
-        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-    // 1 MiB at a time: a trace of an hour is 635 MB.
-    Ok(std::io::BufWriter::with_capacity(1 << 20, file))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,11 +9,9 @@ use crate::cli::args::{ConfigArg, RtArgs, parse_seconds, parse_volts, writable_d
 use crate::cli::output;
 use crate::rt::control_loop::StopReason;
 use crate::tools::accuracy::{GridOptions, GridReport, accuracy_grid, grid_table};
-use crate::tools::bench_replay::bench_replay;
+use crate::tools::bench_replay::bench_replay_dir;
 use crate::tools::bench_tick::bench_tick;
 use crate::tools::latency::{LatencyReport, bench_latency};
-use crate::tools::recording::read::Recording;
-use crate::tools::replay::ReplayError;
 
 /// What to measure.
 #[derive(clap::Subcommand, Debug)]
@@ -176,14 +174,7 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<u8> {
             rounds,
             json,
         } => {
-            let opened = Recording::open(&recording)?;
-            let report = match bench_replay(&opened, rounds) {
-                Ok(bench) => bench.report(),
-                Err(ReplayError::Write(e)) => {
-                    return Err(anyhow::Error::new(e).context(recording.display().to_string()));
-                }
-                Err(e) => return Err(e.into()),
-            };
+            let report = bench_replay_dir(&recording, rounds)?.report();
             if json {
                 output::stdout_line(&serde_json::to_string(&report)?)
             } else {
