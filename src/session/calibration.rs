@@ -196,7 +196,7 @@ pub fn default_dir(label: &str) -> PathBuf {
 struct Session<'a> {
     protocol: &'a Protocol,
     settings: &'a LoopSettings,
-    display: &'a Display,
+    display: &'a Display<'a>,
     dir: &'a Path,
     console: &'a dyn Console,
     /// The prompts go to stderr (stdout holds the JSON).
@@ -226,9 +226,7 @@ impl OnSensor for Session<'_> {
         // A fit never drives a real arm: the core's output goes to the
         // simulated one.
         let arm: Box<dyn Arm> = Box::new(SimArm::new(config.core()));
-        let mut showing = self
-            .display
-            .start_fit(config.core(), &arm.describe(), self.console)?;
+        let mut showing = self.display.start_fit(config.core(), &arm.describe())?;
         let mut guide = Guide::new(
             Prompter::new(self.protocol),
             &mut showing,

@@ -75,7 +75,6 @@ pub fn run(
         events,
         record: plan.record.as_ref(),
         display: &display,
-        console,
     };
     open_sensor(
         plan.sensor,
@@ -95,8 +94,7 @@ struct Start<'a> {
     settings: &'a LoopSettings,
     events: &'a mut dyn EventSink,
     record: Option<&'a Record<'a>>,
-    display: &'a Display,
-    console: &'a dyn Console,
+    display: &'a Display<'a>,
 }
 
 impl OnSensor for Start<'_> {
@@ -110,7 +108,6 @@ impl OnSensor for Start<'_> {
             events,
             record,
             display,
-            console,
         } = self;
         let mut recorder = match record {
             Some(record) => Some(
@@ -119,7 +116,7 @@ impl OnSensor for Start<'_> {
             ),
             None => None,
         };
-        let mut showing = display.start(config.core(), &arm.describe(), console)?;
+        let mut showing = display.start(config.core(), &arm.describe())?;
         let options = RunOptions {
             watchers: Watchers {
                 events: Some(events),

@@ -32,51 +32,39 @@ mod wired {
     use crate::display::server::DisplayServer;
     use crate::display::tui::TerminalView;
 
-    /// The display chosen, its address taken.
-    pub struct Display {
+    /// The display chosen, its address taken; it says on `console`
+    /// where the page is.
+    pub struct Display<'a> {
         listener: Option<TcpListener>,
         tui: bool,
+        console: &'a dyn Console,
     }
 
-    impl Display {
+    impl<'a> Display<'a> {
         /// Takes the page's address (if a page is asked for).
-        pub fn open(choice: &DisplayChoice, _console: &dyn Console) -> anyhow::Result<Display> {
+        pub fn open(choice: &DisplayChoice, console: &'a dyn Console) -> anyhow::Result<Self> {
             Ok(Display {
                 listener: match choice.page {
                     Some(address) => Some(DisplayServer::bind(address)?),
                     None => None,
                 },
                 tui: choice.tui,
+                console,
             })
         }
 
-        /// Starts what was chosen for a run of `config` on `arm` (in
-        /// words), saying where the page is.
-        pub fn start(
-            &self,
-            config: &CoreConfig,
-            arm: &str,
-            console: &dyn Console,
-        ) -> anyhow::Result<Showing> {
-            self.start_hub(|| DisplayHub::new(config, arm), console)
+        /// Starts what was chosen for a run of `config` on `arm` (in words).
+        pub fn start(&self, config: &CoreConfig, arm: &str) -> anyhow::Result<Showing> {
+            self.start_hub(|| DisplayHub::new(config, arm))
         }
 
         /// Starts the page of a live calibration (`sipnpuff fit`) on
         /// `config` and `arm`: its prompts instead of the modes.
-        pub fn start_fit(
-            &self,
-            config: &CoreConfig,
-            arm: &str,
-            console: &dyn Console,
-        ) -> anyhow::Result<Showing> {
-            self.start_hub(|| DisplayHub::for_fit(config, arm), console)
+        pub fn start_fit(&self, config: &CoreConfig, arm: &str) -> anyhow::Result<Showing> {
+            self.start_hub(|| DisplayHub::for_fit(config, arm))
         }
 
-        fn start_hub(
-            &self,
-            hub: impl FnOnce() -> DisplayHub,
-            console: &dyn Console,
-        ) -> anyhow::Result<Showing> {
+        fn start_hub(&self, hub: impl FnOnce() -> DisplayHub) -> anyhow::Result<Showing> {
             if self.listener.is_none() && !self.tui {
                 return Ok(Showing::default());
             }
@@ -86,7 +74,7 @@ mod wired {
                 None => None,
             };
             if let Some(server) = &server {
-                console.note(&format!(
+                self.console.note(&format!(
                     "sipnpuff: the display is at http://{}/",
                     server.address()
                 ));
@@ -160,36 +148,26 @@ mod wired {
     use super::*;
 
     /// No display in this build.
-    pub struct Display;
+    pub struct Display<'a>(std::marker::PhantomData<&'a dyn Console>);
 
-    impl Display {
+    impl<'a> Display<'a> {
         /// Says the display was asked for and is not built in.
-        pub fn open(choice: &DisplayChoice, console: &dyn Console) -> anyhow::Result<Display> {
+        pub fn open(choice: &DisplayChoice, console: &'a dyn Console) -> anyhow::Result<Self> {
             if choice.page.is_some() || choice.tui {
                 console.note(
                     "sipnpuff: built without the `display` feature (on by default): no page, no terminal view",
                 );
             }
-            Ok(Display)
+            Ok(Display(std::marker::PhantomData))
         }
 
         /// Nothing to start.
-        pub fn start(
-            &self,
-            _config: &CoreConfig,
-            _arm: &str,
-            _console: &dyn Console,
-        ) -> anyhow::Result<Showing> {
+        pub fn start(&self, _config: &CoreConfig, _arm: &str) -> anyhow::Result<Showing> {
             Ok(Showing)
         }
 
         /// Nothing to start.
-        pub fn start_fit(
-            &self,
-            _config: &CoreConfig,
-            _arm: &str,
-            _console: &dyn Console,
-        ) -> anyhow::Result<Showing> {
+        pub fn start_fit(&self, _config: &CoreConfig, _arm: &str) -> anyhow::Result<Showing> {
             Ok(Showing)
         }
     }

@@ -60,14 +60,9 @@ pub fn replay_csv(
     let (out, trace) = opened.writers();
     let result = csv_replay::replay(config, &mut input, out, trace);
     let seconds = started.elapsed().as_secs_f64();
-    // A write error keeps its `io::Error` in the chain (a closed stdout:
-    // exit status 141).
     let summary = match result {
         Ok(summary) => summary,
-        Err(ReplayError::Write(e)) => {
-            return Err(anyhow::Error::new(e)
-                .context(format!("{}: cannot write the output", path.display())));
-        }
+        Err(ReplayError::Write(e)) => return Err(cannot_write(path, e)),
         Err(e) => return Err(anyhow::Error::new(e).context(path.display().to_string())),
     };
     Ok(CsvReplayed { summary, seconds })
@@ -93,10 +88,7 @@ pub fn replay_recording(
     let seconds = started.elapsed().as_secs_f64();
     let verdict = match result {
         Ok(verdict) => verdict,
-        Err(ReplayError::Write(e)) => {
-            return Err(anyhow::Error::new(e)
-                .context(format!("{}: cannot write the output", dir.display())));
-        }
+        Err(ReplayError::Write(e)) => return Err(cannot_write(dir, e)),
         Err(e) => return Err(e.into()),
     };
     Ok(RecordingReplayed {
@@ -104,6 +96,12 @@ pub fn replay_recording(
         verdict,
         seconds,
     })
+}
+
+/// The replay of `input` could not write its output: the `io::Error`
+/// stays in the chain (a closed stdout: exit status 141).
+fn cannot_write(input: &Path, e: std::io::Error) -> anyhow::Error {
+    anyhow::Error::new(e).context(format!("{}: cannot write the output", input.display()))
 }
 
 /// Where a replay writes, open: the events' writer (a file, or stdout
