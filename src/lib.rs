@@ -30,7 +30,8 @@
 //!   breathing), the synthetic sensor that plays one live, and the
 //!   paper's study;
 //! * [`tools`]: replay, session recordings and their loaders, benchmarks,
-//!   the accuracy scorer and the safety monitor;
+//!   the accuracy scorer, the safety monitor and synthetic recordings
+//!   written;
 //! * [`wiring`]: the backends chosen from their specs (`--sensor`,
 //!   `--arm`, `--output`), the one place that maps a spec to a backend;
 //! * [`design`]: designing the sequence library for a person;

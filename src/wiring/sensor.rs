@@ -23,7 +23,7 @@ pub trait OnSensor {
 
 /// Opens the `--sensor` backend and runs `on` on it: `synthetic` is the
 /// caller's scripted user (`synthetic()`); a device is started and, if
-/// analog, its neutral measured first ([`prepare_device`]), saying
+/// analog, its neutral measured first (`prepare_device`), saying
 /// (`say`) what it waits for.
 pub fn open_sensor<O: OnSensor, Synthetic: Sensor>(
     spec: &SensorSpec,
