@@ -30,9 +30,16 @@
 //!   breathing), the synthetic sensor that plays one live, and the
 //!   paper's study;
 //! * [`tools`]: replay, session recordings and their loaders, benchmarks,
-//!   the accuracy scorer and the safety monitor;
+//!   the accuracy scorer, the safety monitor and synthetic recordings
+//!   written;
+//! * [`wiring`]: the backends chosen from their specs (`--sensor`,
+//!   `--arm`, `--output`), the one place that maps a spec to a backend;
 //! * [`design`]: designing the sequence library for a person;
-//! * [`cli`]: the `sipnpuff` command line, one file per command.
+//! * [`session`]: sessions end to end: `run`'s, the live calibration and
+//!   the fit of a recording, wiring the runtime, the backends, the
+//!   display and the recorder;
+//! * [`cli`]: the `sipnpuff` command line, one file per command: its
+//!   options parsed, one call, the result printed.
 //!
 //! One sample's way from a serial sensor to a ROS 2 arm:
 //! `sensor/serial.rs` parses a line, `sensor/device.rs` and
@@ -46,10 +53,11 @@
 //! through the [`arm::Arm`] seam to `arm/ros2/mod.rs`.
 //!
 //! Import rules (checked by `tests/it/architecture.rs`): the modules stand
-//! on floors — `control`; `sensor`, `arm`, `output`; `config`, `rt`; `fit`;
-//! `sim`, `display`; `tools`; `design`; `cli` — and each imports only from
-//! the floors below its own (`rt` only the seams' roots); concrete
-//! backends are chosen in `cli`; no import cycle between files.
+//! on floors — `control`; `sensor`, `arm`, `output`; `config`, `rt`;
+//! `fit`, `wiring`; `sim`, `display`; `tools`; `design`, `session`; `cli` —
+//! and each imports only from the floors below its own (`rt` only the
+//! seams' roots); the backends the specs name are opened in `wiring`; no
+//! import cycle between files.
 //!
 //! ```
 //! use sipnpuff::config::Config;
@@ -103,5 +111,7 @@ pub mod fit;
 pub mod output;
 pub mod rt;
 pub mod sensor;
+pub mod session;
 pub mod sim;
 pub mod tools;
+pub mod wiring;

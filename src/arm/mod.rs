@@ -35,7 +35,7 @@ use crate::control::motion::stream::ArmCommand;
 
 /// Which arm to drive: the `--arm` values, a contract documented in
 /// `--help` and `docs/commands.md`. A new backend adds its form here and
-/// one line where the command line opens it (`cli/run.rs`).
+/// one line where it is opened (`wiring/arm.rs`).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum ArmSpec {
     /// `sim`: the simulated JACO2.

@@ -11,6 +11,9 @@ use crate::cli::output::invalid;
 use crate::config::Config;
 use crate::control::selection::Interface;
 use crate::rt::setup::RtOptions;
+use crate::rt::signals;
+use crate::rt::threads::LoopSettings;
+use crate::tools::recording::recorder::check_dir;
 
 /// `--config FILE`.
 #[derive(clap::Args, Clone, Debug)]
@@ -105,7 +108,7 @@ pub struct RtArgs {
 
 impl RtArgs {
     /// The settings to ask for; an error if the CPU does not exist.
-    pub fn options(&self) -> anyhow::Result<RtOptions> {
+    fn options(&self) -> anyhow::Result<RtOptions> {
         let defaults = RtOptions::default();
         if let Some(cpu) = self.cpu {
             let ids: Vec<usize> = core_affinity::get_core_ids()
@@ -128,9 +131,26 @@ impl RtArgs {
     }
 
     /// The hybrid-wait margin, ns.
-    pub fn spin_margin_ns(&self) -> Option<u64> {
+    fn spin_margin_ns(&self) -> Option<u64> {
         self.spin_margin_us.map(|us| us * 1000)
     }
+
+    /// The loop's settings: these, `seconds` long (`None`: until the
+    /// sensor ends), stopped safely from here on by every stop signal.
+    pub fn loop_settings(&self, seconds: Option<f64>) -> anyhow::Result<LoopSettings> {
+        Ok(LoopSettings {
+            seconds,
+            rt: self.options()?,
+            spin_margin_ns: self.spin_margin_ns(),
+            stop: signals::stop_request().context("cannot install the signal handlers")?,
+        })
+    }
+}
+
+/// Checks, before a run, that a session can be recorded into `dir`
+/// (`--record`): never over a recording.
+pub fn record_dir(dir: &Path) -> anyhow::Result<()> {
+    invalid(check_dir(dir).map_err(|e| anyhow::Error::new(e).context("--record")))
 }
 
 /// Checks, before a run, that histograms can be written into `dir`
@@ -149,81 +169,9 @@ fn writable(dir: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Creates `path` for writing, buffered.
-pub fn create(path: &Path) -> anyhow::Result<std::io::BufWriter<std::fs::File>> {
-    let file =
-        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-    // 1 MiB at a time: a trace of an hour is 635 MB.
-    Ok(std::io::BufWriter::with_capacity(1 << 20, file))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn sensor_forms_parse_and_errors_name_the_choices() {
-        use crate::sensor::SensorSpec;
-        assert_eq!(SensorSpec::parse("synthetic"), Ok(SensorSpec::Synthetic));
-        assert_eq!(
-            SensorSpec::parse("csv:a/b.csv"),
-            Ok(SensorSpec::Csv(PathBuf::from("a/b.csv")))
-        );
-        use crate::sensor::EvdevTarget;
-        assert_eq!(
-            SensorSpec::parse("evdev:/dev/input/event3"),
-            Ok(SensorSpec::Evdev(EvdevTarget::Path(
-                "/dev/input/event3".into()
-            )))
-        );
-        assert_eq!(
-            SensorSpec::parse("evdev:name=Breeze Joystick"),
-            Ok(SensorSpec::Evdev(EvdevTarget::Name(
-                "Breeze Joystick".into()
-            )))
-        );
-        assert_eq!(
-            SensorSpec::parse("serial:/dev/ttyACM0"),
-            Ok(SensorSpec::Serial {
-                path: "/dev/ttyACM0".into(),
-                baud: None
-            })
-        );
-        assert_eq!(
-            SensorSpec::parse("serial:/dev/ttyUSB1,baud=9600"),
-            Ok(SensorSpec::Serial {
-                path: "/dev/ttyUSB1".into(),
-                baud: Some(9600)
-            })
-        );
-        assert_eq!(
-            SensorSpec::parse("iio:/sys/bus/iio/devices/iio:device0/in_voltage0_raw"),
-            Ok(SensorSpec::Iio(
-                "/sys/bus/iio/devices/iio:device0/in_voltage0_raw".into()
-            ))
-        );
-        for (bad, says) in [
-            (
-                "evdev",
-                "`synthetic`, `csv:PATH`, `evdev:/dev/input/eventN`",
-            ),
-            ("evdev:", "`sipnpuff sensors` lists them"),
-            ("evdev:name=", "part of the device's name"),
-            ("serial:,baud=9600", "a port"),
-            ("serial:/dev/ttyACM0,baud=fast", "only `,baud=N`"),
-            ("serial:/dev/ttyACM0,baud=0", "only `,baud=N`"),
-            ("iio:", "in_voltage0_raw"),
-            ("usb:1", "unknown sensor"),
-        ] {
-            let e = SensorSpec::parse(bad).unwrap_err();
-            assert!(e.contains(says), "{bad}: {e}");
-        }
-        assert!(
-            SensorSpec::parse("csv:")
-                .unwrap_err()
-                .contains("needs a path")
-        );
-    }
 
     #[test]
     fn numbers_are_checked() {

@@ -5,19 +5,13 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use crate::arm::sim::SimArm;
 use crate::cli::args::{ConfigArg, RtArgs, parse_seconds, parse_volts, writable_dir};
 use crate::cli::output;
-use crate::cli::run::stop_request;
 use crate::rt::control_loop::StopReason;
-use crate::rt::threads::LoopSettings;
-use crate::sim::synthetic_sensor::SyntheticSensor;
 use crate::tools::accuracy::{GridOptions, GridReport, accuracy_grid, grid_table};
-use crate::tools::bench_replay::bench_replay;
+use crate::tools::bench_replay::bench_replay_dir;
 use crate::tools::bench_tick::bench_tick;
 use crate::tools::latency::{LatencyReport, bench_latency};
-use crate::tools::recording::read::Recording;
-use crate::tools::replay::ReplayError;
 
 /// What to measure.
 #[derive(clap::Subcommand, Debug)]
@@ -137,16 +131,8 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<u8> {
             if let Some(dir) = &histogram_dir {
                 writable_dir(dir)?;
             }
-            let settings = LoopSettings {
-                seconds: Some(seconds),
-                rt: rt.options()?,
-                spin_margin_ns: rt.spin_margin_ns(),
-                stop: stop_request()?,
-            };
-            // The built-in user, repeated, on the simulated arm.
-            let sensor = SyntheticSensor::built_in_user(&config).repeating();
-            let arm = Box::new(SimArm::new(config.core()));
-            let run = bench_latency(&config, sensor, arm, block, settings)?;
+            let settings = rt.loop_settings(Some(seconds))?;
+            let run = bench_latency(&config, block, settings)?;
             let report = LatencyReport::of(&run, seconds);
             if json {
                 output::stdout_line(&serde_json::to_string(&report)?)
@@ -188,14 +174,7 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<u8> {
             rounds,
             json,
         } => {
-            let opened = Recording::open(&recording)?;
-            let report = match bench_replay(&opened, rounds) {
-                Ok(bench) => bench.report(),
-                Err(ReplayError::Write(e)) => {
-                    return Err(anyhow::Error::new(e).context(recording.display().to_string()));
-                }
-                Err(e) => return Err(e.into()),
-            };
+            let report = bench_replay_dir(&recording, rounds)?.report();
             if json {
                 output::stdout_line(&serde_json::to_string(&report)?)
             } else {

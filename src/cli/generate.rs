@@ -1,22 +1,14 @@
 //! `sipnpuff generate`: a synthetic recording of a scripted user, or of a
 //! simulated person with known breathing (a breather) in ordinary use or
-//! following the calibration protocol, with the truth beside it.
+//! following the calibration protocol, with the truth beside it
+//! ([`crate::tools::generate`]).
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::Context;
-use serde::Serialize;
-
-use crate::cli::args::{ConfigArg, create, parse_volts};
-use crate::config::Config;
-use crate::control::mode::Mode;
+use crate::cli::args::{ConfigArg, parse_volts};
 use crate::fit::protocol::{DEFAULT_COUNT, DEFAULT_HOLDS, Protocol};
-use crate::sim::breather::{Breather, Session, practice_session, protocol_session};
-use crate::sim::script::{
-    demo_script, outputs_session, parse_sequences, random_session, sequences_script,
-};
-use crate::sim::sensor_model::{Crossings, SignalGenerator, SignalParams, write_csv};
+use crate::sim::breather::Breather;
+use crate::tools::generate::{self, BreatherSession, Disturbances, Script, Who};
 
 /// `generate`'s options.
 #[derive(clap::Args, Debug)]
@@ -102,123 +94,35 @@ fn parse_breather(name: &str) -> Result<Breather, String> {
 /// Writes the recording.
 pub fn generate(args: GenerateArgs) -> anyhow::Result<()> {
     let config = args.config.load()?;
-    if let Some(breather) = args.breather {
-        return generate_breather(&args, &config, &breather);
-    }
-    let params = SignalParams::clean(config.core().detector(), args.seed)
-        .with_noise(args.noise_volts)
-        .with_hum(args.hum_volts)
-        .with_drift(args.drift_volts)
-        .with_spikes_every(args.spike_every_ms);
-    let (script, length) = match &args.sequences {
-        None if args.demo => (demo_script(&config).0, usize::MAX),
-        None if args.each_entry => (outputs_session(&config), usize::MAX),
-        Some(text) => {
-            let sequences = parse_sequences(text).map_err(anyhow::Error::msg)?;
-            (sequences_script(&config, &sequences), usize::MAX)
-        }
-        None => (
-            random_session(&config, args.seconds, args.seed).0,
-            usize::try_from(args.seconds * 1000)?,
-        ),
+    let who = match args.breather {
+        Some(breather) => Who::Breather {
+            breather,
+            session: if args.protocol {
+                let holds = if args.holds { DEFAULT_HOLDS } else { 0 };
+                BreatherSession::Protocol(Protocol::new(args.count, holds))
+            } else {
+                BreatherSession::Practice {
+                    seconds: args.seconds,
+                }
+            },
+            truth: args.truth,
+        },
+        None => Who::Scripted {
+            script: match args.sequences {
+                None if args.demo => Script::Demo,
+                None if args.each_entry => Script::EachEntry,
+                Some(text) => Script::Sequences(text),
+                None => Script::Random {
+                    seconds: args.seconds,
+                },
+            },
+            disturbances: Disturbances {
+                noise_volts: args.noise_volts,
+                hum_volts: args.hum_volts,
+                drift_volts: args.drift_volts,
+                spike_every_ms: args.spike_every_ms,
+            },
+        },
     };
-    write_signal(
-        &args.out,
-        SignalGenerator::new(params, &script).take(length),
-    )
-}
-
-/// `--breather`: a practice or protocol session, and its truth (its file
-/// created first, so a bad path fails before any work).
-fn generate_breather(
-    args: &GenerateArgs,
-    config: &Config,
-    breather: &Breather,
-) -> anyhow::Result<()> {
-    let truth = args
-        .truth
-        .as_deref()
-        .map(|path| create(path).map(|writer| (path, writer)))
-        .transpose()?;
-    if args.protocol {
-        let holds = if args.holds { DEFAULT_HOLDS } else { 0 };
-        let protocol = Protocol::new(args.count, holds);
-        let session = protocol_session(breather, &protocol, args.seed);
-        write_signal(&args.out, session.signal())?;
-        if let Some((path, writer)) = truth {
-            write_truth(path, writer, breather, args.seed, &session, Some(&protocol))?;
-        }
-    } else {
-        let session =
-            practice_session(breather, config.core().sequences(), args.seconds, args.seed);
-        write_signal(&args.out, session.signal())?;
-        if let Some((path, writer)) = truth {
-            write_truth(path, writer, breather, args.seed, &session, None)?;
-        }
-    }
-    Ok(())
-}
-
-/// Writes samples as the `tick,volts` CSV.
-fn write_signal(out: &Path, samples: impl Iterator<Item = f64>) -> anyhow::Result<()> {
-    let mut writer = create(out)?;
-    let n = write_csv(&mut writer, samples)?;
-    writer.flush()?;
-    note!(
-        "wrote {n} samples ({:.1} s) to {}",
-        n as f64 / 1000.0,
-        out.display()
-    );
-    Ok(())
-}
-
-/// `--truth`'s JSON: who breathed, where each breath truly lies.
-#[derive(Serialize)]
-struct Truth<'a, B> {
-    /// The breather's true parameters.
-    breather: &'a Breather,
-    /// The true start and end levels, volts from the rest level.
-    crossings: Crossings,
-    seed: u64,
-    /// Samples in the CSV.
-    samples: u64,
-    /// The protocol followed (a calibration session only).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    protocol: Option<&'a Protocol>,
-    /// Library entries entered, in order (ordinary use only).
-    #[serde(skip_serializing_if = "<[Mode]>::is_empty")]
-    modes: &'a [Mode],
-    /// Every breath: `kind` ("short puff", "longest comfortable sip"),
-    /// `start_tick`, `ms`.
-    breaths: &'a [B],
-}
-
-fn write_truth<B: Serialize>(
-    path: &Path,
-    mut writer: impl Write,
-    breather: &Breather,
-    seed: u64,
-    session: &Session<B>,
-    protocol: Option<&Protocol>,
-) -> anyhow::Result<()> {
-    let truth = Truth {
-        breather,
-        crossings: breather.crossings(),
-        seed,
-        samples: session.ticks,
-        protocol,
-        modes: &session.modes,
-        breaths: &session.breaths,
-    };
-    serde_json::to_writer_pretty(&mut writer, &truth)
-        .map_err(std::io::Error::from)
-        .and_then(|()| writeln!(writer))
-        .and_then(|()| writer.flush())
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    note!(
-        "wrote the truth of {} breaths to {}",
-        session.breaths.len(),
-        path.display()
-    );
-    Ok(())
+    generate::generate(&config, &who, args.seed, &args.out, &|line| note!("{line}"))
 }

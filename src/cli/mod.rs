@@ -1,6 +1,6 @@
 //! The `sipnpuff` command line: one file per command, each owning its
-//! options and its output. Concrete sensors and arms are chosen here (and
-//! only here) from `--sensor` and `--arm`. Output goes through
+//! options and its output: it parses them, calls one function of the
+//! module that does the work, and prints the result. Output goes through
 //! [`output`]: nothing panics on a closed stdout or stderr; the exit
 //! statuses are listed there.
 
@@ -31,6 +31,7 @@ pub mod generate;
 pub mod output;
 pub mod replay;
 pub mod run;
+pub mod run_report;
 pub mod sensors;
 pub mod study;
 

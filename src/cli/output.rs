@@ -19,8 +19,10 @@
 use std::fmt;
 use std::io::{self, Write};
 
+pub use crate::config::invalid::{Invalid, invalid};
 use crate::control::event::TimedEvent;
 use crate::rt::telemetry_thread::EventSink;
+use crate::session::Console;
 
 /// Completed.
 pub const COMPLETED: u8 = 0;
@@ -81,6 +83,24 @@ pub fn stdout_gone() -> Option<io::Error> {
     }
 }
 
+/// The terminal, as a session's [`Console`]: notes on stderr, output on
+/// stdout.
+pub struct Terminal;
+
+impl Console for Terminal {
+    fn note(&self, line: &str) {
+        note(format_args!("{line}"));
+    }
+
+    fn print(&self, text: &str) -> io::Result<()> {
+        stdout(text)
+    }
+
+    fn print_line(&self, line: &str) -> io::Result<()> {
+        stdout_line(line)
+    }
+}
+
 /// `run`'s events as JSON lines on stdout. Remembers its first failure.
 #[derive(Debug, Default)]
 pub struct StdoutEvents {
@@ -115,24 +135,6 @@ impl EventSink for StdoutEvents {
             None => Ok(()),
         }
     }
-}
-
-/// An invalid command line or configuration (exit status 2), found
-/// before anything started.
-#[derive(Debug)]
-pub struct Invalid(pub anyhow::Error);
-
-impl fmt::Display for Invalid {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{:#}", self.0)
-    }
-}
-
-impl std::error::Error for Invalid {}
-
-/// `result`'s error, as an invalid command line or configuration.
-pub fn invalid<T>(result: anyhow::Result<T>) -> anyhow::Result<T> {
-    result.map_err(|e| Invalid(e).into())
 }
 
 /// The exit status of a command that failed with `e`, and whether to say

@@ -1,18 +1,16 @@
 //! `sipnpuff replay`: a recording through the core and the simulated arm,
 //! as fast as the machine allows: a CSV signal, or a session recorded by
-//! `run --record`, compared with what was recorded.
+//! `run --record`, compared with what was recorded
+//! ([`crate::tools::replay_files`]).
 
-use std::io::{BufWriter, Write};
 use std::path::PathBuf;
-use std::time::Instant;
 
-use crate::cli::args::{ConfigArg, InterfaceArg, create, with_interface};
+use crate::cli::args::{ConfigArg, InterfaceArg, with_interface};
 use crate::cli::output;
-use crate::sensor::csv::CsvSignal;
-use crate::tools::csv_replay;
-use crate::tools::recording::read::Recording;
-use crate::tools::recording::recording_replay::{self, Verdict};
-use crate::tools::replay::{ReplayError, ReplaySummary};
+use crate::config::Config;
+use crate::tools::recording::recording_replay::Verdict;
+use crate::tools::replay::ReplaySummary;
+use crate::tools::replay_files::{self, ReplayTo};
 
 /// `replay`'s options.
 #[derive(clap::Args, Debug)]
@@ -43,40 +41,31 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<u8> {
         return replay_recording(&args);
     }
     let config = with_interface(args.config.load()?, args.interface)?;
-    let signal = &args.signal;
-    let mut input = CsvSignal::open(signal)?;
-    let mut out: Box<dyn Write> = match &args.events {
-        Some(path) => Box::new(create(path)?),
-        None => Box::new(BufWriter::new(std::io::stdout().lock())),
-    };
-    let mut trace_file = args.trace.as_deref().map(create).transpose()?;
-    let started = Instant::now();
-    let result = csv_replay::replay(
+    let replayed = replay_files::replay_csv(
         config.core(),
-        &mut input,
-        &mut out,
-        trace_file.as_mut().map(|t| t as &mut dyn Write),
-    );
-    let seconds = started.elapsed().as_secs_f64();
-    // A write error keeps its `io::Error` in the chain (a closed stdout:
-    // exit status 141).
-    let summary = match result {
-        Ok(summary) => summary,
-        Err(ReplayError::Write(e)) => {
-            return Err(anyhow::Error::new(e)
-                .context(format!("{}: cannot write the output", signal.display())));
-        }
-        Err(e) => return Err(anyhow::Error::new(e).context(signal.display().to_string())),
-    };
+        &args.signal,
+        to(&args),
+        std::io::stdout().lock(),
+    )?;
+    let summary = &replayed.summary;
     let signal_seconds = summary.samples as f64 / 1000.0;
     note!(
-        "replayed {} samples ({signal_seconds:.1} s of signal) in {seconds:.3} s: {:.0}x real time, {} events",
+        "replayed {} samples ({signal_seconds:.1} s of signal) in {:.3} s: {:.0}x real time, {} events",
         summary.samples,
-        signal_seconds / seconds.max(1e-9),
+        replayed.seconds,
+        signal_seconds / replayed.seconds.max(1e-9),
         summary.events
     );
-    arm_note(&summary);
+    arm_note(summary);
     Ok(output::COMPLETED)
+}
+
+/// Where `--events` and `--trace` say to write.
+fn to(args: &ReplayArgs) -> ReplayTo<'_> {
+    ReplayTo {
+        events: args.events.as_deref(),
+        trace: args.trace.as_deref(),
+    }
 }
 
 /// The simulated arm's line of the summary.
@@ -95,39 +84,25 @@ fn arm_note(summary: &ReplaySummary) {
 /// the recording (unless `--config` or `--interface` asks for another
 /// configuration: then it is only replayed).
 fn replay_recording(args: &ReplayArgs) -> anyhow::Result<u8> {
-    let recording = Recording::open(&args.signal)?;
     let other = match (&args.config.config, args.interface) {
         (None, None) => None,
         (Some(path), _) => Some(format!("--config {}", path.display())),
         (None, Some(_)) => Some("--interface".to_string()),
     };
-    let config = match &args.config.config {
-        Some(_) => with_interface(args.config.load()?, args.interface)?,
-        None => with_interface(recording.config.clone(), args.interface)?,
+    let config = |recorded: &Config| match &args.config.config {
+        Some(_) => with_interface(args.config.load()?, args.interface),
+        None => with_interface(recorded.clone(), args.interface),
     };
-    let mut out: Box<dyn Write> = match &args.events {
-        Some(path) => Box::new(create(path)?),
-        None => Box::new(BufWriter::new(std::io::stdout().lock())),
-    };
-    let mut trace_file = args.trace.as_deref().map(create).transpose()?;
-    let started = Instant::now();
-    let result = recording_replay::replay(
-        &recording,
-        &config,
+    let replayed = replay_files::replay_recording(
+        &args.signal,
+        config,
         other.is_none(),
-        &mut out,
-        trace_file.as_mut().map(|t| t as &mut dyn Write),
-    );
-    let seconds = started.elapsed().as_secs_f64();
+        to(args),
+        std::io::stdout().lock(),
+    )?;
+    let (verdict, seconds) = (&replayed.verdict, replayed.seconds);
     let dir = args.signal.display();
-    let verdict = match result {
-        Ok(verdict) => verdict,
-        Err(ReplayError::Write(e)) => {
-            return Err(anyhow::Error::new(e).context(format!("{dir}: cannot write the output")));
-        }
-        Err(e) => return Err(e.into()),
-    };
-    let meta = &recording.meta;
+    let meta = &replayed.recording.meta;
     let span = match (verdict.first_tick, verdict.last_tick) {
         (Some(first), Some(last)) => format!(
             "ticks {first}–{last}, {} skipped",
@@ -153,7 +128,7 @@ fn replay_recording(args: &ReplayArgs) -> anyhow::Result<u8> {
             env!("CARGO_PKG_VERSION")
         );
     }
-    Ok(say_verdict(&verdict, other.as_deref()))
+    Ok(say_verdict(verdict, other.as_deref()))
 }
 
 /// Says what the comparison found; the exit status.

@@ -114,7 +114,7 @@ pub fn study(args: StudyArgs) -> anyhow::Result<()> {
     }
     .context("stdout")?;
     if let Some(path) = args.plot {
-        std::fs::write(&path, plot::completion_svg(&results))
+        plot::write_completion_svg(&path, &results)
             .with_context(|| format!("cannot write {}", path.display()))?;
         note!("wrote {}", path.display());
     }

@@ -14,12 +14,15 @@
 //! * [`print`](mod@print): the effective configuration back as TOML,
 //!   through the same layout;
 //! * [`diff`]: what a file changes from the built-in configuration, with
-//!   the reasons written in it, compared through that same layout.
+//!   the reasons written in it, compared through that same layout;
+//! * [`invalid`](mod@invalid): the mark of a configuration or an option
+//!   found wrong before anything started.
 
 mod defaults;
 pub mod diff;
 pub mod error;
 mod file;
+pub mod invalid;
 pub(crate) mod library;
 mod lines;
 mod names;

@@ -8,11 +8,23 @@
 //! of a meant sequence and what the matcher then does; [`analysis`] sums
 //! it per entry, weighted by the [`usage`] mix; [`search`] places the
 //! entries on sequences to minimise that sum.
+//!
+//! The whole job ([`designing`]): a [`request`] names the person, the
+//! library and its usage ([`inputs`]); the search's [`problem`] is made
+//! from it; the designed library is analysed again, tried in the study
+//! ([`study_check`]), written ([`library_file`]), drawn ([`plot`]) and
+//! worded ([`report`]).
 
 pub mod analysis;
 pub mod breathing;
+pub mod designing;
+pub mod inputs;
 pub mod library_file;
 pub mod plot;
+pub mod problem;
 pub mod reading;
+pub mod report;
+pub mod request;
 pub mod search;
+pub mod study_check;
 pub mod usage;

@@ -5,10 +5,10 @@
 //! the breaths; [`session`] matches them to the [`protocol`]'s prompts;
 //! [`propose`] derives the settings, each with its reason; [`predict`]
 //! gives the misreadings they predict and [`check`] replays the session
-//! through the real detector; [`profile`] writes the result and
-//! [`outcome`] sums it up for the page. A live session is guided by
-//! [`prompter`], which owns the protocol's progress tick by tick. Pure: no
-//! clock, no device.
+//! through the real detector; [`profile`] writes the result, [`report`]
+//! words it for a clinician and [`outcome`] sums it up for the page. A
+//! live session is guided by [`prompter`], which owns the protocol's
+//! progress tick by tick. Pure: no clock, no device.
 
 pub mod breaths;
 pub mod check;
@@ -19,6 +19,7 @@ pub mod profile;
 pub mod prompter;
 pub mod propose;
 pub mod protocol;
+pub mod report;
 pub mod session;
 pub mod signal;
 pub mod stats;

@@ -67,6 +67,15 @@ pub fn install(stop: &StopRequest) -> std::io::Result<()> {
     Ok(())
 }
 
+/// A new stop request that every signal of [`stop_signals`] sets
+/// ([`install`]): from here on they stop the run safely, and a repeated
+/// signal does not cut the safe stop short. Not RT-safe: call at set-up.
+pub fn stop_request() -> std::io::Result<StopRequest> {
+    let stop = StopRequest::new();
+    install(&stop)?;
+    Ok(stop)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

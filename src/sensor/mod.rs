@@ -46,7 +46,7 @@ use crate::control::sample::Sample;
 
 /// Which sensor to open: the `--sensor` forms, a contract documented in
 /// `--help` and `docs/commands.md`. A new backend adds its form here and
-/// one line where the command line opens it (`cli/run.rs`).
+/// one line where it is opened (`wiring/sensor.rs`).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum SensorSpec {
     /// `synthetic`: the built-in scripted user on the seeded sensor model.
@@ -376,3 +376,70 @@ impl fmt::Display for SensorError {
 }
 
 impl std::error::Error for SensorError {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sensor_forms_parse_and_errors_name_the_choices() {
+        assert_eq!(SensorSpec::parse("synthetic"), Ok(SensorSpec::Synthetic));
+        assert_eq!(
+            SensorSpec::parse("csv:a/b.csv"),
+            Ok(SensorSpec::Csv(PathBuf::from("a/b.csv")))
+        );
+        assert_eq!(
+            SensorSpec::parse("evdev:/dev/input/event3"),
+            Ok(SensorSpec::Evdev(EvdevTarget::Path(
+                "/dev/input/event3".into()
+            )))
+        );
+        assert_eq!(
+            SensorSpec::parse("evdev:name=Breeze Joystick"),
+            Ok(SensorSpec::Evdev(EvdevTarget::Name(
+                "Breeze Joystick".into()
+            )))
+        );
+        assert_eq!(
+            SensorSpec::parse("serial:/dev/ttyACM0"),
+            Ok(SensorSpec::Serial {
+                path: "/dev/ttyACM0".into(),
+                baud: None
+            })
+        );
+        assert_eq!(
+            SensorSpec::parse("serial:/dev/ttyUSB1,baud=9600"),
+            Ok(SensorSpec::Serial {
+                path: "/dev/ttyUSB1".into(),
+                baud: Some(9600)
+            })
+        );
+        assert_eq!(
+            SensorSpec::parse("iio:/sys/bus/iio/devices/iio:device0/in_voltage0_raw"),
+            Ok(SensorSpec::Iio(
+                "/sys/bus/iio/devices/iio:device0/in_voltage0_raw".into()
+            ))
+        );
+        for (bad, says) in [
+            (
+                "evdev",
+                "`synthetic`, `csv:PATH`, `evdev:/dev/input/eventN`",
+            ),
+            ("evdev:", "`sipnpuff sensors` lists them"),
+            ("evdev:name=", "part of the device's name"),
+            ("serial:,baud=9600", "a port"),
+            ("serial:/dev/ttyACM0,baud=fast", "only `,baud=N`"),
+            ("serial:/dev/ttyACM0,baud=0", "only `,baud=N`"),
+            ("iio:", "in_voltage0_raw"),
+            ("usb:1", "unknown sensor"),
+        ] {
+            let e = SensorSpec::parse(bad).unwrap_err();
+            assert!(e.contains(says), "{bad}: {e}");
+        }
+        assert!(
+            SensorSpec::parse("csv:")
+                .unwrap_err()
+                .contains("needs a path")
+        );
+    }
+}

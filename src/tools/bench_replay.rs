@@ -12,6 +12,7 @@
 //! replay's counts, where the replay differs from it): a floor that did
 //! other work than the replay would be no floor.
 
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
@@ -72,6 +73,17 @@ pub struct ReplayBench {
     pub whole_s: Vec<f64>,
     /// Each core-alone round, s.
     pub core_s: Vec<f64>,
+}
+
+/// Opens the recording in `dir` and benches its replay
+/// ([`bench_replay`]); a replay that could not write names the directory.
+pub fn bench_replay_dir(dir: &Path, rounds: u32) -> anyhow::Result<ReplayBench> {
+    let recording = Recording::open(dir)?;
+    match bench_replay(&recording, rounds) {
+        Ok(bench) => Ok(bench),
+        Err(ReplayError::Write(e)) => Err(anyhow::Error::new(e).context(dir.display().to_string())),
+        Err(e) => Err(e.into()),
+    }
 }
 
 /// Runs `rounds` whole replays of `recording` (compared with it, output

@@ -8,6 +8,7 @@
 use serde::Serialize;
 
 use crate::arm::Arm;
+use crate::arm::sim::SimArm;
 use crate::config::Config;
 use crate::rt::control_loop::{ControlTick, StopReason, TickOutcome, TickWork, WorkSummary};
 use crate::rt::report::RunReport;
@@ -15,7 +16,8 @@ use crate::rt::scheduler::Wake;
 use crate::rt::telemetry::{Drops, Percentiles};
 use crate::rt::telemetry_thread::Watchers;
 use crate::rt::threads::{LoopSettings, RunError, RunOptions, Work, run};
-use crate::sensor::{Samples, Sensor};
+use crate::sensor::Samples;
+use crate::sim::synthetic_sensor::SyntheticSensor;
 
 /// Alternates blocks of `block` reference ticks (nothing but the wait) and
 /// `block` ticks of the wrapped work; once the work is stopping, every
@@ -78,16 +80,16 @@ impl<S: Samples + 'static> Work<S> for Interleave {
     }
 }
 
-/// Runs `sensor` (a sensor that does not end: the built-in user,
-/// repeated) for `settings.seconds` through the production loop to `arm`,
-/// interleaved with reference ticks.
-pub fn bench_latency<S: Sensor>(
+/// Runs the built-in user, repeated (a sensor that does not end), for
+/// `settings.seconds` through the production loop to the simulated arm,
+/// interleaved with reference ticks in blocks of `block`.
+pub fn bench_latency(
     config: &Config,
-    sensor: S,
-    arm: Box<dyn Arm>,
     block: u64,
     settings: LoopSettings,
 ) -> Result<RunReport, RunError> {
+    let sensor = SyntheticSensor::built_in_user(config).repeating();
+    let arm: Box<dyn Arm> = Box::new(SimArm::new(config.core()));
     let options = RunOptions {
         sensor,
         arm,

@@ -3,18 +3,21 @@
 //! pipeline and the simulated arm; [`replay`] and [`trace`] are what both
 //! share), session recordings (`run --record`), the benches (`bench tick`,
 //! `bench latency`, `bench replay`), the accuracy scorer (`bench
-//! accuracy`, the stress tests), and a session's samples read for fitting
-//! ([`signal_file`]). Neither the core nor the runtime imports
-//! them.
+//! accuracy`, the stress tests), a session's samples read for fitting
+//! ([`signal_file`]), and synthetic recordings written ([`generate`]).
+//! Neither the core nor the runtime imports them.
 
 pub mod accuracy;
 pub mod bench_replay;
 pub mod bench_tick;
 pub mod csv_replay;
 pub mod float_text;
+pub mod generate;
 pub mod latency;
+pub mod output_file;
 pub mod recording;
 pub mod replay;
+pub mod replay_files;
 pub mod safety;
 pub mod signal_file;
 pub mod trace;

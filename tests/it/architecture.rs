@@ -26,17 +26,20 @@ const CRATE_NAME: &str = "sipnpuff";
 /// The crate's top-level modules by floor, the ground first. A module
 /// imports only from floors below its own: the core knows nothing else;
 /// the seams (sensor, arm, output) know the core; configuration and the
-/// runtime know the seams; fitting knows the configuration; simulation
-/// and the display know fitting and the runtime; the tools, the designer
-/// and the command line sit on top, in that order.
+/// runtime know the seams; fitting, and the wiring that opens backends
+/// from their specs, know the configuration and the runtime; simulation
+/// and the display know fitting and the runtime; the tools sit above
+/// them; the designer, and the sessions that wire the runtime, the
+/// backends, the display, the recorder and the synthetic sensor, sit on
+/// the tools; the command line sits on top.
 pub const FLOORS: &[&[&str]] = &[
     &["control"],
     &["sensor", "arm", "output"],
     &["config", "rt"],
-    &["fit"],
+    &["fit", "wiring"],
     &["sim", "display"],
     &["tools"],
-    &["design"],
+    &["design", "session"],
     &["cli"],
 ];
 

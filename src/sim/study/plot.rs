@@ -3,6 +3,7 @@
 //! Figure 4) with the mean ± SD beside them.
 
 use std::fmt::Write;
+use std::path::Path;
 
 use super::TaskResults;
 use super::stats::{mean, sample_sd};
@@ -16,8 +17,13 @@ const COLOURS: [&str; 8] = [
     "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf",
 ];
 
+/// Writes the SVG document to `path`.
+pub fn write_completion_svg(path: &Path, results: &[TaskResults]) -> std::io::Result<()> {
+    std::fs::write(path, completion_svg(results))
+}
+
 /// The SVG document.
-pub fn completion_svg(results: &[TaskResults]) -> String {
+fn completion_svg(results: &[TaskResults]) -> String {
     let all = results
         .iter()
         .flat_map(|r| r.asp.iter().chain(&r.bsp))

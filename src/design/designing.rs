@@ -1,0 +1,139 @@
+//! Designing the library for a person, start to end: the person, their
+//! settings and the library read ([`Inputs`]) and analysed ([`check`]);
+//! or the search for the library that costs them least, analysed again,
+//! tried in the study against the library it replaces, written as a
+//! configuration and drawn ([`design`]).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+
+use crate::config::invalid::invalid;
+use crate::control::selection::{Interface, SequenceEntry};
+use crate::design::analysis::{Analysis, analyse};
+use crate::design::inputs::Inputs;
+use crate::design::problem::problem;
+use crate::design::request::Request;
+use crate::design::search::{self, Found};
+use crate::design::study_check::{StudyCheck, study_check};
+use crate::design::{library_file, plot};
+use crate::sim::study::missing_modes;
+
+/// A library analysed for the person.
+pub struct Checked {
+    /// Each entry's time and errors.
+    pub analysis: Analysis,
+    /// The library in words.
+    pub library_name: String,
+}
+
+/// The library designed for the person.
+pub struct Designed {
+    /// The search's result.
+    pub found: Found,
+    /// The designed library analysed.
+    pub designed: Analysis,
+    /// The library it replaces, analysed.
+    pub before: Analysis,
+    /// The study's verdict, unless skipped.
+    pub study: Option<StudyCheck>,
+    /// The library it replaces, in words.
+    pub library_name: String,
+    /// The configuration written, if asked for.
+    pub out: Option<PathBuf>,
+}
+
+/// Analyses the library the request names for its person and usage;
+/// draws it to the request's SVG, if any.
+pub fn check(request: &Request) -> anyhow::Result<Checked> {
+    let inputs = Inputs::read(request)?;
+    let library = inputs.config.core().sequences();
+    let analysis = analyse(library, &inputs.who, &inputs.usage, &inputs.timing);
+    if let Some(path) = &request.svg {
+        write(path, &plot::analysis_svg(&analysis, &inputs.library_name))?;
+    }
+    Ok(Checked {
+        analysis,
+        library_name: inputs.library_name,
+    })
+}
+
+/// Searches for the library that costs the person least, saying (`say`)
+/// what it places and why the study is skipped; tries it in the study,
+/// writes it to the request's `out` and draws it to its SVG, if asked.
+pub fn design(request: &Request, say: &dyn Fn(&str)) -> anyhow::Result<Designed> {
+    let inputs = Inputs::read(request)?;
+    let library = inputs.config.core().sequences();
+    let before = analyse(library, &inputs.who, &inputs.usage, &inputs.timing);
+    let problem = problem(request, &inputs)?;
+    say(&format!(
+        "placing {} entries on {} sequences…",
+        library.len(),
+        problem.candidates.len()
+    ));
+    let found = search::search(&problem);
+    let designed_library: Vec<SequenceEntry> = library
+        .iter()
+        .zip(&found.sequences)
+        .map(|(e, s)| SequenceEntry {
+            actions: *s,
+            target: e.target,
+        })
+        .collect();
+    let designed_config = invalid(
+        inputs
+            .config
+            .clone()
+            .with_sequences(designed_library.clone())
+            .map_err(anyhow::Error::from),
+    )?;
+    let designed = analyse(
+        &designed_library,
+        &inputs.who,
+        &inputs.usage,
+        &inputs.timing,
+    );
+    let missing = missing_modes(&inputs.config, Interface::Asp);
+    let study = if request.no_study {
+        None
+    } else if !missing.is_empty() {
+        let names: Vec<&str> = missing.iter().map(|m| m.name()).collect();
+        say(&format!(
+            "no study: its tasks need {}, which the library does not select",
+            names.join(", ")
+        ));
+        None
+    } else {
+        Some(study_check(
+            &inputs,
+            &designed_config,
+            request.users,
+            request.seed,
+        )?)
+    };
+    if let Some(path) = &request.out {
+        let text = library_file::text(&library_file::Designed {
+            config: &designed_config,
+            analysis: &designed,
+            before: &before,
+            found: &found,
+            library_name: &inputs.library_name,
+        })?;
+        write(path, &text)?;
+    }
+    if let Some(path) = &request.svg {
+        write(path, &plot::analysis_svg(&designed, "the designed library"))?;
+    }
+    Ok(Designed {
+        found,
+        designed,
+        before,
+        study,
+        library_name: inputs.library_name,
+        out: request.out.clone(),
+    })
+}
+
+fn write(path: &Path, text: &str) -> anyhow::Result<()> {
+    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+}

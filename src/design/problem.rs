@@ -1,0 +1,82 @@
+//! The search's problem from the request: the bursts the person can
+//! breathe, the entries that keep their sequence, the sequences' lengths,
+//! the time allowed.
+
+use std::time::Duration;
+
+use anyhow::bail;
+
+use crate::config::invalid::invalid;
+use crate::control::action::{Action, ActionSeq};
+use crate::control::selection::SequenceEntry;
+use crate::design::inputs::Inputs;
+use crate::design::request::Request;
+use crate::design::search::{Problem, candidates};
+
+/// The search's problem; naming no burst or an entry the library lacks
+/// is an invalid start.
+pub fn problem(request: &Request, inputs: &Inputs) -> anyhow::Result<Problem> {
+    let library = inputs.config.core().sequences();
+    let allowed: Vec<Action> = Action::ALL
+        .into_iter()
+        .filter(|a| !request.without.contains(a))
+        .collect();
+    if allowed.is_empty() {
+        return invalid(Err(anyhow::anyhow!("--without leaves no burst to breathe")));
+    }
+    let mut fixed: Vec<Option<ActionSeq>> = vec![None; library.len()];
+    for name in &request.keep {
+        let Some(i) = library
+            .iter()
+            .position(|e| names(e).iter().any(|n| n == name))
+        else {
+            let all: Vec<String> = library.iter().map(|e| names(e)[0].clone()).collect();
+            return invalid(Err(anyhow::anyhow!(
+                "--keep {name}: the library has no such entry (it has {})",
+                all.join(", ")
+            )));
+        };
+        fixed[i] = Some(library[i].actions);
+    }
+    let candidates = candidates(
+        &allowed,
+        usize::from(request.min_breaths),
+        usize::from(request.max_breaths),
+    );
+    let free = candidates
+        .iter()
+        .filter(|c| !fixed.iter().any(|f| f.as_ref() == Some(c)))
+        .count();
+    let places = fixed.iter().filter(|f| f.is_none()).count();
+    if free < places {
+        bail!(
+            "{places} entries to place but only {free} sequences of {}–{} bursts of {}: allow longer sequences (--max-breaths) or more bursts",
+            request.min_breaths,
+            request.max_breaths,
+            allowed
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(Problem {
+        usage: inputs.usage.shares.clone(),
+        fixed,
+        candidates,
+        who: inputs.who.clone(),
+        timing: inputs.timing,
+        time_limit: Duration::from_secs_f64(request.time_limit_s.max(0.0)),
+    })
+}
+
+/// The names `--keep` knows an entry by: its target as the file writes
+/// it and as the display labels it.
+fn names(e: &SequenceEntry) -> Vec<String> {
+    let mut out = Vec::new();
+    if let Ok(serde_json::Value::Object(map)) = serde_json::to_value(e.target) {
+        out.extend(map.values().filter_map(|v| v.as_str().map(str::to_owned)));
+    }
+    out.push(e.target.label());
+    out
+}

@@ -1,0 +1,137 @@
+//! `run`'s session: the display's address taken, the arm and the outputs
+//! opened, the sensor opened (a device re-zeroed), then the loop run on
+//! them, its events to the sink given, watched by the display and
+//! recorded if asked. The recording ends before the report is returned,
+//! its summary in the report (and its `report.json`); the terminal view
+//! gives the terminal back before it.
+
+use std::path::Path;
+
+use crate::arm::Arm;
+use crate::arm::ArmSpec;
+use crate::config::Config;
+use crate::output::{Output, OutputSpec};
+use crate::rt::output_thread::Serves;
+use crate::rt::recorder::SessionRecorder;
+use crate::rt::report::RunReport;
+use crate::rt::telemetry_thread::{EventSink, Watchers};
+use crate::rt::threads::{self, LoopSettings, RunOptions};
+use crate::sensor::{Sensor, SensorSpec};
+use crate::session::Console;
+use crate::session::showing::{Display, DisplayChoice};
+use crate::sim::synthetic_sensor::SyntheticSensor;
+use crate::tools::recording::recorder::Recorder;
+use crate::tools::recording::writer::RecordOptions;
+use crate::wiring::arm::open_arm;
+use crate::wiring::outputs::open_outputs;
+use crate::wiring::sensor::{OnSensor, open_sensor};
+
+/// What `run` runs: the backends by their specs (`synthetic` is the
+/// built-in scripted user), the loop's settings, the recording and the
+/// display asked for.
+pub struct RunPlan<'a> {
+    /// `--sensor`.
+    pub sensor: &'a SensorSpec,
+    /// `--arm`.
+    pub arm: &'a ArmSpec,
+    /// `--output`, each.
+    pub outputs: &'a [OutputSpec],
+    /// How the loop runs and what stops it.
+    pub settings: &'a LoopSettings,
+    /// Record the session here (a directory checked before), if asked.
+    pub record: Option<Record<'a>>,
+    /// The page and the terminal view.
+    pub display: DisplayChoice,
+}
+
+/// `--record DIR`, checked, and the recording's limits.
+pub struct Record<'a> {
+    /// The directory (created if needed; never over a recording).
+    pub dir: &'a Path,
+    /// The cap on its size.
+    pub options: RecordOptions,
+}
+
+/// Runs the session `plan` asks for on `config`; each event goes to
+/// `events` as it happens. Returns the report (its recording finished).
+pub fn run(
+    config: &Config,
+    plan: &RunPlan,
+    events: &mut dyn EventSink,
+    console: &dyn Console,
+) -> anyhow::Result<RunReport> {
+    // The page's address is taken before anything starts: a clash is an
+    // error now, not a display missing later.
+    let display = Display::open(&plan.display, console)?;
+    let say = |line: &str| console.note(line);
+    // The backends; the outputs opened before anything starts (a missing
+    // device or an unreachable address is said now).
+    let arm = open_arm(plan.arm, config)?;
+    let outputs = open_outputs(plan.outputs, config, &say)?;
+    let start = Start {
+        arm,
+        outputs,
+        settings: plan.settings,
+        events,
+        record: plan.record.as_ref(),
+        display: &display,
+    };
+    open_sensor(
+        plan.sensor,
+        config,
+        || SyntheticSensor::built_in_user(config),
+        start,
+        &say,
+    )
+}
+
+/// The session on the sensor opened: the loop on it, the core built from
+/// the configuration in effect, with the display and the recording asked
+/// for.
+struct Start<'a> {
+    arm: Box<dyn Arm>,
+    outputs: Vec<(Serves, Box<dyn Output>)>,
+    settings: &'a LoopSettings,
+    events: &'a mut dyn EventSink,
+    record: Option<&'a Record<'a>>,
+    display: &'a Display<'a>,
+}
+
+impl OnSensor for Start<'_> {
+    type Output = RunReport;
+
+    fn on<S: Sensor>(self, config: &Config, sensor: S) -> anyhow::Result<RunReport> {
+        let Start {
+            arm,
+            outputs,
+            settings,
+            events,
+            record,
+            display,
+        } = self;
+        let mut recorder = match record {
+            Some(record) => Some(
+                Recorder::create(record.dir, config, record.options)
+                    .map_err(|e| anyhow::Error::new(e).context("--record"))?,
+            ),
+            None => None,
+        };
+        let mut showing = display.start(config.core(), &arm.describe())?;
+        let options = RunOptions {
+            watchers: Watchers {
+                events: Some(events),
+                recorder: recorder.as_mut().map(|r| r as &mut dyn SessionRecorder),
+                observer: showing.observer(),
+            },
+            outputs,
+            ..RunOptions::new(sensor, arm, settings.clone())
+        };
+        let mut result = threads::run(config.core(), options);
+        showing.finish(result.as_mut().ok());
+        let mut report = result?;
+        if let Some(recorder) = recorder {
+            recorder.finish(&mut report);
+        }
+        Ok(report)
+    }
+}

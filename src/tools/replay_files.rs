@@ -1,0 +1,129 @@
+//! Replays from and to files: the input opened (a CSV of samples, or a
+//! recording with the configuration chosen for it), the events' and the
+//! trace's files created before any work, the replay timed; an error
+//! names the file it is about.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+use std::time::Instant;
+
+use crate::config::Config;
+use crate::control::core_config::CoreConfig;
+use crate::sensor::csv::CsvSignal;
+use crate::tools::csv_replay;
+use crate::tools::output_file::create;
+use crate::tools::recording::read::Recording;
+use crate::tools::recording::recording_replay::{self, Verdict};
+use crate::tools::replay::{ReplayError, ReplaySummary};
+
+/// Where a replay writes.
+#[derive(Debug, Clone, Copy)]
+pub struct ReplayTo<'a> {
+    /// The events' file (`None`: the standard output given).
+    pub events: Option<&'a Path>,
+    /// The per-tick trace's file, if asked for.
+    pub trace: Option<&'a Path>,
+}
+
+/// A CSV's replay.
+#[derive(Debug, Clone, Copy)]
+pub struct CsvReplayed {
+    /// What it did.
+    pub summary: ReplaySummary,
+    /// How long it took, s.
+    pub seconds: f64,
+}
+
+/// A recording's replay.
+#[derive(Debug)]
+pub struct RecordingReplayed {
+    /// The recording replayed.
+    pub recording: Recording,
+    /// What it did, against what was recorded.
+    pub verdict: Verdict,
+    /// How long it took, s.
+    pub seconds: f64,
+}
+
+/// Replays the CSV at `path` through `config` ([`csv_replay::replay`]),
+/// writing where `to` says (the events to `stdout` if to no file).
+pub fn replay_csv(
+    config: &CoreConfig,
+    path: &Path,
+    to: ReplayTo,
+    stdout: impl Write,
+) -> anyhow::Result<CsvReplayed> {
+    let mut input = CsvSignal::open(path)?;
+    let mut opened = Opened::open(to, stdout)?;
+    let started = Instant::now();
+    let (out, trace) = opened.writers();
+    let result = csv_replay::replay(config, &mut input, out, trace);
+    let seconds = started.elapsed().as_secs_f64();
+    let summary = match result {
+        Ok(summary) => summary,
+        Err(ReplayError::Write(e)) => return Err(cannot_write(path, e)),
+        Err(e) => return Err(anyhow::Error::new(e).context(path.display().to_string())),
+    };
+    Ok(CsvReplayed { summary, seconds })
+}
+
+/// Replays the recording in `dir` through the configuration `config`
+/// chooses for it (given the recorded one), compared with what was
+/// recorded if `compare` ([`recording_replay::replay`]), writing where
+/// `to` says (the events to `stdout` if to no file).
+pub fn replay_recording(
+    dir: &Path,
+    config: impl FnOnce(&Config) -> anyhow::Result<Config>,
+    compare: bool,
+    to: ReplayTo,
+    stdout: impl Write,
+) -> anyhow::Result<RecordingReplayed> {
+    let recording = Recording::open(dir)?;
+    let config = config(&recording.config)?;
+    let mut opened = Opened::open(to, stdout)?;
+    let started = Instant::now();
+    let (out, trace) = opened.writers();
+    let result = recording_replay::replay(&recording, &config, compare, out, trace);
+    let seconds = started.elapsed().as_secs_f64();
+    let verdict = match result {
+        Ok(verdict) => verdict,
+        Err(ReplayError::Write(e)) => return Err(cannot_write(dir, e)),
+        Err(e) => return Err(e.into()),
+    };
+    Ok(RecordingReplayed {
+        recording,
+        verdict,
+        seconds,
+    })
+}
+
+/// The replay of `input` could not write its output: the `io::Error`
+/// stays in the chain (a closed stdout: exit status 141).
+fn cannot_write(input: &Path, e: std::io::Error) -> anyhow::Error {
+    anyhow::Error::new(e).context(format!("{}: cannot write the output", input.display()))
+}
+
+/// Where a replay writes, open: the events' writer (a file, or stdout
+/// buffered) and the trace's file, created before any work.
+struct Opened<'a> {
+    events: Box<dyn Write + 'a>,
+    trace: Option<BufWriter<File>>,
+}
+
+impl<'a> Opened<'a> {
+    fn open(to: ReplayTo, stdout: impl Write + 'a) -> anyhow::Result<Opened<'a>> {
+        let events: Box<dyn Write + 'a> = match to.events {
+            Some(path) => Box::new(create(path)?),
+            None => Box::new(BufWriter::new(stdout)),
+        };
+        let trace = to.trace.map(create).transpose()?;
+        Ok(Opened { events, trace })
+    }
+
+    /// The events' writer and the trace's, if asked for.
+    fn writers(&mut self) -> (&mut dyn Write, Option<&mut dyn Write>) {
+        let trace = self.trace.as_mut().map(|t| t as &mut dyn Write);
+        (&mut self.events, trace)
+    }
+}
