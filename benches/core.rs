@@ -40,7 +40,7 @@ use sipnpuff::control::modes::ModeMachine;
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::sample::Sample;
 use sipnpuff::control::selection::SequenceEntry;
-use sipnpuff::control::selection::matcher::SequenceMatcher;
+use sipnpuff::control::selection::matcher::{MatcherConfig, SequenceMatcher};
 use sipnpuff::control::tick::{TickInput, TickOutput};
 use sipnpuff::sensor::csv::CsvSignal;
 use sipnpuff::sim::script::random_session;
@@ -154,7 +154,12 @@ fn bench_matcher(
         .iter()
         .flat_map(|e| e.actions.as_slice().to_vec())
         .collect();
-    let mut matcher = SequenceMatcher::new(library, 1000);
+    let mut matcher = SequenceMatcher::new(
+        library,
+        &MatcherConfig {
+            sequence_timeout_ms: 1000,
+        },
+    );
     let mut end = 0u64;
     group.throughput(Throughput::Elements(bursts.len() as u64));
     group.bench_function(BenchmarkId::from_parameter(library.len()), |b| {

@@ -178,7 +178,7 @@ mod tests {
     use crate::control::detector::Burst;
     use crate::control::mode::Mode;
     use crate::control::selection::SequenceEntry;
-    use crate::control::selection::matcher::{MatchEvent, SequenceMatcher};
+    use crate::control::selection::matcher::{MatchEvent, MatcherConfig, SequenceMatcher};
     use crate::sim::user::UserModel;
     use proptest::prelude::*;
 
@@ -264,7 +264,7 @@ mod tests {
                 .iter()
                 .map(|e| SequenceEntry::mode(ActionSeq::from_slice(e).unwrap(), Mode::TranslateX))
                 .collect();
-            let mut matcher = SequenceMatcher::new(&production, 1000);
+            let mut matcher = SequenceMatcher::new(&production, &MatcherConfig { sequence_timeout_ms: 1000 });
             let position = |sequence: ActionSeq| {
                 library.iter().position(|e| e.as_slice() == sequence.as_slice()).unwrap()
             };

@@ -390,8 +390,8 @@ impl Screen {
             } else {
                 Vec::new()
             },
-            puff_offset_volts: detector.puff_threshold_volts - detector.neutral_volts,
-            sip_offset_volts: detector.sip_threshold_volts - detector.neutral_volts,
+            puff_offset_volts: detector.puff_offset_volts(),
+            sip_offset_volts: detector.sip_offset_volts(),
             hysteresis_volts: detector.hysteresis_volts,
             long_ms: detector.long_burst_ms,
             sequence_timeout_ms: config.matcher().sequence_timeout_ms,
