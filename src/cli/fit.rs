@@ -21,7 +21,7 @@ use crate::cli::output::{self, invalid};
 use crate::cli::run::{OnSensor, open_sensor, stop_request};
 use crate::config::Config;
 use crate::control::event::TimedEvent;
-use crate::fit::check::{COLUMNS, Confusion};
+use crate::fit::check::{COLUMNS, ConfusionMatrix};
 use crate::fit::drift;
 use crate::fit::outcome::Outcome;
 use crate::fit::predict::{KindRates, Rates};
@@ -624,7 +624,7 @@ fn rates(out: &mut String, now: &Rates, new: &Rates) {
     );
 }
 
-fn matrix(out: &mut String, name: &str, c: &Confusion) {
+fn matrix(out: &mut String, name: &str, c: &ConfusionMatrix) {
     let (right, asked) = c.right();
     let _ = writeln!(
         out,

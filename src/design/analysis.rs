@@ -83,12 +83,12 @@ pub struct EntryAnalysis {
     /// when another was meant.
     pub p_selected_by_mistake: f64,
     /// The entries an attempt lands in instead, and how.
-    pub confusions: Vec<Confusion>,
+    pub confusions: Vec<Misselection>,
 }
 
 /// An attempt at one entry landing in another.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Confusion {
+pub struct Misselection {
     /// The entry it lands in (its index in the library).
     pub entry: usize,
     /// Its label.
@@ -227,13 +227,13 @@ pub fn analyse(
     let mut landed_in = vec![vec![0.0; n]; n];
     let mut entries = Vec::with_capacity(n);
     for (i, entry) in library.iter().enumerate() {
-        let mut confusions: Vec<Confusion> = Vec::new();
+        let mut confusions: Vec<Misselection> = Vec::new();
         let cost = entry_cost(i, &sequences, who, timing, |j, p, deviation| {
             landed_in[j][i] += p;
             let how = how(deviation, sequences[i]);
             match confusions.iter_mut().find(|c| c.entry == j && c.how == how) {
                 Some(c) => c.p += p,
-                None => confusions.push(Confusion {
+                None => confusions.push(Misselection {
                     entry: j,
                     label: library[j].target.label(),
                     p,
@@ -320,7 +320,7 @@ fn findings(a: &Analysis, library: &[SequenceEntry], who: &Breathing) -> Vec<Str
             format!("{:.2} %", 100.0 * p)
         }
     };
-    let mut pairs: Vec<(usize, &Confusion)> = a
+    let mut pairs: Vec<(usize, &Misselection)> = a
         .entries
         .iter()
         .enumerate()

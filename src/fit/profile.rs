@@ -7,7 +7,7 @@ use std::fmt::Write;
 
 use crate::config::Config;
 use crate::fit::Fit;
-use crate::fit::check::Confusion;
+use crate::fit::check::ConfusionMatrix;
 use crate::fit::predict::{KindRates, Rates};
 
 /// Who and when, for the header.
@@ -76,7 +76,7 @@ pub fn text(fit: &Fit, header: &Header) -> String {
 }
 
 /// "32/32".
-fn right(c: &Confusion) -> String {
+fn right(c: &ConfusionMatrix) -> String {
     let (r, a) = c.right();
     format!("{r}/{a}")
 }
