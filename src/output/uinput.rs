@@ -26,10 +26,10 @@ use evdev::{
 };
 
 use crate::control::keys::{self, KEYS};
-use crate::control::output_command::OutputCommand;
+use crate::control::output_command::{OutputCommand, PointerMove};
 use crate::control::target::Click;
 use crate::output::settings::UinputSettings;
-use crate::output::{Output, OutputError, OutputReport, PointerTravel};
+use crate::output::{Output, OutputError, OutputReport};
 
 /// Where the kernel's uinput device is.
 pub const UINPUT_PATH: &str = "/dev/uinput";
@@ -281,7 +281,7 @@ struct Driver<S: Sink> {
     failures: Failures,
     /// Keys and buttons that could not be let go of at the end.
     stuck: Option<String>,
-    travel: PointerTravel,
+    travel: PointerMove<i64>,
     tick_zero: Option<SystemTime>,
     /// An event was written: wait [`SETTLE`] before the device goes.
     wrote: bool,
@@ -298,7 +298,7 @@ impl<S: Sink> Driver<S> {
             applied: 0,
             failures: Failures::default(),
             stuck: None,
-            travel: PointerTravel::default(),
+            travel: PointerMove::default(),
             tick_zero: None,
             wrote: false,
             closed: false,
@@ -712,7 +712,6 @@ mod tests {
     use std::rc::Rc;
 
     use super::*;
-    use crate::control::output_command::PointerMove;
     use crate::control::target::Chord;
 
     const KEY_LEFTCTRL: u16 = 29;
@@ -916,7 +915,7 @@ mod tests {
                 dropped: 0,
                 lost: 0,
                 notes: vec![],
-                pointer_travel: Some(PointerTravel::default()),
+                pointer_travel: Some(PointerMove::default()),
             }
         );
         // Closed: nothing more is written, and the command is lost.
@@ -1004,7 +1003,7 @@ mod tests {
         let report = d.report(String::new());
         assert_eq!(
             report.pointer_travel,
-            Some(PointerTravel {
+            Some(PointerMove {
                 dx: 3,
                 dy: -3,
                 wheel: 1
