@@ -333,16 +333,25 @@ impl RunReport {
 pub struct DisplaySummary {
     /// Where the page was served (`None`: the terminal view only).
     pub address: Option<String>,
-    /// Pages that connected.
-    pub pages_opened: u64,
+    /// What the pages were sent and missed.
+    #[serde(flatten)]
+    pub counts: DisplayCounts,
+}
+
+/// The display's counters: the feed keeps them live as atomics
+/// (`DisplayCounts<AtomicU64>`), the report reads them once as numbers.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
+pub struct DisplayCounts<C = u64> {
+    /// Pages that connected (connections to the event stream).
+    pub pages_opened: C,
     /// Frames published.
-    pub frames_published: u64,
+    pub frames_published: C,
     /// Frames sent, all pages together.
-    pub frames_sent: u64,
+    pub frames_sent: C,
     /// Frames a slow page skipped (newer ones replaced them).
-    pub frames_skipped: u64,
+    pub frames_skipped: C,
     /// Sounds a page fell too far behind to get.
-    pub cues_dropped: u64,
+    pub cues_dropped: C,
 }
 
 impl DisplaySummary {
@@ -352,13 +361,10 @@ impl DisplaySummary {
             Some(address) => format!("http://{address}/"),
             None => "the terminal".into(),
         };
+        let c = &self.counts;
         format!(
             "display: {place}, {} pages opened; {} frames published, {} sent, {} skipped by slow pages, {} sounds dropped\n",
-            self.pages_opened,
-            self.frames_published,
-            self.frames_sent,
-            self.frames_skipped,
-            self.cues_dropped
+            c.pages_opened, c.frames_published, c.frames_sent, c.frames_skipped, c.cues_dropped
         )
     }
 }
