@@ -393,14 +393,14 @@ fn replay_throughput(c: &mut Criterion) {
 }
 
 fn design(c: &mut Criterion) {
-    use sipnpuff::design::analysis::{Timing, analyse};
+    use sipnpuff::design::analysis::{AttemptTiming, analyse};
     use sipnpuff::design::breathing::Breathing;
     use sipnpuff::design::usage::Usage;
     use sipnpuff::sim::study::tasks::TASKS;
     use sipnpuff::sim::user::{UserModel, run_task};
     let config = Config::default();
     let who = Breathing::of_model(&UserModel::POPULATION, config.core().detector(), "study");
-    let timing = Timing::of(&who, &config, None);
+    let timing = AttemptTiming::of(&who, &config, None);
     let mut group = c.benchmark_group("design");
     group.bench_function("reference_study_task_run", |b| {
         b.iter(|| black_box(run_task(&config, &TASKS[0], &UserModel::POPULATION, 7)))

@@ -14,9 +14,9 @@ use crate::config::Config;
 use crate::control::action::{Action, ActionSeq};
 use crate::control::selection::Interface;
 use crate::control::selection::SequenceEntry;
-use crate::design::analysis::{self, Analysis, Timing, analyse};
+use crate::design::analysis::{self, Analysis, AttemptTiming, analyse};
 use crate::design::breathing::Breathing;
-use crate::design::search::{self, Found, Problem, candidates};
+use crate::design::search::{self, Problem, SearchResult, candidates};
 use crate::design::usage::{Mix, Usage};
 use crate::design::{library_file, plot};
 use crate::sim::study::libraries::{self, LibraryComparison};
@@ -120,7 +120,7 @@ struct Inputs {
     config: Config,
     library_name: String,
     usage: Usage,
-    timing: Timing,
+    timing: AttemptTiming,
 }
 
 fn inputs(args: &DesignArgs) -> anyhow::Result<Inputs> {
@@ -182,7 +182,7 @@ fn inputs(args: &DesignArgs) -> anyhow::Result<Inputs> {
         swap_rate: args.swap_rate,
         ..who
     };
-    let timing = Timing::of(&who, &config, args.wrong_cost_ms);
+    let timing = AttemptTiming::of(&who, &config, args.wrong_cost_ms);
     Ok(Inputs {
         who,
         config,
@@ -195,7 +195,7 @@ fn inputs(args: &DesignArgs) -> anyhow::Result<Inputs> {
 /// `design`'s JSON without `--check`.
 #[derive(Serialize)]
 struct DesignReport<'a> {
-    search: &'a Found,
+    search: &'a SearchResult,
     gap_pct: f64,
     verdict: String,
     designed: &'a Analysis,
@@ -453,7 +453,7 @@ fn write(path: &PathBuf, text: &str) -> anyhow::Result<()> {
 }
 
 /// The search's result in words and a table.
-fn search_text(found: &Found, designed: &Analysis, before: &Analysis, name: &str) -> String {
+fn search_text(found: &SearchResult, designed: &Analysis, before: &Analysis, name: &str) -> String {
     let mut out = format!(
         "{} partial libraries in {:.1} s: {}\n",
         found.nodes,

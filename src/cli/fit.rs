@@ -25,7 +25,7 @@ use crate::fit::check::{COLUMNS, ConfusionMatrix};
 use crate::fit::drift;
 use crate::fit::outcome::Outcome;
 use crate::fit::predict::{KindRates, Rates};
-use crate::fit::profile::{self, Header};
+use crate::fit::profile::{self, ProfileHeader};
 use crate::fit::prompter::{Prompter, Say};
 use crate::fit::protocol::{DEFAULT_COUNT, DEFAULT_HOLDS, Protocol};
 use crate::fit::signal::FitError;
@@ -206,7 +206,7 @@ fn conclude(
     let Some(out) = out else {
         return Ok((output::COMPLETED, outcome));
     };
-    let header = Header {
+    let header = ProfileHeader {
         label: args.label.clone(),
         date: today(),
         source: source.to_string(),

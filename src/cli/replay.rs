@@ -11,7 +11,7 @@ use crate::cli::output;
 use crate::sensor::csv::CsvSignal;
 use crate::tools::csv_replay;
 use crate::tools::recording::read::Recording;
-use crate::tools::recording::recording_replay::{self, Verdict};
+use crate::tools::recording::recording_replay::{self, ReplayVerdict};
 use crate::tools::replay::{ReplayError, ReplaySummary};
 
 /// `replay`'s options.
@@ -157,7 +157,7 @@ fn replay_recording(args: &ReplayArgs) -> anyhow::Result<u8> {
 }
 
 /// Says what the comparison found; the exit status.
-fn say_verdict(v: &Verdict, other: Option<&str>) -> u8 {
+fn say_verdict(v: &ReplayVerdict, other: Option<&str>) -> u8 {
     let stop = v.stop_tick.map_or_else(
         || "no safe stop recorded".to_string(),
         |t| format!("safe stop begun at tick {t}"),

@@ -13,7 +13,7 @@ use crate::rt::arm_thread::ArmReport;
 use crate::rt::control_loop::{LoopResult, StopReason};
 use crate::rt::recorder::RecordingReport;
 use crate::rt::scheduler::SchedulerStats;
-use crate::rt::setup::Setting;
+use crate::rt::setup::RtSetting;
 use crate::rt::telemetry::{Drops, Latencies, Percentiles, at, write_hgrm};
 use crate::rt::telemetry_thread::TelemetryReport;
 use crate::sensor::SensorError;
@@ -27,7 +27,7 @@ pub struct RunReport {
     #[serde(rename = "arm_backend")]
     pub arm_name: String,
     /// Real-time settings, granted or denied.
-    pub settings: Vec<Setting>,
+    pub settings: Vec<RtSetting>,
     /// The kernel is PREEMPT_RT.
     pub preempt_rt: bool,
     /// Scheduler counts.

@@ -15,7 +15,7 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use self::breaks::BOM;
-use self::lines::{Line, PlainLine, PlainLines, Rest};
+use self::lines::{Line, PlainLine, PlainLines, Unread};
 use crate::sensor::ring::{RingSamples, SAMPLE_RING, ring};
 use crate::sensor::{Producer, Sensor, SensorError, Started};
 
@@ -68,7 +68,7 @@ enum Rows<R: Read> {
     Lines { lines: PlainLines<R>, line: u64 },
     /// The `csv` crate (its input numbers its rows' lines).
     Csv {
-        reader: csv::Reader<Rest<R>>,
+        reader: csv::Reader<Unread<R>>,
         record: csv::ByteRecord,
     },
     /// Between the two (never seen outside [`CsvSignal::switch_to_csv`]).
@@ -448,7 +448,7 @@ fn unequal_lengths(fields: usize, header: usize) -> String {
 }
 
 /// An error of the `csv` crate, on the line its input places it.
-fn parser_error<R: Read>(e: &csv::Error, input: &mut Rest<R>) -> CsvError {
+fn parser_error<R: Read>(e: &csv::Error, input: &mut Unread<R>) -> CsvError {
     error(e, |byte| input.line_of(byte))
 }
 
