@@ -16,7 +16,8 @@ use tokio::sync::{broadcast, watch};
 use crate::control::Tick;
 use crate::control::core_config::CoreConfig;
 use crate::control::event::TimedEvent;
-use crate::display::screen::{Cue, Frame, Screen};
+use crate::display::frame::{Cue, Frame};
+use crate::display::screen::Screen;
 use crate::fit::outcome::Outcome;
 use crate::fit::prompter::{Say, View};
 use crate::rt::report::{DisplayCounts, DisplaySummary};
@@ -83,10 +84,10 @@ pub struct FeedStats {
 /// frame, the sounds.
 #[derive(Debug)]
 pub struct Feed {
-    /// [`crate::display::screen::Setup`] as JSON: sent first to each page.
+    /// [`crate::display::frame::Setup`] as JSON: sent first to each page.
     pub setup_json: String,
     /// The setup.
-    pub setup: crate::display::screen::Setup,
+    pub setup: crate::display::frame::Setup,
     frames: watch::Sender<Arc<Published>>,
     cues: broadcast::Sender<CueMessage>,
     /// Counters.
