@@ -40,7 +40,7 @@ use sipnpuff::control::modes::ModeMachine;
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::sample::Sample;
 use sipnpuff::control::selection::SequenceEntry;
-use sipnpuff::control::selection::matcher::SequenceMatcher;
+use sipnpuff::control::selection::matcher::{MatcherConfig, SequenceMatcher};
 use sipnpuff::control::tick::{TickInput, TickOutput};
 use sipnpuff::sensor::csv::CsvSignal;
 use sipnpuff::sim::script::random_session;
@@ -154,7 +154,12 @@ fn bench_matcher(
         .iter()
         .flat_map(|e| e.actions.as_slice().to_vec())
         .collect();
-    let mut matcher = SequenceMatcher::new(library, 1000);
+    let mut matcher = SequenceMatcher::new(
+        library,
+        &MatcherConfig {
+            sequence_timeout_ms: 1000,
+        },
+    );
     let mut end = 0u64;
     group.throughput(Throughput::Elements(bursts.len() as u64));
     group.bench_function(BenchmarkId::from_parameter(library.len()), |b| {
@@ -388,14 +393,14 @@ fn replay_throughput(c: &mut Criterion) {
 }
 
 fn design(c: &mut Criterion) {
-    use sipnpuff::design::analysis::{Timing, analyse};
+    use sipnpuff::design::analysis::{AttemptTiming, analyse};
     use sipnpuff::design::breathing::Breathing;
     use sipnpuff::design::usage::Usage;
     use sipnpuff::sim::study::tasks::TASKS;
     use sipnpuff::sim::user::{UserModel, run_task};
     let config = Config::default();
     let who = Breathing::of_model(&UserModel::POPULATION, config.core().detector(), "study");
-    let timing = Timing::of(&who, &config, None);
+    let timing = AttemptTiming::of(&who, &config, None);
     let mut group = c.benchmark_group("design");
     group.bench_function("reference_study_task_run", |b| {
         b.iter(|| black_box(run_task(&config, &TASKS[0], &UserModel::POPULATION, 7)))

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use crate::cli::args::{ConfigArg, InterfaceArg, with_interface};
 use crate::cli::output;
 use crate::config::Config;
-use crate::tools::recording::recording_replay::Verdict;
+use crate::tools::recording::recording_replay::ReplayVerdict;
 use crate::tools::replay::ReplaySummary;
 use crate::tools::replay_files::{self, ReplayTo};
 
@@ -132,7 +132,7 @@ fn replay_recording(args: &ReplayArgs) -> anyhow::Result<u8> {
 }
 
 /// Says what the comparison found; the exit status.
-fn say_verdict(v: &Verdict, other: Option<&str>) -> u8 {
+fn say_verdict(v: &ReplayVerdict, other: Option<&str>) -> u8 {
     let stop = v.stop_tick.map_or_else(
         || "no safe stop recorded".to_string(),
         |t| format!("safe stop begun at tick {t}"),

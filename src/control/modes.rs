@@ -62,7 +62,7 @@ pub struct ModeOutput {
 /// The mode machine. `step` is RT-safe.
 #[derive(Debug, Clone)]
 pub struct ModeMachine {
-    inactivity: u64,
+    config: CommandConfig,
     state: ModeState,
     last_activity: Tick,
     /// A breath was already held when the mode was entered (a sip right
@@ -70,8 +70,6 @@ pub struct ModeMachine {
     await_release: bool,
     /// Stopping: back to detection mode for good.
     stopping: bool,
-    /// `motion_onset_ms` (0 = off).
-    onset: u64,
     /// The breath held in command mode and the tick it was first seen.
     held_since: Option<(Breath, Tick)>,
     /// The current (or last) breath in command mode moved the arm.
@@ -82,12 +80,11 @@ impl ModeMachine {
     /// Starts in detection mode, no motion.
     pub fn new(config: &CommandConfig) -> Self {
         ModeMachine {
-            inactivity: config.inactivity_timeout_ms.into(),
+            config: *config,
             state: ModeState::Detection,
             last_activity: 0,
             await_release: false,
             stopping: false,
-            onset: config.motion_onset_ms.into(),
             held_since: None,
             moved: false,
         }
@@ -97,13 +94,15 @@ impl ModeMachine {
     /// too short to move the arm, so it belongs to a selection. Read before
     /// [`ModeMachine::step`] on the burst's tick. RT-safe.
     pub fn selects_in_command_mode(&self) -> bool {
-        self.onset > 0 && matches!(self.state, ModeState::Command(_)) && !self.moved
+        self.config.motion_onset_ms > 0
+            && matches!(self.state, ModeState::Command(_))
+            && !self.moved
     }
 
     /// With `motion_onset_ms`: the burst that just ended in command mode
     /// moved the arm (a selection in progress is void). RT-safe.
     pub fn moved_in_command_mode(&self) -> bool {
-        self.onset > 0 && matches!(self.state, ModeState::Command(_)) && self.moved
+        self.config.motion_onset_ms > 0 && matches!(self.state, ModeState::Command(_)) && self.moved
     }
 
     /// From the next tick on: detection mode, no mode is entered again.
@@ -125,8 +124,10 @@ impl ModeMachine {
     /// In command mode: the tick it returns to selection if nothing more
     /// is breathed. RT-safe.
     pub fn returns_at(&self) -> Option<Tick> {
-        matches!(self.state, ModeState::Command(_))
-            .then(|| self.last_activity.saturating_add(self.inactivity))
+        matches!(self.state, ModeState::Command(_)).then(|| {
+            self.last_activity
+                .saturating_add(self.config.inactivity_timeout_ms.into())
+        })
     }
 
     /// One tick: `matched` is the mode the matcher selected on this tick.
@@ -172,7 +173,7 @@ impl ModeMachine {
                         }
                     };
                     let held_ms = now.saturating_sub(since) + 1;
-                    if !self.await_release && held_ms >= self.onset {
+                    if !self.await_release && held_ms >= u64::from(self.config.motion_onset_ms) {
                         output.direction = Direction::of(breath);
                         output.strength_volts = held.strength_volts;
                         self.moved = true;
@@ -180,7 +181,9 @@ impl ModeMachine {
                 } else {
                     self.held_since = None;
                     self.await_release = false;
-                    if now.saturating_sub(self.last_activity) >= self.inactivity {
+                    if now.saturating_sub(self.last_activity)
+                        >= u64::from(self.config.inactivity_timeout_ms)
+                    {
                         left = Some(DetectionReason::Inactivity);
                     }
                 }

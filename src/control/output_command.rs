@@ -50,14 +50,16 @@ impl OutputCommand {
 /// Pointer motion in whole counts (uinput's `REL_X`, `REL_Y`,
 /// `REL_WHEEL`): right, down and wheel-up are positive. The fractions are
 /// carried to the next move, so the moves sum to the travel commanded.
+/// A tick's move is `i32`; a sum of many (an output's report of what it
+/// wrote) is `PointerMove<i64>`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
-pub struct PointerMove {
+pub struct PointerMove<N = i32> {
     /// Right (+) or left (−), counts.
-    pub dx: i32,
+    pub dx: N,
     /// Down (+) or up (−), counts.
-    pub dy: i32,
+    pub dy: N,
     /// Wheel up (+) or down (−), detents.
-    pub wheel: i32,
+    pub wheel: N,
 }
 
 impl PointerMove {

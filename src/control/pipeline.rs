@@ -83,10 +83,9 @@ impl Pipeline {
         Pipeline {
             detector: BurstDetector::new(config.detector()),
             selector: match config.interface() {
-                Interface::Asp => Selector::Sequences(SequenceMatcher::new(
-                    config.sequences(),
-                    config.matcher().sequence_timeout_ms,
-                )),
+                Interface::Asp => {
+                    Selector::Sequences(SequenceMatcher::new(config.sequences(), config.matcher()))
+                }
                 Interface::Bsp => Selector::Scanning(Scanner::new(config.scanning())),
             },
             modes: ModeMachine::new(config.command()),

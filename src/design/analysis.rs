@@ -19,12 +19,12 @@ use crate::control::action::Action;
 use crate::control::selection::SequenceEntry;
 use crate::control::target::Target;
 use crate::design::breathing::Breathing;
-use crate::design::reading::{Deviation, Outcome, Reading, outcome, readings};
+use crate::design::reading::{Decision, Deviation, SequenceReading, outcome, readings};
 use crate::design::usage::Usage;
 
 /// The times an attempt is made of, ms.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Timing {
+pub struct AttemptTiming {
     /// From the interface ready to the first burst.
     pub reaction_ms: f64,
     /// Between bursts.
@@ -40,13 +40,13 @@ pub struct Timing {
     pub wrong_cost_ms: f64,
 }
 
-impl Timing {
+impl AttemptTiming {
     /// The person's reaction and gaps under `config`; a wrong selection
     /// costs `wrong_cost_ms`, or the inactivity timeout (the user lets
     /// the wrong mode return to selection) if `None`.
-    pub fn of(who: &Breathing, config: &Config, wrong_cost_ms: Option<f64>) -> Timing {
+    pub fn of(who: &Breathing, config: &Config, wrong_cost_ms: Option<f64>) -> AttemptTiming {
         let core = config.core();
-        Timing {
+        AttemptTiming {
             reaction_ms: who.reaction_ms,
             gap_ms: who.gap_ms,
             edge_ms: who.edge_ms,
@@ -83,12 +83,12 @@ pub struct EntryAnalysis {
     /// when another was meant.
     pub p_selected_by_mistake: f64,
     /// The entries an attempt lands in instead, and how.
-    pub confusions: Vec<Confusion>,
+    pub confusions: Vec<Misselection>,
 }
 
 /// An attempt at one entry landing in another.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Confusion {
+pub struct Misselection {
     /// The entry it lands in (its index in the library).
     pub entry: usize,
     /// Its label.
@@ -107,7 +107,7 @@ pub struct Analysis {
     /// Which usage mix.
     pub usage: String,
     /// The times used.
-    pub timing: Timing,
+    pub timing: AttemptTiming,
     /// Each entry, in the library's order.
     pub entries: Vec<EntryAnalysis>,
     /// Usage-weighted expected time per selection, ms.
@@ -135,7 +135,7 @@ pub struct EntryCost {
 
 /// Time from the decision to the end of the first `k` bursts of `read`:
 /// the last one's fall is still to come, half its edge.
-fn breathed_ms(read: &[Action], k: usize, who: &Breathing, t: &Timing) -> f64 {
+fn breathed_ms(read: &[Action], k: usize, who: &Breathing, t: &AttemptTiming) -> f64 {
     t.reaction_ms
         + read[..k].iter().map(|a| who.burst(*a).mean_ms).sum::<f64>()
         + k.saturating_sub(1) as f64 * t.gap_ms
@@ -148,7 +148,7 @@ pub fn entry_cost<'a>(
     meant: usize,
     library: &'a [&'a [Action]],
     who: &Breathing,
-    t: &Timing,
+    t: &AttemptTiming,
     landed: impl FnMut(usize, f64, Deviation),
 ) -> EntryCost {
     entry_cost_of(
@@ -163,11 +163,11 @@ pub fn entry_cost<'a>(
 
 /// [`entry_cost`] with the meant entry's readings given.
 pub fn entry_cost_of<'a>(
-    readings: &[Reading],
+    readings: &[SequenceReading],
     meant: usize,
     library: &'a [&'a [Action]],
     who: &Breathing,
-    t: &Timing,
+    t: &AttemptTiming,
     mut landed: impl FnMut(usize, f64, Deviation),
 ) -> EntryCost {
     let lookup = |i: usize| library.get(i).copied();
@@ -178,7 +178,7 @@ pub fn entry_cost_of<'a>(
         let read = r.read.as_slice();
         let all = breathed_ms(read, read.len(), who, t);
         let ms = match outcome(read, lookup) {
-            Outcome::Match { entry, at, waited } if entry == meant => {
+            Decision::Match { entry, at, waited } if entry == meant => {
                 p_ok += r.p;
                 let ms = breathed_ms(read, at, who, t)
                     + t.latency_ms
@@ -189,12 +189,12 @@ pub fn entry_cost_of<'a>(
                 }
                 ms
             }
-            Outcome::Match { entry, waited, .. } => {
+            Decision::Match { entry, waited, .. } => {
                 p_wrong += r.p;
                 landed(entry, r.p, r.deviation);
                 all + if waited { t.timeout_ms } else { 0.0 } + t.wrong_cost_ms
             }
-            Outcome::Nothing { waited } => {
+            Decision::Nothing { waited } => {
                 p_retry += r.p;
                 all + t.latency_ms + if waited { t.timeout_ms } else { 0.0 }
             }
@@ -219,7 +219,7 @@ pub fn analyse(
     library: &[SequenceEntry],
     who: &Breathing,
     usage: &Usage,
-    timing: &Timing,
+    timing: &AttemptTiming,
 ) -> Analysis {
     let sequences: Vec<&[Action]> = library.iter().map(|e| e.actions.as_slice()).collect();
     let n = library.len();
@@ -227,13 +227,13 @@ pub fn analyse(
     let mut landed_in = vec![vec![0.0; n]; n];
     let mut entries = Vec::with_capacity(n);
     for (i, entry) in library.iter().enumerate() {
-        let mut confusions: Vec<Confusion> = Vec::new();
+        let mut confusions: Vec<Misselection> = Vec::new();
         let cost = entry_cost(i, &sequences, who, timing, |j, p, deviation| {
             landed_in[j][i] += p;
             let how = how(deviation, sequences[i]);
             match confusions.iter_mut().find(|c| c.entry == j && c.how == how) {
                 Some(c) => c.p += p,
-                None => confusions.push(Confusion {
+                None => confusions.push(Misselection {
                     entry: j,
                     label: library[j].target.label(),
                     p,
@@ -320,7 +320,7 @@ fn findings(a: &Analysis, library: &[SequenceEntry], who: &Breathing) -> Vec<Str
             format!("{:.2} %", 100.0 * p)
         }
     };
-    let mut pairs: Vec<(usize, &Confusion)> = a
+    let mut pairs: Vec<(usize, &Misselection)> = a
         .entries
         .iter()
         .enumerate()
@@ -454,7 +454,7 @@ mod tests {
         let config = Config::default();
         let library = config.core().sequences();
         let who = study_user();
-        let t = Timing::of(&who, &config, None);
+        let t = AttemptTiming::of(&who, &config, None);
         let a = analyse(library, &who, &Usage::uniform(library), &t);
         let x = &a.entries[0];
         assert_eq!(
@@ -484,7 +484,7 @@ mod tests {
             swap_rate: 0.01,
             ..study_user()
         };
-        let t = Timing::of(&who, &config, None);
+        let t = AttemptTiming::of(&who, &config, None);
         let a = analyse(library, &who, &Usage::uniform(library), &t);
         // translate_x (short puff, short puff) with its 1st puff read as a
         // sip is fingers (short sip, short puff); with its 2nd, translate_y.
@@ -504,7 +504,7 @@ mod tests {
         let config = Config::from_toml_str(crate::sim::study::PREFIX_LIBRARY).unwrap();
         let library = config.core().sequences();
         let who = study_user();
-        let t = Timing::of(&who, &config, None);
+        let t = AttemptTiming::of(&who, &config, None);
         let a = analyse(library, &who, &Usage::uniform(library), &t);
         let waits = a.entries.iter().filter(|e| e.wait_ms == 1000.0).count();
         assert_eq!(waits, 3);

@@ -16,7 +16,7 @@ use crate::sim::user::UserModel;
 
 /// One burst kind as this person breathes it and the detector reads it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Burst {
+pub struct BurstStats {
     /// Mean length, ms.
     pub mean_ms: f64,
     /// Standard deviation of the length, ms.
@@ -36,7 +36,7 @@ pub struct Breathing {
     /// From seeing the interface ready to starting the first burst, ms.
     pub reaction_ms: f64,
     /// The four bursts, in [`Action::ALL`]'s order.
-    pub bursts: [Burst; 4],
+    pub bursts: [BurstStats; 4],
     /// Rest between the bursts of a sequence, ms.
     pub gap_ms: f64,
     /// The time a burst's signal takes to rise to the threshold and fall
@@ -118,7 +118,7 @@ impl Breathing {
     }
 
     /// The burst `a` as this person breathes it.
-    pub fn burst(&self, a: Action) -> &Burst {
+    pub fn burst(&self, a: Action) -> &BurstStats {
         &self.bursts[a.index()]
     }
 
@@ -155,7 +155,7 @@ pub const EDGE_MS: f64 = 0.84 * (DEFAULT_RAMP_MS.0 + DEFAULT_RAMP_MS.1) / 2.0;
 
 /// A burst of length N(mean, sd) read by `d`: under `min_burst_ms` it is
 /// missed; past `long_burst_ms` it is long.
-fn burst_read_by(a: Action, mean_ms: f64, sd_ms: f64, d: &DetectorConfig) -> Burst {
+fn burst_read_by(a: Action, mean_ms: f64, sd_ms: f64, d: &DetectorConfig) -> BurstStats {
     let below = |ms: f64| {
         if sd_ms > 0.0 {
             normal_cdf((ms - mean_ms) / sd_ms)
@@ -167,7 +167,7 @@ fn burst_read_by(a: Action, mean_ms: f64, sd_ms: f64, d: &DetectorConfig) -> Bur
     };
     let missed = below(f64::from(d.min_burst_ms));
     let short = below(f64::from(d.long_burst_ms)) - missed;
-    Burst {
+    BurstStats {
         mean_ms,
         sd_ms,
         missed,

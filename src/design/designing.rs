@@ -14,7 +14,7 @@ use crate::design::analysis::{Analysis, analyse};
 use crate::design::inputs::Inputs;
 use crate::design::problem::problem;
 use crate::design::request::Request;
-use crate::design::search::{self, Found};
+use crate::design::search::{self, SearchResult};
 use crate::design::study_check::{StudyCheck, study_check};
 use crate::design::{library_file, plot};
 use crate::sim::study::missing_modes;
@@ -30,7 +30,7 @@ pub struct Checked {
 /// The library designed for the person.
 pub struct Designed {
     /// The search's result.
-    pub found: Found,
+    pub found: SearchResult,
     /// The designed library analysed.
     pub designed: Analysis,
     /// The library it replaces, analysed.

@@ -9,7 +9,7 @@ use anyhow::Context;
 
 use crate::config::Config;
 use crate::config::invalid::invalid;
-use crate::design::analysis::Timing;
+use crate::design::analysis::AttemptTiming;
 use crate::design::breathing::Breathing;
 use crate::design::request::Request;
 use crate::design::usage::{Mix, Usage};
@@ -26,7 +26,7 @@ pub struct Inputs {
     /// How often each entry is used.
     pub usage: Usage,
     /// The times of an attempt.
-    pub timing: Timing,
+    pub timing: AttemptTiming,
 }
 
 impl Inputs {
@@ -91,7 +91,7 @@ impl Inputs {
             swap_rate: request.swap_rate,
             ..who
         };
-        let timing = Timing::of(&who, &config, request.wrong_cost_ms);
+        let timing = AttemptTiming::of(&who, &config, request.wrong_cost_ms);
         Ok(Inputs {
             who,
             config,

@@ -8,7 +8,7 @@ use std::fmt::Write;
 use crate::config::Config;
 use crate::config::print::entry_toml;
 use crate::design::analysis::Analysis;
-use crate::design::search::Found;
+use crate::design::search::SearchResult;
 use crate::fit::profile::{same, values};
 
 /// What the file says.
@@ -20,7 +20,7 @@ pub struct Designed<'a> {
     /// The library it replaces, analysed.
     pub before: &'a Analysis,
     /// The search.
-    pub found: &'a Found,
+    pub found: &'a SearchResult,
     /// The replaced library's name.
     pub library_name: &'a str,
 }

@@ -35,7 +35,7 @@ pub enum Deviation {
 
 /// One way of reading a meant sequence: what was read and its chance.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Reading {
+pub struct SequenceReading {
     /// What went wrong.
     pub deviation: Deviation,
     /// The bursts the matcher receives.
@@ -46,7 +46,7 @@ pub struct Reading {
 
 /// What the matcher does with a reading.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Outcome {
+pub enum Decision {
     /// Library entry `i` is selected after burst `at` (counted in the
     /// reading), at once or after the timeout.
     Match {
@@ -80,7 +80,7 @@ pub fn other_breath(a: Action) -> Action {
 
 /// Every reading of `meant` with one thing wrong at most, with its chance,
 /// for this person. The chances sum to 1.
-pub fn readings(meant: &[Action], who: &Breathing) -> Vec<Reading> {
+pub fn readings(meant: &[Action], who: &Breathing) -> Vec<SequenceReading> {
     let n = meant.len();
     let mut out = Vec::with_capacity(3 * n + 2);
     // The person's own mistake: one burst, chosen evenly, at the other length.
@@ -128,8 +128,8 @@ pub fn readings(meant: &[Action], who: &Breathing) -> Vec<Reading> {
     out
 }
 
-fn reading(deviation: Deviation, read: &[Action], p: f64) -> Reading {
-    Reading {
+fn reading(deviation: Deviation, read: &[Action], p: f64) -> SequenceReading {
+    SequenceReading {
         deviation,
         // A burst more than the longest sequence reads as nothing.
         read: ActionSeq::from_slice(read).unwrap_or(ActionSeq::EMPTY),
@@ -138,7 +138,7 @@ fn reading(deviation: Deviation, read: &[Action], p: f64) -> Reading {
 }
 
 /// What the matcher makes of `read` with `library` (each entry's bursts).
-pub fn outcome<'a>(read: &[Action], library: impl Fn(usize) -> Option<&'a [Action]>) -> Outcome {
+pub fn outcome<'a>(read: &[Action], library: impl Fn(usize) -> Option<&'a [Action]>) -> Decision {
     let entries = || (0..).map_while(&library).enumerate();
     let mut start = 0;
     for end in 1..=read.len() {
@@ -147,7 +147,7 @@ pub fn outcome<'a>(read: &[Action], library: impl Fn(usize) -> Option<&'a [Actio
         let extended = entries().any(|(_, e)| e.len() > cs.len() && e.starts_with(cs));
         match (is_entry, extended) {
             (Some(entry), false) => {
-                return Outcome::Match {
+                return Decision::Match {
                     entry,
                     at: end,
                     waited: false,
@@ -159,15 +159,15 @@ pub fn outcome<'a>(read: &[Action], library: impl Fn(usize) -> Option<&'a [Actio
     }
     let cs = &read[start..];
     if cs.is_empty() {
-        return Outcome::Nothing { waited: false };
+        return Decision::Nothing { waited: false };
     }
     match entries().find(|(_, e)| *e == cs) {
-        Some((entry, _)) => Outcome::Match {
+        Some((entry, _)) => Decision::Match {
             entry,
             at: read.len(),
             waited: true,
         },
-        None => Outcome::Nothing { waited: true },
+        None => Decision::Nothing { waited: true },
     }
 }
 
@@ -178,7 +178,7 @@ mod tests {
     use crate::control::detector::Burst;
     use crate::control::mode::Mode;
     use crate::control::selection::SequenceEntry;
-    use crate::control::selection::matcher::{MatchEvent, SequenceMatcher};
+    use crate::control::selection::matcher::{MatchEvent, MatcherConfig, SequenceMatcher};
     use crate::sim::user::UserModel;
     use proptest::prelude::*;
 
@@ -192,7 +192,7 @@ mod tests {
         // A prefix of a longer entry matches at the timeout.
         assert_eq!(
             outcome(&[ShortPuff], lib(library)),
-            Outcome::Match {
+            Decision::Match {
                 entry: 0,
                 at: 1,
                 waited: true
@@ -201,7 +201,7 @@ mod tests {
         // Nothing longer starts with it: at once.
         assert_eq!(
             outcome(&[ShortPuff, ShortSip], lib(library)),
-            Outcome::Match {
+            Decision::Match {
                 entry: 1,
                 at: 2,
                 waited: false
@@ -210,12 +210,12 @@ mod tests {
         // A prefix that is no entry resets at the timeout.
         assert_eq!(
             outcome(&[LongPuff], lib(library)),
-            Outcome::Nothing { waited: true }
+            Decision::Nothing { waited: true }
         );
         // Neither resets at once, and the next burst starts afresh.
         assert_eq!(
             outcome(&[LongSip, ShortPuff, ShortSip], lib(library)),
-            Outcome::Match {
+            Decision::Match {
                 entry: 1,
                 at: 3,
                 waited: false
@@ -264,7 +264,7 @@ mod tests {
                 .iter()
                 .map(|e| SequenceEntry::mode(ActionSeq::from_slice(e).unwrap(), Mode::TranslateX))
                 .collect();
-            let mut matcher = SequenceMatcher::new(&production, 1000);
+            let mut matcher = SequenceMatcher::new(&production, &MatcherConfig { sequence_timeout_ms: 1000 });
             let position = |sequence: ActionSeq| {
                 library.iter().position(|e| e.as_slice() == sequence.as_slice()).unwrap()
             };
@@ -274,16 +274,16 @@ mod tests {
                 tick += 300;
                 let burst = Burst { action: *a, start: tick - 100, end: tick };
                 if let Some(MatchEvent::Match { sequence, .. }) = matcher.on_burst(&burst) {
-                    got = Some(Outcome::Match { entry: position(sequence), at: i + 1, waited: false });
+                    got = Some(Decision::Match { entry: position(sequence), at: i + 1, waited: false });
                     break;
                 }
             }
             let got = got.unwrap_or_else(|| match matcher.on_tick(tick + 1000, false) {
                 Some(MatchEvent::Match { sequence, .. }) => {
-                    Outcome::Match { entry: position(sequence), at: read.len(), waited: true }
+                    Decision::Match { entry: position(sequence), at: read.len(), waited: true }
                 }
-                Some(MatchEvent::Reset { .. }) => Outcome::Nothing { waited: true },
-                None => Outcome::Nothing { waited: false },
+                Some(MatchEvent::Reset { .. }) => Decision::Nothing { waited: true },
+                None => Decision::Nothing { waited: false },
             });
             let slices: Vec<&[Action]> = library.iter().map(Vec::as_slice).collect();
             prop_assert_eq!(outcome(&read, lib(&slices)), got);

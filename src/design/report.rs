@@ -7,14 +7,14 @@ use serde::Serialize;
 
 use crate::design::analysis::{self, Analysis};
 use crate::design::designing::Designed;
-use crate::design::search::Found;
+use crate::design::search::SearchResult;
 use crate::design::study_check::StudyCheck;
 use crate::sim::study::libraries;
 
 /// `design`'s JSON.
 #[derive(Serialize)]
 struct DesignReport<'a> {
-    search: &'a Found,
+    search: &'a SearchResult,
     gap_pct: f64,
     verdict: String,
     designed: &'a Analysis,
@@ -58,7 +58,7 @@ pub fn text(d: &Designed) -> String {
 }
 
 /// The search's result in words and a table.
-fn search_text(found: &Found, designed: &Analysis, before: &Analysis, name: &str) -> String {
+fn search_text(found: &SearchResult, designed: &Analysis, before: &Analysis, name: &str) -> String {
     let mut out = format!(
         "{} partial libraries in {:.1} s: {}\n",
         found.nodes,

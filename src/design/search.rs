@@ -19,9 +19,9 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 
 use crate::control::action::{Action, ActionSeq};
-use crate::design::analysis::{Timing, entry_cost, entry_cost_of};
+use crate::design::analysis::{AttemptTiming, entry_cost, entry_cost_of};
 use crate::design::breathing::Breathing;
-use crate::design::reading::Reading;
+use crate::design::reading::SequenceReading;
 
 /// What to place and under which rules.
 #[derive(Debug, Clone)]
@@ -35,7 +35,7 @@ pub struct Problem {
     /// Whose breathing.
     pub who: Breathing,
     /// The times of an attempt.
-    pub timing: Timing,
+    pub timing: AttemptTiming,
     /// When to stop branching and report the bound.
     pub time_limit: Duration,
 }
@@ -64,7 +64,7 @@ pub fn candidates(allowed: &[Action], min: usize, max: usize) -> Vec<ActionSeq> 
 
 /// The search's result.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Found {
+pub struct SearchResult {
     /// Each entry's sequence, in the problem's order.
     #[serde(skip)]
     pub sequences: Vec<ActionSeq>,
@@ -82,7 +82,7 @@ pub struct Found {
     pub local_search_ms: f64,
 }
 
-impl Found {
+impl SearchResult {
     /// How far the cost can be above the best there is, percent.
     pub fn gap_pct(&self) -> f64 {
         if self.cost_ms > 0.0 {
@@ -109,7 +109,7 @@ struct Space<'a> {
     p: &'a Problem,
     /// The free candidates, then each fixed entry's sequence.
     sequences: Vec<ActionSeq>,
-    readings: Vec<Vec<Reading>>,
+    readings: Vec<Vec<SequenceReading>>,
     /// How many of `sequences` are free candidates.
     free: usize,
     /// Entries placed most used first (fixed ones excluded).
@@ -169,7 +169,7 @@ impl Space<'_> {
 }
 
 /// Finds the cheapest library: exact if the time allows.
-pub fn search(p: &Problem) -> Found {
+pub fn search(p: &Problem) -> SearchResult {
     let started = Instant::now();
     let n = p.usage.len();
     let mut order: Vec<usize> = (0..n).filter(|i| p.fixed[*i].is_none()).collect();
@@ -240,7 +240,7 @@ pub fn search(p: &Problem) -> Found {
         .library
         .into_inner()
         .unwrap_or_else(std::sync::PoisonError::into_inner);
-    Found {
+    SearchResult {
         cost_ms: best_cost,
         sequences,
         bound_ms: if aborted {
@@ -445,7 +445,7 @@ mod tests {
 
     fn problem(usage: Vec<f64>, allowed: &[Action], min: usize, max: usize) -> Problem {
         let who = Breathing::of_model(&UserModel::POPULATION, &DetectorConfig::default(), "x");
-        let timing = Timing::of(&who, &Config::default(), None);
+        let timing = AttemptTiming::of(&who, &Config::default(), None);
         Problem {
             fixed: vec![None; usage.len()],
             usage,

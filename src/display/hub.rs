@@ -16,10 +16,11 @@ use tokio::sync::{broadcast, watch};
 use crate::control::Tick;
 use crate::control::core_config::CoreConfig;
 use crate::control::event::TimedEvent;
-use crate::display::screen::{Cue, Frame, Screen};
+use crate::display::frame::{Cue, Frame};
+use crate::display::screen::Screen;
 use crate::fit::outcome::Outcome;
 use crate::fit::prompter::{Say, View};
-use crate::rt::report::DisplaySummary;
+use crate::rt::report::{DisplayCounts, DisplaySummary};
 use crate::rt::telemetry::{TelemetryObserver, TickRecord};
 
 /// Frames go out at least this often while anything changes, ms (25 a
@@ -71,16 +72,8 @@ pub struct CueMessage {
 /// Counters shared by the feed and the pages' streams.
 #[derive(Debug, Default)]
 pub struct FeedStats {
-    /// Frames published.
-    pub frames_published: AtomicU64,
-    /// Frames sent to pages (all pages).
-    pub frames_sent: AtomicU64,
-    /// Frames a slow page skipped (newer ones replaced them).
-    pub frames_skipped: AtomicU64,
-    /// Sounds a page fell too far behind to get.
-    pub cues_dropped: AtomicU64,
-    /// Pages (connections to the event stream) opened.
-    pub pages_opened: AtomicU64,
+    /// What the report says of the display, counted live.
+    pub counts: DisplayCounts<AtomicU64>,
     /// Pages open now.
     pub pages_open: AtomicU64,
     /// Times a session's last frame was sent to a page.
@@ -91,10 +84,10 @@ pub struct FeedStats {
 /// frame, the sounds.
 #[derive(Debug)]
 pub struct Feed {
-    /// [`crate::display::screen::Setup`] as JSON: sent first to each page.
+    /// [`crate::display::frame::Setup`] as JSON: sent first to each page.
     pub setup_json: String,
     /// The setup.
-    pub setup: crate::display::screen::Setup,
+    pub setup: crate::display::frame::Setup,
     frames: watch::Sender<Arc<Published>>,
     cues: broadcast::Sender<CueMessage>,
     /// Counters.
@@ -136,14 +129,17 @@ impl Feed {
 
     /// What the report says of the display.
     pub fn summary(&self, address: Option<String>) -> DisplaySummary {
-        let s = &self.stats;
+        let c = &self.stats.counts;
+        let load = |n: &AtomicU64| n.load(Ordering::Relaxed);
         DisplaySummary {
             address,
-            pages_opened: s.pages_opened.load(Ordering::Relaxed),
-            frames_published: s.frames_published.load(Ordering::Relaxed),
-            frames_sent: s.frames_sent.load(Ordering::Relaxed),
-            frames_skipped: s.frames_skipped.load(Ordering::Relaxed),
-            cues_dropped: s.cues_dropped.load(Ordering::Relaxed),
+            counts: DisplayCounts {
+                pages_opened: load(&c.pages_opened),
+                frames_published: load(&c.frames_published),
+                frames_sent: load(&c.frames_sent),
+                frames_skipped: load(&c.frames_skipped),
+                cues_dropped: load(&c.cues_dropped),
+            },
         }
     }
 }
@@ -203,7 +199,10 @@ impl DisplayHub {
             cues,
             stats: FeedStats::default(),
         });
-        feed.stats.frames_published.store(1, Ordering::Relaxed);
+        feed.stats
+            .counts
+            .frames_published
+            .store(1, Ordering::Relaxed);
         DisplayHub {
             screen,
             feed,
@@ -261,6 +260,7 @@ impl DisplayHub {
         self.feed.frames.send_replace(Arc::new(published));
         self.feed
             .stats
+            .counts
             .frames_published
             .fetch_add(1, Ordering::Relaxed);
         self.last_publish = Some(Instant::now());

@@ -2,7 +2,7 @@
 //! pressure and the arm's state, for the wheelchair's screen, a tablet or
 //! an engineer's terminal.
 //!
-//! * [`screen`] turns the loop's records and events into [`screen::Frame`]s
+//! * [`screen`] turns the loop's records and events into [`frame::Frame`]s
 //!   (pure, tested with simulated ticks);
 //! * [`hub`] runs the screen on the telemetry thread and publishes its
 //!   frames and sounds;
@@ -12,7 +12,9 @@
 //! Fed from the telemetry side, never from the control thread: a slow or
 //! absent viewer costs the loop nothing.
 
+pub mod frame;
 pub mod hub;
 pub mod screen;
 pub mod server;
 pub mod tui;
+pub mod words;

@@ -159,11 +159,12 @@ async fn events(State(feed): State<Arc<Feed>>) -> impl IntoResponse {
             && published.seq > last + 1
         {
             stats
+                .counts
                 .frames_skipped
                 .fetch_add(published.seq - last - 1, Ordering::Relaxed);
         }
         last_seq = Some(published.seq);
-        stats.frames_sent.fetch_add(1, Ordering::Relaxed);
+        stats.counts.frames_sent.fetch_add(1, Ordering::Relaxed);
         if published.last {
             stats.last_frames_sent.fetch_add(1, Ordering::Relaxed);
         }
@@ -179,7 +180,11 @@ async fn events(State(feed): State<Arc<Feed>>) -> impl IntoResponse {
                 .data(serde_json::to_string(&cue).unwrap_or_default()),
         ),
         Err(BroadcastStreamRecvError::Lagged(n)) => {
-            counting.stats.cues_dropped.fetch_add(n, Ordering::Relaxed);
+            counting
+                .stats
+                .counts
+                .cues_dropped
+                .fetch_add(n, Ordering::Relaxed);
             None
         }
     });
@@ -194,7 +199,10 @@ struct PageOpen(Arc<Feed>);
 
 impl PageOpen {
     fn new(feed: Arc<Feed>) -> PageOpen {
-        feed.stats.pages_opened.fetch_add(1, Ordering::Relaxed);
+        feed.stats
+            .counts
+            .pages_opened
+            .fetch_add(1, Ordering::Relaxed);
         feed.stats.pages_open.fetch_add(1, Ordering::Relaxed);
         PageOpen(feed)
     }

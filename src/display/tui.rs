@@ -20,8 +20,8 @@ use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Borders, Gauge, List, ListItem, Paragraph, Wrap};
 
+use crate::display::frame::{Frame, Setup, Symbol};
 use crate::display::hub::Feed;
-use crate::display::screen::{Frame, Setup, Symbol};
 
 /// How often the terminal is redrawn, ms.
 const REDRAW_MS: u64 = 50;

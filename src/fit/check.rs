@@ -37,7 +37,7 @@ pub struct Row {
 
 /// The confusion matrix of a detector setting on a calibration.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Confusion {
+pub struct ConfusionMatrix {
     /// One row per prompt kind, in the protocol's order.
     pub rows: Vec<Row>,
     /// Bursts outside every prompted breath.
@@ -47,7 +47,7 @@ pub struct Confusion {
     pub faults: usize,
 }
 
-impl Confusion {
+impl ConfusionMatrix {
     /// Breaths read right, of those asked.
     pub fn right(&self) -> (usize, usize) {
         self.rows
@@ -110,7 +110,7 @@ pub fn confusion(
     answers: &Answers,
     asks: &[Ask],
     d: &DetectorConfig,
-) -> Confusion {
+) -> ConfusionMatrix {
     let (bursts, faults) = bursts(signal, d);
     let mut used = vec![false; bursts.len()];
     let mut rows: Vec<Row> = asks
@@ -165,7 +165,7 @@ pub fn confusion(
                     .any(|&(s, e)| b.start < e + SLACK_MS && b.end + SLACK_MS > s)
         })
         .count();
-    Confusion {
+    ConfusionMatrix {
         rows,
         unprompted,
         faults,

@@ -28,7 +28,7 @@ pub mod usage;
 
 use crate::config::{Config, ConfigErrors};
 use crate::control::detector::DetectorConfig;
-use check::Confusion;
+use check::ConfusionMatrix;
 use predict::Rates;
 use propose::Proposal;
 use protocol::{Ask, Protocol};
@@ -63,7 +63,7 @@ pub struct Fit {
     /// Predicted misreadings: current settings, then proposed.
     pub predicted: [Rates; 2],
     /// The session replayed through the detector: current, then proposed.
-    pub replayed: [Confusion; 2],
+    pub replayed: [ConfusionMatrix; 2],
     /// When the user's short and long breaths overlap: what to do, in
     /// plain words.
     pub overlap: Option<String>,

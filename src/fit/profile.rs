@@ -7,12 +7,12 @@ use std::fmt::Write;
 
 use crate::config::Config;
 use crate::fit::Fit;
-use crate::fit::check::Confusion;
+use crate::fit::check::ConfusionMatrix;
 use crate::fit::predict::{KindRates, Rates};
 
 /// Who and when, for the header.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Header {
+pub struct ProfileHeader {
     /// The user's label (a name or a code).
     pub label: String,
     /// The date of the fit, `YYYY-MM-DD`.
@@ -22,7 +22,7 @@ pub struct Header {
 }
 
 /// The profile's text.
-pub fn text(fit: &Fit, header: &Header) -> String {
+pub fn text(fit: &Fit, header: &ProfileHeader) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -76,7 +76,7 @@ pub fn text(fit: &Fit, header: &Header) -> String {
 }
 
 /// "32/32".
-fn right(c: &Confusion) -> String {
+fn right(c: &ConfusionMatrix) -> String {
     let (r, a) = c.right();
     format!("{r}/{a}")
 }

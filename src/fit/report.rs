@@ -6,7 +6,7 @@
 use std::fmt::Write as _;
 
 use crate::fit::Fit;
-use crate::fit::check::{COLUMNS, Confusion};
+use crate::fit::check::{COLUMNS, ConfusionMatrix};
 use crate::fit::predict::{KindRates, Rates};
 
 /// The fit as JSON.
@@ -118,7 +118,7 @@ fn rates(out: &mut String, now: &Rates, new: &Rates) {
     );
 }
 
-fn matrix(out: &mut String, name: &str, c: &Confusion) {
+fn matrix(out: &mut String, name: &str, c: &ConfusionMatrix) {
     let (right, asked) = c.right();
     let _ = writeln!(
         out,

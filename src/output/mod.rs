@@ -16,7 +16,7 @@ use std::time::SystemTime;
 
 use serde::Serialize;
 
-use crate::control::output_command::OutputCommand;
+use crate::control::output_command::{OutputCommand, PointerMove};
 
 #[cfg(feature = "mqtt")]
 pub mod mqtt;
@@ -106,21 +106,9 @@ pub struct OutputReport {
     /// unreachable for 4.1 s; 2 events were lost".
     pub notes: Vec<String>,
     /// The pointer motion written, for an output that moves the pointer
-    /// (uinput): what a reader of the device sums to.
+    /// (uinput): the sum of its moves, what a reader of the device sums to.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub pointer_travel: Option<PointerTravel>,
-}
-
-/// The sums of the pointer moves an output wrote, counts (`REL_X` right,
-/// `REL_Y` down, `REL_WHEEL` up).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
-pub struct PointerTravel {
-    /// Right (+) or left (−).
-    pub dx: i64,
-    /// Down (+) or up (−).
-    pub dy: i64,
-    /// Wheel up (+) or down (−), detents.
-    pub wheel: i64,
+    pub pointer_travel: Option<PointerMove<i64>>,
 }
 
 /// Why an output cannot be opened: said before anything starts.

@@ -28,7 +28,7 @@ use crate::rt::alloc_counter;
 use crate::rt::clock::Clock;
 use crate::rt::output_thread::{OutputLane, TickZero};
 use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
-use crate::rt::setup::{RtOptions, Setting, setup_current_thread};
+use crate::rt::setup::{RtOptions, RtSetting, setup_current_thread};
 pub use crate::rt::stop::StopReason;
 use crate::rt::stop::StopRequest;
 use crate::rt::telemetry::{Drops, TickRecord};
@@ -352,7 +352,7 @@ pub struct LoopResult {
     /// Ring drops, tick records included.
     pub drops: Drops,
     /// Real-time settings, granted or denied.
-    pub settings: Vec<Setting>,
+    pub settings: Vec<RtSetting>,
     /// The kernel is PREEMPT_RT.
     pub preempt_rt: bool,
     /// Scheduler counts.

@@ -13,7 +13,7 @@ use crate::rt::arm_thread::ArmReport;
 use crate::rt::control_loop::{LoopResult, StopReason};
 use crate::rt::recorder::RecordingReport;
 use crate::rt::scheduler::SchedulerStats;
-use crate::rt::setup::Setting;
+use crate::rt::setup::RtSetting;
 use crate::rt::telemetry::{Drops, Latencies, Percentiles, at, write_hgrm};
 use crate::rt::telemetry_thread::TelemetryReport;
 use crate::sensor::SensorError;
@@ -27,7 +27,7 @@ pub struct RunReport {
     #[serde(rename = "arm_backend")]
     pub arm_name: String,
     /// Real-time settings, granted or denied.
-    pub settings: Vec<Setting>,
+    pub settings: Vec<RtSetting>,
     /// The kernel is PREEMPT_RT.
     pub preempt_rt: bool,
     /// Scheduler counts.
@@ -333,16 +333,25 @@ impl RunReport {
 pub struct DisplaySummary {
     /// Where the page was served (`None`: the terminal view only).
     pub address: Option<String>,
-    /// Pages that connected.
-    pub pages_opened: u64,
+    /// What the pages were sent and missed.
+    #[serde(flatten)]
+    pub counts: DisplayCounts,
+}
+
+/// The display's counters: the feed keeps them live as atomics
+/// (`DisplayCounts<AtomicU64>`), the report reads them once as numbers.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
+pub struct DisplayCounts<C = u64> {
+    /// Pages that connected (connections to the event stream).
+    pub pages_opened: C,
     /// Frames published.
-    pub frames_published: u64,
+    pub frames_published: C,
     /// Frames sent, all pages together.
-    pub frames_sent: u64,
+    pub frames_sent: C,
     /// Frames a slow page skipped (newer ones replaced them).
-    pub frames_skipped: u64,
+    pub frames_skipped: C,
     /// Sounds a page fell too far behind to get.
-    pub cues_dropped: u64,
+    pub cues_dropped: C,
 }
 
 impl DisplaySummary {
@@ -352,13 +361,10 @@ impl DisplaySummary {
             Some(address) => format!("http://{address}/"),
             None => "the terminal".into(),
         };
+        let c = &self.counts;
         format!(
             "display: {place}, {} pages opened; {} frames published, {} sent, {} skipped by slow pages, {} sounds dropped\n",
-            self.pages_opened,
-            self.frames_published,
-            self.frames_sent,
-            self.frames_skipped,
-            self.cues_dropped
+            c.pages_opened, c.frames_published, c.frames_sent, c.frames_skipped, c.cues_dropped
         )
     }
 }

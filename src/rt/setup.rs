@@ -47,7 +47,7 @@ impl Default for RtOptions {
 
 /// The outcome of one step.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
-pub struct Setting {
+pub struct RtSetting {
     /// What was asked, e.g. `SCHED_FIFO priority 80`.
     pub name: String,
     /// Whether it was granted.
@@ -61,7 +61,7 @@ pub struct Setting {
 #[derive(Debug, Default)]
 pub struct RtSetup {
     /// Every step, in order.
-    pub settings: Vec<Setting>,
+    pub settings: Vec<RtSetting>,
     /// The kernel is PREEMPT_RT (`/sys/kernel/realtime` is 1).
     pub preempt_rt: bool,
     _dma_latency: Option<File>,
@@ -87,7 +87,7 @@ impl RtSetup {
             Ok(d) => (true, d),
             Err(d) => (false, d),
         };
-        self.settings.push(Setting {
+        self.settings.push(RtSetting {
             name: name.into(),
             granted,
             detail,

@@ -25,7 +25,7 @@ pub struct Axis {
 /// Something that may be a sip-and-puff sensor.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "kind", rename_all = "lowercase")]
-pub enum Found {
+pub enum FoundSensor {
     /// An input device.
     Evdev {
         /// `/dev/input/eventN`.
@@ -67,20 +67,20 @@ pub enum Found {
     },
 }
 
-impl Found {
+impl FoundSensor {
     /// The `--sensor` lines that use it.
     pub fn use_with(&self) -> &[String] {
         match self {
-            Found::Evdev { use_with, .. }
-            | Found::Iio { use_with, .. }
-            | Found::Serial { use_with, .. } => use_with,
+            FoundSensor::Evdev { use_with, .. }
+            | FoundSensor::Iio { use_with, .. }
+            | FoundSensor::Serial { use_with, .. } => use_with,
         }
     }
 }
 
 /// Everything found, input devices first.
-pub fn list() -> Vec<Found> {
-    let mut found: Vec<Found> = event_nodes()
+pub fn list() -> Vec<FoundSensor> {
+    let mut found: Vec<FoundSensor> = event_nodes()
         .iter()
         .filter_map(|p| evdev_device(p))
         .collect();
@@ -91,7 +91,7 @@ pub fn list() -> Vec<Found> {
 
 /// An input device, if it has absolute axes or keys (or cannot be opened:
 /// then it is listed with the reason).
-fn evdev_device(path: &Path) -> Option<Found> {
+fn evdev_device(path: &Path) -> Option<FoundSensor> {
     let device = match RawDevice::open(path) {
         Ok(device) => device,
         Err(e) => {
@@ -104,7 +104,7 @@ fn evdev_device(path: &Path) -> Option<Found> {
                 }
                 _ => e.to_string(),
             };
-            return Some(Found::Evdev {
+            return Some(FoundSensor::Evdev {
                 path: path.to_path_buf(),
                 name: String::new(),
                 axes: Vec::new(),
@@ -159,7 +159,7 @@ fn evdev_device(path: &Path) -> Option<Found> {
             keys[0], keys[1]
         ));
     }
-    Some(Found::Evdev {
+    Some(FoundSensor::Evdev {
         path: path.to_path_buf(),
         name,
         axes,
@@ -170,7 +170,7 @@ fn evdev_device(path: &Path) -> Option<Found> {
 }
 
 /// The voltage channels under an IIO devices directory.
-pub fn iio_channels(root: &Path) -> Vec<Found> {
+pub fn iio_channels(root: &Path) -> Vec<FoundSensor> {
     let mut devices: Vec<PathBuf> = std::fs::read_dir(root)
         .into_iter()
         .flatten()
@@ -210,7 +210,7 @@ pub fn iio_channels(root: &Path) -> Vec<Found> {
                 Err(e) => (None, Some(e.to_string())),
             };
             let scale_mv = scale_of(&path);
-            found.push(Found::Iio {
+            found.push(FoundSensor::Iio {
                 use_with: vec![format!("--sensor iio:{}", path.display())],
                 path,
                 device: device.clone(),
@@ -235,7 +235,7 @@ fn scale_of(raw: &Path) -> Option<f64> {
 
 /// Serial ports with a device behind them (USB, or a UART the kernel
 /// bound a driver to).
-fn serial_ports() -> Vec<Found> {
+fn serial_ports() -> Vec<FoundSensor> {
     let Ok(ports) = serialport::available_ports() else {
         return Vec::new();
     };
@@ -257,7 +257,7 @@ fn serial_ports() -> Vec<Found> {
                 serialport::SerialPortType::Unknown => "serial port".into(),
             };
             let path = PathBuf::from(&port.port_name);
-            Found::Serial {
+            FoundSensor::Serial {
                 use_with: vec![
                     format!(
                         "--sensor serial:{}   (one value per line, volts; [sensor.serial] format = \"counts\", \"flipmouse\" or \"lipsync\" for others)",
@@ -272,7 +272,7 @@ fn serial_ports() -> Vec<Found> {
 }
 
 /// Text for people.
-pub fn to_text(found: &[Found]) -> String {
+pub fn to_text(found: &[FoundSensor]) -> String {
     let mut out = String::new();
     if found.is_empty() {
         out +=
@@ -281,7 +281,7 @@ pub fn to_text(found: &[Found]) -> String {
     }
     for f in found {
         match f {
-            Found::Evdev {
+            FoundSensor::Evdev {
                 path,
                 name,
                 axes,
@@ -314,7 +314,7 @@ pub fn to_text(found: &[Found]) -> String {
                     );
                 }
             }
-            Found::Iio {
+            FoundSensor::Iio {
                 path,
                 device,
                 scale_mv,
@@ -334,7 +334,7 @@ pub fn to_text(found: &[Found]) -> String {
                     out += &format!("        cannot read it: {e}\n");
                 }
             }
-            Found::Serial {
+            FoundSensor::Serial {
                 path, description, ..
             } => {
                 out += &format!("serial  {}  ({description})\n", path.display());

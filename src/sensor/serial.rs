@@ -43,9 +43,7 @@ const MAX_LINE: usize = 256;
 /// Turns lines of one format into volts: the pure part of the backend.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LineFormat {
-    format: SerialFormat,
-    full_scale: f64,
-    volts_per_hpa: f64,
+    settings: SerialSettings,
     neutral_volts: f64,
 }
 
@@ -54,16 +52,14 @@ impl LineFormat {
     /// (LipSync sends a pressure difference).
     pub fn new(settings: &SerialSettings, neutral_volts: f64) -> LineFormat {
         LineFormat {
-            format: settings.format,
-            full_scale: settings.full_scale,
-            volts_per_hpa: settings.volts_per_hpa,
+            settings: *settings,
             neutral_volts,
         }
     }
 
     /// What to send to start the stream (the dialects wait for it).
     pub fn start_command(&self) -> &'static [u8] {
-        match self.format {
+        match self.settings.format {
             SerialFormat::Flipmouse => b"AT SR\r",
             SerialFormat::Lipsync => b"DM,1:2\r\n",
             SerialFormat::Volts | SerialFormat::Counts => b"",
@@ -72,7 +68,7 @@ impl LineFormat {
 
     /// What to send to end it.
     pub fn stop_command(&self) -> &'static [u8] {
-        match self.format {
+        match self.settings.format {
             SerialFormat::Flipmouse => b"AT ER\r",
             SerialFormat::Lipsync | SerialFormat::Volts | SerialFormat::Counts => b"",
         }
@@ -97,14 +93,14 @@ impl LineFormat {
                 Err(format!("{text:?} is not finite"))
             }
         };
-        match self.format {
+        match self.settings.format {
             SerialFormat::Volts => number(line).map(Some),
-            SerialFormat::Counts => number(line).map(|c| Some(c / self.full_scale * 5.0)),
+            SerialFormat::Counts => number(line).map(|c| Some(c / self.settings.full_scale * 5.0)),
             SerialFormat::Flipmouse => match line.strip_prefix("VALUES:") {
                 None => Ok(None),
                 Some(values) => {
                     let pressure = values.split(',').next().unwrap_or("");
-                    number(pressure).map(|p| Some(p / self.full_scale * 5.0))
+                    number(pressure).map(|p| Some(p / self.settings.full_scale * 5.0))
                 }
             },
             SerialFormat::Lipsync => match line.strip_prefix("SUCCESS,0:DEBUG,2:") {
@@ -113,7 +109,7 @@ impl LineFormat {
                     let diff = values.split(',').nth(2).ok_or_else(|| {
                         format!("{line:?}: expected <mouthpiece>,<ambient>,<diff>,<offset>")
                     })?;
-                    number(diff).map(|d| Some(self.neutral_volts + d * self.volts_per_hpa))
+                    number(diff).map(|d| Some(self.neutral_volts + d * self.settings.volts_per_hpa))
                 }
             },
         }
@@ -153,7 +149,7 @@ impl LineSplitter {
 pub struct SerialSensor {
     path: PathBuf,
     baud: u32,
-    settings: SerialSettings,
+    /// The line format and the rest of the settings with it.
     format: LineFormat,
     reconnect: bool,
     port: TTYPort,
@@ -216,7 +212,6 @@ impl SerialSensor {
         let mut sensor = SerialSensor {
             path: path.to_path_buf(),
             baud,
-            settings: settings.clone(),
             format,
             reconnect,
             port,
@@ -233,7 +228,7 @@ impl SerialSensor {
     /// batches (a USB packet holds many), so the period is the time over
     /// the number of samples, never the time between reads.
     fn measure_period(&mut self) -> Result<(), SensorError> {
-        let answer = Duration::from_millis(u64::from(self.settings.answer_timeout_ms));
+        let answer = Duration::from_millis(u64::from(self.format.settings.answer_timeout_ms));
         let started = Instant::now();
         // The first read that held a sample, the last one, and the samples
         // read after the first.
@@ -247,8 +242,8 @@ impl SerialSensor {
             if first.is_none() && started.elapsed() > answer {
                 let mut message = format!(
                     "sent nothing readable as `{}` in {} ms at {} baud",
-                    self.settings.format.name(),
-                    self.settings.answer_timeout_ms,
+                    self.format.settings.format.name(),
+                    self.format.settings.answer_timeout_ms,
                     self.baud
                 );
                 if let Some(bad) = &bad {
@@ -362,7 +357,7 @@ impl Sensor for SerialSensor {
             "serial:{} ({} baud, format {}{rate}{})",
             self.path.display(),
             self.baud,
-            self.settings.format.name(),
+            self.format.settings.format.name(),
             if self.reconnect { "; reconnects" } else { "" }
         )
     }
@@ -395,7 +390,7 @@ impl DeviceReader for Reader {
     }
 
     fn read_until_lost(&mut self, holder: &Holder, stop: &AtomicBool) -> io::Result<()> {
-        let silence = Duration::from_millis(u64::from(self.sensor.settings.silence_ms));
+        let silence = Duration::from_millis(u64::from(self.sensor.format.settings.silence_ms));
         let mut last_sample = Instant::now();
         let mut buffer = [0u8; 4096];
         while !stop.load(Ordering::Relaxed) {

@@ -151,7 +151,7 @@ impl SerialFormat {
 }
 
 /// `[sensor.serial]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SerialSettings {
     /// Line speed (`serial:PATH,baud=N` overrides it).

@@ -11,7 +11,7 @@ use anyhow::Context;
 
 use crate::config::Config;
 use crate::fit::outcome::Outcome;
-use crate::fit::profile::{self, Header};
+use crate::fit::profile::{self, ProfileHeader};
 use crate::fit::protocol::{DEFAULT_HOLDS, Protocol};
 use crate::fit::signal::{FitError, Signal};
 use crate::fit::{self, Fit, drift, report};
@@ -161,7 +161,7 @@ pub(super) fn conclude(
     let Some(out) = out else {
         return Ok((FitEnd::Completed, outcome));
     };
-    let header = Header {
+    let header = ProfileHeader {
         label: request.label.to_string(),
         date: today(),
         source: source.to_string(),

@@ -19,7 +19,7 @@ use crate::sim::sensor_model::{ScriptedBreath, SignalGenerator, SignalParams, St
 /// How one scripted session went, breath by breath and selection by
 /// selection.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
-pub struct Tally {
+pub struct SessionTally {
     /// Samples played.
     pub ticks: u64,
     /// Breaths in the script long enough to be bursts (`min_burst_ms`).
@@ -70,7 +70,7 @@ pub struct Tally {
     pub core_allocations: u64,
 }
 
-impl Tally {
+impl SessionTally {
     /// Correct breaths, percent of those scripted (100 for none).
     pub fn accuracy_pct(&self) -> f64 {
         percent(self.correct, self.scripted)
@@ -178,7 +178,7 @@ pub fn observe(config: &Config, params: SignalParams, script: &[Step]) -> Observ
 /// scripted within it of `long_burst_ms` may land in either class. A
 /// breath scripted longer than `max_hold_ms` is a stuck-sensor fault, not
 /// a burst: like one too short, it must make none.
-pub fn score(config: &Config, seen: &Observed, modes: &[Mode], tolerance_ms: u64) -> Tally {
+pub fn score(config: &Config, seen: &Observed, modes: &[Mode], tolerance_ms: u64) -> SessionTally {
     let long = u64::from(config.core().detector().long_burst_ms);
     let min = u64::from(config.core().detector().min_burst_ms);
     let max = u64::from(config.core().detector().max_hold_ms);
@@ -226,7 +226,7 @@ pub fn score(config: &Config, seen: &Observed, modes: &[Mode], tolerance_ms: u64
         .iter()
         .filter(|s| u64::from(s.ms) > max)
         .count() as u64;
-    let mut t = Tally {
+    let mut t = SessionTally {
         ticks: seen.ticks,
         scripted: seen.scripted.len() as u64 - too_short - too_long,
         too_short,
@@ -240,7 +240,7 @@ pub fn score(config: &Config, seen: &Observed, modes: &[Mode], tolerance_ms: u64
         recoveries: seen.recoveries,
         rezeroes: seen.rezeroes,
         core_allocations: seen.core_allocations,
-        ..Tally::default()
+        ..SessionTally::default()
     };
     for (s, bursts) in seen.scripted.iter().zip(&per_breath) {
         if !counts(s.ms) {
@@ -311,7 +311,7 @@ pub struct GridCell {
     pub hum_volts: f64,
     /// The session's score.
     #[serde(flatten)]
-    pub tally: Tally,
+    pub tally: SessionTally,
 }
 
 /// The settings of `sipnpuff bench accuracy` besides the grid.

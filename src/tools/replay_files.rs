@@ -14,7 +14,7 @@ use crate::sensor::csv::CsvSignal;
 use crate::tools::csv_replay;
 use crate::tools::output_file::create;
 use crate::tools::recording::read::Recording;
-use crate::tools::recording::recording_replay::{self, Verdict};
+use crate::tools::recording::recording_replay::{self, ReplayVerdict};
 use crate::tools::replay::{ReplayError, ReplaySummary};
 
 /// Where a replay writes.
@@ -41,7 +41,7 @@ pub struct RecordingReplayed {
     /// The recording replayed.
     pub recording: Recording,
     /// What it did, against what was recorded.
-    pub verdict: Verdict,
+    pub verdict: ReplayVerdict,
     /// How long it took, s.
     pub seconds: f64,
 }

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use serde_json::Value;
 use sipnpuff::config::Config;
-use sipnpuff::design::analysis::{Timing, analyse};
+use sipnpuff::design::analysis::{AttemptTiming, analyse};
 use sipnpuff::design::breathing::Breathing;
 use sipnpuff::design::usage::Usage;
 use sipnpuff::sim::study::libraries::{compare, mean_over_task_selections};
@@ -154,7 +154,7 @@ fn the_model_predicts_the_studys_selection_time_within_5_percent() {
     let config = Config::default();
     let library = config.core().sequences();
     let who = Breathing::of_model(&UserModel::POPULATION, config.core().detector(), "study");
-    let timing = Timing::of(&who, &config, None);
+    let timing = AttemptTiming::of(&who, &config, None);
     let a = analyse(library, &who, &Usage::tasks(library), &timing);
     let predicted = mean_over_task_selections(library, |i| a.entries[i].expected_ms) / 1000.0;
     let study = compare(&config, &config, &UserModel::POPULATION, 8, 1).unwrap();

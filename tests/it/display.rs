@@ -9,7 +9,8 @@ use sipnpuff::control::event::{Event, TimedEvent};
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::sample::Sample;
 use sipnpuff::control::tick::TickInput;
-use sipnpuff::display::screen::{Cue, Frame, Screen};
+use sipnpuff::display::frame::{Cue, Frame};
+use sipnpuff::display::screen::Screen;
 use sipnpuff::rt::telemetry::TickRecord;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 

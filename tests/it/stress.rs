@@ -16,7 +16,7 @@ use std::f64::consts::PI;
 use sipnpuff::config::Config;
 use sipnpuff::control::action::Breath;
 use sipnpuff::rt::alloc_counter::thread_allocations;
-use sipnpuff::tools::accuracy::{Tally, observe, score};
+use sipnpuff::tools::accuracy::{SessionTally, observe, score};
 
 use crate::common::paper_config;
 use sipnpuff::control::mode::Mode;
@@ -43,7 +43,7 @@ fn assert_perfect(
     modes: &[Mode],
     tolerance_ms: u64,
     expect: Expect,
-) -> Tally {
+) -> SessionTally {
     let seen = observe(config, params, script);
     let t = score(config, &seen, modes, tolerance_ms);
     let context = format!("{what} (seed {}): {t:?}", params.seed);
@@ -73,7 +73,7 @@ fn assert_noisy_session(
     script: &[Step],
     modes: &[Mode],
     expect: Expect,
-) -> Tally {
+) -> SessionTally {
     let bound = timing_bound_ms(config, &params);
     assert_perfect(what, config, params, script, modes, bound, expect)
 }

@@ -187,7 +187,7 @@ expected_from "$OUT/pattern.csv" kHz
 echo "vm-harness: at 1 kHz: $(tr '\n' ' ' <"$EXP/kHz.txt")"
 
 # Switches are levels: a sip key held reads 0 V, a puff key 5 V, nothing
-# the neutral (src/sensor/evdev.rs).
+# the neutral (src/sensor/evdev/events.rs).
 awk -F, 'NR == 1 { print; next } NR == 2 { n = $2 }
          { printf "%s,%s\n", $1, ($2 < n ? "0.0" : $2 > n ? "5.0" : $2) }' "$OUT/pattern.csv" >"$OUT/switches.csv"
 expected_from "$OUT/switches.csv" switches

@@ -28,7 +28,7 @@ use std::time::{Duration, Instant};
 
 use self::abi::{EthernetCommConfig, inet_addr};
 use self::library::{KinovaLibrary, command_layer_names};
-use self::worker::{Busy, Request, Shared, Worker, elapsed_ns};
+use self::worker::{Busy, SdkRequest, SdkStatus, Worker, elapsed_ns};
 use crate::arm::settings::ArmSettings;
 use crate::arm::{Arm, ArmError, ArmState, SdkLink};
 use crate::control::motion::stream::ArmCommand;
@@ -53,9 +53,9 @@ pub struct KinovaSdkArm {
 
 /// A connected SDK thread.
 struct Running {
-    requests: SyncSender<Request>,
+    requests: SyncSender<SdkRequest>,
     stopped: Receiver<Result<(), String>>,
-    shared: Arc<Mutex<Shared>>,
+    shared: Arc<Mutex<SdkStatus>>,
     busy: Arc<Busy>,
     stopping: bool,
     /// Requests queued so far.
@@ -185,7 +185,7 @@ impl Arm for KinovaSdkArm {
         let (requests, requests_rx) = sync_channel(QUEUE);
         let (connected_tx, connected) = sync_channel(1);
         let (stopped_tx, stopped) = sync_channel(1);
-        let shared = Arc::new(Mutex::new(Shared::default()));
+        let shared = Arc::new(Mutex::new(SdkStatus::default()));
         let busy = Arc::new(Busy::default());
         let abandoned = Arc::new(AtomicBool::new(false));
         let worker = Worker {
@@ -272,7 +272,7 @@ impl Arm for KinovaSdkArm {
         {
             return Err(failure);
         }
-        match running.requests.try_send(Request::Point(*command)) {
+        match running.requests.try_send(SdkRequest::Point(*command)) {
             Ok(()) => {
                 running.pushed_at[(running.pushed % QUEUE as u64) as usize] =
                     elapsed_ns(self.epoch);
@@ -334,7 +334,7 @@ impl Arm for KinovaSdkArm {
         }
         running.stopping = true;
         let deadline = Instant::now() + wait;
-        let mut request = Request::Stop;
+        let mut request = SdkRequest::Stop;
         loop {
             match running.requests.try_send(request) {
                 Ok(()) => break,

@@ -6,7 +6,7 @@
 //! and releases the arm. Not RT-safe; never on the control thread.
 //!
 //! Its state for the arm thread: the newest measured state and the first
-//! failure in [`Shared`] (a mutex held only to copy them), and the call in
+//! failure in [`SdkStatus`] (a mutex held only to copy them), and the call in
 //! progress with its start in two atomics, so the arm thread can tell a
 //! hanging call within [`Arm::check_link`](crate::arm::Arm::check_link)'s
 //! poll.
@@ -28,7 +28,7 @@ use crate::arm::{ArmError, ArmState, SdkLink};
 use crate::control::motion::stream::ArmCommand;
 
 /// What the arm thread asks of the SDK thread.
-pub enum Request {
+pub enum SdkRequest {
     /// Send this command as one `CARTESIAN_VELOCITY` point.
     Point(ArmCommand),
     /// Erase the FIFO, release the arm and close the API; then end.
@@ -130,7 +130,7 @@ pub fn elapsed_ns(epoch: Instant) -> u64 {
 
 /// What the SDK thread reports.
 #[derive(Default)]
-pub struct Shared {
+pub struct SdkStatus {
     /// The newest measured state, taken by `feedback()`.
     pub state: Option<ArmState>,
     /// The first failure after connecting (kept).
@@ -148,13 +148,13 @@ pub struct Worker {
     /// Empty: the first arm found.
     pub serial_number: String,
     /// Requests from the arm thread.
-    pub requests: Receiver<Request>,
+    pub requests: Receiver<SdkRequest>,
     /// The connection's outcome, once.
     pub connected: SyncSender<Result<(), ArmError>>,
     /// The stop's outcome, once.
     pub stopped: SyncSender<Result<(), String>>,
     /// State for the arm thread.
-    pub shared: Arc<Mutex<Shared>>,
+    pub shared: Arc<Mutex<SdkStatus>>,
     /// The call in progress.
     pub busy: Arc<Busy>,
     /// The backend's epoch for [`Busy`].
@@ -355,14 +355,14 @@ impl Worker {
             // Every queued point in order, then one measurement.
             while let Some(request) = next.take() {
                 match request {
-                    Request::Stop => {
+                    SdkRequest::Stop => {
                         stop = true;
                         break;
                     }
                     // After a failure only zero points are tried (the
                     // stop's zero): no motion is sent on a failed link.
-                    Request::Point(command) if failed && !command.is_zero() => {}
-                    Request::Point(command) => {
+                    SdkRequest::Point(command) if failed && !command.is_zero() => {}
+                    SdkRequest::Point(command) => {
                         let point = TrajectoryPoint::cartesian_velocity(
                             command.linear.map(|v| v as f32),
                             command.angular.map(|v| v as f32),

@@ -18,7 +18,7 @@ use super::xmlrpc::{self, CallError, HttpUri, Value, s};
 pub const NODE_NAME: &str = "/sipnpuff";
 
 /// What the node's threads share.
-pub struct Shared {
+pub struct NodeContext {
     /// Our node name, e.g. `/sipnpuff`.
     pub caller_id: String,
     /// The host other nodes reach us at.
@@ -43,7 +43,7 @@ pub struct Shared {
     pub stop: Arc<AtomicBool>,
 }
 
-impl Shared {
+impl NodeContext {
     pub fn set_lost(&self, reason: String) {
         let mut lost = lock(&self.lost);
         if lost.is_none() {
@@ -56,7 +56,7 @@ impl Shared {
 /// A master call's result: `[code, status, value]` with code 1, else an
 /// error carrying the status.
 pub fn master_call(
-    shared: &Shared,
+    shared: &NodeContext,
     method: &str,
     params: &[Value],
     timeout: Duration,
@@ -90,7 +90,7 @@ pub fn api_call(
 }
 
 /// Serves our slave API on `listener` until `shared.stop`.
-pub fn serve_slave_api(listener: TcpListener, shared: Arc<Shared>) {
+pub fn serve_slave_api(listener: TcpListener, shared: Arc<NodeContext>) {
     if listener.set_nonblocking(true).is_err() {
         return;
     }
@@ -108,7 +108,7 @@ pub fn serve_slave_api(listener: TcpListener, shared: Arc<Shared>) {
     }
 }
 
-fn handle(mut stream: TcpStream, shared: &Arc<Shared>) -> Result<(), CallError> {
+fn handle(mut stream: TcpStream, shared: &Arc<NodeContext>) -> Result<(), CallError> {
     stream.set_nonblocking(false)?;
     stream.set_read_timeout(Some(Duration::from_secs(2)))?;
     stream.set_write_timeout(Some(Duration::from_secs(2)))?;
@@ -131,7 +131,7 @@ fn api_reply(code: i32, status: &str, value: Value) -> Value {
     Value::Array(vec![Value::Int(code), s(status), value])
 }
 
-fn answer(method: &str, params: &[Value], shared: &Arc<Shared>) -> Value {
+fn answer(method: &str, params: &[Value], shared: &Arc<NodeContext>) -> Value {
     let param = |i: usize| params.get(i).and_then(Value::as_str).unwrap_or("");
     match method {
         "requestTopic" => {
@@ -216,7 +216,7 @@ fn answer(method: &str, params: &[Value], shared: &Arc<Shared>) -> Value {
 
 /// Connects to the tool pose's publishers we are not connected to yet
 /// (each on its own thread, which forgets it when its connection ends).
-pub fn connect_publishers(shared: &Arc<Shared>, uris: &[String]) {
+pub fn connect_publishers(shared: &Arc<NodeContext>, uris: &[String]) {
     let Some(topic) = shared.sub_topic.clone() else {
         return;
     };
@@ -266,7 +266,7 @@ pub fn connect_publishers(shared: &Arc<Shared>, uris: &[String]) {
 
 /// Asks the master for its pid every `period` until `shared.stop`: no
 /// answer, or another pid (a new master), marks the master lost.
-pub fn watch_master(shared: Arc<Shared>, period: Duration, pid: i32) {
+pub fn watch_master(shared: Arc<NodeContext>, period: Duration, pid: i32) {
     let timeout = period.max(Duration::from_millis(200));
     let mut next = Instant::now() + period;
     let mut last_ok = Instant::now();

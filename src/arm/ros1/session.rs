@@ -11,14 +11,14 @@ use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
 use super::msg::{self, MsgType};
-use super::node::{self, NODE_NAME, Shared};
+use super::node::{self, NODE_NAME, NodeContext};
 use super::tcpros::{self, PoseSlot, Subscribers, lock};
 use super::xmlrpc::{self, HttpUri, s};
 use crate::arm::ArmError;
 
 /// A connected node.
 pub(super) struct Node {
-    pub(super) shared: Arc<Shared>,
+    pub(super) shared: Arc<NodeContext>,
     pub(super) subscribers: Subscribers,
     /// Stops accepting subscribers (first step of the stop).
     pub(super) accept_stop: Arc<AtomicBool>,
@@ -91,7 +91,7 @@ pub(super) fn start(plan: &Plan) -> Result<Node, ArmError> {
         .map_err(|e| io("the TCPROS port", e))?
         .port();
     let stop = Arc::new(AtomicBool::new(false));
-    let shared = Arc::new(Shared {
+    let shared = Arc::new(NodeContext {
         caller_id: NODE_NAME.into(),
         host: host.clone(),
         api_uri: format!("http://{host}:{api_port}/"),

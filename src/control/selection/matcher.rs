@@ -78,7 +78,7 @@ pub enum MatchEvent {
 #[derive(Debug, Clone)]
 pub struct SequenceMatcher {
     library: Box<[SequenceEntry]>,
-    timeout: u64,
+    config: MatcherConfig,
     cs: ActionSeq,
     /// The CS equals this entry's sequence, but a longer one starts with it.
     pending: Option<Target>,
@@ -97,10 +97,10 @@ struct Standing {
 
 impl SequenceMatcher {
     /// Builds the matcher over a validated library. Not RT-safe (allocates).
-    pub fn new(library: &[SequenceEntry], sequence_timeout_ms: u32) -> Self {
+    pub fn new(library: &[SequenceEntry], config: &MatcherConfig) -> Self {
         SequenceMatcher {
             library: library.into(),
-            timeout: sequence_timeout_ms.into(),
+            config: *config,
             cs: ActionSeq::EMPTY,
             pending: None,
             last_end: 0,
@@ -134,7 +134,10 @@ impl SequenceMatcher {
     /// (a breath in progress delays it); `None` with nothing entered.
     /// RT-safe.
     pub fn decides_at(&self) -> Option<Tick> {
-        (!self.cs.is_empty()).then(|| self.last_end.saturating_add(self.timeout))
+        (!self.cs.is_empty()).then(|| {
+            self.last_end
+                .saturating_add(self.config.sequence_timeout_ms.into())
+        })
     }
 
     /// What that decision selects (the sequence is complete and a
@@ -169,7 +172,9 @@ impl SequenceMatcher {
 
     /// Runs the timeout: call every tick, after `on_burst`. RT-safe.
     pub fn on_tick(&mut self, now: Tick, breath_in_progress: bool) -> Option<MatchEvent> {
-        let deadline = self.last_end.saturating_add(self.timeout);
+        let deadline = self
+            .last_end
+            .saturating_add(self.config.sequence_timeout_ms.into());
         if self.cs.is_empty() || breath_in_progress || now < deadline {
             return None;
         }
@@ -233,7 +238,9 @@ mod tests {
                 entry(&[ShortSip, LongSip], Mode::TranslateY),
                 entry(&[LongSip, ShortSip], Mode::TranslateZ),
             ],
-            1000,
+            &MatcherConfig {
+                sequence_timeout_ms: 1000,
+            },
         )
     }
 
@@ -342,7 +349,12 @@ mod tests {
     #[test]
     fn a_full_length_sequence_matches() {
         let long = [ShortPuff; crate::control::action::MAX_SEQUENCE_LEN];
-        let mut m = SequenceMatcher::new(&[entry(&long, Mode::Fingers)], 1000);
+        let mut m = SequenceMatcher::new(
+            &[entry(&long, Mode::Fingers)],
+            &MatcherConfig {
+                sequence_timeout_ms: 1000,
+            },
+        );
         for (i, &a) in long.iter().enumerate() {
             let event = m.on_burst(&b(a, 1000 + 200 * i as Tick));
             if i + 1 < long.len() {

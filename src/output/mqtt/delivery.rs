@@ -2,7 +2,7 @@
 //! hand the MQTT client, and when, from what the network reports. Time is
 //! an argument and every input and output is a plain value, so the same
 //! code runs behind [`MqttOutput`](super::MqttOutput) (which reads the
-//! clock, feeds the [`Notice`]s and hands the [`Request`]s to rumqttc) and
+//! clock, feeds the [`NetworkNotice`]s and hands the [`Request`]s to rumqttc) and
 //! in the unit tests on a simulated clock. Not RT-safe (it allocates).
 //!
 //! The rules it keeps:
@@ -41,7 +41,7 @@ pub const CLOSE_WAIT: Duration = Duration::from_secs(2);
 
 /// What the network reports, in the order it happened.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Notice {
+pub enum NetworkNotice {
     /// The broker accepted a connection (its CONNACK).
     Connected,
     /// A connection broke, or an attempt to connect failed: why, in plain
@@ -231,29 +231,29 @@ impl Delivery {
     }
 
     /// What the network reported, at `now`.
-    pub fn notice(&mut self, notice: Notice, now: Instant) {
+    pub fn notice(&mut self, notice: NetworkNotice, now: Instant) {
         match notice {
-            Notice::Connected => self.on_connected(now),
-            Notice::Broken(why) => self.on_broken(why, now),
-            Notice::Written(written) => {
+            NetworkNotice::Connected => self.on_connected(now),
+            NetworkNotice::Broken(why) => self.on_broken(why, now),
+            NetworkNotice::Written(written) => {
                 if let (Some(Unwritten::Event(waiting)), Written::Publish(id)) =
                     (self.unwritten.pop_front(), written)
                 {
                     self.unacked.push((id, waiting));
                 }
             }
-            Notice::Acked(id) => {
+            NetworkNotice::Acked(id) => {
                 if let Some(i) = self.unacked.iter().position(|(pkid, _)| *pkid == id) {
                     self.unacked.swap_remove(i);
                     self.tally.confirmed += 1;
                 }
             }
-            Notice::Message {
+            NetworkNotice::Message {
                 topic,
                 payload,
                 retain,
             } => self.on_message(&topic, &payload, retain),
-            Notice::Gone => self.on_gone(now),
+            NetworkNotice::Gone => self.on_gone(now),
         }
     }
 

@@ -44,7 +44,7 @@ use crate::output::settings::MqttSettings;
 use crate::output::{Output, OutputError, OutputReport};
 
 use credentials::Credentials;
-use delivery::{Delivery, Handed, Notice, Qos, Request};
+use delivery::{Delivery, Handed, NetworkNotice, Qos, Request};
 use discovery::{OFFLINE, Topics};
 use network::Gate;
 
@@ -71,7 +71,7 @@ pub struct MqttOutput {
     describe: String,
     client: Client,
     gate: Arc<Gate>,
-    notices: Receiver<Notice>,
+    notices: Receiver<NetworkNotice>,
     /// Dropped to stop the network thread.
     stop: Option<Sender<()>>,
     thread: Option<JoinHandle<()>>,
@@ -162,13 +162,13 @@ impl MqttOutput {
         // The first answer: the CONNACK, or why there is none.
         let wait = Duration::from_secs(CONNECT_TIMEOUT_S + 1);
         match output.receive(wait) {
-            Some(Notice::Broken(why)) => {
+            Some(NetworkNotice::Broken(why)) => {
                 output.stop_thread();
                 Err(error(format!(
                     "cannot connect to the broker at {address}: {why}"
                 )))
             }
-            None | Some(Notice::Gone) => {
+            None | Some(NetworkNotice::Gone) => {
                 output.stop_thread();
                 Err(error(format!(
                     "cannot connect to the broker at {address}: no answer within {} s",
@@ -185,12 +185,12 @@ impl MqttOutput {
     /// One turn, and the only place the clock is read: feeds the delivery
     /// `first` and every notice waiting, then `message` (a match), then
     /// hands the client what the delivery asks for. Returns the time read.
-    fn turn(&mut self, first: Option<Notice>, message: Option<String>) -> Instant {
+    fn turn(&mut self, first: Option<NetworkNotice>, message: Option<String>) -> Instant {
         let now = Instant::now();
         let mut next = first.or_else(|| self.receive(Duration::ZERO));
         while let Some(notice) = next {
             // Once gone, the channel says so at every look: once is enough.
-            let gone = notice == Notice::Gone;
+            let gone = notice == NetworkNotice::Gone;
             self.delivery.notice(notice, now);
             next = if gone {
                 None
@@ -210,9 +210,9 @@ impl MqttOutput {
         now
     }
 
-    /// The next notice, waiting up to `wait` for it; [`Notice::Gone`]
+    /// The next notice, waiting up to `wait` for it; [`NetworkNotice::Gone`]
     /// once the network thread has ended.
-    fn receive(&self, wait: Duration) -> Option<Notice> {
+    fn receive(&self, wait: Duration) -> Option<NetworkNotice> {
         let got = if wait.is_zero() {
             self.notices
                 .try_recv()
@@ -224,7 +224,7 @@ impl MqttOutput {
         };
         match got {
             Ok(notice) => Some(notice),
-            Err(true) => Some(Notice::Gone),
+            Err(true) => Some(NetworkNotice::Gone),
             Err(false) => None,
         }
     }

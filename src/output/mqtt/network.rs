@@ -1,6 +1,6 @@
 //! The MQTT client's own thread: it drives rumqttc's connection (connect,
 //! read, write, keep-alive, reconnect with backoff) and reports what
-//! happened, in order and as plain [`Notice`]s, to the output's thread.
+//! happened, in order and as plain [`NetworkNotice`]s, to the output's thread.
 //! Nothing here waits on the output, and the output never waits on the
 //! network.
 //!
@@ -21,7 +21,7 @@ use rumqttc::{
     ConnectReturnCode, Connection, ConnectionError, Event, Incoming, Outgoing, StateError,
 };
 
-use super::delivery::{Notice, Written};
+use super::delivery::{NetworkNotice, Written};
 
 /// First wait before reconnecting; it doubles up to [`MAX_BACKOFF`].
 const FIRST_BACKOFF: Duration = Duration::from_millis(100);
@@ -43,11 +43,11 @@ impl Gate {
 }
 
 /// Runs `connection` until the output is gone or asked to stop, sending
-/// [`Notice`]s. Not RT-safe (the MQTT client's own thread).
+/// [`NetworkNotice`]s. Not RT-safe (the MQTT client's own thread).
 pub fn run(
     mut connection: Connection,
     gate: Arc<Gate>,
-    notices: SyncSender<Notice>,
+    notices: SyncSender<NetworkNotice>,
     stop: Receiver<()>,
     connect_timeout_s: u64,
 ) {
@@ -83,7 +83,7 @@ pub fn run(
                     }
                 }
                 if notices
-                    .send(Notice::Broken(plain(&error, connect_timeout_s)))
+                    .send(NetworkNotice::Broken(plain(&error, connect_timeout_s)))
                     .is_err()
                 {
                     return;
@@ -102,20 +102,20 @@ pub fn run(
 
 /// What the delivery needs to know of one of rumqttc's notifications
 /// (pings and the acknowledgements this client sends are not).
-fn notice_of(event: Event) -> Option<Notice> {
+fn notice_of(event: Event) -> Option<NetworkNotice> {
     Some(match event {
-        Event::Incoming(Incoming::ConnAck(_)) => Notice::Connected,
-        Event::Incoming(Incoming::PubAck(ack)) => Notice::Acked(ack.pkid),
-        Event::Incoming(Incoming::Publish(publish)) => Notice::Message {
+        Event::Incoming(Incoming::ConnAck(_)) => NetworkNotice::Connected,
+        Event::Incoming(Incoming::PubAck(ack)) => NetworkNotice::Acked(ack.pkid),
+        Event::Incoming(Incoming::Publish(publish)) => NetworkNotice::Message {
             topic: publish.topic,
             payload: publish.payload.to_vec(),
             retain: publish.retain,
         },
-        Event::Outgoing(Outgoing::Publish(pkid)) => Notice::Written(Written::Publish(pkid)),
+        Event::Outgoing(Outgoing::Publish(pkid)) => NetworkNotice::Written(Written::Publish(pkid)),
         Event::Outgoing(Outgoing::Subscribe(_) | Outgoing::Unsubscribe(_)) => {
-            Notice::Written(Written::Subscribe)
+            NetworkNotice::Written(Written::Subscribe)
         }
-        Event::Outgoing(Outgoing::Disconnect) => Notice::Written(Written::Disconnect),
+        Event::Outgoing(Outgoing::Disconnect) => NetworkNotice::Written(Written::Disconnect),
         _ => return None,
     })
 }

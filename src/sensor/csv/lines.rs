@@ -190,7 +190,7 @@ impl<R: Read> PlainLines<R> {
 
     /// The unread bytes, then the rest of the input, for the CSV parser
     /// to read from the start of the file.
-    pub(super) fn into_rest(self) -> Rest<R> {
+    pub(super) fn into_rest(self) -> Unread<R> {
         self.rest(b"", LineBreaks::new(1, true))
     }
 
@@ -199,15 +199,15 @@ impl<R: Read> PlainLines<R> {
     /// mid-file, a byte order mark on that line is data: the parser drops
     /// one only at the very start).
     /// `line` is the number of the line it starts at.
-    pub(super) fn into_rest_mid_file(self, line: u64) -> Rest<R> {
+    pub(super) fn into_rest_mid_file(self, line: u64) -> Unread<R> {
         // (The `\n` put first is on the line before.)
         self.rest(b"\n", LineBreaks::new(line - 1, false))
     }
 
-    fn rest(self, lead: &[u8], breaks: LineBreaks) -> Rest<R> {
+    fn rest(self, lead: &[u8], breaks: LineBreaks) -> Unread<R> {
         let mut unread = lead.to_vec();
         unread.extend_from_slice(&self.buffer[self.start..self.end]);
-        Rest {
+        Unread {
             unread: Cursor::new(unread),
             input: self.input,
             breaks,
@@ -216,14 +216,14 @@ impl<R: Read> PlainLines<R> {
 }
 
 /// What [`PlainLines`] left unread, then the rest of its input.
-pub(super) struct Rest<R: Read> {
+pub(super) struct Unread<R: Read> {
     unread: Cursor<Vec<u8>>,
     input: R,
     /// The line breaks in what the parser has read.
     breaks: LineBreaks,
 }
 
-impl<R: Read> Rest<R> {
+impl<R: Read> Unread<R> {
     /// The line of the row (or error) the parser places at `byte` of
     /// what it read (see [`LineBreaks::line_of`]).
     pub(super) fn line_of(&mut self, byte: u64) -> u64 {
@@ -231,7 +231,7 @@ impl<R: Read> Rest<R> {
     }
 }
 
-impl<R: Read> Read for Rest<R> {
+impl<R: Read> Read for Unread<R> {
     /// Reads on into the input in the same call (as `Chain` does not):
     /// the parser's first buffer holds what it would have held, reading
     /// the file itself, whatever little was left unread (it looks for a

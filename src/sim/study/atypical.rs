@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::config::Config;
 use crate::control::action::Action;
 use crate::fit::check::{bursts, read_right};
-use crate::fit::profile::{self, Header};
+use crate::fit::profile::{self, ProfileHeader};
 use crate::fit::protocol::{Ask, Protocol};
 use crate::fit::signal::Signal;
 use crate::sim::breather::{Breather, VARIATION, practice_session, protocol_session};
@@ -48,7 +48,7 @@ pub struct Recovered {
 
 /// How one setting (defaults or the profile) served a breather.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
-pub struct Outcome {
+pub struct UseOutcome {
     /// Breaths of the calibration read right, and how many.
     pub calibration: (usize, usize),
     /// Breaths of the held-out practice session read right, and how many.
@@ -63,7 +63,7 @@ pub struct Outcome {
     pub unintended_mm: f64,
 }
 
-impl Outcome {
+impl UseOutcome {
     /// Practice breaths read right, percent.
     pub fn practice_pct(&self) -> f64 {
         100.0 * self.practice.0 as f64 / self.practice.1.max(1) as f64
@@ -81,9 +81,9 @@ pub struct BreatherResult {
     /// The profile's text.
     pub profile: String,
     /// With the defaults (re-zeroed at the user's rest).
-    pub defaults: Outcome,
+    pub defaults: UseOutcome,
     /// With the profile.
-    pub fitted: Outcome,
+    pub fitted: UseOutcome,
     /// Why the fit failed, if it did (then `fitted` is empty).
     pub fit_error: Option<String>,
 }
@@ -104,13 +104,13 @@ fn one(b: &Breather, options: &AtypicalOptions) -> BreatherResult {
         name: b.name,
         recovered: Vec::new(),
         profile: String::new(),
-        defaults: Outcome::default(),
-        fitted: Outcome::default(),
+        defaults: UseOutcome::default(),
+        fitted: UseOutcome::default(),
         fit_error: None,
     };
     let profile = crate::fit::fit(&signal, &protocol, &defaults).and_then(|fit| {
         result.recovered = recovered(b, &fit);
-        let header = Header {
+        let header = ProfileHeader {
             label: b.name.into(),
             date: "simulated".into(),
             source: format!(
@@ -206,7 +206,7 @@ fn outcome(
     calibration: &Signal,
     meant: &[(Action, u64, u64)],
     options: &AtypicalOptions,
-) -> Outcome {
+) -> UseOutcome {
     let d = config.core().detector();
     let (read, _) = bursts(calibration, d);
     let practice = practice_session(
@@ -223,13 +223,13 @@ fn outcome(
         .map(|t| (t.action, t.start, u64::from(t.ms)))
         .collect();
     let user = user_model(b);
-    let mut out = Outcome {
+    let mut out = UseOutcome {
         calibration: (read_right(&read, meant), meant.len()),
         practice: (
             read_right(&practice_bursts, &practice_meant),
             practice_meant.len(),
         ),
-        ..Outcome::default()
+        ..UseOutcome::default()
     };
     let (mut total_s, mut finished) = (0.0, 0u64);
     for task in &TASKS {

@@ -131,7 +131,7 @@ fn same(a: &ArmCommand, b: &ArmCommand) -> bool {
 
 /// What a replay of a recording found.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Verdict {
+pub struct ReplayVerdict {
     /// Ticks replayed (the core's steps).
     pub ticks: u64,
     /// The first and last tick replayed.
@@ -156,7 +156,7 @@ pub struct Verdict {
     pub summary: ReplaySummary,
 }
 
-impl Verdict {
+impl ReplayVerdict {
     /// The replay is the recorded run, bit for bit: compared, complete,
     /// no difference.
     pub fn identical(&self) -> bool {
@@ -288,7 +288,7 @@ pub fn replay(
     compare: bool,
     out: &mut dyn Write,
     mut trace: Option<&mut dyn Write>,
-) -> Result<Verdict, ReplayError> {
+) -> Result<ReplayVerdict, ReplayError> {
     let contents = recording.check()?;
     let meta = &recording.meta;
     if meta.status == "finished" {
@@ -332,7 +332,7 @@ pub fn replay(
         complete,
         difference: None,
     };
-    let mut v = Verdict {
+    let mut v = ReplayVerdict {
         ticks: 0,
         first_tick: None,
         last_tick: None,

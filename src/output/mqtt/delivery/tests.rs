@@ -127,7 +127,7 @@ impl Sim {
         self
     }
 
-    fn notice(&mut self, notice: Notice) -> &mut Sim {
+    fn notice(&mut self, notice: NetworkNotice) -> &mut Sim {
         self.delivery.notice(notice, self.now);
         self
     }
@@ -159,14 +159,14 @@ impl Sim {
 
     /// The broker accepts a connection; what is handed at once.
     fn connect(&mut self) -> Vec<Request> {
-        self.notice(Notice::Connected).turn()
+        self.notice(NetworkNotice::Connected).turn()
     }
 
     /// The connection breaks, and the client drops what it still held
     /// (the network thread does so).
     fn broken(&mut self, why: &str) -> &mut Sim {
         self.taken.clear();
-        self.notice(Notice::Broken(why.into()))
+        self.notice(NetworkNotice::Broken(why.into()))
     }
 
     /// The client writes the first `n` requests it took; the packet ids
@@ -186,7 +186,7 @@ impl Sim {
                 Request::Subscribe { .. } => Written::Subscribe,
                 Request::Disconnect => Written::Disconnect,
             };
-            self.notice(Notice::Written(written));
+            self.notice(NetworkNotice::Written(written));
         }
         ids
     }
@@ -199,7 +199,7 @@ impl Sim {
     /// The broker acknowledges every one of `ids`.
     fn ack(&mut self, ids: &[u16]) -> &mut Sim {
         for &id in ids {
-            self.notice(Notice::Acked(id));
+            self.notice(NetworkNotice::Acked(id));
         }
         self
     }
@@ -226,7 +226,7 @@ impl Sim {
 
     /// A message from the broker.
     fn message(&mut self, topic: &str, payload: &str, retain: bool) -> Vec<Request> {
-        self.notice(Notice::Message {
+        self.notice(NetworkNotice::Message {
             topic: topic.into(),
             payload: payload.as_bytes().to_vec(),
             retain,
@@ -311,9 +311,9 @@ fn retained_configs_of_events_no_longer_in_the_library_are_deleted() {
 #[test]
 fn a_refused_announcement_is_counted_one_for_a_closing_connection_is_not() {
     let mut sim = Sim::new();
-    sim.notice(Notice::Connected);
+    sim.notice(NetworkNotice::Connected);
     assert_eq!(sim.refusing(Handed::Full), connection());
-    sim.notice(Notice::Connected);
+    sim.notice(NetworkNotice::Connected);
     assert_eq!(sim.refusing(Handed::Closed), connection());
     sim.ends_with(
         0,
@@ -447,7 +447,7 @@ fn the_client_thread_ending_counts_what_it_held() {
     sim.apply("m1").apply("m2");
     sim.turn();
     sim.write(1);
-    sim.at(100).notice(Notice::Gone);
+    sim.at(100).notice(NetworkNotice::Gone);
     sim.apply("m3");
     assert_eq!(sim.turn(), []);
     sim.ends_with(
@@ -497,7 +497,7 @@ fn close_waits_for_the_acknowledgements_then_says_goodbye() {
     assert_eq!(sim.turn(), goodbye());
     assert_eq!(sim.delivery.closing_until(), Some(sim.instant(3500)));
     sim.write_all();
-    sim.at(1510).notice(Notice::Gone);
+    sim.at(1510).notice(NetworkNotice::Gone);
     assert_eq!(sim.turn(), []);
     assert_eq!(sim.delivery.closing_until(), None);
     sim.ends_with(1, 0, &[]);
