@@ -41,16 +41,14 @@
 //! * [`cli`]: the `sipnpuff` command line, one file per command: its
 //!   options parsed, one call, the result printed.
 //!
-//! One sample's way from a serial sensor to a ROS 2 arm:
-//! `sensor/serial.rs` parses a line, `sensor/device.rs` and
-//! `sensor/held.rs` hand the newest value to the control thread as a
-//! [`sensor::Reading`]; `rt/control_loop.rs` gives it to the core in a
-//! [`control::tick::TickInput`]; `control/pipeline.rs` runs the detector, the
-//! matcher (`control/selection/matcher.rs`), the mode machine
-//! (`control/modes.rs`) and the motion layer (`control/motion/`), whose
-//! decimator (`control/motion/stream.rs`) makes the 100 Hz
-//! [`control::motion::stream::ArmCommand`]; `rt/arm_thread.rs` sends it
-//! through the [`arm::Arm`] seam to `arm/ros2/mod.rs`.
+//! One sample's way from a serial sensor to a ROS 2 arm, file by file,
+//! is in `docs/architecture.md`: the sensor's reader thread holds the
+//! newest value ([`sensor::Reading`]); the control loop
+//! (`rt/control_loop.rs`) makes the tick's [`control::tick::TickInput`];
+//! [`control::pipeline::Pipeline::step`] runs the detector, the matcher,
+//! the mode machine and the motion layer, whose decimator makes the 100 Hz
+//! [`control::motion::stream::ArmCommand`]; the arm thread
+//! (`rt/arm_thread.rs`) sends it through the [`arm::Arm`] seam.
 //!
 //! Import rules (checked by `tests/it/architecture.rs`): the modules stand
 //! on floors — `control`; `sensor`, `arm`, `output`; `config`, `rt`;

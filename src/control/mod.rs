@@ -13,7 +13,7 @@
 //!   scanning baseline (BSP);
 //! * [`modes`] is the detection/command mode machine of the paper's Fig. 1;
 //! * [`motion`] makes the smooth, limited velocity and the arm's stream;
-//! * [`pointer`] moves the computer's pointer in its modes, and
+//! * [`pointer`](mod@pointer) moves the computer's pointer in its modes, and
 //!   [`target`] says what a match selects or fires (a key chord, a click,
 //!   a home event): [`output_command`] carries them to the outputs;
 //! * [`tick`] is what goes into the core on one tick (the sample, the

@@ -193,9 +193,9 @@ impl<const N: usize> Channel<N> {
 
     /// One cycle of Ruckig, its output fed back (settled exactly at the
     /// target once finished); skipped while [`Channel::resting`] and
-    /// `asked_nothing`. Never inlined: its stack frame is some 10 KB
-    /// (Ruckig's working state), which a caller that mostly skips it (the
-    /// pointer's step) would otherwise set up, probes and all, every tick.
+    /// `asked_nothing`.
+    // Ruckig's working state is some 10 KB of stack: out of line, a caller
+    // that mostly skips this (the pointer's step) does not set it up.
     #[inline(never)]
     pub fn update(&mut self, asked_nothing: bool) -> Update {
         if self.resting && asked_nothing {

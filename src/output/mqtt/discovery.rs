@@ -18,7 +18,7 @@ use crate::control::target::HomeEvent;
 use crate::output::settings::MqttSettings;
 
 /// The device trigger's `type`: Home Assistant's frontend shows it as
-/// "<subtype> pressed".
+/// "`<subtype>` pressed".
 pub const TRIGGER_TYPE: &str = "button_short_press";
 /// The event entity's discovery object id.
 pub const EVENT_ENTITY: &str = "home_events";

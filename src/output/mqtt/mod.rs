@@ -1,6 +1,6 @@
 //! The home: each matched home event goes to Home Assistant over MQTT
 //! (`--output mqtt`). Not RT-safe: runs on the runtime's output thread,
-//! with the MQTT client on a thread of its own ([`network`]).
+//! with the MQTT client on a thread of its own (`network.rs`).
 //!
 //! What is published ([`discovery`]): retained discovery configs (a
 //! device trigger per event and one `event` entity), `online`/`offline`
@@ -18,7 +18,7 @@
 //! again — it may or may not have arrived, and a home event such as a
 //! light's toggle must never act twice — and is counted lost.
 //!
-//! [`delivery`] decides all of that, without I/O (time is an argument);
+//! `delivery.rs` decides all of that, without I/O (time is an argument);
 //! [`MqttOutput`] is its shell: it holds rumqttc's client and its network
 //! thread, reads the clock, feeds the delivery what the network reports
 //! and hands the client what the delivery asks for. The loop never waits:
@@ -66,7 +66,7 @@ const CLOSE_POLL: Duration = Duration::from_millis(20);
 const MAX_PACKET: usize = 256 * 1024;
 
 /// Home Assistant over MQTT: rumqttc's client and its network thread
-/// around a [`Delivery`], which decides. See the module's documentation.
+/// around a `Delivery` (`delivery.rs`), which decides. See the module's documentation.
 pub struct MqttOutput {
     describe: String,
     client: Client,

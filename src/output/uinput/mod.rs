@@ -5,9 +5,9 @@
 //! chord is typed and a click clicked as by a real one.
 //!
 //! The device registers exactly the keys a chord may name
-//! ([`KEYS`](crate::control::keys::KEYS)), the left, right and middle
+//! ([`KEYS`]), the left, right and middle
 //! buttons, and the relative axes X, Y and the wheel. Each command becomes
-//! a fixed sequence of events ([`plan`], pure and tested exactly); every
+//! a fixed sequence of events (`plan.rs`, pure and tested exactly); every
 //! key and button written down is tracked until it is written up, and
 //! [`Output::close`] and `Drop` let go of whatever is still down before the
 //! device is destroyed. Nothing may stay pressed: a stuck Ctrl would turn

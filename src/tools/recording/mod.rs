@@ -15,7 +15,7 @@
 //!
 //! [`recorder`] (the telemetry thread's side) and [`writer`] (its own
 //! thread) write one; [`read`] opens and checks one; [`recording_replay`]
-//! runs it through the core and compares; [`matches`] reads the `match`
+//! runs it through the core and compares; [`matches`](mod@matches) reads the `match`
 //! events of recordings for the designer.
 
 pub mod format;
