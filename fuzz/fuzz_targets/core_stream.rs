@@ -2,9 +2,11 @@
 //! infinities, missing samples, a device gone) through the whole core and
 //! motion layer, with the built-in library, the paper's (with prefixes) or
 //! one for the computer and the home (keys, clicks, pointer modes, a drag,
-//! home events), and process stalls (ticks that jump ahead): never a
-//! panic; matches only from the library; a drag's button never left down
-//! after a fault's release; nothing but finite numbers reaching the arm; and the
+//! home events), process stalls (ticks that jump ahead), the arm's link
+//! lost and the safe stop begun at any tick: never a panic; matches only
+//! from the library; a drag's button never left down after a fault's
+//! release; detection mode for good once the stop began; nothing but
+//! finite numbers reaching the arm; and the
 //! safety monitor's promises at every tick (`sipnpuff::tools::safety`: the
 //! workspace by the margin as a normal distance, the orientation limits,
 //! speed, acceleration and jerk vectors within the limits, still within
@@ -17,10 +19,11 @@ use std::sync::OnceLock;
 use libfuzzer_sys::fuzz_target;
 use sipnpuff::config::Config;
 use sipnpuff::control::event::Event;
+use sipnpuff::control::mode::ModeState;
 use sipnpuff::control::output_command::OutputCommand;
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::sample::Sample;
-use sipnpuff::control::tick::{TickInput, TickOutput};
+use sipnpuff::control::tick::{ArmInput, TickInput, TickOutput};
 use sipnpuff::tools::safety::SafetyMonitor;
 
 const PAPER_LIBRARY: &str = include_str!("../../fixtures/paper-example.toml");
@@ -62,6 +65,16 @@ fn decode(kind: u8, level: u8) -> (Sample, u64) {
     (sample, 0)
 }
 
+/// What a chunk's first tick carries besides its sample, for the rare
+/// kinds: the arm's link lost (250–252) or the safe stop begun (253–255).
+fn arm_and_stop(kind: u8) -> (ArmInput, bool) {
+    let arm = ArmInput {
+        link_lost: matches!(kind, 250..=252),
+        ..ArmInput::default()
+    };
+    (arm, kind >= 253)
+}
+
 fn check(config: &Config, o: &TickOutput, monitor: &mut SafetyMonitor) {
     let m = config.core().motion();
     let tol = 1.0 + 1e-9;
@@ -100,14 +113,30 @@ fuzz_target!(|data: &[u8]| {
     let mut tick = 0u64;
     // The drag's button as the outputs would hold it.
     let mut button_down = false;
+    let mut stopped = false;
     for chunk in chunks.chunks_exact(3) {
         let (kind, level, len) = (chunk[0], chunk[1], chunk[2]);
         // Hold each level 4 ms to 1 s, so breaths, sequences and holds form.
-        for _ in 0..(u64::from(len) + 1) * 4 {
+        for at in 0..(u64::from(len) + 1) * 4 {
             let (sample, stalled) = decode(kind, level);
             tick += stalled;
-            core.step(&TickInput::new(tick, sample), &mut out);
+            let (arm, stop) = if at == 0 {
+                arm_and_stop(kind)
+            } else {
+                (ArmInput::default(), false)
+            };
+            stopped |= stop;
+            let input = TickInput {
+                arm,
+                stop,
+                ..TickInput::new(tick, sample)
+            };
+            core.step(&input, &mut out);
             check(config, &out, &mut monitor);
+            assert!(
+                !stopped || out.command.state == ModeState::Detection,
+                "command mode after the stop began"
+            );
             for command in out.outputs.iter() {
                 match command {
                     OutputCommand::Button { down } => button_down = *down,
