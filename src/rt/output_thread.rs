@@ -18,7 +18,7 @@ use crate::output::{Output, OutputReport};
 
 /// Commands to one output: 2 s of pointer moves at 100 Hz, with room for
 /// the actions of a burst of matches.
-const OUTPUT_RING: usize = 256;
+pub const OUTPUT_RING: usize = 256;
 /// How long an output's thread sleeps when there is nothing to do.
 const IDLE_SLEEP: Duration = Duration::from_millis(1);
 
@@ -103,10 +103,20 @@ impl OutputThread {
     /// thread begins the output once it is known (or the loop never ran).
     pub fn start(
         serves: Serves,
-        mut output: Box<dyn Output>,
+        output: Box<dyn Output>,
         tick_zero: TickZero,
     ) -> std::io::Result<(OutputThread, OutputLane)> {
-        let (ring, mut commands) = RingBuffer::new(OUTPUT_RING);
+        Self::start_with_ring(serves, output, tick_zero, OUTPUT_RING)
+    }
+
+    /// [`OutputThread::start`] with a ring of `capacity` commands.
+    pub fn start_with_ring(
+        serves: Serves,
+        mut output: Box<dyn Output>,
+        tick_zero: TickZero,
+        capacity: usize,
+    ) -> std::io::Result<(OutputThread, OutputLane)> {
+        let (ring, mut commands) = RingBuffer::new(capacity);
         let dropped = Arc::new(AtomicU64::new(0));
         let lane = OutputLane {
             serves,

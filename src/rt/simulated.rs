@@ -31,6 +31,9 @@ use crate::sensor::Samples;
 
 /// One arm command's cycle, s.
 const ARM_CYCLE_S: f64 = 0.01;
+/// Commands an output's ring holds in a simulated run: a whole session's,
+/// as the unpaced loop runs a minute in a fraction of a second.
+pub const SIMULATED_OUTPUT_RING: usize = 1 << 16;
 
 /// The simulated loop's measuring arm, on the control thread (a thread of
 /// its own would fall behind a simulated clock): after each tick that made
@@ -93,10 +96,10 @@ pub struct SimulatedRun {
     pub last_arm_command: ArmCommand,
     /// Measured poses the core took in ([`run_simulated_measured`]).
     pub measured_poses: u64,
-    /// Commands the two outputs (the computer's and the home's) carried
-    /// out, and dropped.
+    /// Commands the loop offered the two outputs (the computer's and the
+    /// home's): carried out or dropped.
     pub output_commands: u64,
-    /// Output commands dropped (a ring full).
+    /// Output commands dropped because a ring was full.
     pub output_drops: u64,
 }
 
@@ -127,17 +130,28 @@ impl Output for Counting {
 /// stop, asking for no real-time settings; its rings are drained on
 /// another thread, as in `run`.
 pub fn run_simulated<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRun {
-    simulate(config, samples, false, counting_outputs()).0
+    simulate(
+        config,
+        samples,
+        false,
+        counting_outputs(),
+        SIMULATED_OUTPUT_RING,
+    )
+    .0
 }
 
-/// [`run_simulated`] driving `outputs`, each on its thread as in `run`;
-/// returns their reports too.
+/// [`run_simulated`] driving `outputs`, each on its thread as in `run`
+/// with a ring of `ring` commands ([`crate::rt::output_thread::OUTPUT_RING`]
+/// is `run`'s; a session's
+/// worth makes what an output receives independent of how the host
+/// schedules its thread); returns their reports too.
 pub fn run_simulated_with_outputs<S: Samples>(
     config: &CoreConfig,
     samples: S,
     outputs: Vec<(Serves, Box<dyn Output>)>,
+    ring: usize,
 ) -> (SimulatedRun, Vec<OutputReport>) {
-    simulate(config, samples, false, outputs)
+    simulate(config, samples, false, outputs, ring)
 }
 
 /// Both kinds of output, counting what they are given.
@@ -153,7 +167,14 @@ fn counting_outputs() -> Vec<(Serves, Box<dyn Output>)> {
 /// home) comes back through the measured-pose ring, so the ticks checked
 /// take in a measurement every 10 ms.
 pub fn run_simulated_measured<S: Samples>(config: &CoreConfig, samples: S) -> SimulatedRun {
-    simulate(config, samples, true, counting_outputs()).0
+    simulate(
+        config,
+        samples,
+        true,
+        counting_outputs(),
+        SIMULATED_OUTPUT_RING,
+    )
+    .0
 }
 
 fn simulate<S: Samples>(
@@ -161,6 +182,7 @@ fn simulate<S: Samples>(
     samples: S,
     measured: bool,
     outputs_to_drive: Vec<(Serves, Box<dyn Output>)>,
+    output_ring: usize,
 ) -> (SimulatedRun, Vec<OutputReport>) {
     // With the recorder's command ring: the loop checked is the loop of
     // `run --record`.
@@ -187,10 +209,11 @@ fn simulate<S: Samples>(
     // offers them its commands.
     let mut output_threads = Vec::new();
     for (serves, output) in outputs_to_drive {
-        if let Ok((thread, lane)) = OutputThread::start(
+        if let Ok((thread, lane)) = OutputThread::start_with_ring(
             serves,
             output,
             TickZero::known(std::time::SystemTime::now()),
+            output_ring,
         ) {
             output_threads.push(thread);
             outputs.outputs.push(lane);
@@ -249,8 +272,8 @@ fn simulate<S: Samples>(
         (result, counts)
     });
     let reports: Vec<OutputReport> = output_threads.into_iter().map(OutputThread::join).collect();
-    let output_commands = reports.iter().map(|r| r.applied).sum();
     let output_drops = reports.iter().map(|r| r.dropped).sum();
+    let output_commands = reports.iter().map(|r| r.applied).sum::<u64>() + output_drops;
     let run = SimulatedRun {
         ticks: ticks + result.drops.records,
         events: events + result.drops.events,

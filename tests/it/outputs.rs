@@ -19,8 +19,8 @@ use sipnpuff::control::sample::Sample;
 use sipnpuff::control::target::{Chord, Click, HomeEvent};
 use sipnpuff::control::tick::TickInput;
 use sipnpuff::output::{Output, OutputReport};
-use sipnpuff::rt::output_thread::Serves;
-use sipnpuff::rt::simulated::run_simulated_with_outputs;
+use sipnpuff::rt::output_thread::{OUTPUT_RING, Serves};
+use sipnpuff::rt::simulated::{SIMULATED_OUTPUT_RING, run_simulated_with_outputs};
 use sipnpuff::sensor::Sensor;
 use sipnpuff::sim::script::outputs_session;
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams};
@@ -249,13 +249,17 @@ impl Output for Kept {
 }
 
 /// Runs the session through the production loop (on a simulated clock)
-/// with these outputs.
-fn run_with(config: &Config, outputs: Vec<(Serves, Box<dyn Output>)>) -> Vec<OutputReport> {
+/// with these outputs, on rings of `ring` commands.
+fn run_with(
+    config: &Config,
+    outputs: Vec<(Serves, Box<dyn Output>)>,
+    ring: usize,
+) -> Vec<OutputReport> {
     let params = SignalParams::clean(config.core().detector(), 7);
     let sensor = SyntheticSensor::new(params, outputs_session(config))
         .start()
         .unwrap();
-    let (run, reports) = run_simulated_with_outputs(config.core(), sensor.samples, outputs);
+    let (run, reports) = run_simulated_with_outputs(config.core(), sensor.samples, outputs, ring);
     assert_eq!(run.allocations, 0, "{run:?}");
     reports
 }
@@ -271,6 +275,7 @@ fn each_output_gets_what_it_serves_in_order_and_is_closed_once() {
             (Serves::Computer, Box::new(computer.clone())),
             (Serves::Home, Box::new(home.clone())),
         ],
+        SIMULATED_OUTPUT_RING,
     );
     let want = |serves: Serves| -> Vec<OutputCommand> {
         let mut want: Vec<OutputCommand> = expected
@@ -304,7 +309,11 @@ fn a_slow_output_loses_commands_counted_never_the_loop_its_pace() {
         stall: Some(Duration::from_secs(2)),
         ..Kept::default()
     };
-    let reports = run_with(&config, vec![(Serves::Computer, Box::new(slow.clone()))]);
+    let reports = run_with(
+        &config,
+        vec![(Serves::Computer, Box::new(slow.clone()))],
+        OUTPUT_RING,
+    );
     let kept = slow.commands.lock().unwrap().len() as u64;
     let report = &reports[0];
     // The loop runs on while the output hangs (its 80 s of ticks on a
