@@ -51,7 +51,8 @@ pub struct FitArgs {
     json: bool,
     /// Live: where samples come from, as `run --sensor` (default: the
     /// built-in synthetic user, who breathes the protocol in time with
-    /// the prompts).
+    /// the prompts; `synthetic:NAME` a built-in breather, e.g.
+    /// `synthetic:tremor_4hz`, in that user's place).
     #[arg(long, default_value = "synthetic", value_parser = SensorSpec::parse, conflicts_with = "from")]
     sensor: SensorSpec,
     /// Live: record the session into this directory (created if needed;

@@ -41,9 +41,13 @@ pub struct GenerateArgs {
     sequences: Option<String>,
     /// Instead of the configured user, a simulated person with known
     /// breathing: typical, weak, short_capacity, slow, tremulous or
-    /// asymmetric. Without `--protocol`, `--seconds` of random sequences
-    /// from the configured library. Their own rest level, noise, drift and
-    /// true crossings shape the signal, not the configuration's.
+    /// asymmetric; or one whose rest is not clean noise: tremor_4hz,
+    /// tremor_6hz, tremor_9hz (a tremor at rest and on every breath),
+    /// hum_50hz, hum_60hz (mains hum), adc_8bit, adc_10bit (a coarse
+    /// converter), wandering (a rest level that wanders ±0.1 V) or spiky
+    /// (isolated spikes). Without `--protocol`, `--seconds` of random
+    /// sequences from the configured library. Their own rest level, noise,
+    /// drift and true crossings shape the signal, not the configuration's.
     #[arg(
         long,
         value_name = "NAME",

@@ -26,7 +26,10 @@ pub struct RunArgs {
     #[arg(long, value_parser = parse_seconds)]
     seconds: Option<f64>,
     /// Where samples come from: `synthetic` (the built-in scripted user),
-    /// `csv:PATH` (a recording played in real time), or a device:
+    /// `synthetic:NAME` (a built-in breather, e.g. `tremor_4hz`, in two
+    /// minutes of ordinary use of the library; `sipnpuff generate --help`
+    /// lists them), `csv:PATH` (a recording played in real time), or a
+    /// device:
     /// `evdev:/dev/input/eventN` or `evdev:name=SUBSTRING` (a USB HID
     /// sip-and-puff device: an analog axis or switches), `serial:PATH[,baud=N]`
     /// (a microcontroller's stream, FLipMouse or LipSync), or

@@ -140,9 +140,17 @@ impl File {
     }
 
     /// The built-in configuration as a TOML tree: what a file's key is
-    /// checked against (is it known, what replaces a wrong value).
+    /// checked against (is it known, what replaces a wrong value). Keys
+    /// unset by default are there with a value of their kind.
     pub(super) fn sample() -> toml::Value {
-        toml::Value::try_from(File::default())
-            .unwrap_or_else(|_| toml::Value::Table(toml::Table::new()))
+        let mut sample = toml::Value::try_from(File::default())
+            .unwrap_or_else(|_| toml::Value::Table(toml::Table::new()));
+        if let Some(toml::Value::Table(detector)) = sample.get_mut("detector") {
+            let shared = detector.get("hysteresis_volts").cloned();
+            if let Some(value) = shared {
+                detector.insert("sip_hysteresis_volts".into(), value);
+            }
+        }
+        sample
     }
 }

@@ -2,7 +2,7 @@
 //! with its key and line, the sensor, arm and output tables, the setters.
 
 use super::*;
-use crate::control::action::{Action, MAX_SEQUENCE_LEN};
+use crate::control::action::{Action, Breath, MAX_SEQUENCE_LEN};
 use crate::control::mode::Mode;
 
 fn errors(text: &str) -> Vec<ConfigError> {
@@ -273,6 +273,30 @@ fn every_error_is_reported_at_once_with_its_key() {
         assert!(e.iter().any(|k| k == key), "no error for {key}: {e:?}");
     }
     assert_eq!(e.len(), expected.len(), "{e:?}");
+}
+
+#[test]
+fn a_sips_own_hysteresis_lies_inside_the_sip_band() {
+    // Puffs 1.0 V from the neutral, sips 0.3 V: each hysteresis inside
+    // its own kind's band.
+    let text = "[detector]\npuff_threshold_volts = 3.5\nsip_threshold_volts = 2.2\nhysteresis_volts = 0.4\nsip_hysteresis_volts = 0.3\n";
+    let e = errors(text);
+    assert_eq!(e.len(), 1, "{e:?}");
+    assert_eq!(e[0].key, "detector.sip_hysteresis_volts");
+    assert_eq!(
+        e[0].message,
+        "0.3 V must be smaller than the distance from the neutral to the sip threshold (0.300 V)"
+    );
+    let fine = text.replace("sip_hysteresis_volts = 0.3", "sip_hysteresis_volts = 0.05");
+    let config = Config::from_toml_str(&fine).unwrap();
+    let d = config.core().detector();
+    assert_eq!(
+        (d.hysteresis_of(Breath::Puff), d.hysteresis_of(Breath::Sip)),
+        (0.4, 0.05)
+    );
+    // Without its own, 0.4 V would not fit the sips' band.
+    let e = errors(&text.replace("sip_hysteresis_volts = 0.3\n", ""));
+    assert_eq!(e[0].key, "detector.hysteresis_volts");
 }
 
 #[test]

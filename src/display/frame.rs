@@ -67,8 +67,10 @@ pub struct Setup {
     pub puff_offset_volts: f64,
     /// Sip threshold minus neutral (negative).
     pub sip_offset_volts: f64,
-    /// The hysteresis band, volts.
+    /// The puff's hysteresis band, volts.
     pub hysteresis_volts: f64,
+    /// The sip's hysteresis band, volts.
+    pub sip_hysteresis_volts: f64,
     /// A breath this long or longer is long, ms.
     pub long_ms: u32,
     /// How long the matcher waits for the next breath, ms.

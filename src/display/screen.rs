@@ -5,7 +5,7 @@
 //! the same [`Frame`]; [`Setup`] is what does not change during a run.
 
 use crate::control::Tick;
-use crate::control::action::ActionSeq;
+use crate::control::action::{ActionSeq, Breath};
 use crate::control::core_config::CoreConfig;
 use crate::control::event::{Event, TimedEvent};
 use crate::control::mode::{Direction, Mode, ModeState};
@@ -106,7 +106,8 @@ impl Screen {
             },
             puff_offset_volts: detector.puff_offset_volts(),
             sip_offset_volts: detector.sip_offset_volts(),
-            hysteresis_volts: detector.hysteresis_volts,
+            hysteresis_volts: detector.hysteresis_of(Breath::Puff),
+            sip_hysteresis_volts: detector.hysteresis_of(Breath::Sip),
             long_ms: detector.long_burst_ms,
             sequence_timeout_ms: config.matcher().sequence_timeout_ms,
             inactivity_ms: config.command().inactivity_timeout_ms,

@@ -75,7 +75,7 @@ pub fn levels(d: &DetectorConfig, breath: Breath) -> (f64, f64) {
         Breath::Puff => d.puff_threshold_volts - d.neutral_volts,
         Breath::Sip => d.neutral_volts - d.sip_threshold_volts,
     };
-    (on, on - d.hysteresis_volts)
+    (on, on - d.hysteresis_of(breath))
 }
 
 /// A spread never taken as smaller than this fraction of the mean (eight
@@ -134,18 +134,31 @@ pub fn predict(signal: &Signal, found: &Found, answers: &Answers, d: &DetectorCo
     }
 }
 
-/// Bursts per hour the rest's noise would make: Gaussian noise of the
-/// rest's spread staying past a threshold for a whole `min_burst_ms`
-/// (samples taken as independent).
+/// Bursts per hour the rest would make: its periodic part (a tremor,
+/// hum, a wander: the largest excursion measured at rest, less the
+/// noise's share of it) plus Gaussian noise of its sample-to-sample
+/// spread, staying past a threshold for a whole `min_burst_ms` (samples
+/// taken as independent, the periodic part at its peak throughout: an
+/// upper bound).
 fn false_per_hour(found: &Found, d: &DetectorConfig) -> f64 {
-    let sd = found.rest.sd.max(1e-6);
+    let rest = &found.rest;
+    let sd = rest.white_sd.max(1e-6);
     let per_ms: f64 = [Breath::Puff, Breath::Sip]
         .iter()
         .map(|&b| {
             let (on, _) = levels(d, b);
-            let past = 1.0 - normal_cdf(on / sd);
+            let excursion = match b {
+                Breath::Puff => rest.excursion_up,
+                Breath::Sip => rest.excursion_down,
+            };
+            let periodic = (excursion - NOISE_PEAK_SDS * sd).max(0.0);
+            let past = 1.0 - normal_cdf((on - periodic) / sd);
             past.powf(f64::from(d.min_burst_ms))
         })
         .sum();
     per_ms * 3_600_000.0
 }
+
+/// How far the noise alone reaches in the rest's few seconds, in its
+/// standard deviations: what of the largest excursion is noise.
+const NOISE_PEAK_SDS: f64 = 3.5;

@@ -36,8 +36,8 @@ pub fn text(fit: &Fit, header: &ProfileHeader) -> String {
     let rest = &fit.found.rest;
     let _ = writeln!(
         out,
-        "# rest: {:.3} V, noise sd {:.3} V, largest excursion +{:.3} / −{:.3} V, {} spikes",
-        rest.level, rest.sd, rest.excursion_up, rest.excursion_down, rest.spikes
+        "# rest: {:.3} V, largest excursion +{:.3} / −{:.3} V (sample-to-sample noise sd {:.3} V, spread sd {:.3} V), {} spikes",
+        rest.level, rest.excursion_up, rest.excursion_down, rest.white_sd, rest.sd, rest.spikes
     );
     for c in &fit.classes {
         let _ = writeln!(out, "# {} × {}: {}", c.breaths, c.ask.words(), c.measured());

@@ -319,13 +319,18 @@ pub struct Prompter {
     message: Option<Say>,
 }
 
+/// No narrower band than this counts breaths live, volts: a level that
+/// wanders while a long breath holds the neutral still comes back this
+/// far from it, and the weakest breath a sensor reads stands well clear.
+const LIVE_MIN_BAND_VOLTS: f64 = 0.1;
+
 /// The live detector for a session whose rest was `found`: thresholds at
 /// the edge of the rest's noise ([`Found::outside`], as the offline fit
-/// finds breaths), the off level halfway back, breaths from
-/// [`MIN_BREATH_MS`] to [`LIVE_MAX_HOLD_MS`].
+/// finds breaths, and at least [`LIVE_MIN_BAND_VOLTS`]), the off level
+/// halfway back, breaths from [`MIN_BREATH_MS`] to [`LIVE_MAX_HOLD_MS`].
 pub fn live_detector(found: &Found) -> DetectorConfig {
     let level = found.rest.level;
-    let on = found.outside;
+    let on = found.outside.max(LIVE_MIN_BAND_VOLTS);
     DetectorConfig {
         neutral_volts: level,
         puff_threshold_volts: level + on,
@@ -572,7 +577,8 @@ impl Prompter {
         } else {
             detector.held().map(|(breath, _)| breath)
         };
-        if out.in_progress || out.faulted {
+        // A crossing that never lasts (a spike) does not end the rest.
+        if out.held.breath.is_some() || out.faulted {
             self.quiet_since = None;
         } else if self.quiet_since.is_none() {
             self.quiet_since = Some(tick);

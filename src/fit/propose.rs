@@ -61,6 +61,103 @@ fn weakest(answers: &Answers, breath: Breath) -> (f64, Ask) {
         .unwrap_or((0.0, Ask::Breath(Action::new(breath, false))))
 }
 
+/// The lowest a breath of this kind falls, volts from its baseline,
+/// between the first and last time it is past the threshold of `d` for
+/// longer than the glitch filter, over the
+/// session's breaths of that kind that fell back under it in between, and
+/// the prompt it answered; `None` if none did.
+fn lowest_dip(
+    signal: &Signal,
+    answers: &Answers,
+    d: &DetectorConfig,
+    breath: Breath,
+) -> Option<(f64, Ask)> {
+    let (on, _) = crate::fit::predict::levels(d, breath);
+    let sign = crate::control::mode::Direction::of(breath).sign();
+    answers
+        .answers
+        .iter()
+        .filter(|a| a.ask.breath() == breath)
+        .filter_map(|a| {
+            let r = &a.region;
+            let distance: Vec<f64> = (r.start..r.end)
+                .filter_map(|t| signal.volts(t))
+                .map(|v| sign * (v - r.baseline))
+                .collect();
+            // Past the threshold for longer than the glitch filter: a
+            // spike at either end is not the breath.
+            let w = d.glitch_ms as usize + 1;
+            let held: Vec<f64> = distance
+                .windows(w)
+                .map(|w| w.iter().copied().fold(f64::INFINITY, f64::min))
+                .collect();
+            let first = held.iter().position(|&x| x > on)?;
+            let last = held.iter().rposition(|&x| x > on)? + w - 1;
+            // A dip the detector ignores (no longer than the glitch
+            // filter) does not count.
+            let low = distance[first..=last]
+                .windows(w)
+                .map(|w| w.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+                .fold(f64::INFINITY, f64::min);
+            (low <= on).then_some((low, a.ask))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+}
+
+/// Sips and puffs whose weakest plateaus differ more than this many times
+/// get a hysteresis each.
+const OWN_HYSTERESIS_RATIO: f64 = 2.0;
+
+/// The hysteresis for the kinds `kinds` (0 puff, 1 sip) and why, from each
+/// kind's room between its threshold and the rest (`gaps`), the rest's
+/// excursion on its side and the deepest dip of its breaths: a quarter of
+/// the room, or, when a tremor riding on a breath dips it back under its
+/// threshold, midway between that dip and the rest, but never within a
+/// quarter of the room of the rest.
+fn end_level(
+    kinds: &[usize],
+    gaps: &[f64; 2],
+    excursions: &[f64; 2],
+    dips: &[Option<(f64, Ask)>; 2],
+) -> (f64, String) {
+    let room = kinds.iter().map(|&i| gaps[i]).fold(f64::INFINITY, f64::min);
+    let quarter = hundredths((room / 4.0).clamp(0.01, 0.2));
+    let needed = kinds
+        .iter()
+        .filter_map(|&i| {
+            let (dip, ask) = dips[i]?;
+            let offset = gaps[i] + excursions[i];
+            Some((offset - (dip + excursions[i]) / 2.0, dip, ask))
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    let most = hundredths(room * 0.75 - 0.005).max(0.01);
+    match needed {
+        Some((h, dip, ask)) if hundredths(h) > quarter => {
+            let h = hundredths(h);
+            (
+                h.min(most),
+                format!(
+                    "ends {:.2} V back inside its threshold: your {} dipped to {dip:.2} V from rest (a tremor riding on it), so it ends midway between that and the rest's largest excursion, and one breath stays one burst{}",
+                    h.min(most),
+                    ask.words(),
+                    if h > most {
+                        " (as far as the rest allows: a deeper dip splits the breath)"
+                    } else {
+                        ""
+                    }
+                ),
+            )
+        }
+        _ => (
+            quarter,
+            format!(
+                "ends {quarter:.2} V back inside its threshold: a quarter of the {room:.2} V between {} threshold and the rest noise",
+                if kinds.len() > 1 { "the nearer" } else { "its" }
+            ),
+        ),
+    }
+}
+
 /// A kind's short and long durations: (mean, spread) of each, ms.
 pub type ShortLong = ((f64, f64), (f64, f64));
 
@@ -146,16 +243,52 @@ pub fn propose(
             ),
         );
     }
-    let room = gaps[0].min(gaps[1]);
-    d.hysteresis_volts = hundredths((room / 4.0).clamp(0.01, 0.2));
-    set(
-        "detector.hysteresis_volts",
-        format!("{}", d.hysteresis_volts),
-        format!(
-            "a breath ends {:.2} V back inside its threshold: a quarter of the {room:.2} V between the nearer threshold and the rest noise",
-            d.hysteresis_volts
-        ),
-    );
+    let dips = [Breath::Puff, Breath::Sip].map(|b| lowest_dip(signal, answers, &d, b));
+    let excursions = [rest.excursion_up, rest.excursion_down];
+    let end = |kinds: &[usize]| end_level(kinds, &gaps, &excursions, &dips);
+    // A person whose puffs and sips differ much in strength gets an end
+    // level per kind: the weaker kind's would hold the stronger's breath
+    // too tightly.
+    let strengths = [Breath::Puff, Breath::Sip].map(|b| weakest(answers, b).0);
+    let ratio = strengths[0].max(strengths[1]) / strengths[0].min(strengths[1]).max(1e-6);
+    if ratio > OWN_HYSTERESIS_RATIO {
+        let ((puff, puff_why), (sip, sip_why)) = (end(&[0]), end(&[1]));
+        d.hysteresis_volts = puff;
+        d.sip_hysteresis_volts = Some(sip);
+        let stronger = if strengths[0] > strengths[1] {
+            "puffs"
+        } else {
+            "sips"
+        };
+        set(
+            "detector.hysteresis_volts",
+            format!("{puff}"),
+            format!(
+                "a puff {puff_why}; your weakest {stronger} are {ratio:.1}× as strong as the other kind's, so each kind has its own"
+            ),
+        );
+        set(
+            "detector.sip_hysteresis_volts",
+            format!("{sip}"),
+            format!("a sip {sip_why}"),
+        );
+    } else {
+        let (shared, why) = end(&[0, 1]);
+        d.hysteresis_volts = shared;
+        set(
+            "detector.hysteresis_volts",
+            format!("{shared}"),
+            format!("a breath {why}"),
+        );
+        if now.sip_hysteresis_volts.is_some() {
+            d.sip_hysteresis_volts = Some(shared);
+            set(
+                "detector.sip_hysteresis_volts",
+                format!("{shared}"),
+                "the same as a puff's: your sips and puffs are alike in strength".to_string(),
+            );
+        }
+    }
     let glitch = rest.longest_spike_ms as u32 + 2;
     if rest.spikes > 0 && glitch > now.glitch_ms {
         d.glitch_ms = glitch;

@@ -14,7 +14,8 @@ pub fn json(fit: &Fit) -> serde_json::Result<String> {
     let value = serde_json::json!({
         "rest": {
             "level_volts": fit.found.rest.level,
-            "noise_sd_volts": fit.found.rest.sd,
+            "noise_sd_volts": fit.found.rest.white_sd,
+            "spread_sd_volts": fit.found.rest.sd,
             "excursion_up_volts": fit.found.rest.excursion_up,
             "excursion_down_volts": fit.found.rest.excursion_down,
             "spikes": fit.found.rest.spikes,
@@ -38,12 +39,13 @@ pub fn text(fit: &Fit) -> String {
     let rest = &fit.found.rest;
     let _ = writeln!(
         out,
-        "rest: {:.3} V over {:.1} s, noise sd {:.3} V, largest excursion +{:.3} / −{:.3} V, {} spikes",
+        "rest: {:.3} V over {:.1} s, largest excursion +{:.3} / −{:.3} V (sample-to-sample noise sd {:.3} V, spread sd {:.3} V), {} spikes",
         rest.level,
         rest.ms as f64 / 1000.0,
-        rest.sd,
         rest.excursion_up,
         rest.excursion_down,
+        rest.white_sd,
+        rest.sd,
         rest.spikes
     );
     for note in &fit.answers.notes {

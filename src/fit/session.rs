@@ -47,6 +47,25 @@ impl Answers {
 /// A pause at least this long separates blocks, ms (the protocol asks for
 /// ≥ 3 s; the stretches found end inside a breath's fall).
 const BLOCK_PAUSE_MS: usize = (BETWEEN_BLOCKS_MS as usize) * 5 / 6;
+/// Why no breath was found, with the rest's swing and the strongest
+/// stretch after it, and what to try.
+fn no_breath(found: &Found) -> FitError {
+    let rest = &found.rest;
+    let swing = found.opening_swing;
+    let ms = crate::fit::breaths::MIN_BREATH_MS;
+    if found.strongest > swing + 3.0 * rest.white_sd + 0.01 {
+        FitError::new(format!(
+            "no breath stands clear of the rest: at rest the signal swings up to {swing:.2} V from {:.2} V (noise sd {:.3} V; a tremor or hum shows as a swing far above it), and the strongest breath after it reached {:.2} V, too close to the swing to tell apart. Try a stronger breath, a more sensitive sensor, or head gestures instead of sip and puff",
+            rest.level, rest.white_sd, found.strongest
+        ))
+    } else {
+        FitError::new(format!(
+            "no breath found after the rest: the signal stayed within {:.2} V of {:.2} V throughout (the rest swings up to {swing:.2} V; a breath must stay {:.2} V from it for {ms} ms). If the person breathed, check the tube and the sensor; if their breaths are this weak, try a more sensitive sensor or head gestures",
+            found.strongest, rest.level, found.outside
+        ))
+    }
+}
+
 /// Fewer breaths than this in a block cannot be fitted.
 pub const MIN_PER_BLOCK: usize = 3;
 
@@ -62,12 +81,7 @@ pub fn answers(protocol: &Protocol, found: &Found) -> Result<Answers, FitError> 
         notes: Vec::new(),
     };
     if found.regions.is_empty() {
-        return Err(FitError::new(format!(
-            "no breath found after the rest: the signal never left the rest's noise (±{:.2} V around {:.2} V) for {} ms; check the tube and the sensor",
-            found.outside,
-            found.rest.level,
-            crate::fit::breaths::MIN_BREATH_MS
-        )));
+        return Err(no_breath(found));
     }
     if runs.len() < wanted.len() {
         let kinds: Vec<&str> = runs.iter().map(|r| kind_words(r[0].breath)).collect();

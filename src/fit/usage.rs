@@ -142,6 +142,8 @@ pub fn measure(signal: &Signal, in_use: &Config) -> Result<Use, FitError> {
         found: Found {
             rest,
             outside: 0.0,
+            opening_swing: rest.excursion_up.max(rest.excursion_down),
+            strongest: regions_only.iter().map(|r| r.peak).fold(0.0, f64::max),
             regions: regions_only,
         },
         answers: Answers {
@@ -175,6 +177,8 @@ fn rest(signal: &Signal, quiet: &[bool]) -> Result<Rest, FitError> {
         ms: values.len(),
         level,
         sd: stats::mad_sd(&values, level),
+        white_sd: crate::fit::breaths::white_sd(&values),
+        pauses_ms: values.len(),
         excursion_up: quantile_sorted(&up, 0.9999).max(0.0),
         excursion_down: (-quantile_sorted(&up, 0.0001)).max(0.0),
         spikes: 0,

@@ -49,8 +49,10 @@ use crate::control::sample::Sample;
 /// one line where it is opened (`wiring/sensor.rs`).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum SensorSpec {
-    /// `synthetic`: the built-in scripted user on the seeded sensor model.
-    Synthetic,
+    /// `synthetic`: the built-in scripted user on the seeded sensor model;
+    /// `synthetic:NAME`: one of the built-in breathers (`sipnpuff
+    /// generate --help` lists them) in that user's place.
+    Synthetic(Option<String>),
     /// `csv:PATH`: a recording played in real time.
     Csv(PathBuf),
     /// `evdev:/dev/input/eventN` or `evdev:name=SUBSTRING`: an input
@@ -70,13 +72,20 @@ pub enum SensorSpec {
 
 impl SensorSpec {
     /// The forms, for messages.
-    pub const FORMS: &str = "`synthetic`, `csv:PATH`, `evdev:/dev/input/eventN`, `evdev:name=SUBSTRING`, `serial:PATH[,baud=N]` or `iio:/sys/bus/iio/devices/iio:deviceN/in_voltageM_raw`";
+    pub const FORMS: &str = "`synthetic[:BREATHER]`, `csv:PATH`, `evdev:/dev/input/eventN`, `evdev:name=SUBSTRING`, `serial:PATH[,baud=N]` or `iio:/sys/bus/iio/devices/iio:deviceN/in_voltageM_raw`";
 
     /// Parses a `--sensor` value; the error lists the forms.
     pub fn parse(text: &str) -> Result<SensorSpec, String> {
         let needs = |form: &str, example: &str| format!("`{form}:` needs {example}");
         match text.split_once(':') {
-            None if text == "synthetic" => Ok(SensorSpec::Synthetic),
+            None if text == "synthetic" => Ok(SensorSpec::Synthetic(None)),
+            Some(("synthetic", name)) if !name.is_empty() => {
+                Ok(SensorSpec::Synthetic(Some(name.to_string())))
+            }
+            Some(("synthetic", _)) => Err(needs(
+                "synthetic",
+                "a breather's name, e.g. `synthetic:tremor_4hz`",
+            )),
             Some(("csv", path)) if !path.is_empty() => Ok(SensorSpec::Csv(PathBuf::from(path))),
             Some(("csv", _)) => Err(needs("csv", "a path, e.g. `csv:fixtures/demo.csv`")),
             Some(("evdev", rest)) => match rest.strip_prefix("name=") {
@@ -383,7 +392,14 @@ mod tests {
 
     #[test]
     fn sensor_forms_parse_and_errors_name_the_choices() {
-        assert_eq!(SensorSpec::parse("synthetic"), Ok(SensorSpec::Synthetic));
+        assert_eq!(
+            SensorSpec::parse("synthetic"),
+            Ok(SensorSpec::Synthetic(None))
+        );
+        assert_eq!(
+            SensorSpec::parse("synthetic:tremor_4hz"),
+            Ok(SensorSpec::Synthetic(Some("tremor_4hz".into())))
+        );
         assert_eq!(
             SensorSpec::parse("csv:a/b.csv"),
             Ok(SensorSpec::Csv(PathBuf::from("a/b.csv")))
@@ -423,7 +439,7 @@ mod tests {
         for (bad, says) in [
             (
                 "evdev",
-                "`synthetic`, `csv:PATH`, `evdev:/dev/input/eventN`",
+                "`synthetic[:BREATHER]`, `csv:PATH`, `evdev:/dev/input/eventN`",
             ),
             ("evdev:", "`sipnpuff sensors` lists them"),
             ("evdev:name=", "part of the device's name"),
@@ -432,6 +448,7 @@ mod tests {
             ("serial:/dev/ttyACM0,baud=0", "only `,baud=N`"),
             ("iio:", "in_voltage0_raw"),
             ("usb:1", "unknown sensor"),
+            ("synthetic:", "a breather's name"),
         ] {
             let e = SensorSpec::parse(bad).unwrap_err();
             assert!(e.contains(says), "{bad}: {e}");

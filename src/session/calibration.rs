@@ -80,7 +80,18 @@ pub fn calibrate(
     let ran = open_sensor(
         live.sensor,
         current,
-        || SyntheticSensor::calibration_user(current, protocol),
+        |config, name| match name {
+            None => Ok((
+                config.clone(),
+                SyntheticSensor::calibration_user(config, protocol, None),
+            )),
+            Some(name) => {
+                let (config, breather) =
+                    SyntheticSensor::breather_named(config, name).map_err(anyhow::Error::msg)?;
+                let user = SyntheticSensor::calibration_user(&config, protocol, Some(&breather));
+                Ok((config, user))
+            }
+        },
         session,
         &|line| console.note(line),
     )?;

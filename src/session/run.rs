@@ -79,7 +79,15 @@ pub fn run(
     open_sensor(
         plan.sensor,
         config,
-        || SyntheticSensor::built_in_user(config),
+        |config, name| match name {
+            None => Ok((config.clone(), SyntheticSensor::built_in_user(config))),
+            Some(name) => {
+                let (config, breather) =
+                    SyntheticSensor::breather_named(config, name).map_err(anyhow::Error::msg)?;
+                let user = SyntheticSensor::breather_user(&config, &breather);
+                Ok((config, user))
+            }
+        },
         start,
         &say,
     )

@@ -23,7 +23,7 @@ use crate::control::mode::Mode;
 use crate::control::selection::SequenceEntry;
 use crate::fit::protocol::{Ask, BETWEEN_BLOCKS_MS, BETWEEN_BREATHS_MS, Protocol, REST_MS};
 use crate::sim::sensor_model::{
-    Crossings, DEFAULT_RAMP_MS, ScriptedBreath, SignalGenerator, SignalParams, Step,
+    Crossings, DEFAULT_RAMP_MS, ScriptedBreath, SignalGenerator, SignalParams, Step, Tremor,
 };
 
 /// Each breath's length and strength vary uniformly by ± this fraction of
@@ -73,6 +73,20 @@ pub struct Breather {
     pub puff_volts: f64,
     /// Mean plateau height of a sip below the rest level.
     pub sip_volts: f64,
+    /// Each breath's strength varies uniformly by ± this fraction of the
+    /// mean.
+    pub strength_spread: f64,
+    /// A tremor on the whole signal, at rest and on every breath.
+    pub body_tremor: Tremor,
+    /// Amplitude of mains hum picked up by the sensor's wiring.
+    pub hum_volts: f64,
+    /// Its frequency, Hz.
+    pub hum_hz: f64,
+    /// The sensor's converter rounds to 2^bits levels over 0–5 V (0: not
+    /// rounded).
+    pub adc_bits: u32,
+    /// One sample every this many ms jumps to a rail (0: never).
+    pub spike_every_ms: u64,
     /// Mean length of a short breath (past the true start level).
     pub short_ms: u32,
     /// Mean length of a long breath.
@@ -93,14 +107,40 @@ const TYPICAL: Breather = Breather {
     drift_period_ms: 60_000.0,
     puff_volts: 1.2,
     sip_volts: 1.2,
+    strength_spread: VARIATION,
+    body_tremor: Tremor::NONE,
+    hum_volts: 0.0,
+    hum_hz: 50.0,
+    adc_bits: 0,
+    spike_every_ms: 0,
     short_ms: 150,
     long_ms: 800,
     gap_ms: 300,
     hold_ms: 4000,
 };
 
+/// A breath with a tremor (Parkinson's, MS, ALS, a weak diaphragm): the
+/// oscillation is on the rest and rides on every breath; breaths of
+/// 0.6–0.9 V.
+const TREMBLING: Breather = Breather {
+    name: "tremor_4hz",
+    rest_volts: 2.45,
+    noise_volts: 0.01,
+    tremor_volts: 0.0,
+    drift_volts: 0.01,
+    puff_volts: 0.75,
+    sip_volts: 0.75,
+    strength_spread: 0.2,
+    body_tremor: Tremor {
+        volts: 0.25,
+        hz: 4.0,
+        waxing_ms: 9000.0,
+    },
+    ..TYPICAL
+};
+
 /// The built-in breathers, [`Breather::all`].
-const BREATHERS: [Breather; 6] = [
+const BREATHERS: [Breather; 15] = [
     TYPICAL,
     // Little pressure either way.
     Breather {
@@ -150,11 +190,91 @@ const BREATHERS: [Breather; 6] = [
         sip_volts: 0.35,
         ..TYPICAL
     },
+    // The rest shapes that real people and sensors give.
+    // A strong 4 Hz tremor, ±0.25 V at its height.
+    TREMBLING,
+    // A 6 Hz tremor, ±0.18 V at its height.
+    Breather {
+        name: "tremor_6hz",
+        rest_volts: 2.55,
+        body_tremor: Tremor {
+            volts: 0.18,
+            hz: 6.0,
+            waxing_ms: 6000.0,
+        },
+        ..TREMBLING
+    },
+    // A 9 Hz tremor, ±0.12 V at its height.
+    Breather {
+        name: "tremor_9hz",
+        rest_volts: 2.6,
+        body_tremor: Tremor {
+            volts: 0.12,
+            hz: 9.0,
+            waxing_ms: 5000.0,
+        },
+        ..TREMBLING
+    },
+    // Mains hum in the sensor's wiring, 50 Hz (Europe).
+    Breather {
+        name: "hum_50hz",
+        rest_volts: 2.3,
+        hum_volts: 0.15,
+        hum_hz: 50.0,
+        ..TYPICAL
+    },
+    // Mains hum, 60 Hz (the Americas).
+    Breather {
+        name: "hum_60hz",
+        rest_volts: 2.7,
+        hum_volts: 0.15,
+        hum_hz: 60.0,
+        ..TYPICAL
+    },
+    // A cheap 8-bit converter: 19.6 mV steps, weak breaths.
+    Breather {
+        name: "adc_8bit",
+        rest_volts: 2.2,
+        noise_volts: 0.004,
+        puff_volts: 0.6,
+        sip_volts: 0.6,
+        adc_bits: 8,
+        ..TYPICAL
+    },
+    // A 10-bit converter (an Arduino's): 4.9 mV steps, weak breaths.
+    Breather {
+        name: "adc_10bit",
+        rest_volts: 2.8,
+        noise_volts: 0.004,
+        puff_volts: 0.6,
+        sip_volts: 0.6,
+        adc_bits: 10,
+        ..TYPICAL
+    },
+    // A rest that wanders ±0.1 V over 40 s (a sensor warming, a tube
+    // shifting).
+    Breather {
+        name: "wandering",
+        rest_volts: 2.25,
+        drift_volts: 0.1,
+        drift_period_ms: 40_000.0,
+        ..TYPICAL
+    },
+    // Isolated one-sample spikes to the rails, one every 2.5 s (a loose
+    // connector).
+    Breather {
+        name: "spiky",
+        rest_volts: 2.85,
+        spike_every_ms: 2500,
+        ..TYPICAL
+    },
 ];
 
 impl Breather {
     /// Every built-in breather: `typical`, `weak`, `short_capacity`,
-    /// `slow`, `tremulous`, `asymmetric`.
+    /// `slow`, `tremulous`, `asymmetric`, and the rest shapes
+    /// `tremor_4hz`, `tremor_6hz`, `tremor_9hz`, `hum_50hz`, `hum_60hz`,
+    /// `adc_8bit`, `adc_10bit`, `wandering`, `spiky`.
     pub fn all() -> &'static [Breather] {
         &BREATHERS
     }
@@ -164,15 +284,26 @@ impl Breather {
         BREATHERS.iter().find(|b| b.name == name).copied()
     }
 
-    /// The same person without rest noise or drift (tremor stays: it is on
-    /// the plateau only, far from the start and end levels), so a detector
-    /// at the true crossings measures every breath exactly.
+    /// The same person without rest noise, drift, body tremor, hum,
+    /// rounding or spikes (the plateau's tremor stays: it is far from the
+    /// start and end levels), so a detector at the true crossings measures
+    /// every breath exactly.
     pub fn noise_free(self) -> Breather {
         Breather {
             noise_volts: 0.0,
             drift_volts: 0.0,
+            body_tremor: Tremor::NONE,
+            hum_volts: 0.0,
+            adc_bits: 0,
+            spike_every_ms: 0,
             ..self
         }
+    }
+
+    /// The largest swing of the periodic parts at rest (body tremor and
+    /// hum), volts.
+    pub fn rest_swing_volts(&self) -> f64 {
+        self.body_tremor.volts + self.hum_volts
     }
 
     /// Mean plateau height of this breath, volts from the rest level.
@@ -231,8 +362,9 @@ impl Breather {
     }
 
     /// The sensor model playing this person: their rest level, noise,
-    /// tremor, drift and heights (each breath's strength ± [`VARIATION`]),
-    /// breaths shaped to the true crossings; no hum or spikes.
+    /// tremors, drift, hum, converter, spikes and heights (each breath's
+    /// strength ± `strength_spread`), breaths shaped to the true
+    /// crossings.
     pub fn signal_params(&self, seed: u64) -> SignalParams {
         SignalParams {
             seed,
@@ -240,21 +372,24 @@ impl Breather {
             crossings: self.crossings(),
             breath_volts: self.puff_volts,
             sip_volts: Some(self.sip_volts),
-            breath_jitter: VARIATION,
+            breath_jitter: self.strength_spread,
             ramp_ms: DEFAULT_RAMP_MS,
             tremor_volts: self.tremor_volts,
             wander_volts: 0.0,
             noise_volts: self.noise_volts,
-            hum_volts: 0.0,
+            hum_volts: self.hum_volts,
+            hum_hz: self.hum_hz,
+            body_tremor: self.body_tremor,
+            adc_bits: self.adc_bits,
             drift_volts: self.drift_volts,
             drift_period_ms: self.drift_period_ms,
-            spike_every_ms: 0,
+            spike_every_ms: self.spike_every_ms,
         }
     }
 
     /// One breath's length for a prompt, ms: the mean ± [`VARIATION`]
     /// (± [`HOLD_VARIATION`] for a hold), uniform.
-    fn draw_ms(&self, ask: Ask, rng: &mut ChaCha8Rng) -> u32 {
+    pub fn draw_ms(&self, ask: Ask, rng: &mut ChaCha8Rng) -> u32 {
         let spread = match ask {
             Ask::Breath(_) => VARIATION,
             Ask::Hold(_) => HOLD_VARIATION,
@@ -498,7 +633,16 @@ mod tests {
                 "short_capacity",
                 "slow",
                 "tremulous",
-                "asymmetric"
+                "asymmetric",
+                "tremor_4hz",
+                "tremor_6hz",
+                "tremor_9hz",
+                "hum_50hz",
+                "hum_60hz",
+                "adc_8bit",
+                "adc_10bit",
+                "wandering",
+                "spiky"
             ]
         );
         let b = |name| Breather::named(name).unwrap();
@@ -532,9 +676,10 @@ mod tests {
     #[test]
     fn no_breath_reaches_the_rails() {
         for b in Breather::all() {
-            let wobble = b.tremor_volts + 5.0 * b.noise_volts + b.drift_volts;
-            let top = b.rest_volts + b.puff_volts * (1.0 + VARIATION) + wobble;
-            let bottom = b.rest_volts - b.sip_volts * (1.0 + VARIATION) - wobble;
+            let wobble =
+                b.tremor_volts + b.rest_swing_volts() + 5.0 * b.noise_volts + b.drift_volts;
+            let top = b.rest_volts + b.puff_volts * (1.0 + b.strength_spread) + wobble;
+            let bottom = b.rest_volts - b.sip_volts * (1.0 + b.strength_spread) - wobble;
             assert!(top < 5.0 && bottom > 0.0, "{}: {bottom}–{top} V", b.name);
         }
     }

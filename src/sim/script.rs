@@ -388,16 +388,31 @@ pub fn protocol_script(
     protocol: &Protocol,
     seed: u64,
 ) -> (SignalParams, Vec<Step>) {
+    let script = prompted_script(protocol, seed, |ask, rng| {
+        let (mean, spread) = match ask {
+            Ask::Breath(action) if action.is_long() => (800.0, 0.3),
+            Ask::Breath(_) => (150.0, 0.3),
+            Ask::Hold(_) => (3500.0, 0.1),
+        };
+        (mean * rng.random_range(1.0 - spread..=1.0 + spread)) as u32
+    });
+    let params = SignalParams::clean(detector, seed).with_noise(0.01);
+    (params, script)
+}
+
+/// The timing of [`protocol_script`] with each breath's length from
+/// `length`: 6 s at rest, 1.5–2 s after each breath and 3.5 s after a
+/// block's last, 10 s at rest at the end.
+pub fn prompted_script(
+    protocol: &Protocol,
+    seed: u64,
+    mut length: impl FnMut(Ask, &mut ChaCha8Rng) -> u32,
+) -> Vec<Step> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut script = vec![Step::Rest { ms: 6000 }];
     for block in &protocol.blocks {
         for n in 1..=block.count {
-            let (mean, spread) = match block.ask {
-                Ask::Breath(action) if action.is_long() => (800.0, 0.3),
-                Ask::Breath(_) => (150.0, 0.3),
-                Ask::Hold(_) => (3500.0, 0.1),
-            };
-            let ms = (mean * rng.random_range(1.0 - spread..=1.0 + spread)) as u32;
+            let ms = length(block.ask, &mut rng);
             script.push(Step::Breath {
                 breath: block.ask.breath(),
                 ms,
@@ -411,6 +426,5 @@ pub fn protocol_script(
         }
     }
     script.push(Step::Rest { ms: 10_000 });
-    let params = SignalParams::clean(detector, seed).with_noise(0.01);
-    (params, script)
+    script
 }

@@ -7,9 +7,10 @@
 //! that, without noise, the detector measures exactly the scripted
 //! duration: the signal crosses the start threshold half a sample before
 //! the breath's first tick and the end level (threshold minus hysteresis)
-//! half a sample before its last tick + 1. On top: Gaussian noise, 50 Hz
-//! hum, slow sinusoidal drift of the neutral, single-sample spikes to the
-//! rails, and clipping to the sensor's 0–5 V.
+//! half a sample before its last tick + 1. On top: Gaussian noise, 50 or
+//! 60 Hz hum, a person's tremor (at rest and on breaths, waxing and
+//! waning), slow sinusoidal drift of the neutral, single-sample spikes to
+//! the rails, clipping to the sensor's 0–5 V and a converter's rounding.
 //!
 //! The generator is an iterator that never allocates as it plays, so a
 //! real-time loop may use it as its sensor (`sim::synthetic_sensor`). It
@@ -72,10 +73,50 @@ impl Crossings {
         let sip_on = d.neutral_volts - d.sip_threshold_volts;
         Crossings {
             puff_on,
-            puff_off: puff_on - d.hysteresis_volts,
+            puff_off: puff_on - d.hysteresis_of(Breath::Puff),
             sip_on,
-            sip_off: sip_on - d.hysteresis_volts,
+            sip_off: sip_on - d.hysteresis_of(Breath::Sip),
         }
+    }
+}
+
+/// A person's tremor: a sine on the whole signal, at rest and on every
+/// breath, its amplitude waxing and waning.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Tremor {
+    /// Largest amplitude, volts (0: none).
+    pub volts: f64,
+    /// Frequency, Hz.
+    pub hz: f64,
+    /// Period of the waxing and waning, ms: the amplitude swings between
+    /// [`Tremor::WANING`] and 1 × `volts` (0: steady).
+    pub waxing_ms: f64,
+}
+
+impl Tremor {
+    /// No tremor.
+    pub const NONE: Tremor = Tremor {
+        volts: 0.0,
+        hz: 6.0,
+        waxing_ms: 0.0,
+    };
+
+    /// The smallest amplitude of a waxing and waning tremor, as a fraction
+    /// of its largest.
+    pub const WANING: f64 = 0.4;
+
+    /// The tremor's volts at `t` ms.
+    pub fn at(&self, t: f64) -> f64 {
+        if self.volts == 0.0 {
+            return 0.0;
+        }
+        let envelope = if self.waxing_ms > 0.0 {
+            let swing = (1.0 - (2.0 * PI * t / self.waxing_ms).cos()) / 2.0;
+            Self::WANING + (1.0 - Self::WANING) * swing
+        } else {
+            1.0
+        };
+        self.volts * envelope * (2.0 * PI * self.hz * t / 1000.0).sin()
     }
 }
 
@@ -110,8 +151,15 @@ pub struct SignalParams {
     pub wander_volts: f64,
     /// Standard deviation of white Gaussian noise, in volts.
     pub noise_volts: f64,
-    /// Amplitude of 50 Hz mains hum, in volts.
+    /// Amplitude of mains hum, in volts.
     pub hum_volts: f64,
+    /// Frequency of the mains hum, Hz (50 or 60).
+    pub hum_hz: f64,
+    /// The person's tremor, on the whole signal (rest and breaths).
+    pub body_tremor: Tremor,
+    /// The sensor's converter: samples are rounded to one of 2^bits levels
+    /// over 0–5 V (0: not rounded).
+    pub adc_bits: u32,
     /// Amplitude of the neutral's slow sinusoidal drift, in volts.
     pub drift_volts: f64,
     /// Period of the drift, in ms.
@@ -137,6 +185,9 @@ impl SignalParams {
             wander_volts: 0.0,
             noise_volts: 0.0,
             hum_volts: 0.0,
+            hum_hz: 50.0,
+            body_tremor: Tremor::NONE,
+            adc_bits: 0,
             drift_volts: 0.0,
             drift_period_ms: 60_000.0,
             spike_every_ms: 0,
@@ -178,7 +229,8 @@ impl SignalParams {
         }
     }
 
-    /// With 50 Hz mains hum of this amplitude, volts.
+    /// With mains hum of this amplitude, volts (at `hum_hz`, 50 Hz unless
+    /// changed).
     pub fn with_hum(self, hum_volts: f64) -> Self {
         SignalParams { hum_volts, ..self }
     }
@@ -455,10 +507,14 @@ impl Iterator for SignalGenerator<'_> {
         } else {
             0.0
         };
-        let hum = p.hum_volts * (2.0 * PI * 50.0 * t / 1000.0).sin();
+        let hum = p.hum_volts * (2.0 * PI * p.hum_hz * t / 1000.0).sin();
         let drift = p.drift_volts * (2.0 * PI * t / p.drift_period_ms).sin();
         let noise = self.noise.map_or(0.0, |n| n.sample(&mut self.rng));
-        let mut volts = p.neutral_volts + drift + breath + tremor + hum + noise;
+        let mut volts =
+            p.neutral_volts + drift + breath + tremor + hum + noise + p.body_tremor.at(t);
+        if p.adc_bits > 0 {
+            volts = quantised(volts, p.adc_bits);
+        }
         if p.spike_every_ms > 0 && (self.tick - 1) % p.spike_every_ms == p.spike_every_ms / 2 {
             self.spikes += 1;
             volts = if self.spikes.is_multiple_of(2) {
@@ -473,6 +529,13 @@ impl Iterator for SignalGenerator<'_> {
             volts.clamp(0.0, 5.0)
         })
     }
+}
+
+/// `volts` as a converter of `bits` over 0–5 V reads it: the nearest of
+/// its 2^bits levels.
+fn quantised(volts: f64, bits: u32) -> f64 {
+    let top = f64::from((1u32 << bits.min(24)) - 1);
+    (volts.clamp(0.0, 5.0) / 5.0 * top).round() / top * 5.0
 }
 
 /// Writes samples as CSV with a `tick,volts` header (volts to 0.1 mV).

@@ -7,7 +7,8 @@ use crate::control::sample::Sample;
 use crate::control::selection::Interface;
 use crate::fit::protocol::Protocol;
 use crate::sensor::{Producer, Reading, Samples, Sensor, SensorError, Started};
-use crate::sim::script::{protocol_script, run_script};
+use crate::sim::breather::{Breather, practice_session};
+use crate::sim::script::{prompted_script, protocol_script, run_script};
 use crate::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 use crate::sim::user::{RUN_STEPS, scripted_session};
 
@@ -55,9 +56,46 @@ impl SyntheticSensor {
     /// prompts ([`protocol_script`]), resting at the configuration's
     /// neutral. The one place that chooses the calibration's simulated
     /// user.
-    pub fn calibration_user(config: &Config, protocol: &Protocol) -> SyntheticSensor {
-        let (params, script) = protocol_script(config.core().detector(), protocol, 1);
-        SyntheticSensor::new(params, script)
+    pub fn calibration_user(
+        config: &Config,
+        protocol: &Protocol,
+        breather: Option<&Breather>,
+    ) -> SyntheticSensor {
+        match breather {
+            None => {
+                let (params, script) = protocol_script(config.core().detector(), protocol, 1);
+                SyntheticSensor::new(params, script)
+            }
+            Some(b) => {
+                let script = prompted_script(protocol, 1, |ask, rng| b.draw_ms(ask, rng));
+                SyntheticSensor::new(b.signal_params(1), script)
+            }
+        }
+    }
+
+    /// The built-in breather `name`, and `config` with its neutral at their
+    /// rest level (as a run measures a device's); the error lists the
+    /// names.
+    pub fn breather_named(config: &Config, name: &str) -> Result<(Config, Breather), String> {
+        let breather = Breather::named(name).ok_or_else(|| {
+            let names: Vec<&str> = Breather::all().iter().map(|b| b.name).collect();
+            format!(
+                "`synthetic:{name}`: no built-in breather has that name; one of {}",
+                names.join(", ")
+            )
+        })?;
+        let config = config
+            .clone()
+            .with_neutral_volts(breather.rest_volts)
+            .map_err(|e| e.to_string())?;
+        Ok((config, breather))
+    }
+
+    /// `breather` in ordinary use of `config`'s library for two minutes
+    /// ([`practice_session`]): `sipnpuff run --sensor synthetic:NAME`.
+    pub fn breather_user(config: &Config, breather: &Breather) -> SyntheticSensor {
+        let session = practice_session(breather, config.core().sequences(), 120, 1);
+        SyntheticSensor::new(session.params, session.script)
     }
 
     /// Starts the script again whenever it ends (never ends).

@@ -21,21 +21,26 @@ pub trait OnSensor {
     fn on<S: Sensor>(self, config: &Config, sensor: S) -> anyhow::Result<Self::Output>;
 }
 
-/// Opens the `--sensor` backend and runs `on` on it: `synthetic` is the
-/// caller's scripted user (`synthetic()`); a device is started and, if
+/// Opens the `--sensor` backend and runs `on` on it: `synthetic` and
+/// `synthetic:NAME` are the caller's scripted user (`synthetic(config,
+/// name)`, which may set the configuration's neutral to the user's rest
+/// level, as a device's is measured); a device is started and, if
 /// analog, its neutral measured first (`prepare_device`), saying
 /// (`say`) what it waits for.
 pub fn open_sensor<O: OnSensor, Synthetic: Sensor>(
     spec: &SensorSpec,
     config: &Config,
-    synthetic: impl FnOnce() -> Synthetic,
+    synthetic: impl FnOnce(&Config, Option<&str>) -> anyhow::Result<(Config, Synthetic)>,
     on: O,
     say: &dyn Fn(&str),
 ) -> anyhow::Result<O::Output> {
     let settings = config.sensor();
     let neutral = config.core().detector().neutral_volts;
     match spec {
-        SensorSpec::Synthetic => on.on(config, synthetic()),
+        SensorSpec::Synthetic(name) => {
+            let (config, sensor) = synthetic(config, name.as_deref())?;
+            on.on(&config, sensor)
+        }
         SensorSpec::Csv(path) => on.on(config, CsvSensor::open(path)?),
         SensorSpec::Evdev(target) => {
             let sensor = EvdevSensor::open(target, &settings.evdev, neutral, settings.reconnect)?;

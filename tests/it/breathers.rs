@@ -109,7 +109,12 @@ fn a_protocol_session_follows_the_protocol() {
                     "{what}: {b:?}"
                 );
             }
-            assert!(s.signal().all(|v| v > 0.0 && v < 5.0), "{what}");
+            // Within the rails; on them only for a spike.
+            if breather.spike_every_ms == 0 {
+                assert!(s.signal().all(|v| v > 0.0 && v < 5.0), "{what}");
+            } else {
+                assert!(s.signal().all(|v| (0.0..=5.0).contains(&v)), "{what}");
+            }
             assert_eq!(s.signal().count() as u64, s.ticks);
         }
     }

@@ -34,9 +34,18 @@ fn enumerated_options_list_their_choices() {
     );
     let e = refused(&["run", "--sensor", "hid:/dev/hidraw0"]);
     assert!(
-        e.contains("choose `synthetic`, `csv:PATH`, `evdev:/dev/input/eventN`, `evdev:name=SUBSTRING`, `serial:PATH[,baud=N]` or `iio:"),
+        e.contains("choose `synthetic[:BREATHER]`, `csv:PATH`, `evdev:/dev/input/eventN`, `evdev:name=SUBSTRING`, `serial:PATH[,baud=N]` or `iio:"),
         "{e}"
     );
+    for command in ["run", "fit"] {
+        let e = refused(&[command, "--sensor", "synthetic:nobody", "--no-display"]);
+        assert!(
+            e.contains(
+                "`synthetic:nobody`: no built-in breather has that name; one of typical, weak,"
+            ),
+            "{e}"
+        );
+    }
     let e = refused(&["run", "--arm", "jaco"]);
     assert!(
         e.contains(

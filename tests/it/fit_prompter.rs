@@ -315,3 +315,39 @@ fn the_view_shows_the_prompt_the_count_and_the_last_message() {
     assert_eq!(counted.message.unwrap().message(), "got it");
     assert_eq!((counted.counted, counted.total), (1, 12));
 }
+
+/// Every built-in breather, in the place of the live session's synthetic
+/// user (`fit --sensor synthetic:NAME`), on simulated ticks: the guide
+/// hears the rest, prompts every breath and counts each, and the session
+/// ends finished.
+#[test]
+fn every_breather_is_guided_through_the_live_session() {
+    use sipnpuff::config::Config;
+    use sipnpuff::sensor::{Samples, Sensor};
+    use sipnpuff::sim::breather::Breather;
+    use sipnpuff::sim::synthetic_sensor::SyntheticSensor;
+
+    let protocol = Protocol::new(8, 3);
+    for b in Breather::all() {
+        let user = SyntheticSensor::calibration_user(&Config::default(), &protocol, Some(b));
+        let mut samples = user.start().unwrap().samples;
+        let mut prompter = Prompter::new(&protocol);
+        let mut said = Vec::new();
+        let mut tick: Tick = 0;
+        while !prompter.is_over() && !samples.ended() {
+            let sample = samples.try_read(0).sample;
+            if let Some(say) = prompter.step(tick, sample) {
+                said.push(say.line());
+            }
+            tick += 1;
+        }
+        assert!(prompter.is_finished(), "{}: {said:#?}", b.name);
+        let counted = said.iter().filter(|l| l.contains("counted")).count();
+        assert_eq!(counted, 38, "{}: {said:#?}", b.name);
+        assert!(
+            !said.iter().any(|l| l.contains("not counted")),
+            "{}: {said:#?}",
+            b.name
+        );
+    }
+}

@@ -60,6 +60,7 @@ fn timing_toml() -> impl Strategy<Value = String> {
         (2u32..200, 1u32..3000, 0.0f64..1.0, 1u32..20_000),
         (0.01f64..5.0, 1u32..3000, 1u32..3000, 1u32..5000, 1u32..10_000),
         prop_oneof![Just(0u32), 1u32..1500],
+        prop_oneof![Just(None), (0.0f64..0.9).prop_map(Some)],
     )
         .prop_map(
             |(
@@ -67,14 +68,22 @@ fn timing_toml() -> impl Strategy<Value = String> {
                 (min_burst, long_extra, glitch, tracking),
                 (margin, recovery, stale, timeout, inactivity),
                 onset,
+                sip_hysteresis,
             )| {
                 let puff_offset = puff * (5.0 - neutral);
                 let sip_offset = sip * neutral;
+                // One hysteresis inside the narrower band, or one each.
+                let (hysteresis, sip_hysteresis) = match sip_hysteresis {
+                    None => (hysteresis * puff_offset.min(sip_offset), String::new()),
+                    Some(h) => (
+                        hysteresis * puff_offset,
+                        format!("sip_hysteresis_volts = {}\n", h * sip_offset),
+                    ),
+                };
                 format!(
-                    "[detector]\nneutral_volts = {neutral}\npuff_threshold_volts = {}\nsip_threshold_volts = {}\nhysteresis_volts = {}\nmin_burst_ms = {min_burst}\nlong_burst_ms = {}\nglitch_ms = {}\nneutral_tracking_ms = {tracking}\nfault_margin_volts = {margin}\nfault_recovery_ms = {recovery}\nstale_ms = {stale}\n[matcher]\nsequence_timeout_ms = {timeout}\n[command]\ninactivity_timeout_ms = {inactivity}\nmotion_onset_ms = {onset}\n",
+                    "[detector]\nneutral_volts = {neutral}\npuff_threshold_volts = {}\nsip_threshold_volts = {}\nhysteresis_volts = {hysteresis}\n{sip_hysteresis}min_burst_ms = {min_burst}\nlong_burst_ms = {}\nglitch_ms = {}\nneutral_tracking_ms = {tracking}\nfault_margin_volts = {margin}\nfault_recovery_ms = {recovery}\nstale_ms = {stale}\n[matcher]\nsequence_timeout_ms = {timeout}\n[command]\ninactivity_timeout_ms = {inactivity}\nmotion_onset_ms = {onset}\n",
                     neutral + puff_offset,
                     neutral - sip_offset,
-                    hysteresis * puff_offset.min(sip_offset),
                     min_burst + long_extra,
                     (glitch * f64::from(min_burst)) as u32,
                 )

@@ -15,18 +15,39 @@ pub(super) fn detector(p: &mut Problems, c: &DetectorConfig) {
             p.add(key, format!("{v} V is outside the sensor's 0–5 V range"));
         }
     }
-    let nearest =
-        (c.puff_threshold_volts - c.neutral_volts).min(c.neutral_volts - c.sip_threshold_volts);
-    if c.hysteresis_volts.is_nan() || c.hysteresis_volts < 0.0 {
-        p.add("detector.hysteresis_volts", "must be 0 V or more");
-    } else if nearest > 0.0 && c.hysteresis_volts >= nearest {
-        p.add(
-            "detector.hysteresis_volts",
-            format!(
-                "{} V must be smaller than the distance from the neutral to the nearest threshold ({nearest:.3} V)",
-                c.hysteresis_volts
-            ),
-        );
+    let (puff_room, sip_room) = (
+        c.puff_threshold_volts - c.neutral_volts,
+        c.neutral_volts - c.sip_threshold_volts,
+    );
+    // `hysteresis_volts` serves both kinds unless sips have their own.
+    let shared = if c.sip_hysteresis_volts.is_some() {
+        ("the puff threshold", puff_room)
+    } else {
+        ("the nearest threshold", puff_room.min(sip_room))
+    };
+    let checks = [(
+        "detector.hysteresis_volts",
+        Some(c.hysteresis_volts),
+        shared,
+    )]
+    .into_iter()
+    .chain([(
+        "detector.sip_hysteresis_volts",
+        c.sip_hysteresis_volts,
+        ("the sip threshold", sip_room),
+    )]);
+    for (key, hysteresis, (threshold, room)) in checks {
+        let Some(h) = hysteresis else { continue };
+        if h.is_nan() || h < 0.0 {
+            p.add(key, "must be 0 V or more");
+        } else if room > 0.0 && h >= room {
+            p.add(
+                key,
+                format!(
+                    "{h} V must be smaller than the distance from the neutral to {threshold} ({room:.3} V)"
+                ),
+            );
+        }
     }
     if !(c.fault_margin_volts > 0.0 && c.fault_margin_volts <= 5.0) {
         p.add(

@@ -3,6 +3,7 @@
 
 use serde::Serialize;
 
+use crate::control::action::Breath;
 use crate::control::detector::fault::FaultReason;
 
 /// Burst detector settings (`[detector]` in the config file).
@@ -17,8 +18,13 @@ pub struct DetectorConfig {
     pub puff_threshold_volts: f64,
     /// A sip starts below this voltage (moves with the neutral likewise).
     pub sip_threshold_volts: f64,
-    /// A burst ends when the signal is back past its threshold by this much.
+    /// A burst ends when the signal is back past its threshold by this
+    /// much: a puff's, and a sip's unless `sip_hysteresis_volts` is set.
     pub hysteresis_volts: f64,
+    /// A sip's own hysteresis, volts, for a person whose sips and puffs
+    /// differ much in strength; unset, sips share `hysteresis_volts`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sip_hysteresis_volts: Option<f64>,
     /// Bursts shorter than this are ignored.
     pub min_burst_ms: u32,
     /// Bursts at least this long are long; shorter ones are short.
@@ -52,6 +58,7 @@ impl Default for DetectorConfig {
             puff_threshold_volts: 3.0,
             sip_threshold_volts: 2.0,
             hysteresis_volts: 0.1,
+            sip_hysteresis_volts: None,
             min_burst_ms: 40,
             long_burst_ms: 500,
             glitch_ms: 5,
@@ -76,6 +83,14 @@ impl DetectorConfig {
     /// it), kept as the neutral moves.
     pub fn sip_offset_volts(&self) -> f64 {
         self.sip_threshold_volts - self.neutral_volts
+    }
+
+    /// How far back past its threshold a breath of this kind ends, volts.
+    pub fn hysteresis_of(&self, breath: Breath) -> f64 {
+        match breath {
+            Breath::Puff => self.hysteresis_volts,
+            Breath::Sip => self.sip_hysteresis_volts.unwrap_or(self.hysteresis_volts),
+        }
     }
 
     /// These settings around another neutral: the thresholds keep their

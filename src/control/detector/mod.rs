@@ -406,8 +406,8 @@ impl BurstDetector {
     /// 0–5 V becomes the neutral. A rail never can.
     fn rezero(&mut self, volts: f64) -> Option<DetectorEvent> {
         let (windows, level) = self.steady.push(volts)?;
-        let room = level + self.levels.puff_offset + self.config.hysteresis_volts < 5.0
-            && level + self.levels.sip_offset - self.config.hysteresis_volts > 0.0;
+        let room = level + self.levels.puff_offset + self.config.hysteresis_of(Breath::Puff) < 5.0
+            && level + self.levels.sip_offset - self.config.hysteresis_of(Breath::Sip) > 0.0;
         let needed = u64::from(self.config.rezero_ms).div_ceil(REZERO_WINDOW_MS as u64);
         if windows < needed || !room {
             return None;
@@ -430,8 +430,8 @@ impl BurstDetector {
         let puff_on = self.neutral + self.levels.puff_offset;
         let sip_on = self.neutral + self.levels.sip_offset;
         let (puff_off, sip_off) = match held {
-            Some(Breath::Puff) => (puff_on - self.config.hysteresis_volts, sip_on),
-            Some(Breath::Sip) => (puff_on, sip_on + self.config.hysteresis_volts),
+            Some(Breath::Puff) => (puff_on - self.config.hysteresis_of(Breath::Puff), sip_on),
+            Some(Breath::Sip) => (puff_on, sip_on + self.config.hysteresis_of(Breath::Sip)),
             None => (puff_on, sip_on),
         };
         if volts > puff_off {

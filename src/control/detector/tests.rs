@@ -139,6 +139,34 @@ fn threshold_and_hysteresis() {
 }
 
 #[test]
+fn sips_may_have_their_own_hysteresis() {
+    // Strong puffs end 0.3 V back inside their threshold, weak sips 0.05 V.
+    let c = DetectorConfig {
+        hysteresis_volts: 0.3,
+        sip_hysteresis_volts: Some(0.05),
+        ..DetectorConfig::default()
+    };
+    // A puff that dips to 2.8 V (0.2 V inside) goes on.
+    let mut s = square(5, 3.5, 100, 0);
+    s.extend(std::iter::repeat_n(2.8, 100));
+    s.extend(std::iter::repeat_n(2.5, 50));
+    assert_eq!(run(&c, &s), [(210, burst(Action::ShortPuff, 5, 205))]);
+    // A sip that comes back to 2.1 V (0.1 V inside) has ended.
+    let mut s = square(5, 1.5, 100, 0);
+    s.extend(std::iter::repeat_n(2.1, 100));
+    assert_eq!(run(&c, &s), [(110, burst(Action::ShortSip, 5, 105))]);
+    // Without its own, a sip shares the puff's 0.3 V and goes on.
+    let shared = DetectorConfig {
+        sip_hysteresis_volts: None,
+        ..c
+    };
+    let mut s = square(5, 1.5, 100, 0);
+    s.extend(std::iter::repeat_n(2.1, 100));
+    s.extend(std::iter::repeat_n(2.5, 50));
+    assert_eq!(run(&shared, &s), [(210, burst(Action::ShortSip, 5, 205))]);
+}
+
+#[test]
 fn glitches_neither_create_nor_split_bursts() {
     let c = DetectorConfig::default();
     // Spikes of 1..=5 samples to both rails at rest: nothing.

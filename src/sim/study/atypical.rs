@@ -159,7 +159,14 @@ fn recovered(b: &Breather, fit: &crate::fit::Fit) -> Vec<(String, Recovered)> {
             "rest noise sd V".to_string(),
             Recovered {
                 truth: b.noise_volts,
-                fitted: rest.sd,
+                fitted: rest.white_sd,
+            },
+        ),
+        (
+            "rest swing V".to_string(),
+            Recovered {
+                truth: b.rest_swing_volts(),
+                fitted: rest.excursion_up.max(rest.excursion_down),
             },
         ),
     ];
