@@ -183,7 +183,7 @@ fn a_slow_breather_goes_from_calibration_to_running() {
         d.long_burst_ms
     );
     // The profile alone is the whole setup: the library kept whole.
-    let with_library = Layered::read(&[library.clone()]).unwrap();
+    let with_library = Layered::read(std::slice::from_ref(&library)).unwrap();
     assert_eq!(
         fitted.core().sequences(),
         with_library.config().core().sequences()
