@@ -69,6 +69,13 @@ impl Layered {
                     path: path.clone(),
                     text,
                 }),
+                // One file: said as `Config::from_file` says it.
+                Err(error) if paths.len() == 1 => {
+                    return Err(LayersError::One(ConfigFileError::Read {
+                        path: path.clone(),
+                        error,
+                    }));
+                }
                 Err(error) => problems.push(LayerProblem::Unreadable {
                     path: path.clone(),
                     error: error.to_string(),
@@ -446,29 +453,6 @@ pub enum LayersError {
     One(ConfigFileError),
     /// Several files: every problem, each naming its file and line.
     Several(Vec<LayerProblem>),
-}
-
-impl LayersError {
-    /// Every problem, each naming its file (one file's too).
-    pub fn problems(&self) -> Vec<LayerProblem> {
-        match self {
-            LayersError::One(ConfigFileError::Read { path, error }) => {
-                vec![LayerProblem::Unreadable {
-                    path: path.clone(),
-                    error: error.to_string(),
-                }]
-            }
-            LayersError::One(ConfigFileError::Invalid { path, errors }) => errors
-                .0
-                .iter()
-                .map(|error| LayerProblem::In {
-                    path: Some(path.clone()),
-                    error: error.clone(),
-                })
-                .collect(),
-            LayersError::Several(problems) => problems.clone(),
-        }
-    }
 }
 
 impl fmt::Display for LayersError {
