@@ -9,28 +9,40 @@ use clap::ValueEnum;
 
 use crate::cli::output::invalid;
 use crate::config::Config;
+use crate::config::layers::Layered;
 use crate::control::selection::Interface;
 use crate::rt::setup::RtOptions;
 use crate::rt::signals;
 use crate::rt::threads::LoopSettings;
 use crate::tools::recording::recorder::check_dir;
 
-/// `--config FILE`.
+/// `--config FILE`, as often as needed: a person's setup from several
+/// files (a profile, then a library, …), read by [`Layered::read`].
 #[derive(clap::Args, Clone, Debug)]
 pub struct ConfigArg {
     /// TOML configuration (default: built-in; `sipnpuff config` prints it).
-    #[arg(long)]
-    pub config: Option<PathBuf>,
+    /// Give it again to layer files: a later file overrides an earlier one
+    /// key by key, and a later library (`[[sequence]]`) replaces the whole
+    /// library.
+    #[arg(long, value_name = "FILE", action = clap::ArgAction::Append)]
+    pub config: Vec<PathBuf>,
 }
 
 impl ConfigArg {
-    /// The file's configuration, or the built-in one. An error is an
+    /// The files' configuration, or the built-in one. An error is an
     /// invalid configuration (exit status 2).
     pub fn load(&self) -> anyhow::Result<Config> {
-        match &self.config {
-            Some(path) => invalid(Config::from_file(path).map_err(anyhow::Error::from)),
-            None => Ok(Config::default()),
-        }
+        self.layered().map(Layered::into_config)
+    }
+
+    /// The files' configuration with the file each setting came from.
+    pub fn layered(&self) -> anyhow::Result<Layered> {
+        invalid(Layered::read(&self.config).map_err(anyhow::Error::from))
+    }
+
+    /// Whether any file was given.
+    pub fn given(&self) -> bool {
+        !self.config.is_empty()
     }
 }
 

@@ -1,40 +1,57 @@
-//! `sipnpuff config`: check a configuration and print it, complete; or,
-//! with `--diff`, only what a file changes from the built-in one.
+//! `sipnpuff config`: check a configuration and print it, complete, each
+//! setting with the file it came from; or, with `--diff`, only what the
+//! files change from the built-in one.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context;
 
 use crate::cli::args::ConfigArg;
-use crate::cli::output::{self, invalid};
-use crate::config::{Config, diff};
+use crate::cli::output;
+use crate::config::Config;
+use crate::config::diff;
+use crate::config::layers::Layered;
 
 /// `config`'s options.
 #[derive(clap::Args, Debug)]
 pub struct ConfigArgs {
     #[command(flatten)]
     config: ConfigArg,
-    /// Check FILE as `--config` does, then print only what it changes from
-    /// the built-in configuration: a table of each key that differs, its
-    /// default, FILE's value and the comment above the key (its reason).
-    #[arg(long, value_name = "FILE", conflicts_with = "config")]
-    diff: Option<PathBuf>,
+    /// Print only what the configuration changes from the built-in one: a
+    /// table of each key that differs, its default, its value and the
+    /// comment above the key in its file (its reason); with several
+    /// `--config` files, the file each value came from. `--diff FILE` is
+    /// FILE layered last (`--config FILE --diff`).
+    #[arg(long, value_name = "FILE", num_args = 0..=1)]
+    diff: Option<Option<PathBuf>>,
 }
 
 /// Prints the effective configuration as TOML, or the changes table.
 pub fn config(args: ConfigArgs) -> anyhow::Result<()> {
+    let mut files = args.config.clone();
+    if let Some(Some(path)) = &args.diff {
+        files.config.push(path.clone());
+    }
+    let setup = files.layered()?;
     let text = match &args.diff {
-        Some(path) => changes(path)?,
-        None => args.config.load()?.to_toml()?,
+        Some(_) => changes(&setup)?,
+        None => setup.to_toml()?,
     };
     output::stdout(&text).context("stdout")
 }
 
-/// The table of what the file at `path` changes from the built-in
-/// configuration; an error is an invalid file (exit status 2), as
-/// `--config`'s.
-fn changes(path: &Path) -> anyhow::Result<String> {
-    let (config, text) = invalid(Config::from_file_with_text(path).map_err(anyhow::Error::from))?;
-    let rows = diff::changes(&Config::default(), &config, &text)?;
-    Ok(diff::table(&path.display().to_string(), &rows))
+/// The table of what the setup changes from the built-in configuration.
+fn changes(setup: &Layered) -> anyhow::Result<String> {
+    let base = Config::default();
+    match setup.layers() {
+        [] => Ok(diff::table("the built-in configuration", &[])),
+        [one] => {
+            let rows = diff::changes(&base, setup.config(), &one.text)?;
+            Ok(diff::table(&one.path.display().to_string(), &rows))
+        }
+        _ => {
+            let rows = diff::layered_changes(&base, setup)?;
+            Ok(diff::layered_table(&setup.describe(), &rows))
+        }
+    }
 }

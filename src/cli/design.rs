@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
+use crate::cli::args::ConfigArg;
 use crate::cli::output::{self, invalid};
 use crate::control::action::Action;
 use crate::design::analysis;
@@ -29,6 +30,11 @@ pub struct DesignArgs {
     /// its settings). Default: the study's simulated user.
     #[arg(long)]
     user: Option<PathBuf>,
+    /// The settings in use, as often as needed (a profile, then a
+    /// library…; default: the profile's, or the built-in ones): their
+    /// library is the one placed unless LIBRARY is given.
+    #[command(flatten)]
+    config: ConfigArg,
     /// Usage from the `match` events of recordings (`run --record DIR`),
     /// or directories of them.
     #[arg(long, num_args = 1..)]
@@ -133,6 +139,7 @@ pub fn design(args: DesignArgs) -> anyhow::Result<()> {
     let request = Request {
         library: args.library,
         user: args.user,
+        config: args.config.config,
         usage: args.usage,
         mix: args.mix,
         wrong_cost_ms: args.wrong_cost_ms,

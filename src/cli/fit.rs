@@ -3,11 +3,13 @@
 //! ([`crate::session::fitting`]); without it, a live session, guided,
 //! recorded, then fitted ([`crate::session::calibration`]).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::cli::args::{ConfigArg, RtArgs, record_dir};
 use crate::cli::display::DisplayArgs;
 use crate::cli::output::{self, Terminal, invalid};
+use crate::config::layers::Layered;
+use crate::fit::drift;
 use crate::fit::protocol::DEFAULT_COUNT;
 use crate::sensor::SensorSpec;
 use crate::session::calibration::{self, Live};
@@ -28,7 +30,9 @@ pub struct FitArgs {
     /// session's directory.
     #[arg(long)]
     out: Option<PathBuf>,
-    /// The settings in use, to compare with (default: built-in).
+    /// The settings in use, to compare with (default: built-in); as
+    /// often as needed (a profile, a library…). The profile keeps every
+    /// setting of them the fit does not measure, marked "kept from FILE".
     #[command(flatten)]
     config: ConfigArg,
     /// Breaths per block.
@@ -70,12 +74,14 @@ pub struct FitArgs {
 /// (or `--force`). Exit 0 with a profile; 1 with the reason and nothing
 /// written; a live session interrupted by signal N: 128 + N.
 pub fn fit(args: FitArgs) -> anyhow::Result<u8> {
-    let current = args.config.load()?;
+    let setup = args.config.layered()?;
+    let current = setup.config().clone();
     let request = FitRequest {
         count: args.count,
         holds: args.holds,
         current: &current,
-        current_file: args.config.config.as_deref(),
+        current_file: fitted_file(&setup),
+        setup: &setup,
         label: &args.label,
         force: args.force,
         json: args.json,
@@ -89,6 +95,19 @@ pub fn fit(args: FitArgs) -> anyhow::Result<u8> {
         FitEnd::Failed => output::FAILED,
         FitEnd::Interrupted(n) => output::interrupted(n),
     })
+}
+
+/// Of the setup's files, the one whose header holds the measurements of
+/// the fit before (the last profile `fit` wrote), for the drift; with
+/// none, the last file.
+fn fitted_file(setup: &Layered) -> Option<&Path> {
+    let layers = setup.layers();
+    layers
+        .iter()
+        .rev()
+        .find(|l| !drift::fitted(&l.text).is_empty())
+        .or(layers.last())
+        .map(|l| l.path.as_path())
 }
 
 /// A live session's options, checked before it starts: the session's

@@ -84,14 +84,22 @@ fn arm_note(summary: &ReplaySummary) {
 /// the recording (unless `--config` or `--interface` asks for another
 /// configuration: then it is only replayed).
 fn replay_recording(args: &ReplayArgs) -> anyhow::Result<u8> {
-    let other = match (&args.config.config, args.interface) {
-        (None, None) => None,
-        (Some(path), _) => Some(format!("--config {}", path.display())),
-        (None, Some(_)) => Some("--interface".to_string()),
+    let other = match (args.config.given(), args.interface) {
+        (false, None) => None,
+        (true, _) => {
+            let files: Vec<String> = (args.config.config.iter())
+                .map(|path| format!("--config {}", path.display()))
+                .collect();
+            Some(files.join(" "))
+        }
+        (false, Some(_)) => Some("--interface".to_string()),
     };
-    let config = |recorded: &Config| match &args.config.config {
-        Some(_) => with_interface(args.config.load()?, args.interface),
-        None => with_interface(recorded.clone(), args.interface),
+    let config = |recorded: &Config| {
+        if args.config.given() {
+            with_interface(args.config.load()?, args.interface)
+        } else {
+            with_interface(recorded.clone(), args.interface)
+        }
     };
     let replayed = replay_files::replay_recording(
         &args.signal,

@@ -14,6 +14,7 @@ use toml::{Table, Value};
 
 use crate::config::Config;
 use crate::config::file::File;
+use crate::config::layers::Layered;
 use crate::config::lines::KeyLines;
 use crate::control::selection::SequenceEntry;
 use crate::control::target::Target;
@@ -38,6 +39,9 @@ pub struct Change {
     /// The comment line(s) directly above the key in the file, joined;
     /// empty if none.
     pub reason: String,
+    /// The file the value came from, as named on the command line (empty
+    /// when only one file is compared).
+    pub from: String,
 }
 
 /// Every key whose value in `config` differs from `base`'s, in the order
@@ -49,14 +53,59 @@ pub fn changes(
     text: &str,
 ) -> Result<Vec<Change>, toml::ser::Error> {
     let mut diff = Diff {
-        lines: KeyLines::of(text),
-        text: text.lines().collect(),
+        files: vec![FileText::of(text)],
+        names: vec![String::new()],
+        source: &|_| Some(0),
         base: base.core().sequences(),
         file: config.core().sequences(),
         rows: Vec::new(),
     };
     diff.tables(&tree(base)?, &tree(config)?, "")?;
     Ok(diff.rows)
+}
+
+/// Every key whose value in a setup of several files differs from
+/// `base`'s, as [`changes`], each with its reason from the file that set
+/// it and that file's name.
+pub fn layered_changes(base: &Config, setup: &Layered) -> Result<Vec<Change>, toml::ser::Error> {
+    let source = |key: &str| setup.source_index(key);
+    let mut diff = Diff {
+        files: setup
+            .layers()
+            .iter()
+            .map(|l| FileText::of(&l.text))
+            .collect(),
+        names: (setup.layers().iter())
+            .map(|l| l.path.display().to_string())
+            .collect(),
+        source: &source,
+        base: base.core().sequences(),
+        file: setup.config().core().sequences(),
+        rows: Vec::new(),
+    };
+    diff.tables(&tree(base)?, &tree(setup.config())?, "")?;
+    Ok(diff.rows)
+}
+
+/// One file's text, indexed: where each key is, and its lines.
+struct FileText<'a> {
+    lines: KeyLines,
+    text: Vec<&'a str>,
+}
+
+impl<'a> FileText<'a> {
+    fn of(text: &'a str) -> FileText<'a> {
+        FileText {
+            lines: KeyLines::of(text),
+            text: text.lines().collect(),
+        }
+    }
+
+    /// The lines above 1-based `line`, nearest first.
+    fn above(&self, line: usize) -> impl Iterator<Item = &&'a str> {
+        let before = self.text.get(..line.saturating_sub(1));
+        before.unwrap_or_default().iter().rev()
+    }
 }
 
 /// A configuration as `config` prints it, as a TOML tree.
@@ -72,8 +121,12 @@ fn tree(config: &Config) -> Result<Table, toml::ser::Error> {
 
 /// The comparison under way.
 struct Diff<'a> {
-    lines: KeyLines,
-    text: Vec<&'a str>,
+    /// The files compared, in order.
+    files: Vec<FileText<'a>>,
+    /// Their names, as the rows give them.
+    names: Vec<String>,
+    /// The file (in `files`) that set a key.
+    source: &'a dyn Fn(&str) -> Option<usize>,
     base: &'a [SequenceEntry],
     file: &'a [SequenceEntry],
     rows: Vec<Change>,
@@ -93,11 +146,13 @@ impl Diff<'_> {
                 (b, f) if is_table_list(b) || is_table_list(f) => self.library(&name)?,
                 (b, f) => {
                     let reason = self.reason_at(&name);
+                    let from = self.from(&name);
                     self.rows.push(Change {
                         default: shown(b, key),
                         value: shown(f, key),
                         key: name,
                         reason,
+                        from,
                     });
                 }
             }
@@ -111,12 +166,17 @@ impl Diff<'_> {
     /// in its order, then those it dropped.
     fn library(&mut self, name: &str) -> Result<(), toml::ser::Error> {
         let at = self.rows.len();
-        let first = self.lines.find(&format!("{name} #1"));
+        let from = self.from(name);
+        let reason = self.file_of(name).map_or(String::new(), |file| {
+            (file.lines.find(&format!("{name} #1")))
+                .map_or(String::new(), |(line, _)| comment(file.above(line)))
+        });
         self.rows.push(Change {
             key: name.to_string(),
             default: entries(self.base.len()),
             value: entries(self.file.len()),
-            reason: first.map_or(String::new(), |(line, _)| comment(self.above(line))),
+            reason,
+            from: from.clone(),
         });
         let mut targets: Vec<Target> = Vec::new();
         for entry in self.file.iter().chain(self.base) {
@@ -145,6 +205,7 @@ impl Diff<'_> {
                 default: either(&base),
                 value: either(&file),
                 reason,
+                from: from.clone(),
             });
         }
         if self.rows.len() == at + 1 {
@@ -153,18 +214,27 @@ impl Diff<'_> {
         Ok(())
     }
 
-    /// The comment right above `key`'s line in the file.
-    fn reason_at(&self, key: &str) -> String {
-        self.lines
-            .find(key)
-            .map(|(line, _)| comment(self.above(line)))
-            .unwrap_or_default()
+    /// The file that set `key`, if one did.
+    fn file_of(&self, key: &str) -> Option<&FileText<'_>> {
+        (self.source)(key).and_then(|i| self.files.get(i))
     }
 
-    /// The lines above 1-based `line`, nearest first.
-    fn above(&self, line: usize) -> impl Iterator<Item = &&str> {
-        let before = self.text.get(..line.saturating_sub(1));
-        before.unwrap_or_default().iter().rev()
+    /// The name of the file that set `key` (`built-in` if none did).
+    fn from(&self, key: &str) -> String {
+        match (self.source)(key).and_then(|i| self.names.get(i)) {
+            Some(name) => name.clone(),
+            None => "built-in".into(),
+        }
+    }
+
+    /// The comment right above `key`'s line in the file that set it.
+    fn reason_at(&self, key: &str) -> String {
+        self.file_of(key)
+            .and_then(|file| {
+                let (line, _) = file.lines.find(key)?;
+                Some(comment(file.above(line)))
+            })
+            .unwrap_or_default()
     }
 
     /// The comment right above the `[[sequence]]` header of the list
@@ -172,16 +242,19 @@ impl Diff<'_> {
     /// entry's first key). The first entry's, only below: the one above is
     /// the library's.
     fn entry_reason(&self, name: &str, number: usize) -> String {
-        let Some((line, _)) = self.lines.find(&format!("{name} #{number}")) else {
+        let Some(file) = self.file_of(name) else {
+            return String::new();
+        };
+        let Some((line, _)) = file.lines.find(&format!("{name} #{number}")) else {
             return String::new();
         };
         let above = if number == 1 {
             String::new()
         } else {
-            comment(self.above(line))
+            comment(file.above(line))
         };
         if above.is_empty() {
-            let mut below: Vec<&str> = (self.text.get(line..).unwrap_or_default().iter())
+            let mut below: Vec<&str> = (file.text.get(line..).unwrap_or_default().iter())
                 .take_while(|l| l.trim_start().starts_with('#'))
                 .copied()
                 .collect();
@@ -287,19 +360,35 @@ fn either(sequences: &[String]) -> String {
 /// reason, each cell wrapped at spaces to its column; one line if nothing
 /// changed.
 pub fn table(name: &str, changes: &[Change]) -> String {
+    grid(name, changes, false)
+}
+
+/// The changes of a setup of several files (`name` lists them), as
+/// [`table`] with a column saying which file each value came from.
+pub fn layered_table(name: &str, changes: &[Change]) -> String {
+    grid(name, changes, true)
+}
+
+/// The table, with the `from` column or without.
+fn grid(name: &str, changes: &[Change], with_from: bool) -> String {
     if changes.is_empty() {
         return format!("{name}: no changes from default\n");
     }
-    let head = ["key", "default", "this file", "reason"];
-    let cells = |c: &Change| -> [String; 4] {
-        [
-            c.key.clone(),
-            c.default.clone(),
-            c.value.clone(),
-            c.reason.clone(),
-        ]
+    let value_head = if with_from { "value" } else { "this file" };
+    let mut head = vec!["key", "default", value_head];
+    if with_from {
+        head.push("from");
+    }
+    head.push("reason");
+    let cells = |c: &Change| -> Vec<String> {
+        let mut row = vec![c.key.clone(), c.default.clone(), c.value.clone()];
+        if with_from {
+            row.push(c.from.clone());
+        }
+        row.push(c.reason.clone());
+        row
     };
-    let rows: Vec<[String; 4]> = changes.iter().map(cells).collect();
+    let rows: Vec<Vec<String>> = changes.iter().map(cells).collect();
     let widest = |column: usize, cap: usize| {
         rows.iter()
             .map(|row| row[column].chars().count())
@@ -308,23 +397,28 @@ pub fn table(name: &str, changes: &[Change]) -> String {
             .unwrap_or(0)
             .min(cap)
     };
-    let (key, default, value) = (widest(0, 36), widest(1, 22), widest(2, 22));
+    let last = head.len() - 1;
+    let mut widths: Vec<usize> = vec![widest(0, 36), widest(1, 22), widest(2, 22)];
+    if with_from {
+        widths.push(widest(3, 24));
+    }
     let room = TABLE_WIDTH
-        .saturating_sub(key + default + value + 6)
+        .saturating_sub(widths.iter().sum::<usize>() + 2 * last)
         .max(24);
-    let widths = [key, default, value, widest(3, room)];
+    widths.push(widest(last, room));
     let mut out = format!("{name}: changes from default\n");
-    let rule = widths.map(|w| "-".repeat(w));
-    for row in [head.map(String::from), rule].iter().chain(&rows) {
-        let wrapped: Vec<Vec<String>> = (0..4).map(|i| wrap(&row[i], widths[i])).collect();
+    let rule: Vec<String> = widths.iter().map(|&w| "-".repeat(w)).collect();
+    let head: Vec<String> = head.iter().map(|h| h.to_string()).collect();
+    for row in [head, rule].iter().chain(&rows) {
+        let wrapped: Vec<Vec<String>> = (0..=last).map(|i| wrap(&row[i], widths[i])).collect();
         let height = wrapped.iter().map(Vec::len).max().unwrap_or(1);
         for line in 0..height {
             let mut text = String::new();
             for (i, cell) in wrapped.iter().enumerate() {
                 let part = cell.get(line).map_or("", String::as_str);
                 text += part;
-                if i < 3 {
-                    let pad = widths[i] - part.chars().count() + 2;
+                if i < last {
+                    let pad = widths[i].saturating_sub(part.chars().count()) + 2;
                     text.extend(std::iter::repeat_n(' ', pad));
                 }
             }
@@ -332,8 +426,15 @@ pub fn table(name: &str, changes: &[Change]) -> String {
             out.push('\n');
         }
     }
+    if changes.iter().any(|c| c.key.starts_with("sequence ")) {
+        out += SEQUENCE_KEY;
+        out.push('\n');
+    }
     out
 }
+
+/// What a sequence's numbers mean, under every table that shows one.
+pub const SEQUENCE_KEY: &str = "sequences: 1 short sip, 2 long sip, -1 short puff, -2 long puff";
 
 /// `text` in lines of at most `width` characters, broken at spaces (a
 /// word longer than that, cut).
@@ -375,6 +476,7 @@ mod tests {
             default: default.into(),
             value: value.into(),
             reason: reason.into(),
+            from: String::new(),
         }
     }
 

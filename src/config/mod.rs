@@ -15,6 +15,8 @@
 //!   through the same layout;
 //! * [`diff`]: what a file changes from the built-in configuration, with
 //!   the reasons written in it, compared through that same layout;
+//! * [`layers`]: a setup from several files (`--config A --config B`),
+//!   later over earlier, each setting with the file it came from;
 //! * [`invalid`](mod@invalid): the mark of a configuration or an option
 //!   found wrong before anything started.
 
@@ -23,6 +25,7 @@ pub mod diff;
 pub mod error;
 mod file;
 pub mod invalid;
+pub mod layers;
 pub(crate) mod library;
 mod lines;
 mod names;

@@ -9,6 +9,7 @@ use anyhow::Context;
 
 use crate::config::Config;
 use crate::config::invalid::invalid;
+use crate::config::layers::Layered;
 use crate::design::analysis::AttemptTiming;
 use crate::design::breathing::Breathing;
 use crate::design::request::Request;
@@ -31,7 +32,9 @@ pub struct Inputs {
 
 impl Inputs {
     /// Reads what `request` names; a file that is not a valid
-    /// configuration is an invalid start.
+    /// configuration is an invalid start. The settings are the `--config`
+    /// files' when given (the profile then gives only the breaths), else
+    /// the profile's.
     pub fn read(request: &Request) -> anyhow::Result<Inputs> {
         let load = |path: &PathBuf| invalid(Config::from_file(path).map_err(anyhow::Error::from));
         let (config, who) = match &request.user {
@@ -62,6 +65,12 @@ impl Inputs {
                 (config, who)
             }
         };
+        let (config, setup) = if request.config.is_empty() {
+            (config, None)
+        } else {
+            let setup = invalid(Layered::read(&request.config).map_err(anyhow::Error::from))?;
+            (setup.config().clone(), Some(setup))
+        };
         let (config, library_name) = match &request.library {
             Some(path) => {
                 let library = load(path)?;
@@ -73,6 +82,13 @@ impl Inputs {
                     )?,
                     path.display().to_string(),
                 )
+            }
+            None if setup.is_some() => {
+                let name = match setup.as_ref().and_then(|s| s.source("sequence")) {
+                    Some(layer) => format!("the library of {}", layer.path.display()),
+                    None => "the built-in library".to_string(),
+                };
+                (config, name)
             }
             None if request.user.is_some() => (config, "the profile's library".to_string()),
             None => (config, "the built-in library".to_string()),

@@ -16,6 +16,9 @@ pub struct Request {
     /// The person: a profile `sipnpuff fit` wrote (`None`: the study's
     /// simulated user).
     pub user: Option<PathBuf>,
+    /// The settings in use (`--config`, later files over earlier ones);
+    /// none: the profile's, or the built-in ones.
+    pub config: Vec<PathBuf>,
     /// Recordings (or directories of them) whose `match` events give the
     /// usage.
     pub usage: Vec<PathBuf>,

@@ -6,6 +6,8 @@
 use std::fmt::Write;
 
 use crate::config::Config;
+use crate::config::layers::{Layered, Setting};
+use crate::config::print::entry_toml;
 use crate::fit::Fit;
 use crate::fit::check::ConfusionMatrix;
 use crate::fit::predict::{KindRates, Rates};
@@ -23,6 +25,14 @@ pub struct ProfileHeader {
 
 /// The profile's text.
 pub fn text(fit: &Fit, header: &ProfileHeader) -> String {
+    text_keeping(fit, header, &Layered::default())
+}
+
+/// The profile's text for a person whose setup is `setup`: the fitted
+/// settings, then every setting of the setup the fit does not measure
+/// (their library, outputs, timings…), each under `# kept from FILE`, so
+/// the profile alone is their whole setup.
+pub fn text_keeping(fit: &Fit, header: &ProfileHeader, setup: &Layered) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -60,19 +70,63 @@ pub fn text(fit: &Fit, header: &ProfileHeader) -> String {
         let _ = writeln!(out, "# WARNING: {overlap}");
     }
     let defaults = values(&Config::default());
-    let mut section = "";
+    // Each table's lines, tables in the order they first come.
+    let mut tables: Vec<(String, String)> = Vec::new();
+    let mut add = |table: &str, lines: String| match tables.iter_mut().find(|(t, _)| t == table) {
+        Some((_, body)) => *body += &lines,
+        None => tables.push((table.to_string(), lines)),
+    };
     for s in &fit.proposal.settings {
         let (table, key) = s.key.split_once('.').unwrap_or(("", s.key));
         if defaults.get(s.key).is_some_and(|d| same(d, &s.value)) {
             continue;
         }
-        if table != section {
-            let _ = writeln!(out, "\n[{table}]");
-            section = table;
+        add(table, format!("# {}\n{key} = {}\n", s.reason, s.value));
+    }
+    let mut library = None;
+    for kept in kept(fit, setup) {
+        let from = setup.layers()[kept.layer].path.display().to_string();
+        if kept.key == "sequence" {
+            library = Some(from);
+            continue;
         }
-        let _ = writeln!(out, "# {}\n{key} = {}", s.reason, s.value);
+        let Some((table, key)) = kept.key.rsplit_once('.') else {
+            continue;
+        };
+        add(
+            table,
+            format!("# kept from {from}\n{key} = {}\n", kept.value),
+        );
+    }
+    for (table, body) in &tables {
+        let _ = write!(out, "\n[{table}]\n{body}");
+    }
+    if let Some(from) = library {
+        let entries = setup.config().core().sequences();
+        let _ = writeln!(
+            out,
+            "\n# kept from {from}: the library ({} entries)",
+            entries.len()
+        );
+        for entry in entries {
+            if let Ok(text) = entry_toml(entry) {
+                out += &text;
+            }
+        }
     }
     out
+}
+
+/// The settings of `setup` that `fit` does not measure (every one the
+/// files give that is not among the fit's proposal), each with the file
+/// it comes from.
+pub fn kept(fit: &Fit, setup: &Layered) -> Vec<Setting> {
+    let fitted: Vec<&str> = fit.proposal.settings.iter().map(|s| s.key).collect();
+    setup
+        .settings()
+        .into_iter()
+        .filter(|s| !fitted.contains(&s.key.as_str()))
+        .collect()
 }
 
 /// "32/32".

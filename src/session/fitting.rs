@@ -10,6 +10,7 @@ use std::path::Path;
 use anyhow::Context;
 
 use crate::config::Config;
+use crate::config::layers::Layered;
 use crate::fit::outcome::Outcome;
 use crate::fit::profile::{self, ProfileHeader};
 use crate::fit::protocol::{DEFAULT_HOLDS, Protocol};
@@ -38,6 +39,9 @@ pub struct FitRequest<'a> {
     /// Their file, if given: its header's fitted measurements, for the
     /// drift; in ordinary use, the profile in use.
     pub current_file: Option<&'a Path>,
+    /// The whole setup in use (`--config` files, later over earlier): the
+    /// profile keeps every setting of it the fit does not measure.
+    pub setup: &'a Layered,
     /// The person's label, for the profile's header.
     pub label: &'a str,
     /// Write the profile even when short and long breaths overlap.
@@ -166,11 +170,40 @@ pub(super) fn conclude(
         date: today(),
         source: source.to_string(),
     };
-    let text = profile::text(&fit, &header);
+    let text = profile::text_keeping(&fit, &header, request.setup);
     std::fs::write(out, &text).with_context(|| format!("cannot write {}", out.display()))?;
+    for line in kept_lines(&fit, request.setup) {
+        console.note(&line);
+    }
     console.note(&format!("wrote the profile to {}", out.display()));
     outcome.profile = Some(out.display().to_string());
     Ok((FitEnd::Completed, outcome))
+}
+
+/// What the profile keeps that the fit did not measure, file by file:
+/// `kept from FILE: the library (12 entries), output.mqtt.host`.
+fn kept_lines(fit: &Fit, setup: &Layered) -> Vec<String> {
+    let kept = profile::kept(fit, setup);
+    let mut lines = Vec::new();
+    for (i, layer) in setup.layers().iter().enumerate() {
+        let keys: Vec<String> = (kept.iter().filter(|s| s.layer == i))
+            .map(|s| match s.key.as_str() {
+                "sequence" => format!(
+                    "the library ({} entries)",
+                    setup.config().core().sequences().len()
+                ),
+                key => key.to_string(),
+            })
+            .collect();
+        if !keys.is_empty() {
+            lines.push(format!(
+                "kept from {} (not measured): {}",
+                layer.path.display(),
+                keys.join(", ")
+            ));
+        }
+    }
+    lines
 }
 
 /// Today, `YYYY-MM-DD` (UTC).
