@@ -109,13 +109,35 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         quiet: args.display.tui,
         ..StdoutEvents::default()
     };
-    let report = session::run(&config, &plan, &mut events, &Terminal)?;
+    let mut report = session::run(&config, &plan, &mut events, &Terminal)?;
+    report.max_hold = Some(max_hold(&config, args.config.config.as_deref()));
     run_report::conclude(
         &report,
         events.failed,
         args.json,
         args.histogram_dir.as_deref(),
     )
+}
+
+/// `detector.max_hold_ms` and where it came from, for the report's line on
+/// breaths held past it: "1000 ms, set in anna.toml" or "6000 ms, the
+/// built-in default".
+fn max_hold(config: &crate::config::Config, file: Option<&std::path::Path>) -> String {
+    let ms = config.core().detector().max_hold_ms;
+    let set_in = file.filter(|path| {
+        std::fs::read_to_string(path)
+            .ok()
+            .and_then(|text| text.parse::<toml::Table>().ok())
+            .is_some_and(|t| {
+                t.get("detector")
+                    .and_then(|d| d.get("max_hold_ms"))
+                    .is_some()
+            })
+    });
+    match set_in {
+        Some(path) => format!("{ms} ms, set in {}", path.display()),
+        None => format!("{ms} ms, the built-in default"),
+    }
 }
 
 /// `--record-max-mb`: a positive number of megabytes (10^6 bytes), at
