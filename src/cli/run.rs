@@ -84,7 +84,9 @@ pub struct RunArgs {
 /// ([`run_report::exit_status`]). If stdout fails, the arm is stopped
 /// safely and the report goes to stderr.
 pub fn run(args: RunArgs) -> anyhow::Result<u8> {
-    let config = with_interface(args.config.load()?, args.interface)?;
+    let setup = args.config.layered()?;
+    let max_hold_origin = setup.source("detector.max_hold_ms").map(|l| l.path.clone());
+    let config = with_interface(setup.into_config(), args.interface)?;
     if let Some(dir) = &args.histogram_dir {
         writable_dir(dir)?;
     }
@@ -112,13 +114,25 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         quiet: args.display.tui,
         ..StdoutEvents::default()
     };
-    let report = session::run(&config, &plan, &mut events, &Terminal)?;
+    let mut report = session::run(&config, &plan, &mut events, &Terminal)?;
+    report.max_hold = Some(max_hold(&config, max_hold_origin.as_deref()));
     run_report::conclude(
         &report,
         events.failed,
         args.json,
         args.histogram_dir.as_deref(),
     )
+}
+
+/// `detector.max_hold_ms` and where it came from, for the report's line on
+/// breaths held past it: "1000 ms, set in anna.toml" or "6000 ms, the
+/// built-in default".
+fn max_hold(config: &crate::config::Config, file: Option<&std::path::Path>) -> String {
+    let ms = config.core().detector().max_hold_ms;
+    match file {
+        Some(path) => format!("{ms} ms, set in {}", path.display()),
+        None => format!("{ms} ms, the built-in default"),
+    }
 }
 
 /// `--record-max-mb`: a positive number of megabytes (10^6 bytes), at

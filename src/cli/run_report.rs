@@ -72,7 +72,8 @@ pub fn conclude(
 
 /// The exit status of a finished run whose stdout failed with
 /// `stdout_failed`, if it did. A fault, or a safe stop that did not end
-/// the stream with a zero command, is a failure whatever stopped the run;
+/// the stream with a zero command, or a sensor fault (the arm stopped
+/// mid-run), is a failure whatever stopped the run;
 /// otherwise the status says what stopped it: a signal (128 + N), the
 /// reader of stdout gone (141), another failed output (1), or the run's
 /// own end (0, or the output's status if the report could not be
@@ -83,7 +84,7 @@ pub fn exit_status(report: &RunReport, stdout_failed: Option<io::ErrorKind>) -> 
         Some(_) => output::FAILED,
         None => output::COMPLETED,
     };
-    if !report.errors.is_empty() || !report.stream_ended_with_zero {
+    if !report.errors.is_empty() || !report.stream_ended_with_zero || report.faults.total() > 0 {
         return output::FAILED;
     }
     match report.stop_reason {
@@ -105,6 +106,7 @@ mod tests {
 
     use crate::arm::sim::SimArm;
     use crate::config::Config;
+    use crate::rt::control_loop::SensorFaults;
     use crate::rt::threads::{self, LoopSettings, RunOptions};
     use crate::sim::synthetic_sensor::SyntheticSensor;
 
@@ -161,6 +163,23 @@ mod tests {
             (with(StopReason::Time, &[], true), pipe, 141),
             (with(StopReason::Time, &[], true), full, 1),
         ];
+        // Sensor faults fail the run, and the report counts them, naming
+        // the hold limit and where it came from.
+        let faulted = RunReport {
+            faults: SensorFaults {
+                held_too_long: 3,
+                other: 1,
+            },
+            max_hold: Some("1000 ms, set in anna.toml".into()),
+            ..with(StopReason::SensorEnded, &[], true)
+        };
+        assert_eq!(exit_status(&faulted, None), 1);
+        assert_eq!(
+            faulted.faults_line().unwrap(),
+            "FAULTS: 4 sensor faults, each stopped the arm; 3 were a breath held past detector.max_hold_ms (1000 ms, set in anna.toml): if the person meant them, raise max_hold_ms\n"
+        );
+        assert!(faulted.to_text().contains("\nFAULTS: 4 sensor faults"));
+        assert_eq!(base.faults_line(), None);
         for (report, failed, status) in table {
             assert_eq!(
                 exit_status(&report, failed),

@@ -492,16 +492,25 @@ impl Region {
     /// How long the detector would see this breath past a threshold `on`
     /// volts from the baseline, ending back past `off`, each crossing
     /// confirmed by more than `glitch` ticks; `None` if it never passes
-    /// `on` for longer than `glitch` ticks.
+    /// `on` for longer than `glitch` ticks. Only its own crossings count:
+    /// an onset released before this stretch begins belongs to the breath
+    /// before (a sequence's breaths may be closer than the look-around),
+    /// and one after the stretch ends to the next.
     pub fn duration_at(&self, signal: &Signal, on: f64, off: f64, glitch: usize) -> Option<usize> {
         let sign = Direction::of(self.breath).sign();
-        let from = self.start.saturating_sub(LOOK_AROUND_MS);
         let to = (self.end + LOOK_AROUND_MS).min(signal.len());
         let distance = |t: usize| signal.volts(t).map(|v| sign * (v - self.baseline));
-        let start = confirmed_run(from, to, glitch, |t| distance(t).is_some_and(|d| d > on))?;
-        let end = confirmed_run(start, to, glitch, |t| distance(t).is_some_and(|d| d < off))
-            .unwrap_or(to);
-        Some(end - start)
+        let mut from = self.start.saturating_sub(LOOK_AROUND_MS);
+        loop {
+            let start = confirmed_run(from, to, glitch, |t| distance(t).is_some_and(|d| d > on))
+                .filter(|&s| s < self.end)?;
+            let end = confirmed_run(start, to, glitch, |t| distance(t).is_some_and(|d| d < off))
+                .unwrap_or(to);
+            if end > self.start {
+                return Some(end - start);
+            }
+            from = end;
+        }
     }
 }
 

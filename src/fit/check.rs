@@ -103,8 +103,48 @@ pub fn bursts(signal: &Signal, d: &DetectorConfig) -> (Vec<Burst>, usize) {
     (bursts, faults)
 }
 
+/// A breath found, as the matching sees it: its span, and which answer
+/// it is (`None`: a breath not counted, of the wrong kind or extra).
+struct Found {
+    start: u64,
+    end: u64,
+    answer: Option<usize>,
+}
+
+/// The breath each burst reads: the one it overlaps most, or, if it
+/// overlaps none, the nearest within [`SLACK_MS`]; `None` for a burst
+/// near no breath. Matching by overlap, not by nearness alone, keeps a
+/// sequence's breaths apart when they are closer than the slack.
+fn owners(bursts: &[Burst], found: &[Found]) -> Vec<Option<usize>> {
+    bursts
+        .iter()
+        .map(|b| {
+            // `found` is in time order: only those that start before the
+            // burst ends (with the slack) can be near it.
+            let last = found.partition_point(|f| f.start < b.end + SLACK_MS);
+            found[..last]
+                .iter()
+                .enumerate()
+                .rev()
+                .take_while(|(_, f)| f.end + 2 * SLACK_MS > b.start)
+                .filter(|(_, f)| f.end + SLACK_MS > b.start)
+                .map(|(i, f)| {
+                    let overlap = b.end.min(f.end).saturating_sub(b.start.max(f.start));
+                    let apart = f
+                        .start
+                        .saturating_sub(b.end)
+                        .max(b.start.saturating_sub(f.end));
+                    (i, overlap, apart)
+                })
+                .max_by(|x, y| x.1.cmp(&y.1).then(y.2.cmp(&x.2)))
+                .map(|(i, _, _)| i)
+        })
+        .collect()
+}
+
 /// Replays the calibration through the detector with `d` and reads each
-/// prompted breath.
+/// prompted breath: each burst reads the breath it overlaps most, so a
+/// breath with no burst was missed and one with two or more was split.
 pub fn confusion(
     signal: &Signal,
     answers: &Answers,
@@ -112,7 +152,30 @@ pub fn confusion(
     d: &DetectorConfig,
 ) -> ConfusionMatrix {
     let (bursts, faults) = bursts(signal, d);
-    let mut used = vec![false; bursts.len()];
+    let mut found: Vec<Found> = answers
+        .answers
+        .iter()
+        .enumerate()
+        .map(|(i, a)| (Some(i), &a.region))
+        .chain(answers.wrong_kind.iter().map(|a| (None, &a.region)))
+        .chain(answers.extra.iter().map(|r| (None, r)))
+        .map(|(answer, r)| Found {
+            start: r.start as u64,
+            end: r.end as u64,
+            answer,
+        })
+        .collect();
+    found.sort_by_key(|f| f.start);
+    let owners = owners(&bursts, &found);
+    let mut read: Vec<Vec<Action>> = vec![Vec::new(); answers.answers.len()];
+    let mut unprompted = 0;
+    for (b, owner) in bursts.iter().zip(&owners) {
+        match owner.map(|i| found[i].answer) {
+            Some(Some(answer)) => read[answer].push(b.action),
+            Some(None) => {}
+            None => unprompted += 1,
+        }
+    }
     let mut rows: Vec<Row> = asks
         .iter()
         .map(|&ask| Row {
@@ -122,26 +185,11 @@ pub fn confusion(
             asked: 0,
         })
         .collect();
-    for answer in &answers.answers {
-        let (from, to) = (
-            (answer.region.start as u64).saturating_sub(SLACK_MS),
-            answer.region.end as u64 + SLACK_MS,
-        );
-        let mut mine = bursts
-            .iter()
-            .enumerate()
-            .filter(|(_, b)| b.start < to && b.end > from);
-        let read = match (mine.next(), mine.next()) {
-            (None, _) => Read::Missed,
-            (Some((i, b)), None) => {
-                used[i] = true;
-                Read::As(b.action)
-            }
-            (Some((i, _)), Some((j, _))) => {
-                used[i] = true;
-                used[j] = true;
-                Read::Split
-            }
+    for (answer, read) in answers.answers.iter().zip(&read) {
+        let read = match read.as_slice() {
+            [] => Read::Missed,
+            [action] => Read::As(*action),
+            _ => Read::Split,
         };
         if let Some(row) = rows.iter_mut().find(|r| r.ask == answer.ask) {
             row.counts[column(read)] += 1;
@@ -149,22 +197,6 @@ pub fn confusion(
             row.right += usize::from(is_right(answer.ask, read));
         }
     }
-    let wrong_kind: Vec<(u64, u64)> = answers
-        .wrong_kind
-        .iter()
-        .map(|a| (a.region.start as u64, a.region.end as u64))
-        .chain(answers.extra.iter().map(|r| (r.start as u64, r.end as u64)))
-        .collect();
-    let unprompted = bursts
-        .iter()
-        .zip(&used)
-        .filter(|(b, used)| {
-            !**used
-                && !wrong_kind
-                    .iter()
-                    .any(|&(s, e)| b.start < e + SLACK_MS && b.end + SLACK_MS > s)
-        })
-        .count();
     ConfusionMatrix {
         rows,
         unprompted,

@@ -1,8 +1,11 @@
 //! Drift: how a user's breaths in a new session differ from those their
 //! profile was fitted on, read from the profile's header (each kind's
-//! plateau and length, as [`profile`](super::profile) writes them).
+//! plateau and length, as [`profile`](super::profile) writes them), and
+//! whether the settings in use still read them: the verdict a re-fit
+//! ends with.
 
 use crate::fit::summary::Class;
+use crate::fit::{Fit, MAX_CONFUSION};
 
 /// A change this large (a fraction of the fitted value) is worth a re-fit.
 pub const REFIT_FRACTION: f64 = 0.2;
@@ -81,6 +84,97 @@ pub fn drift(then: &[Fitted], now: &[Class]) -> Vec<String> {
     found
 }
 
+/// The profile a designed library was made for, from its header's first
+/// line (`# sipnpuff library designed by … for measured by the profile
+/// PATH`): its fitted measurements are the person's.
+pub fn designed_for(library_text: &str) -> Option<&str> {
+    let first = library_text.lines().next()?;
+    let rest = first.strip_prefix("# sipnpuff library designed by ")?;
+    let (_, path) = rest.split_once(" the profile ")?;
+    Some(path.trim()).filter(|p| !p.is_empty())
+}
+
+/// Share of the session's breaths the settings in use must read as meant
+/// for them to be kept.
+pub const KEEP_READ_RIGHT: f64 = 0.95;
+
+/// What a re-fit concludes: the lines to say, in order, the last one the
+/// verdict.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Verdict {
+    /// Each finding, then the verdict.
+    pub lines: Vec<String>,
+    /// Whether a re-fit is suggested.
+    pub refit: bool,
+}
+
+/// The verdict on `fit`, a session read with the settings in use:
+/// against the fitted measurements `then` (from `source`; `None`: there
+/// are none, and `source` says why), and whether those settings read the
+/// session's breaths as meant (`meant`: "as you made them" in ordinary
+/// use, "as asked" in a calibration). Always ends with a verdict line,
+/// "no drift" included.
+pub fn verdict(then: Option<&[Fitted]>, source: &str, fit: &Fit, meant: &str) -> Verdict {
+    let mut lines = Vec::new();
+    let mut reasons = Vec::new();
+    match then {
+        Some(then) => {
+            let moved = drift(then, &fit.classes);
+            if moved.is_empty() {
+                lines.push(format!(
+                    "drift: none — every kind of breath in this session is within {:.0} % of its length and strength at fitting ({source})",
+                    100.0 * REFIT_FRACTION
+                ));
+            } else {
+                reasons.push(format!(
+                    "{} moved more than {:.0} % since fitting",
+                    moved.len(),
+                    100.0 * REFIT_FRACTION
+                ));
+                lines.extend(moved.into_iter().map(|m| format!("drift: {m}")));
+            }
+        }
+        None => lines.push(format!(
+            "drift: not measured: {source}; the session is judged by how the settings in use read it"
+        )),
+    }
+    let (right, asked) = fit.replayed[0].right();
+    let now = &fit.predicted[0];
+    let worst = now.worst_confusion();
+    let missed = now.puff.missed.max(now.sip.missed);
+    lines.push(format!(
+        "the settings in use read {right}/{asked} of the session's breaths {meant}; predicted: {:.1} % of one length read as the other, {:.1} % missed",
+        100.0 * worst,
+        100.0 * missed
+    ));
+    if (right as f64) < KEEP_READ_RIGHT * asked as f64 {
+        reasons.push(format!(
+            "the settings in use read only {right}/{asked} of your breaths {meant}"
+        ));
+    }
+    if worst > MAX_CONFUSION || missed > MAX_CONFUSION {
+        reasons.push(format!(
+            "the settings in use are predicted to misread {:.0} % of a kind of breath",
+            100.0 * worst.max(missed)
+        ));
+    }
+    let faults = fit.replayed[0].faults;
+    if faults > 0 {
+        reasons.push(format!(
+            "the settings in use stopped the arm {faults} time{} (a breath held past detector.max_hold_ms = {} ms, or a sensor fault)",
+            if faults == 1 { "" } else { "s" },
+            fit.current.max_hold_ms
+        ));
+    }
+    let refit = !reasons.is_empty();
+    lines.push(if refit {
+        format!("verdict: re-fit suggested: {}", reasons.join("; "))
+    } else {
+        "verdict: no drift — the settings in use still read you; no re-fit needed".to_string()
+    });
+    Verdict { lines, refit }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -103,5 +197,18 @@ mod tests {
                 }
             ]
         );
+    }
+
+    #[test]
+    fn a_designed_librarys_profile_is_found() {
+        let text = "# sipnpuff library designed by sipnpuff 0.1.0 for measured by the profile /p/anna.toml\n# usage: x\n";
+        assert_eq!(designed_for(text), Some("/p/anna.toml"));
+        assert_eq!(
+            designed_for(
+                "# sipnpuff library designed by sipnpuff 0.1.0 for the study's simulated user\n"
+            ),
+            None
+        );
+        assert_eq!(designed_for("# sipnpuff profile for \"a\"\n"), None);
     }
 }

@@ -89,7 +89,25 @@ pub fn fit(signal: &Signal, protocol: &Protocol, current: &Config) -> Result<Fit
 
 /// Fits a session of ordinary use recorded with the settings `in_use`.
 pub fn fit_use(signal: &Signal, in_use: &Config) -> Result<Fit, FitError> {
-    let used = usage::measure(signal, in_use)?;
+    let mut used = usage::measure(signal, in_use)?;
+    // The breaths made in a mode moved the arm: read by the replay, but
+    // neither split into short and long nor bursts nobody made.
+    let selecting: std::collections::HashSet<usize> = used
+        .answers
+        .answers
+        .iter()
+        .map(|a| a.region.start)
+        .collect();
+    used.answers.extra = (used.found.regions.iter())
+        .filter(|r| !selecting.contains(&r.start))
+        .copied()
+        .collect();
+    used.answers.notes.push(format!(
+        "ordinary use: {} breaths, {} of them to select a mode (split into short and long as you made them) and {} in a mode (they moved the arm: left out)",
+        used.found.regions.len(),
+        used.answers.answers.len(),
+        used.answers.extra.len()
+    ));
     fit_answers(
         signal,
         &used.protocol,

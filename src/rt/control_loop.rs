@@ -18,7 +18,8 @@ use std::time::{Duration, Instant, SystemTime};
 
 use nalgebra::Isometry3;
 
-use crate::control::event::TimedEvent;
+use crate::control::detector::FaultReason;
+use crate::control::event::{Event, TimedEvent};
 use crate::control::motion::feedback::ArmFault;
 use crate::control::motion::stream::ArmCommand;
 use crate::control::pipeline::Pipeline;
@@ -81,6 +82,31 @@ pub struct WorkSummary {
     pub measured_poses: u64,
     /// The largest correction they made to the pose estimate, m.
     pub largest_correction_m: f64,
+    /// Sensor faults the core reported: each stopped the arm.
+    pub faults: SensorFaults,
+}
+
+/// Sensor faults counted on the control thread (RT-safe: two counters).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct SensorFaults {
+    /// Breaths held past `detector.max_hold_ms`.
+    pub held_too_long: u64,
+    /// Every other sensor fault (a bad, stale or lost sample, a stall).
+    pub other: u64,
+}
+
+impl SensorFaults {
+    /// All of them.
+    pub fn total(&self) -> u64 {
+        self.held_too_long + self.other
+    }
+
+    fn count(&mut self, reason: &FaultReason) {
+        match reason {
+            FaultReason::Stuck { .. } => self.held_too_long += 1,
+            _ => self.other += 1,
+        }
+    }
 }
 
 /// One tick of work at each deadline. RT-safe: implementations must not
@@ -142,6 +168,7 @@ pub struct ControlTick<S: Samples> {
     stop_next: bool,
     /// The core's output, written in place each tick (no copy of it).
     out: TickOutput,
+    faults: SensorFaults,
 }
 
 impl<S: Samples> ControlTick<S> {
@@ -167,6 +194,7 @@ impl<S: Samples> ControlTick<S> {
             told_link_lost: false,
             stop_next: false,
             out: TickOutput::default(),
+            faults: SensorFaults::default(),
         }
     }
 
@@ -262,6 +290,9 @@ impl<S: Samples> TickWork for ControlTick<S> {
         let mut events = 0u8;
         for event in out.events.iter() {
             events = events.saturating_add(1);
+            if let Event::Fault { reason } = event {
+                self.faults.count(reason);
+            }
             let timed = TimedEvent {
                 tick: out.tick,
                 event: *event,
@@ -322,6 +353,7 @@ impl<S: Samples> TickWork for ControlTick<S> {
             arm_fault: self.core.arm_fault(),
             measured_poses: self.core.motion().feedback().measurements(),
             largest_correction_m: self.core.motion().feedback().largest_correction_m(),
+            faults: self.faults,
         }
     }
 }

@@ -10,7 +10,7 @@ use crate::arm::ArmState;
 use crate::control::motion::stream::ArmCommand;
 use crate::output::OutputReport;
 use crate::rt::arm_thread::ArmReport;
-use crate::rt::control_loop::{LoopResult, StopReason};
+use crate::rt::control_loop::{LoopResult, SensorFaults, StopReason};
 use crate::rt::recorder::RecordingReport;
 use crate::rt::scheduler::SchedulerStats;
 use crate::rt::setup::RtSetting;
@@ -90,6 +90,11 @@ pub struct RunReport {
     pub arm_fault: Option<String>,
     /// What each output beyond the arm did (`run --output`).
     pub outputs: Vec<OutputReport>,
+    /// Sensor faults: each stopped the arm; any makes the run a failure.
+    pub faults: SensorFaults,
+    /// `detector.max_hold_ms` and where it came from, e.g. "1000 ms, set
+    /// in anna.toml" (set by the command line; `None`: not known).
+    pub max_hold: Option<String>,
 }
 
 /// What the run itself saw, besides its threads' figures.
@@ -163,6 +168,8 @@ impl RunReport {
             largest_correction_m: work.largest_correction_m,
             arm_fault,
             outputs: Vec::new(),
+            faults: work.faults,
+            max_hold: None,
         }
     }
 
@@ -298,10 +305,41 @@ impl RunReport {
         if let Some(error) = &self.output_error {
             s += &format!("OUTPUT FAILED: {error}; later events were not written\n");
         }
+        if let Some(line) = self.faults_line() {
+            s += &line;
+        }
         for error in &self.errors {
             s += &format!("ERROR: {error}\n");
         }
         s
+    }
+
+    /// The report's line on sensor faults, if there were any: how many,
+    /// how many were breaths held past `max_hold_ms`, and where that
+    /// setting came from.
+    pub fn faults_line(&self) -> Option<String> {
+        let f = &self.faults;
+        if f.total() == 0 {
+            return None;
+        }
+        let plural = |n: u64| if n == 1 { "" } else { "s" };
+        let mut line = format!(
+            "FAULTS: {} sensor fault{}, each stopped the arm",
+            f.total(),
+            plural(f.total())
+        );
+        if f.held_too_long > 0 {
+            line += &format!(
+                "; {} {} a breath held past detector.max_hold_ms{}: if the person meant {}, raise max_hold_ms",
+                f.held_too_long,
+                if f.held_too_long == 1 { "was" } else { "were" },
+                self.max_hold
+                    .as_ref()
+                    .map_or(String::new(), |m| format!(" ({m})")),
+                if f.held_too_long == 1 { "it" } else { "them" },
+            );
+        }
+        Some(line + "\n")
     }
 
     /// Writes each histogram as `.hgrm` (µs) into `dir`.

@@ -101,6 +101,8 @@ pub struct SimulatedRun {
     pub output_commands: u64,
     /// Output commands dropped because a ring was full.
     pub output_drops: u64,
+    /// Sensor faults the core reported, as a run's report counts them.
+    pub faults: crate::rt::control_loop::SensorFaults,
 }
 
 /// The simulated run's outputs: they count what they are given.
@@ -286,6 +288,7 @@ fn simulate<S: Samples>(
         measured_poses: result.work.measured_poses,
         output_commands,
         output_drops,
+        faults: result.work.faults,
     };
     (run, reports)
 }

@@ -25,7 +25,7 @@ use crate::rt::telemetry_thread::Watchers;
 use crate::rt::threads::{self, LoopSettings, RunOptions};
 use crate::sensor::{Sensor, SensorSpec};
 use crate::session::Console;
-use crate::session::fitting::{CALIBRATION, FitEnd, FitRequest, conclude, today};
+use crate::session::fitting::{CALIBRATION, FitEnd, FitRequest, SessionKind, conclude, today};
 use crate::session::guide::Guide;
 use crate::session::showing::{Display, DisplayChoice, Showing};
 use crate::sim::synthetic_sensor::SyntheticSensor;
@@ -122,7 +122,14 @@ pub fn calibrate(
         Ok(signal) => {
             let source = format!("a guided session recorded in {kept}");
             let fitted = crate::fit::fit(&signal, protocol, current);
-            conclude(request, fitted, &source, Some(live.out), console)?
+            conclude(
+                request,
+                fitted,
+                SessionKind::Calibration,
+                &source,
+                Some(live.out),
+                console,
+            )?
         }
         Err(e) => {
             console.note(&format!("error: {e}"));

@@ -78,46 +78,150 @@ pub fn fit_recorded(
     console: &dyn Console,
 ) -> anyhow::Result<FitEnd> {
     let signal = read_signal(from).map_err(anyhow::Error::msg)?;
-    let fitted = recorded(request, from, &signal, console)?;
+    let (fitted, kind) = recorded(request, from, &signal, console)?;
     let source = from.display().to_string();
-    let (end, _) = conclude(request, fitted, &source, out, console)?;
+    let (end, _) = conclude(request, fitted, kind, &source, out, console)?;
     Ok(end)
+}
+
+/// What kind of session was fitted: the verdict's words differ.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SessionKind {
+    /// A calibration: breaths asked for.
+    Calibration,
+    /// Ordinary use: breaths as the person made them.
+    OrdinaryUse,
 }
 
 /// Fits a session recorded before: as a calibration, or, if it is a
 /// recording that neither says it is one nor follows the protocol, as
-/// ordinary use (against `--config`, or what it recorded).
+/// ordinary use, read with the settings it was recorded with (as the run
+/// read it), whatever `--config` says.
 fn recorded(
     request: &FitRequest,
     from: &Path,
     signal: &Signal,
     console: &dyn Console,
-) -> anyhow::Result<Result<Fit, FitError>> {
+) -> anyhow::Result<(Result<Fit, FitError>, SessionKind)> {
     let as_protocol = fit::fit(signal, &request.protocol(), request.current);
     let follows = as_protocol
         .as_ref()
         .is_ok_and(|f| f.answers.notes.is_empty());
     if !from.is_dir() || from.join(CALIBRATION).exists() || follows {
-        return Ok(as_protocol);
+        return Ok((as_protocol, SessionKind::Calibration));
     }
-    let in_use = match request.current_file {
-        Some(_) => request.current.clone(),
-        None => Recording::open(from)?.config,
-    };
+    let in_use = Recording::open(from)?.config;
     console.note(&format!(
-        "{}: a session of ordinary use (it does not follow the protocol): its breaths split into short and long as you made them",
+        "{}: a session of ordinary use (it does not follow the protocol): read with the settings it was recorded with, its breaths split into short and long as you made them",
         from.display()
     ));
-    Ok(fit::fit_use(signal, &in_use))
+    if let Some(path) = request.current_file {
+        let differ = differences(request.current, &in_use);
+        if !differ.is_empty() {
+            console.note(&format!(
+                "note: {} is not the setup the session was recorded with ({}): the session is read with the recording's own, as the run read it; {} serves only for its fitted measurements",
+                path.display(),
+                differ,
+                path.display()
+            ));
+        }
+    }
+    Ok((fit::fit_use(signal, &in_use), SessionKind::OrdinaryUse))
+}
+
+/// The settings in which `given` differs from `used` (the rest level
+/// aside: a run measures it again), as `key = given (recorded: used)`,
+/// at most four and a count of the rest.
+fn differences(given: &Config, used: &Config) -> String {
+    const SHOWN: usize = 4;
+    let (given, used) = (profile::values(given), profile::values(used));
+    let differ: Vec<String> = given
+        .iter()
+        .filter(|(key, _)| key.as_str() != "detector.neutral_volts")
+        .filter_map(|(key, value)| {
+            let recorded = used.get(key)?;
+            (!profile::same(value, recorded)).then(|| {
+                if key.starts_with("sequence") {
+                    format!("{key} differs")
+                } else {
+                    format!("{key} = {value} (recorded: {recorded})")
+                }
+            })
+        })
+        .collect();
+    let mut text = differ
+        .iter()
+        .take(SHOWN)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(", ");
+    if differ.len() > SHOWN {
+        text += &format!(" and {} more", differ.len() - SHOWN);
+    }
+    text
+}
+
+/// The fitted measurements to compare with: those in the header of the
+/// file given, or, for a library designed for a profile, that profile's
+/// (found beside the library or where its header says). `Err` says why
+/// there are none.
+fn baseline(path: &Path) -> anyhow::Result<Result<(Vec<drift::Fitted>, String), String>> {
+    let read = |p: &Path| {
+        std::fs::read_to_string(p).with_context(|| format!("cannot read {}", p.display()))
+    };
+    let text = read(path)?;
+    let then = drift::fitted(&text);
+    if !then.is_empty() {
+        return Ok(Ok((then, format!("the profile {}", path.display()))));
+    }
+    let Some(profile) = drift::designed_for(&text) else {
+        return Ok(Err(format!(
+            "{} has no fitted measurements in its header (it was not written by `sipnpuff fit`)",
+            path.display()
+        )));
+    };
+    let named = Path::new(profile);
+    let beside = path
+        .parent()
+        .map(|dir| dir.join(named.file_name().unwrap_or_default()));
+    let found = [Some(named.to_path_buf()), beside]
+        .into_iter()
+        .flatten()
+        .find(|p| p.is_file());
+    let Some(found) = found else {
+        return Ok(Err(format!(
+            "{} was designed for the profile {profile}, which is not there: give it (--config {profile}) to compare with its fitting",
+            path.display()
+        )));
+    };
+    let then = drift::fitted(&read(&found)?);
+    Ok(if then.is_empty() {
+        Err(format!(
+            "{} was designed for {}, which has no fitted measurements",
+            path.display(),
+            found.display()
+        ))
+    } else {
+        Ok((
+            then,
+            format!(
+                "the profile {} that {} was designed for",
+                found.display(),
+                path.display()
+            ),
+        ))
+    })
 }
 
 /// Reports a fit (from `source`, in words), and writes the profile to
 /// `out` (if any) when it reads the user reliably or `force`: what a
-/// recording and a live session share. How it ended, and the outcome for
-/// the page.
+/// recording and a live session share. Ordinary use, or any session
+/// given a configuration file, ends with the drift's verdict. How it
+/// ended, and the outcome for the page.
 pub(super) fn conclude(
     request: &FitRequest,
     fitted: Result<Fit, FitError>,
+    kind: SessionKind,
     source: &str,
     out: Option<&Path>,
     console: &dyn Console,
@@ -133,26 +237,48 @@ pub(super) fn conclude(
             return Ok((FitEnd::Failed, outcome));
         }
     };
-    if let Some(path) = request.current_file {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        let then = drift::fitted(&text);
-        if then.is_empty() {
-            console.note(&format!(
-                "{} has no fitted measurements in its header: no drift to report",
-                path.display()
-            ));
+    let verdict = match (kind, request.current_file) {
+        (SessionKind::Calibration, None) => None,
+        (_, file) => {
+            let then = match file {
+                Some(path) => baseline(path)?,
+                None => Err(
+                    "no profile given to compare with (--config PROFILE, the profile the run used)"
+                        .to_string(),
+                ),
+            };
+            let meant = match kind {
+                SessionKind::Calibration => "as asked",
+                SessionKind::OrdinaryUse => "as you made them",
+            };
+            Some(match &then {
+                Ok((fitted, from)) => drift::verdict(Some(fitted), from, &fit, meant),
+                Err(why) => drift::verdict(None, why, &fit, meant),
+            })
         }
-        for line in drift::drift(&then, &fit.classes) {
-            console.note(&format!("drift: {line}"));
-        }
-    }
+    };
     if request.json {
         console.print_line(&report::json(&fit)?).context("stdout")?;
     } else {
         console.print(&report::text(&fit)).context("stdout")?;
     }
-    let mut outcome = Outcome::of(&fit, request.current);
+    let (end, outcome) = write_profile(request, &fit, source, out, console)?;
+    for line in verdict.iter().flat_map(|v| &v.lines) {
+        console.note(line);
+    }
+    Ok((end, outcome))
+}
+
+/// Writes the profile to `out` (if any) when the fit reads the user
+/// reliably or `force`.
+fn write_profile(
+    request: &FitRequest,
+    fit: &Fit,
+    source: &str,
+    out: Option<&Path>,
+    console: &dyn Console,
+) -> anyhow::Result<(FitEnd, Outcome)> {
+    let mut outcome = Outcome::of(fit, request.current);
     if let Some(overlap) = &fit.overlap
         && !request.force
     {
@@ -170,9 +296,9 @@ pub(super) fn conclude(
         date: today(),
         source: source.to_string(),
     };
-    let text = profile::text_keeping(&fit, &header, request.setup);
+    let text = profile::text_keeping(fit, &header, request.setup);
     std::fs::write(out, &text).with_context(|| format!("cannot write {}", out.display()))?;
-    for line in kept_lines(&fit, request.setup) {
+    for line in kept_lines(fit, request.setup) {
         console.note(&line);
     }
     console.note(&format!("wrote the profile to {}", out.display()));

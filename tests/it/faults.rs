@@ -402,3 +402,54 @@ fn a_stall_is_a_fault_on_resumption_and_nothing_is_stretched_across_it() {
     );
     assert_eq!(check.speed(), 0.0);
 }
+
+/// A profile's `max_hold_ms = 1000` with breaths held 1.5 s and 1.4 s:
+/// the production loop counts two breaths held too long (the run's
+/// report and exit status say them), and the fault's words name the
+/// setting.
+#[test]
+fn breaths_held_past_max_hold_are_counted_by_the_loop_and_named() {
+    use sipnpuff::control::action::Breath;
+    use sipnpuff::rt::control_loop::SensorFaults;
+    use sipnpuff::rt::simulated::run_simulated;
+    use sipnpuff::sensor::Sensor;
+    use sipnpuff::sim::synthetic_sensor::SyntheticSensor;
+
+    let config = Config::from_toml_str("[detector]\nmax_hold_ms = 1000\n").unwrap();
+    let script = vec![
+        Step::Rest { ms: 3000 },
+        Step::Breath {
+            breath: Breath::Puff,
+            ms: 1500,
+        },
+        Step::Rest { ms: 2000 },
+        Step::Breath {
+            breath: Breath::Puff,
+            ms: 1400,
+        },
+        Step::Rest { ms: 2000 },
+        Step::Breath {
+            breath: Breath::Puff,
+            ms: 300,
+        },
+        Step::Rest { ms: 2000 },
+    ];
+    let params = SignalParams::clean(config.core().detector(), 1);
+    let sensor = SyntheticSensor::new(params, script).start().unwrap();
+    let run = run_simulated(config.core(), sensor.samples);
+    assert_eq!(
+        run.faults,
+        SensorFaults {
+            held_too_long: 2,
+            other: 0
+        }
+    );
+    let reason = FaultReason::Stuck {
+        volts: 3.66,
+        held_ms: 1000,
+    };
+    assert_eq!(
+        reason.to_string(),
+        "breath held 1000 ms at 3.66 V, past max_hold_ms — arm stopped: a breath longer than max_hold_ms allows, or the sensor stuck or its offset shifted"
+    );
+}

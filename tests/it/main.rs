@@ -46,6 +46,7 @@ mod motion_safety;
 mod outputs;
 mod properties;
 mod recording;
+mod refit;
 mod ruckig_oracle;
 mod runtime;
 mod scratch_folders;

@@ -1,0 +1,256 @@
+//! Re-fitting from ordinary use (`fit --from` a `run --record`
+//! recording): the session read as the run read it, with the settings it
+//! was recorded with, the breaths of a quick sequence kept apart, and a
+//! verdict on drift at the end, "no drift" included. Simulated people
+//! (`sim::breather`) use the interface with a profile fitted to them; the
+//! recording is written from their signal with the recording's own
+//! format.
+
+use std::path::{Path, PathBuf};
+
+use sipnpuff::config::Config;
+use sipnpuff::control::action::Action;
+use sipnpuff::control::tick::TickInput;
+use sipnpuff::fit::check::{bursts, read_right};
+use sipnpuff::fit::protocol::{Ask, Protocol};
+use sipnpuff::fit::signal::Signal;
+use sipnpuff::fit::{fit, fit_use};
+use sipnpuff::sim::breather::{Breather, practice_session, protocol_session};
+use sipnpuff::tools::recording::format::samples::SampleEncoder;
+use sipnpuff::tools::recording::format::{Stream, StreamFile};
+
+use crate::common::{fixture, sipnpuff_output as sipnpuff};
+use crate::recordings::copy_recording;
+use crate::scratch::Scratch;
+
+/// `name`'s profile, fitted from their calibration (with holds, seed 1),
+/// as a run uses it (the neutral re-zeroed at their rest).
+fn profile_of(name: &str) -> (Breather, Config, String) {
+    let b = Breather::named(name).unwrap();
+    let protocol = Protocol::new(8, 3);
+    let session = protocol_session(&b, &protocol, 1);
+    let fitted = fit(
+        &Signal::from_volts(session.signal()),
+        &protocol,
+        &Config::default(),
+    )
+    .unwrap();
+    let header = sipnpuff::fit::profile::ProfileHeader {
+        label: name.into(),
+        date: "2026-12-01".into(),
+        source: "a test".into(),
+    };
+    let text = sipnpuff::fit::profile::text(&fitted, &header);
+    let config = fitted.config.with_neutral_volts(b.rest_volts).unwrap();
+    (b, config, text)
+}
+
+/// `breather`'s 240 s of ordinary use with `config`'s library (seed 7).
+fn ordinary_use(breather: &Breather, config: &Config) -> (Signal, Vec<(Action, u64, u64)>) {
+    let session = practice_session(breather, config.core().sequences(), 240, 7);
+    let meant = session
+        .breaths
+        .iter()
+        .map(|b| (b.action, b.start, u64::from(b.ms)))
+        .collect();
+    (Signal::from_volts(session.signal()), meant)
+}
+
+/// A `run --record` directory at `dir` holding `signal` as recorded
+/// with `config`: a real run's recording with its samples and its
+/// configuration replaced (what `fit` reads of it).
+fn recording(dir: &Path, config: &Config, signal: &Signal) -> PathBuf {
+    copy_recording(&fixture("recording-built-in-user"), dir);
+    std::fs::write(dir.join("config.toml"), config.to_toml().unwrap()).unwrap();
+    let file = std::fs::File::create(dir.join("samples.bin")).unwrap();
+    let mut file = StreamFile::start(std::io::BufWriter::new(file), Stream::Samples).unwrap();
+    let (mut encoder, mut ops) = (SampleEncoder::default(), Vec::new());
+    for (tick, &sample) in signal.samples.iter().enumerate() {
+        encoder.input(&mut ops, &TickInput::new(tick as u64, sample));
+    }
+    encoder.flush(&mut ops);
+    file.write(&ops).unwrap();
+    file.end().unwrap();
+    dir.to_path_buf()
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// A short-capacity user's sequences have breaths 250 ms apart, which the
+/// run reads one burst each. The re-fit reads them as the run did: before,
+/// a breath's neighbour within 300 ms made it "split" (72/94 read right, 22
+/// split) and its length was measured from the neighbour's crossings
+/// (25–764 ms), so the fit found overlap and wrote no profile.
+#[test]
+fn ordinary_use_is_read_as_the_run_read_it() {
+    let (b, profile, _) = profile_of("short_capacity");
+    let (signal, meant) = ordinary_use(&b, &profile);
+    let (read, faults) = bursts(&signal, profile.core().detector());
+    assert_eq!((meant.len(), read.len(), faults), (134, 134, 0));
+    assert_eq!(read_right(&read, &meant), 134);
+    let closest = read.windows(2).map(|w| w[1].start - w[0].end).min();
+    assert_eq!(closest, Some(250));
+
+    let refit = fit_use(&signal, &profile).unwrap();
+    assert_eq!(
+        refit.answers.notes,
+        [
+            "ordinary use: 134 breaths, 94 of them to select a mode (split into short and long as you made them) and 40 in a mode (they moved the arm: left out)"
+        ]
+    );
+    for replayed in &refit.replayed {
+        assert_eq!(replayed.right(), (94, 94), "{replayed:?}");
+        assert_eq!(replayed.unprompted, 0);
+        assert!(replayed.rows.iter().all(|r| r.counts[4..] == [0, 0]));
+    }
+    // Each kind's lengths inside the truth's (short 200 ms, long 600 ms,
+    // each ±30 %).
+    let lengths = |action: Action| {
+        let c = refit
+            .classes
+            .iter()
+            .find(|c| c.ask == Ask::Breath(action))
+            .unwrap();
+        (c.breaths, c.duration_ms.min, c.duration_ms.max)
+    };
+    assert_eq!(lengths(Action::ShortPuff), (35, 146.0, 247.0));
+    assert_eq!(lengths(Action::LongPuff), (20, 429.0, 740.0));
+    assert_eq!(lengths(Action::ShortSip), (26, 143.0, 260.0));
+    assert_eq!(lengths(Action::LongSip), (13, 432.0, 764.0));
+    assert!(refit.is_reliable(), "{:?}", refit.overlap);
+    assert_eq!(refit.proposal.detector.long_burst_ms, 300);
+}
+
+/// `fit --from REC --config PROFILE` on the same session recorded by a
+/// run: read with the recording's settings, a profile written, and the
+/// verdict last: no drift.
+#[test]
+fn a_refit_with_no_drift_says_so_last() {
+    let dir = Scratch::new();
+    let (b, profile, profile_text) = profile_of("short_capacity");
+    let (signal, _) = ordinary_use(&b, &profile);
+    let rec = recording(&dir.join("rec"), &profile, &signal);
+    let profile_path = dir.join("anna.toml");
+    std::fs::write(&profile_path, &profile_text).unwrap();
+    let refit = dir.join("refit.toml");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let out = sipnpuff(&[
+        "fit",
+        "--from",
+        &s(&rec),
+        "--config",
+        &s(&profile_path),
+        "--out",
+        &s(&refit),
+    ]);
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(
+        stdout.contains("current: 94/94 read right, 0 bursts nobody was asked for, 0 faults"),
+        "{stdout}"
+    );
+    assert!(refit.exists());
+    let last: Vec<&str> = stderr.lines().rev().take(3).collect();
+    assert_eq!(
+        last,
+        [
+            "verdict: no drift — the settings in use still read you; no re-fit needed",
+            "the settings in use read 94/94 of the session's breaths as you made them; predicted: 0.5 % of one length read as the other, 0.0 % missed",
+            &format!(
+                "drift: none — every kind of breath in this session is within 20 % of its length and strength at fitting (the profile {})",
+                profile_path.display()
+            ),
+        ],
+        "{stderr}"
+    );
+}
+
+/// With `--config` naming other settings than the recording's (the
+/// built-in library and boundary), the session is still read as the run
+/// read it, and the difference is said; a library designed for the
+/// profile compares with that profile's fitting.
+#[test]
+fn a_refit_reads_with_the_setup_the_run_used() {
+    let dir = Scratch::new();
+    let (b, profile, profile_text) = profile_of("short_capacity");
+    let (signal, _) = ordinary_use(&b, &profile);
+    let rec = recording(&dir.join("rec"), &profile, &signal);
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let other = dir.join("other.toml");
+    std::fs::write(&other, "[detector]\nlong_burst_ms = 500\n").unwrap();
+    let out = sipnpuff(&["fit", "--from", &s(&rec), "--config", &s(&other)]);
+    let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(stdout.contains("current: 94/94 read right"), "{stdout}");
+    assert!(
+        stderr.contains(&format!(
+            "note: {} is not the setup the session was recorded with (",
+            other.display()
+        )),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("detector.long_burst_ms = 500 (recorded: 310)"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains(&format!("drift: not measured: {} has no fitted measurements in its header (it was not written by `sipnpuff fit`)", other.display())),
+        "{stderr}"
+    );
+    assert_eq!(
+        stderr.lines().last(),
+        Some("verdict: no drift — the settings in use still read you; no re-fit needed")
+    );
+
+    // A library designed for the profile: its header names the profile.
+    let profile_path = dir.join("anna.toml");
+    std::fs::write(&profile_path, &profile_text).unwrap();
+    let library = dir.join("anna-library.toml");
+    std::fs::write(
+        &library,
+        format!(
+            "# sipnpuff library designed by sipnpuff 0.1.0 for measured by the profile {}\n{}",
+            profile_path.display(),
+            profile.to_toml().unwrap()
+        ),
+    )
+    .unwrap();
+    let out = sipnpuff(&["fit", "--from", &s(&rec), "--config", &s(&library)]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(!stderr.contains("is not the setup"), "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "drift: none — every kind of breath in this session is within 20 % of its length and strength at fitting (the profile {} that {} was designed for)",
+            profile_path.display(),
+            library.display()
+        )),
+        "{stderr}"
+    );
+}
+
+/// A slow breather using a typical user's profile: their long breaths
+/// are far longer than at fitting, and the verdict says to re-fit.
+#[test]
+fn a_refit_says_what_drifted_and_suggests_a_new_fit() {
+    let dir = Scratch::new();
+    let (_, profile, profile_text) = profile_of("typical");
+    let slow = Breather::named("slow").unwrap();
+    let profile = profile.with_neutral_volts(slow.rest_volts).unwrap();
+    let (signal, _) = ordinary_use(&slow, &profile);
+    let rec = recording(&dir.join("rec"), &profile, &signal);
+    let profile_path = dir.join("typical.toml");
+    std::fs::write(&profile_path, &profile_text).unwrap();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let out = sipnpuff(&["fit", "--from", &s(&rec), "--config", &s(&profile_path)]);
+    let stderr = text(&out.stderr);
+    assert!(stderr.contains("drift: your long puffs are "), "{stderr}");
+    assert!(stderr.contains("longer than at fitting"), "{stderr}");
+    let verdict = stderr.lines().last().unwrap();
+    assert!(
+        verdict.starts_with("verdict: re-fit suggested: "),
+        "{stderr}"
+    );
+}
