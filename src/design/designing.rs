@@ -205,7 +205,7 @@ impl std::fmt::Display for NotWritten {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} not written: the designed library is slower than the one it replaces ({}); --force writes it anyway",
+            "{}: {}; --force writes it anyway",
             self.path.display(),
             self.verdict
         )

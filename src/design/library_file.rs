@@ -40,7 +40,7 @@ pub fn text(d: &Designed) -> Result<String, toml::ser::Error> {
     let a = d.analysis;
     let _ = writeln!(
         out,
-        "# sipnpuff library designed by sipnpuff {} for {}",
+        "# sipnpuff library designed by sipnpuff {}; user: {}",
         env!("CARGO_PKG_VERSION"),
         a.user
     );
