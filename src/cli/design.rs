@@ -40,9 +40,10 @@ pub struct DesignArgs {
     #[arg(long, num_args = 1..)]
     usage: Vec<PathBuf>,
     /// Without recordings: every entry as often, or as the study's tasks
-    /// change mode.
-    #[arg(long, value_enum, default_value_t = Mix::Uniform, conflicts_with = "usage")]
-    mix: Mix,
+    /// change mode (default: the tasks when the library selects their
+    /// modes, every entry as often otherwise).
+    #[arg(long, value_enum, conflicts_with = "usage")]
+    mix: Option<Mix>,
     /// The cost of a wrong selection beyond the attempt, ms (default: the
     /// inactivity timeout, the time for the wrong mode to return to
     /// selection).
@@ -90,6 +91,10 @@ pub struct DesignArgs {
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+    /// Write the designed library even when it is slower than the one it
+    /// replaces on the usage it was designed for.
+    #[arg(long)]
+    force: bool,
 }
 
 /// A burst kind on the command line.
@@ -154,6 +159,7 @@ pub fn design(args: DesignArgs) -> anyhow::Result<()> {
         users: args.users,
         seed: args.seed,
         no_study: args.no_study,
+        force: args.force,
     };
     if args.check {
         let checked = designing::check(&request)?;
@@ -161,8 +167,9 @@ pub fn design(args: DesignArgs) -> anyhow::Result<()> {
             output::stdout_line(&serde_json::to_string(&checked.analysis)?)
         } else {
             output::stdout(&format!(
-                "{}\n\n{}",
+                "{} analysed for: {}\n\n{}",
                 checked.library_name,
+                checked.usage_line,
                 analysis::text(&checked.analysis)
             ))
         }

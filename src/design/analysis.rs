@@ -18,7 +18,7 @@ use crate::config::Config;
 use crate::control::action::Action;
 use crate::control::selection::SequenceEntry;
 use crate::control::target::Target;
-use crate::design::breathing::Breathing;
+use crate::design::breathing::{Breathing, RatesFrom};
 use crate::design::reading::{Decision, Deviation, SequenceReading, outcome, readings};
 use crate::design::usage::Usage;
 
@@ -114,8 +114,95 @@ pub struct Analysis {
     pub expected_ms_per_selection: f64,
     /// Usage-weighted chance that an attempt selects a wrong entry.
     pub p_wrong_per_selection: f64,
+    /// The rates the analysis uses, each with where it comes from.
+    pub rates: Vec<Rate>,
     /// What stands out, in plain words.
     pub findings: Vec<String>,
+}
+
+/// One rate the analysis uses and where it comes from: measured by the
+/// fit, modelled, or assumed (the study population's, or nobody's).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Rate {
+    /// What happens ("long puff read as short puff").
+    pub what: String,
+    /// Its value: a fraction, or per hour for false bursts.
+    pub value: f64,
+    /// `"fraction"` or `"per_hour"`.
+    pub unit: &'static str,
+    /// "measured (fit)", "assumed (the study's population)", ….
+    pub source: String,
+}
+
+/// The rates `who` brings, measured apart from assumed.
+pub fn rates(who: &Breathing) -> Vec<Rate> {
+    let detector = who.rates_from.label();
+    let rate = |what: String, value: f64, unit: &'static str, source: &str| Rate {
+        what,
+        value,
+        unit,
+        source: source.to_string(),
+    };
+    let mut out = Vec::new();
+    for a in Action::ALL {
+        let b = who.burst(a);
+        out.push(rate(
+            format!("{a} read as {}", crate::design::reading::other_length(a)),
+            b.other_length,
+            "fraction",
+            detector,
+        ));
+        out.push(rate(format!("{a} missed"), b.missed, "fraction", detector));
+    }
+    out.push(rate(
+        "false bursts".into(),
+        who.false_per_hour,
+        "per_hour",
+        match who.rates_from {
+            RatesFrom::FitLengths => "assumed (the profile predicts none)",
+            other => other.label(),
+        },
+    ));
+    out.push(rate(
+        "selections breathed with one burst at the wrong length".into(),
+        who.error_rate,
+        "fraction",
+        "assumed (the study's population)",
+    ));
+    out.push(rate(
+        "bursts read as the other breath".into(),
+        who.swap_rate,
+        "fraction",
+        if who.swap_rate > 0.0 {
+            "given (--swap-rate)"
+        } else {
+            "assumed (nothing measures it; --swap-rate gives one)"
+        },
+    ));
+    out
+}
+
+/// The rates in lines, one per source.
+fn rates_text(rates: &[Rate]) -> String {
+    let mut sources: Vec<&str> = Vec::new();
+    for r in rates {
+        if !sources.contains(&r.source.as_str()) {
+            sources.push(&r.source);
+        }
+    }
+    let mut out = String::new();
+    for source in sources {
+        let items: Vec<String> = rates
+            .iter()
+            .filter(|r| r.source == source)
+            .map(|r| match r.unit {
+                "per_hour" => format!("{} {:.2} per hour", r.what, r.value),
+                _ => format!("{} {:.2} %", r.what, 100.0 * r.value),
+            })
+            .collect();
+        out += &format!("rates {source}: {}\n", items.join(", "));
+    }
+    out
 }
 
 /// The cost of one entry in a library of sequences.
@@ -271,6 +358,7 @@ pub fn analyse(
         expected_ms_per_selection: weighted(|e| e.expected_ms),
         p_wrong_per_selection: weighted(|e| e.p_wrong),
         entries,
+        rates: rates(who),
         findings: Vec::new(),
     };
     analysis.findings = findings(&analysis, library, who);
@@ -363,15 +451,17 @@ fn findings(a: &Analysis, library: &[SequenceEntry], who: &Breathing) -> Vec<Str
         let b = who.burst(a);
         if b.other_length >= 0.02 {
             out.push(format!(
-                "this user's {a}s are read at the other length {} of the time: a library without them is more reliable (`design --without {}`)",
+                "this user's {a}s are read at the other length {} of the time ({}): a library without them is more reliable (`design --without {}`)",
                 pct(b.other_length),
+                who.rates_from.label(),
                 a.to_string().replace(' ', "_")
             ));
         }
         if b.missed >= 0.02 {
             out.push(format!(
-                "this user's {a}s are missed {} of the time",
-                pct(b.missed)
+                "this user's {a}s are missed {} of the time ({})",
+                pct(b.missed),
+                who.rates_from.label()
             ));
         }
     }
@@ -395,7 +485,8 @@ fn findings(a: &Analysis, library: &[SequenceEntry], who: &Breathing) -> Vec<Str
 pub fn text(a: &Analysis) -> String {
     use std::fmt::Write;
     let mut out = String::new();
-    let _ = writeln!(out, "user: {}\nusage: {}\n", a.user, a.usage);
+    let _ = writeln!(out, "user: {}\nusage: {}", a.user, a.usage);
+    let _ = writeln!(out, "{}", rates_text(&a.rates));
     let _ = writeln!(
         out,
         "| entry | bursts | used | expected s | wait s | wrong % | retry % | lands in |"

@@ -53,6 +53,35 @@ pub struct Breathing {
     pub swap_rate: f64,
     /// The longest breath they can hold, ms (`None`: no limit measured).
     pub hold_capacity_ms: Option<f64>,
+    /// Where the detector's rates (`missed`, `other_length`,
+    /// `false_per_hour`) come from, so a report can set them apart from
+    /// the assumed `error_rate` and `swap_rate`.
+    pub rates_from: RatesFrom,
+}
+
+/// Where a person's misreading rates come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RatesFrom {
+    /// The fit's predicted misreadings, from the person's measured
+    /// breaths and signal (the profile's header).
+    Fit,
+    /// The normal spread of the lengths the fit measured around the
+    /// detector's boundaries (a profile without predicted rates).
+    FitLengths,
+    /// The study's simulated user's length spread.
+    Model,
+}
+
+impl RatesFrom {
+    /// The label a report gives these rates.
+    pub fn label(self) -> &'static str {
+        match self {
+            RatesFrom::Fit => "measured (fit)",
+            RatesFrom::FitLengths => "from the fit's measured lengths",
+            RatesFrom::Model => "modelled (the study's simulated user)",
+        }
+    }
 }
 
 impl Breathing {
@@ -83,6 +112,7 @@ impl Breathing {
                 .hold_capacity_ms
                 .is_finite()
                 .then_some(user.hold_capacity_ms),
+            rates_from: RatesFrom::Model,
         }
     }
 
@@ -113,6 +143,11 @@ impl Breathing {
             bursts,
             false_per_hour: measured.rates.as_ref().map_or(0.0, |r| r.false_per_hour),
             hold_capacity_ms: measured.hold_ms,
+            rates_from: if measured.rates.is_some() {
+                RatesFrom::Fit
+            } else {
+                RatesFrom::FitLengths
+            },
             ..population
         }
     }

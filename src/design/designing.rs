@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 use crate::config::invalid::invalid;
+use crate::control::action::Action;
 use crate::control::selection::{Interface, SequenceEntry};
 use crate::design::analysis::{Analysis, analyse};
 use crate::design::inputs::Inputs;
@@ -16,6 +17,8 @@ use crate::design::problem::problem;
 use crate::design::request::Request;
 use crate::design::search::{self, SearchResult};
 use crate::design::study_check::{StudyCheck, study_check};
+use crate::design::usage::UsageKind;
+use crate::design::verdict::{self, Evidence, ModelFigures, StudyFigures, Verdict};
 use crate::design::{library_file, plot};
 use crate::sim::study::missing_modes;
 
@@ -25,6 +28,8 @@ pub struct Checked {
     pub analysis: Analysis,
     /// The library in words.
     pub library_name: String,
+    /// The usage analysed, with why.
+    pub usage_line: String,
 }
 
 /// The library designed for the person.
@@ -39,6 +44,12 @@ pub struct Designed {
     pub study: Option<StudyCheck>,
     /// The library it replaces, in words.
     pub library_name: String,
+    /// The usage designed for, with why.
+    pub usage_line: String,
+    /// Whether that usage is the study's (its tasks' mode changes).
+    pub study_usage: bool,
+    /// The bottom line.
+    pub verdict: Verdict,
     /// The configuration written, if asked for.
     pub out: Option<PathBuf>,
 }
@@ -54,6 +65,7 @@ pub fn check(request: &Request) -> anyhow::Result<Checked> {
     }
     Ok(Checked {
         analysis,
+        usage_line: inputs.usage_line(),
         library_name: inputs.library_name,
     })
 }
@@ -111,13 +123,55 @@ pub fn design(request: &Request, say: &dyn Fn(&str)) -> anyhow::Result<Designed>
             request.seed,
         )?)
     };
+    let study_usage = inputs.usage.kind == UsageKind::Tasks;
+    let unbreathable: Vec<Action> = Action::ALL
+        .into_iter()
+        .filter(|a| {
+            request.without.contains(a) && library.iter().any(|e| e.actions.as_slice().contains(a))
+        })
+        .collect();
+    let verdict = verdict::verdict(&Evidence {
+        name: &inputs.library_name,
+        usage: &inputs.usage.source,
+        model: ModelFigures {
+            before_ms: before.expected_ms_per_selection,
+            designed_ms: designed.expected_ms_per_selection,
+            before_wrong: before.p_wrong_per_selection,
+            designed_wrong: designed.p_wrong_per_selection,
+        },
+        unbreathable,
+        study: study.as_ref().map(|s| StudyFigures {
+            same_usage: study_usage,
+            per_change_s: (s.comparison.a_selection_s, s.comparison.b_selection_s),
+            tasks: s
+                .comparison
+                .tasks
+                .iter()
+                .map(|t| (t.reduction_pct, t.p_value))
+                .collect(),
+            wrong: s
+                .comparison
+                .tasks
+                .iter()
+                .fold((0, 0), |(a, b), t| (a + t.a_wrong, b + t.b_wrong)),
+        }),
+    });
     if let Some(path) = &request.out {
+        if !verdict.may_write() && !request.force {
+            return Err(anyhow::Error::new(NotWritten {
+                path: path.clone(),
+                verdict: verdict.text.clone(),
+            }));
+        }
         let text = library_file::text(&library_file::Designed {
             config: &designed_config,
             analysis: &designed,
             before: &before,
+            before_library: library,
             found: &found,
             library_name: &inputs.library_name,
+            usage_line: &inputs.usage_line(),
+            reasons: inputs.profile_text.as_deref(),
         })?;
         write(path, &text)?;
     }
@@ -129,10 +183,36 @@ pub fn design(request: &Request, say: &dyn Fn(&str)) -> anyhow::Result<Designed>
         designed,
         before,
         study,
+        usage_line: inputs.usage_line(),
         library_name: inputs.library_name,
+        study_usage,
+        verdict,
         out: request.out.clone(),
     })
 }
+
+/// A designed library slower than the one it replaces, not written: the
+/// verdict says why; `--force` writes it.
+#[derive(Debug)]
+pub struct NotWritten {
+    /// The file not written.
+    pub path: PathBuf,
+    /// The bottom line.
+    pub verdict: String,
+}
+
+impl std::fmt::Display for NotWritten {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}: {}; --force writes it anyway",
+            self.path.display(),
+            self.verdict
+        )
+    }
+}
+
+impl std::error::Error for NotWritten {}
 
 fn write(path: &Path, text: &str) -> anyhow::Result<()> {
     std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))

@@ -10,10 +10,12 @@ use anyhow::Context;
 use crate::config::Config;
 use crate::config::invalid::invalid;
 use crate::config::layers::Layered;
+use crate::control::selection::Interface;
 use crate::design::analysis::AttemptTiming;
 use crate::design::breathing::Breathing;
 use crate::design::request::Request;
 use crate::design::usage::{Mix, Usage};
+use crate::sim::study::missing_modes;
 use crate::tools::recording::matches::read_matches;
 
 /// The person, their settings and the library, as the request says.
@@ -26,6 +28,11 @@ pub struct Inputs {
     pub library_name: String,
     /// How often each entry is used.
     pub usage: Usage,
+    /// Why this usage: asked for, or the default and what decided it.
+    pub usage_why: String,
+    /// The profile's text (`--user`), whose comments give its settings'
+    /// reasons.
+    pub profile_text: Option<String>,
     /// The times of an attempt.
     pub timing: AttemptTiming,
 }
@@ -37,11 +44,13 @@ impl Inputs {
     /// the profile's.
     pub fn read(request: &Request) -> anyhow::Result<Inputs> {
         let load = |path: &PathBuf| invalid(Config::from_file(path).map_err(anyhow::Error::from));
+        let mut profile_text = None;
         let (config, who) = match &request.user {
             Some(path) => {
                 let profile = load(path)?;
                 let text = std::fs::read_to_string(path)
                     .with_context(|| format!("cannot read {}", path.display()))?;
+                profile_text = Some(text.clone());
                 let measured = crate::fit::profile::measured(&text).map_err(|e| {
                     anyhow::anyhow!(
                         "{}: {e}; fit the person first (`sipnpuff fit`) and give the profile it writes",
@@ -90,18 +99,44 @@ impl Inputs {
                 };
                 (config, name)
             }
-            None if request.user.is_some() => (config, "the profile's library".to_string()),
-            None => (config, "the built-in library".to_string()),
+            None => {
+                let name = match (&request.user, &profile_text) {
+                    (Some(path), Some(text)) if has_library(text) => {
+                        format!("the library of {}", path.display())
+                    }
+                    _ => "the built-in library".to_string(),
+                };
+                (config, name)
+            }
         };
         let library = config.core().sequences();
-        let usage = if request.usage.is_empty() {
+        let missing = missing_modes(&config, Interface::Asp);
+        let (usage, usage_why) = if request.usage.is_empty() {
             match request.mix {
-                Mix::Uniform => Usage::uniform(library),
-                Mix::Tasks => Usage::tasks(library),
+                Some(Mix::Uniform) => (Usage::uniform(library), "asked for (--mix uniform)".into()),
+                Some(Mix::Tasks) => (Usage::tasks(library), "asked for (--mix tasks)".into()),
+                None if missing.is_empty() => (
+                    Usage::tasks(library),
+                    "the default: the library selects the study's modes and no --usage recordings were given"
+                        .into(),
+                ),
+                None => {
+                    let names: Vec<&str> = missing.iter().map(|m| m.name()).collect();
+                    (
+                        Usage::uniform(library),
+                        format!(
+                            "the default: no --usage recordings, and the library lacks the study's {}",
+                            names.join(", ")
+                        ),
+                    )
+                }
             }
         } else {
             let found = read_matches(&request.usage).map_err(anyhow::Error::msg)?;
-            Usage::recorded(library, &found.events, found.recordings)
+            (
+                Usage::recorded(library, &found.events, found.recordings),
+                "the person's recorded use (--usage)".into(),
+            )
         };
         let who = Breathing {
             swap_rate: request.swap_rate,
@@ -113,7 +148,20 @@ impl Inputs {
             config,
             library_name,
             usage,
+            usage_why,
+            profile_text,
             timing,
         })
     }
+
+    /// The usage in one line, with why it was chosen.
+    pub fn usage_line(&self) -> String {
+        format!("{} ({})", self.usage.source, self.usage_why)
+    }
+}
+
+/// Whether a configuration's text holds a library (`[[sequence]]`).
+fn has_library(text: &str) -> bool {
+    text.parse::<toml::Table>()
+        .is_ok_and(|t| t.contains_key("sequence"))
 }

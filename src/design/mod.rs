@@ -12,8 +12,8 @@
 //! The whole job ([`designing`]): a [`request`] names the person, the
 //! library and its usage ([`inputs`]); the search's [`problem`] is made
 //! from it; the designed library is analysed again, tried in the study
-//! ([`study_check`]), written ([`library_file`]), drawn ([`plot`]) and
-//! worded ([`report`]).
+//! ([`study_check`]), judged in one bottom line ([`verdict`]), written
+//! ([`library_file`]), drawn ([`plot`]) and worded ([`report`]).
 
 pub mod analysis;
 pub mod breathing;
@@ -28,3 +28,4 @@ pub mod request;
 pub mod search;
 pub mod study_check;
 pub mod usage;
+pub mod verdict;

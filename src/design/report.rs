@@ -9,14 +9,17 @@ use crate::design::analysis::{self, Analysis};
 use crate::design::designing::Designed;
 use crate::design::search::SearchResult;
 use crate::design::study_check::StudyCheck;
+use crate::design::verdict::{Verdict, faster_words};
 use crate::sim::study::libraries;
 
 /// `design`'s JSON.
 #[derive(Serialize)]
 struct DesignReport<'a> {
+    designed_for: &'a str,
+    study_measures_this_usage: bool,
     search: &'a SearchResult,
     gap_pct: f64,
-    verdict: String,
+    verdict: &'a Verdict,
     designed: &'a Analysis,
     before: &'a Analysis,
     study: Option<&'a StudyCheck>,
@@ -26,9 +29,11 @@ struct DesignReport<'a> {
 /// The designed library as one JSON object.
 pub fn json(d: &Designed) -> serde_json::Result<String> {
     let report = DesignReport {
+        designed_for: &d.usage_line,
+        study_measures_this_usage: d.study_usage,
         search: &d.found,
         gap_pct: d.found.gap_pct(),
-        verdict: verdict(&d.designed, &d.before, &d.library_name),
+        verdict: &d.verdict,
         designed: &d.designed,
         before: &d.before,
         study: d.study.as_ref(),
@@ -37,9 +42,30 @@ pub fn json(d: &Designed) -> serde_json::Result<String> {
     serde_json::to_string(&report)
 }
 
-/// The designed library in words and tables, with the study's figures.
+/// The designed library in words and tables: first the usage designed
+/// for and, when the study measures another, the difference on each;
+/// last the one bottom line.
 pub fn text(d: &Designed) -> String {
-    let mut out = search_text(&d.found, &d.designed, &d.before, &d.library_name);
+    let mut out = format!("designed for: {}\n", d.usage_line);
+    if let Some(s) = d.study.as_ref().filter(|_| !d.study_usage) {
+        out += &format!(
+            "the study below measures another usage, the mode changes of its three tasks: the designed library is {} than {} on {} (the model, {:.2} → {:.2} s per selection) and {} on the study's tasks (the model {:.2} → {:.2} s, the study {:.2} → {:.2} s per mode change)\n",
+            faster_words(
+                1.0 - d.designed.expected_ms_per_selection / d.before.expected_ms_per_selection
+            ),
+            d.library_name,
+            d.designed.usage,
+            d.before.expected_ms_per_selection / 1000.0,
+            d.designed.expected_ms_per_selection / 1000.0,
+            faster_words(1.0 - s.comparison.b_selection_s / s.comparison.a_selection_s),
+            s.predicted_selection_s.0,
+            s.predicted_selection_s.1,
+            s.comparison.a_selection_s,
+            s.comparison.b_selection_s
+        );
+    }
+    out += "\n";
+    out += &search_text(&d.found, &d.designed, &d.before, &d.library_name);
     if let Some(s) = &d.study {
         out += &format!(
             "\nIn the study ({} against the designed library, sequence matching):\n\n{}",
@@ -54,6 +80,7 @@ pub fn text(d: &Designed) -> String {
             s.prediction_error_pct.1
         );
     }
+    out += &format!("\nbottom line: {}\n", d.verdict.text);
     out
 }
 
@@ -74,38 +101,14 @@ fn search_text(found: &SearchResult, designed: &Analysis, before: &Analysis, nam
         }
     );
     out += &format!(
-        "cost per selection: {} {:.0} ms, designed {:.0} ms ({:.1} % less); wrong selections per attempt {:.2} % → {:.2} %\n\n",
+        "cost per selection: {} {:.0} ms, designed {:.0} ms ({}); wrong selections per attempt {:.2} % → {:.2} %\n\n",
         name,
         before.expected_ms_per_selection,
         designed.expected_ms_per_selection,
-        100.0 * (1.0 - designed.expected_ms_per_selection / before.expected_ms_per_selection),
+        faster_words(1.0 - designed.expected_ms_per_selection / before.expected_ms_per_selection),
         100.0 * before.p_wrong_per_selection,
         100.0 * designed.p_wrong_per_selection
     );
-    out += &format!("{}\n\n", verdict(designed, before, name));
     out += &analysis::text(designed);
     out
 }
-
-/// Whether the designed library is worth the change, in words: under
-/// 2 % faster and under a quarter fewer wrong selections is not.
-fn verdict(designed: &Analysis, before: &Analysis, name: &str) -> String {
-    let faster = 1.0 - designed.expected_ms_per_selection / before.expected_ms_per_selection;
-    let fewer_wrong =
-        1.0 - designed.p_wrong_per_selection / before.p_wrong_per_selection.max(1e-12);
-    if faster < NEAR_OPTIMAL && fewer_wrong < 0.25 {
-        format!(
-            "{name} is already near-optimal for this user: within {:.1} % of the least cost there is; keep it",
-            100.0 * faster.max(0.0)
-        )
-    } else {
-        format!(
-            "the designed library is {:.1} % faster and {:.0} % less often wrong than {name}",
-            100.0 * faster,
-            100.0 * fewer_wrong
-        )
-    }
-}
-
-/// A designed library less than this much faster is not worth relearning.
-const NEAR_OPTIMAL: f64 = 0.02;

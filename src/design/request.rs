@@ -22,8 +22,9 @@ pub struct Request {
     /// Recordings (or directories of them) whose `match` events give the
     /// usage.
     pub usage: Vec<PathBuf>,
-    /// The usage mix without recordings.
-    pub mix: Mix,
+    /// The usage mix without recordings (`None`: the study's tasks when
+    /// the library selects their modes, every entry as often otherwise).
+    pub mix: Option<Mix>,
     /// The cost of a wrong selection beyond the attempt, ms (`None`: the
     /// inactivity timeout).
     pub wrong_cost_ms: Option<f64>,
@@ -49,4 +50,7 @@ pub struct Request {
     pub seed: u64,
     /// Skip the study.
     pub no_study: bool,
+    /// Write the designed library even when it is slower than the one it
+    /// replaces.
+    pub force: bool,
 }

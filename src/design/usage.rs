@@ -12,6 +12,8 @@ use crate::sim::study::tasks::TASKS;
 /// Each entry's share of selections, in the library's order.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Usage {
+    /// Which mix this is.
+    pub kind: UsageKind,
     /// Where the shares come from, in words.
     pub source: String,
     /// Shares, summing to 1.
@@ -20,6 +22,18 @@ pub struct Usage {
     pub counted: u64,
     /// Matches of targets the library does not have.
     pub elsewhere: u64,
+}
+
+/// Where a usage comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UsageKind {
+    /// Every entry as often.
+    Uniform,
+    /// The study's tasks' mode changes: the usage the study measures.
+    Tasks,
+    /// The person's recordings.
+    Recorded,
 }
 
 /// Which usage mix.
@@ -37,6 +51,7 @@ impl Usage {
     pub fn uniform(library: &[SequenceEntry]) -> Usage {
         let n = library.len().max(1) as f64;
         Usage {
+            kind: UsageKind::Uniform,
             source: "every entry as often".into(),
             shares: vec![1.0 / n; library.len()],
             counted: 0,
@@ -52,6 +67,7 @@ impl Usage {
             count(&mut counts, &mut elsewhere, library, Target::Mode(mode));
         }
         smoothed(
+            UsageKind::Tasks,
             "the mode changes of the study's three tasks",
             counts,
             elsewhere,
@@ -82,6 +98,7 @@ impl Usage {
             }
         }
         smoothed(
+            UsageKind::Recorded,
             &format!("the matches of {recordings} recording(s)"),
             counts,
             elsewhere,
@@ -97,10 +114,11 @@ fn count(counts: &mut [u64], elsewhere: &mut u64, library: &[SequenceEntry], tar
 }
 
 /// Shares of counts plus one each.
-fn smoothed(source: &str, counts: Vec<u64>, elsewhere: u64) -> Usage {
+fn smoothed(kind: UsageKind, source: &str, counts: Vec<u64>, elsewhere: u64) -> Usage {
     let counted: u64 = counts.iter().sum();
     let total = (counted + counts.len() as u64).max(1) as f64;
     Usage {
+        kind,
         source: format!("{source} ({counted} selections, each entry one more)"),
         shares: counts.iter().map(|c| (c + 1) as f64 / total).collect(),
         counted,

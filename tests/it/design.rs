@@ -165,3 +165,246 @@ fn the_model_predicts_the_studys_selection_time_within_5_percent() {
         "predicted {predicted:.3} s, measured {measured:.3} s"
     );
 }
+
+/// The entries `--keep` holds so the search places only the last three
+/// (rotate_z, save_point, goto_point): a small, exact search.
+const KEEP_SIX: [&str; 7] = [
+    "--keep",
+    "translate_x",
+    "translate_y",
+    "translate_z",
+    "fingers",
+    "rotate_x",
+    "rotate_y",
+];
+
+/// Runs `design` with `args` and the six entries kept; its stdout.
+fn design_text(args: &[&str]) -> String {
+    let mut all = vec!["design"];
+    all.extend_from_slice(args);
+    all.extend_from_slice(&KEEP_SIX);
+    let out = sipnpuff(&all);
+    assert!(
+        out.status.success(),
+        "{all:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+#[test]
+fn the_first_line_says_the_usage_designed_for_and_why() {
+    let first = |args: &[&str]| design_text(args).lines().next().unwrap().to_owned();
+    assert_eq!(
+        first(&["--no-study"]),
+        "designed for: the mode changes of the study's three tasks (33 selections, each entry one more) (the default: the library selects the study's modes and no --usage recordings were given)"
+    );
+    assert_eq!(
+        first(&["--no-study", "--mix", "uniform"]),
+        "designed for: every entry as often (asked for (--mix uniform))"
+    );
+    assert_eq!(
+        first(&["--no-study", "--usage", "fixtures/recording-built-in-user"]),
+        "designed for: the matches of 1 recording(s) (1 selections, each entry one more) (the person's recorded use (--usage))"
+    );
+    let out = sipnpuff(&[
+        "design",
+        "fixtures/computer-and-home.toml",
+        "--no-study",
+        "--keep",
+        "translate_x",
+        "fingers",
+        "pointer_x",
+        "pointer_y",
+        "scroll",
+        "drag",
+        "left",
+    ]);
+    assert!(out.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).lines().next().unwrap(),
+        "designed for: every entry as often (the default: no --usage recordings, and the library lacks the study's translate_y, translate_z, rotate_x, rotate_y)"
+    );
+}
+
+#[test]
+fn a_study_of_another_usage_is_said_with_the_difference_on_each() {
+    let text = design_text(&["--mix", "uniform", "--users", "2"]);
+    let second = text.lines().nth(1).unwrap();
+    assert!(
+        second.starts_with(
+            "the study below measures another usage, the mode changes of its three tasks: the designed library is "
+        ),
+        "{text}"
+    );
+    assert!(
+        second.contains(" than the built-in library on every entry as often (the model, "),
+        "{second}"
+    );
+    let last = text.lines().last().unwrap();
+    assert!(
+        last.starts_with(
+            "bottom line: switch to the designed library if the person's use is every entry as often: "
+        ) && last.contains("; the study measured its tasks instead, another usage: per mode change "),
+        "{last}"
+    );
+    // On the study's own usage, no such line: the study measures it.
+    let text = design_text(&["--users", "2"]);
+    assert!(text.lines().nth(1).unwrap().is_empty(), "{text}");
+}
+
+#[test]
+fn a_slower_library_is_never_written_without_force() {
+    let dir = Scratch::new();
+    let out = dir.join("slower.toml");
+    let args = [
+        "design",
+        "--min-breaths",
+        "3",
+        "--no-study",
+        "--out",
+        out.to_str().unwrap(),
+        "--keep",
+        "translate_x",
+        "translate_y",
+        "translate_z",
+        "fingers",
+        "rotate_x",
+        "rotate_y",
+    ];
+    let e = refused(&args);
+    assert!(
+        e.contains(
+            "slower.toml: keep the built-in library: the model expects the designed library 0.4 % slower"
+        ) && e.contains("not written without --force; --force writes it anyway"),
+        "{e}"
+    );
+    assert!(!out.exists());
+    let mut forced = args.to_vec();
+    forced.push("--force");
+    let written = sipnpuff(&forced);
+    assert!(written.status.success());
+    assert!(Config::from_file(&out).is_ok());
+}
+
+#[test]
+fn without_long_sips_the_built_in_library_is_not_kept() {
+    let report = json(&[
+        "design",
+        "--without",
+        "long_sip",
+        "--no-study",
+        "--json",
+        "--keep",
+        "translate_x",
+        "translate_y",
+        "translate_z",
+        "fingers",
+        "rotate_x",
+        "rotate_y",
+        "rotate_z",
+    ]);
+    assert_eq!(report["verdict"]["decision"], "switch");
+    let text = report["verdict"]["text"].as_str().unwrap();
+    assert!(
+        text.starts_with(
+            "use the designed library: the built-in library needs long sips, which this person cannot breathe (--without)"
+        ),
+        "{text}"
+    );
+    assert!(!text.contains("near-optimal"), "{text}");
+}
+
+#[test]
+fn the_bottom_line_agrees_with_the_study_on_its_usage() {
+    let report = json(&["design", "--json", "--users", "8"]);
+    // The built-in library is within 1 % of the least cost on the tasks
+    // and the study finds no difference (p 0.26–0.89): keep it.
+    assert_eq!(report["study_measures_this_usage"], true);
+    assert_eq!(report["verdict"]["decision"], "keep");
+    let text = report["verdict"]["text"].as_str().unwrap();
+    assert!(
+        text.starts_with("keep the built-in library: it is near-optimal")
+            && text.contains("the study measures no difference (per mode change 1.37 → 1.38 s (0.7 % slower), p 0.26–0.89"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_profile_check_names_the_library_and_labels_its_rates() {
+    let dir = Scratch::new();
+    let short = profile(&dir, "short_capacity");
+    let out = sipnpuff(&["design", "--check", "--user", &short]);
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.starts_with("the built-in library analysed for: "),
+        "{text}"
+    );
+    assert!(!text.contains("the profile's library"), "{text}");
+    assert!(
+        text.contains("\nrates measured (fit): short sip read as long sip 0.00 %, "),
+        "{text}"
+    );
+    assert!(
+        text.contains(
+            "\nrates assumed (the study's population): selections breathed with one burst at the wrong length 5.00 %\n"
+        ),
+        "{text}"
+    );
+    let a = json(&["design", "--check", "--user", &short, "--json"]);
+    let rates = a["rates"].as_array().unwrap();
+    let source = |what: &str| {
+        rates
+            .iter()
+            .find(|r| r["what"] == what)
+            .map(|r| r["source"].as_str().unwrap().to_owned())
+            .unwrap()
+    };
+    assert_eq!(source("long puff read as short puff"), "measured (fit)");
+    assert_eq!(
+        source("selections breathed with one burst at the wrong length"),
+        "assumed (the study's population)"
+    );
+    // The study's own user: modelled, not measured.
+    let typical = json(&["design", "--check", "--json"]);
+    assert_eq!(
+        typical["rates"][0]["source"],
+        "modelled (the study's simulated user)"
+    );
+}
+
+#[test]
+fn a_designed_file_keeps_the_profiles_reasons_and_the_sequences_replaced() {
+    let dir = Scratch::new();
+    let short = profile(&dir, "short_capacity");
+    let out = dir.join("designed.toml");
+    let designed = sipnpuff(&[
+        "design",
+        "--user",
+        &short,
+        "--no-study",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(designed.status.success());
+    let text = std::fs::read_to_string(&out).unwrap();
+    let profile_text = std::fs::read_to_string(&short).unwrap();
+    for key in ["neutral_volts", "long_burst_ms"] {
+        let reason = |t: &str| {
+            let lines: Vec<&str> = t.lines().collect();
+            let at = lines
+                .iter()
+                .position(|l| l.starts_with(&format!("{key} = ")))
+                .unwrap();
+            lines[at - 1].to_owned()
+        };
+        assert!(reason(&profile_text).starts_with("# "));
+        assert_eq!(reason(&text), reason(&profile_text), "{text}");
+    }
+    assert!(
+        text.contains(" (was [-1, -1]): ") || text.contains(" (kept): "),
+        "{text}"
+    );
+    assert!(Config::from_file(&out).is_ok());
+}
