@@ -109,30 +109,19 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             },
         }),
         display: args.display.choice(),
+        max_hold_set_in: max_hold_origin.as_deref(),
     };
     let mut events = StdoutEvents {
         quiet: args.display.tui,
         ..StdoutEvents::default()
     };
-    let mut report = session::run(&config, &plan, &mut events, &Terminal)?;
-    report.max_hold = Some(max_hold(&config, max_hold_origin.as_deref()));
+    let report = session::run(&config, &plan, &mut events, &Terminal)?;
     run_report::conclude(
         &report,
         events.failed,
         args.json,
         args.histogram_dir.as_deref(),
     )
-}
-
-/// `detector.max_hold_ms` and where it came from, for the report's line on
-/// breaths held past it: "1000 ms, set in anna.toml" or "6000 ms, the
-/// built-in default".
-fn max_hold(config: &crate::config::Config, file: Option<&std::path::Path>) -> String {
-    let ms = config.core().detector().max_hold_ms;
-    match file {
-        Some(path) => format!("{ms} ms, set in {}", path.display()),
-        None => format!("{ms} ms, the built-in default"),
-    }
 }
 
 /// `--record-max-mb`: a positive number of megabytes (10^6 bytes), at

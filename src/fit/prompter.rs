@@ -170,7 +170,7 @@ impl Say {
             Say::Prompt(p) => format!("{} ({})", p.words(), p.count_words()),
             Say::Repeat(p) => format!("{} — {} ({})", self.message(), p.words(), p.count_words()),
             Say::Counted { prompt, ms } => format!(
-                "  counted: {} {} ({:.2} s)",
+                "  counted: {} {} ({:.2} s at the rest's edge)",
                 prompt.ask.words(),
                 prompt.count_words(),
                 *ms as f64 / 1000.0

@@ -5,6 +5,7 @@
 
 use std::fmt::Write as _;
 
+use crate::control::detector::DetectorConfig;
 use crate::fit::Fit;
 use crate::fit::check::{COLUMNS, ConfusionMatrix};
 use crate::fit::predict::{KindRates, Rates};
@@ -27,6 +28,7 @@ pub fn json(fit: &Fit) -> serde_json::Result<String> {
         "proposed": fit.proposal.settings,
         "predicted": { "current": fit.predicted[0], "proposed": fit.predicted[1] },
         "replayed": { "current": fit.replayed[0], "proposed": fit.replayed[1] },
+        "hold_decision": hold_decision(fit),
         "overlap": fit.overlap,
         "worse": fit.worse,
     });
@@ -70,6 +72,9 @@ pub fn text(fit: &Fit) -> String {
     for s in &fit.proposal.settings {
         let _ = writeln!(out, "  {} = {}\n      {}", s.key, s.value, s.reason);
     }
+    if let Some(decision) = hold_decision(fit) {
+        let _ = writeln!(out, "\n{decision}");
+    }
     let _ = writeln!(out, "\npredicted misreadings        current  proposed");
     rates(&mut out, &fit.predicted[0], &fit.predicted[1]);
     let _ = writeln!(
@@ -90,6 +95,25 @@ pub fn text(fit: &Fit) -> String {
     }
     out
 }
+
+/// A hold limit under [`SHORT_MOVES_MS`] makes every arm move short: a
+/// trade between the length of a move and how soon a stuck sensor stops
+/// the arm, which the clinician decides with the person.
+fn hold_decision(fit: &Fit) -> Option<String> {
+    let proposed = fit.proposal.detector.max_hold_ms;
+    let built_in = DetectorConfig::default().max_hold_ms;
+    (proposed < SHORT_MOVES_MS).then(|| {
+        format!(
+            "decision for the clinician: detector.max_hold_ms = {proposed} ms stops the arm whenever one breath is held longer, so every arm move lasts at most {:.1} s and a longer move takes breath after breath. A higher limit (up to the built-in {:.1} s) gives longer moves to a person who can hold a breath that long, and lets a stuck sensor move the arm as long before it stops",
+            f64::from(proposed) / 1000.0,
+            f64::from(built_in) / 1000.0
+        )
+    })
+}
+
+/// Below this hold limit the report asks the clinician to decide: a move
+/// of a few seconds is how the arm crosses a table at its speeds.
+const SHORT_MOVES_MS: u32 = 3000;
 
 fn rates(out: &mut String, now: &Rates, new: &Rates) {
     let pct = |v: f64| format!("{:>6.1} %", 100.0 * v);

@@ -59,10 +59,15 @@ impl<'a> Guide<'a> {
     }
 
     fn said(&mut self, say: &Say) {
+        // A stop is said once, on stderr, where the session's end says
+        // why it ended.
+        if matches!(say, Say::Stopped(_)) {
+            return;
+        }
         if let (Say::Prompt(_), false, Some(band)) = (say, self.told_rest, self.prompter.band()) {
             self.told_rest = true;
             self.print(&format!(
-                "rest: {:.3} V; a breath is {:.3} V or more away from it",
+                "rest: {:.3} V; a breath is {:.3} V or more away from it (the durations shown are measured there; the fit measures each breath again at the thresholds it proposes)",
                 band.level, band.outside
             ));
         }
@@ -102,5 +107,71 @@ impl TelemetryObserver for Guide<'_> {
         if let Some(observer) = self.showing.observer() {
             observer.drained();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::cell::RefCell;
+
+    use super::*;
+    use crate::config::Config;
+    use crate::control::sample::Sample;
+    use crate::fit::prompter::Stop;
+    use crate::fit::protocol::Protocol;
+    use crate::session::showing::{Display, DisplayChoice};
+
+    /// A console that keeps what is said, stdout and stderr apart.
+    #[derive(Default)]
+    struct Kept {
+        out: RefCell<Vec<String>>,
+        err: RefCell<Vec<String>>,
+    }
+
+    impl Console for Kept {
+        fn note(&self, line: &str) {
+            self.err.borrow_mut().push(line.to_string());
+        }
+        fn print(&self, text: &str) -> std::io::Result<()> {
+            self.out
+                .borrow_mut()
+                .extend(text.lines().map(str::to_string));
+            Ok(())
+        }
+        fn print_line(&self, line: &str) -> std::io::Result<()> {
+            self.print(line)
+        }
+    }
+
+    #[test]
+    fn a_session_that_stops_leaves_its_reason_to_the_end_of_the_session() {
+        // Nobody breathes: the rest is measured, the first prompt goes
+        // unanswered twice and the session stops. The guide prints the
+        // prompts; why it stopped is said once, by the session's end.
+        let console = Kept::default();
+        let choice = DisplayChoice {
+            page: None,
+            tui: false,
+        };
+        let display = Display::open(&choice, &console).unwrap();
+        let mut showing = display.start_fit(Config::default().core(), "sim").unwrap();
+        let prompter = Prompter::new(&Protocol::new(3, 0));
+        let mut guide = Guide::new(prompter, &mut showing, StopRequest::new(), &console, false);
+        for tick in 0..120_000 {
+            let mut record = TickRecord::default();
+            record.input.tick = tick;
+            record.input.sample = Sample::Volts(2.5 + 0.002 * ((tick % 7) as f64 - 3.0));
+            guide.record(&record);
+            if guide.prompter.is_over() {
+                break;
+            }
+        }
+        let stop = guide.prompter.stopped();
+        assert!(matches!(stop, Some(Stop::Silence { .. })), "{stop:?}");
+        let out = console.out.borrow();
+        assert!(out.iter().any(|l| l.contains(" — now (")), "{out:#?}");
+        let words = stop.unwrap().words();
+        assert!(!out.iter().any(|l| l.contains(&words)), "{out:#?}");
+        assert!(console.err.borrow().is_empty());
     }
 }

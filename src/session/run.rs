@@ -42,6 +42,9 @@ pub struct RunPlan<'a> {
     pub record: Option<Record<'a>>,
     /// The page and the terminal view.
     pub display: DisplayChoice,
+    /// The file that set `detector.max_hold_ms` (`None`: built in), for
+    /// the report's line on breaths held past it.
+    pub max_hold_set_in: Option<&'a Path>,
 }
 
 /// `--record DIR`, checked, and the recording's limits.
@@ -75,6 +78,7 @@ pub fn run(
         events,
         record: plan.record.as_ref(),
         display: &display,
+        max_hold_set_in: plan.max_hold_set_in,
     };
     open_sensor(
         plan.sensor,
@@ -103,6 +107,7 @@ struct Start<'a> {
     events: &'a mut dyn EventSink,
     record: Option<&'a Record<'a>>,
     display: &'a Display<'a>,
+    max_hold_set_in: Option<&'a Path>,
 }
 
 impl OnSensor for Start<'_> {
@@ -116,6 +121,7 @@ impl OnSensor for Start<'_> {
             events,
             record,
             display,
+            max_hold_set_in,
         } = self;
         let mut recorder = match record {
             Some(record) => Some(
@@ -137,9 +143,21 @@ impl OnSensor for Start<'_> {
         let mut result = threads::run(config.core(), options);
         showing.finish(result.as_mut().ok());
         let mut report = result?;
+        report.max_hold = Some(max_hold(config, max_hold_set_in));
         if let Some(recorder) = recorder {
             recorder.finish(&mut report);
         }
         Ok(report)
+    }
+}
+
+/// `detector.max_hold_ms` and where it came from, for the report's line on
+/// breaths held past it: "1000 ms, set in anna.toml" or "6000 ms, the
+/// built-in default".
+fn max_hold(config: &Config, set_in: Option<&Path>) -> String {
+    let ms = config.core().detector().max_hold_ms;
+    match set_in {
+        Some(path) => format!("{ms} ms, set in {}", path.display()),
+        None => format!("{ms} ms, the built-in default"),
     }
 }

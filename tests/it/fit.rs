@@ -166,6 +166,31 @@ fn a_boundary_between_a_users_own_short_and_long_breaths() {
 }
 
 #[test]
+fn a_hold_limit_that_makes_every_move_short_is_a_decision_for_the_clinician() {
+    let decision = |name: &str| {
+        let fit = fitted(&Breather::named(name).unwrap(), 3);
+        let text = sipnpuff::fit::report::text(&fit);
+        let line = text
+            .lines()
+            .find(|l| l.starts_with("decision for the clinician:"));
+        (fit.proposal.detector.max_hold_ms, line.map(str::to_string))
+    };
+    // Short-capacity: holds of about 0.7 s make every move a second at most.
+    let (limit, line) = decision("short_capacity");
+    assert_eq!(limit, 1000);
+    assert_eq!(
+        line.as_deref(),
+        Some(
+            "decision for the clinician: detector.max_hold_ms = 1000 ms stops the arm whenever one breath is held longer, so every arm move lasts at most 1.0 s and a longer move takes breath after breath. A higher limit (up to the built-in 6.0 s) gives longer moves to a person who can hold a breath that long, and lets a stuck sensor move the arm as long before it stops"
+        )
+    );
+    // A typical breather holds for seconds: nothing to decide.
+    let (limit, line) = decision("typical");
+    assert!(limit >= 3000, "{limit}");
+    assert_eq!(line, None);
+}
+
+#[test]
 fn fit_writes_a_profile_that_config_and_replay_read() {
     let dir = Scratch::new();
     let (csv, truth, profile) = (

@@ -467,7 +467,11 @@ fn asp_in_a_real_browser_shows_sequences_waits_modes_directions_and_faults() {
         browser.screenshot("asp-5-sensor-fault");
 
         let (status, lines, stderr) = run.finish();
-        assert!(status.success(), "{status}: {stderr}");
+        assert_eq!(
+            status.code(),
+            Some(1),
+            "the session's sensor fault fails the run: {status}: {stderr}"
+        );
         let page = browser.shown();
         let cues = strings(&page["cues"]);
         for cue in ["match", "selection", "fault"] {
@@ -488,7 +492,11 @@ fn asp_in_a_real_browser_shows_sequences_waits_modes_directions_and_faults() {
         let (with_page, events_with) = report_and_events(&lines);
         let quiet = self::run(&config, &csv, None);
         let (status, lines, stderr) = quiet.finish();
-        assert!(status.success(), "{status}: {stderr}");
+        assert_eq!(
+            status.code(),
+            Some(1),
+            "the session's sensor fault fails the run: {status}: {stderr}"
+        );
         let (without, events_without) = report_and_events(&lines);
         for (name, report) in [("with the page", &with_page), ("without", &without)] {
             assert_eq!(report["control_thread_allocations"], 0, "{name}");

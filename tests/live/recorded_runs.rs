@@ -148,7 +148,8 @@ fn a_recorded_csv_run_with_a_stall_replays_bit_for_bit() {
         run.wait_for("\"event\":\"match\"");
         run.pause(Duration::from_millis(1200));
         let (status, stdout, stderr) = run.finish();
-        assert!(status.success(), "{status}\n{stderr}");
+        // The stall is a fault: it stopped the arm, and the run fails.
+        assert_eq!(status.code(), Some(1), "{status}\n{stderr}");
         assert!(
             stdout.iter().any(|l| l.contains("stalled for")),
             "no stall fault:\n{}",

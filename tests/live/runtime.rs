@@ -274,7 +274,8 @@ fn a_stopped_and_continued_process_reports_the_stall_and_stops_safely() {
         run.pause(Duration::from_millis(2000));
         let (status, seen, _) = run.finish();
         let text = seen.join("\n");
-        assert!(status.success(), "{status}\n{text}");
+        // The stall is a fault: it stopped the arm, and the run fails.
+        assert_eq!(status.code(), Some(1), "{status}\n{text}");
         let gaps: Vec<u64> = seen
             .iter()
             .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
