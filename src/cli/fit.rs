@@ -7,13 +7,15 @@ use std::path::{Path, PathBuf};
 
 use crate::cli::args::{ConfigArg, RtArgs, record_dir};
 use crate::cli::display::DisplayArgs;
-use crate::cli::output::{self, Terminal, invalid};
+use crate::cli::output::{self, Invalid, Terminal, invalid};
 use crate::config::layers::Layered;
 use crate::fit::drift;
 use crate::fit::protocol::DEFAULT_COUNT;
 use crate::sensor::SensorSpec;
 use crate::session::calibration::{self, Live};
-use crate::session::fitting::{FitEnd, FitRequest, PROFILE, fit_recorded};
+use crate::session::fitting::{
+    FitEnd, FitRequest, PROFILE, fit_recorded, settings_on_another_scale,
+};
 
 /// `fit`'s options.
 #[derive(clap::Args, Debug)]
@@ -72,9 +74,19 @@ pub struct FitArgs {
 
 /// Fits, reports, and writes the profile if it reads the user reliably
 /// (or `--force`). Exit 0 with a profile; 1 with the reason and nothing
-/// written; a live session interrupted by signal N: 128 + N.
+/// written; 2 for options or settings that do not fit the session (a
+/// profile in ADC counts, another `--count` than a guided session's); a
+/// live session interrupted by signal N: 128 + N.
 pub fn fit(args: FitArgs) -> anyhow::Result<u8> {
-    let setup = args.config.layered()?;
+    let setup = args.config.layered().map_err(|e| {
+        // A profile of another sensor: said against the session, in one line.
+        let other = (args.from.as_deref())
+            .and_then(|from| settings_on_another_scale(from, &args.config.config));
+        match other {
+            Some(line) => Invalid(anyhow::Error::msg(line)).into(),
+            None => e,
+        }
+    })?;
     let current = setup.config().clone();
     let request = FitRequest {
         count: args.count,

@@ -92,6 +92,16 @@ pub struct Found {
     pub strongest: f64,
 }
 
+/// The level the session starts at: the median of its first look at the
+/// rest (`None` if under a second of it is there). Says which scale the
+/// signal is in before anything is fitted.
+pub fn opening_level(signal: &Signal) -> Option<f64> {
+    let first: Vec<f64> = (REST_MARGIN_MS..FIRST_LOOK_MS.min(signal.len()))
+        .filter_map(|t| signal.volts(t))
+        .collect();
+    (first.len() >= 1000).then(|| stats::median(&first))
+}
+
 /// Finds the rest and the breaths of a session that starts at rest.
 pub fn find(signal: &Signal) -> Result<Found, FitError> {
     let first: Vec<f64> = (REST_MARGIN_MS..FIRST_LOOK_MS.min(signal.len()))

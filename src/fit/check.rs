@@ -157,7 +157,7 @@ pub fn confusion(
         .iter()
         .enumerate()
         .map(|(i, a)| (Some(i), &a.region))
-        .chain(answers.wrong_kind.iter().map(|a| (None, &a.region)))
+        .chain(answers.wrong.iter().map(|a| (None, &a.region)))
         .chain(answers.extra.iter().map(|r| (None, r)))
         .map(|(answer, r)| Found {
             start: r.start as u64,

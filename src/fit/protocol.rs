@@ -4,7 +4,7 @@
 //! sips, long sips, then (optionally) the longest comfortable puffs and
 //! sips.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::control::action::{Action, Breath};
 
@@ -60,8 +60,27 @@ impl Serialize for Ask {
     }
 }
 
+/// Read from its words, as a guided session's `calibration.json` holds
+/// them.
+impl<'de> Deserialize<'de> for Ask {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let words = String::deserialize(deserializer)?;
+        let mut asks = [
+            Action::ShortPuff,
+            Action::LongPuff,
+            Action::ShortSip,
+            Action::LongSip,
+        ]
+        .map(Ask::Breath)
+        .into_iter()
+        .chain([Breath::Puff, Breath::Sip].map(Ask::Hold));
+        asks.find(|ask| ask.words() == words)
+            .ok_or_else(|| serde::de::Error::custom(format!("{words:?} is not a prompt")))
+    }
+}
+
 /// One block: the same breath asked for `count` times.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Block {
     /// What each prompt of the block asks for.
     pub ask: Ask,
@@ -70,7 +89,7 @@ pub struct Block {
 }
 
 /// The blocks of a session, in the fixed order.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Protocol {
     /// The blocks, in order.
     pub blocks: Vec<Block>,
@@ -153,5 +172,18 @@ mod tests {
         assert_eq!(with_holds.blocks.len(), 6);
         assert_eq!(with_holds.prompts().count(), 26);
         assert!(with_holds.has_holds() && !p.has_holds());
+    }
+
+    #[test]
+    fn a_protocol_reads_back_from_its_json() {
+        let p = Protocol::new(5, 3);
+        let json = serde_json::to_string(&p).unwrap();
+        assert!(
+            json.contains(r#""ask":"longest comfortable sip""#),
+            "{json}"
+        );
+        assert_eq!(serde_json::from_str::<Protocol>(&json).unwrap(), p);
+        let wrong = json.replace("short puff", "short puf");
+        assert!(serde_json::from_str::<Protocol>(&wrong).is_err());
     }
 }

@@ -1,15 +1,25 @@
-//! The breaths found, matched to the protocol's prompts: which block each
-//! breath answers, which were of the wrong kind, which blocks came short.
+//! The breaths found, matched to the protocol's blocks: which block each
+//! breath answers, which were not what their block asked for, which
+//! blocks came short or long.
 //!
-//! The protocol alternates kinds in runs (puffs, sips, then the holds'
-//! puffs and sips); within a run, blocks are split at the longest pause
-//! nearest the expected count (between blocks the user rests at least
-//! 3 s, between breaths 1–2 s).
+//! Blocks are told apart by the pauses between them (the protocol rests
+//! at least 3 s between blocks, 1–2 s between breaths). When the pauses
+//! do not give one stretch per block, the breaths are read in runs of one
+//! kind (puffs, sips, then the holds' puffs and sips), each run cut into
+//! blocks at the block pause nearest the expected count.
+//!
+//! What can be fitted honestly is: a block between clear pauses holding
+//! more or fewer breaths than asked, all of the kind and length asked (a
+//! note); a breath of the other kind or length that the person made up
+//! for, as the live guide asks them to (left out, a note). A wrong breath
+//! not made up for, or a miscount with no pause to show where the block
+//! lies, is an error naming the block and the breath.
 
 use crate::control::action::Breath;
 use crate::fit::breaths::{Found, Region};
-use crate::fit::protocol::{Ask, BETWEEN_BLOCKS_MS, Protocol};
+use crate::fit::protocol::{Ask, BETWEEN_BLOCKS_MS, Block, Protocol};
 use crate::fit::signal::FitError;
+use crate::fit::stats;
 
 /// A breath found and what it answered.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -25,9 +35,10 @@ pub struct Answer {
 pub struct Answers {
     /// The breaths that answered a prompt, in time order.
     pub answers: Vec<Answer>,
-    /// Breaths of the other kind inside a block (a sip when puffs were
-    /// asked for): not counted.
-    pub wrong_kind: Vec<Answer>,
+    /// Breaths inside a block that were not what it asked for (a sip
+    /// where puffs were asked, a short breath where long ones were), made
+    /// up for by the block's other breaths: not counted.
+    pub wrong: Vec<Answer>,
     /// Breaths after the protocol's last block: not counted.
     pub extra: Vec<Region>,
     /// Plain-words notes on what did not follow the protocol.
@@ -47,6 +58,11 @@ impl Answers {
 /// A pause at least this long separates blocks, ms (the protocol asks for
 /// ≥ 3 s; the stretches found end inside a breath's fall).
 const BLOCK_PAUSE_MS: usize = (BETWEEN_BLOCKS_MS as usize) * 5 / 6;
+/// Short and long breaths of a kind are told apart only when their
+/// blocks' typical lengths are at least this far apart (a ratio): closer
+/// than that, their overlap is the fit's to measure, not an error.
+const LENGTHS_APART: f64 = 2.5;
+
 /// Why no breath was found, with the rest's swing and the strongest
 /// stretch after it, and what to try.
 fn no_breath(found: &Found) -> FitError {
@@ -69,20 +85,231 @@ fn no_breath(found: &Found) -> FitError {
 /// Fewer breaths than this in a block cannot be fitted.
 pub const MIN_PER_BLOCK: usize = 3;
 
+/// One block's breaths as found.
+struct Placed {
+    /// Every breath found in the block, of any kind, in time order.
+    regions: Vec<Region>,
+    /// Whether a block pause, a change of kind or the session's edge
+    /// marks both its ends.
+    bounded: bool,
+}
+
 /// Matches the breaths found to the protocol's blocks.
 pub fn answers(protocol: &Protocol, found: &Found) -> Result<Answers, FitError> {
-    let (kept, wrong) = strays(&found.regions);
-    let runs = runs(&kept);
-    let wanted = kind_runs(protocol);
-    let mut out = Answers {
-        answers: Vec::new(),
-        wrong_kind: Vec::new(),
-        extra: Vec::new(),
-        notes: Vec::new(),
-    };
     if found.regions.is_empty() {
         return Err(no_breath(found));
     }
+    let (placed, extra) = match by_pauses(protocol, &found.regions) {
+        Some(placed) => (placed, Vec::new()),
+        None => by_runs(protocol, found)?,
+    };
+    let mut out = Answers {
+        answers: Vec::new(),
+        wrong: Vec::new(),
+        extra,
+        notes: Vec::new(),
+    };
+    for (i, (block, here)) in protocol.blocks.iter().zip(&placed).enumerate() {
+        let boundary = boundary(protocol, &placed, i);
+        check_block(i, block, here, boundary, &mut out)?;
+    }
+    if !out.extra.is_empty() {
+        out.notes.push(format!(
+            "{} breaths after the protocol's end were left out",
+            out.extra.len()
+        ));
+    }
+    Ok(out)
+}
+
+/// Sorts one block's breaths into answers and wrong ones, or says why
+/// the block cannot be fitted. `boundary`: the length between this
+/// kind's short and long breaths, ms, when they stand apart.
+fn check_block(
+    i: usize,
+    block: &Block,
+    here: &Placed,
+    boundary: Option<f64>,
+    out: &mut Answers,
+) -> Result<(), FitError> {
+    let named = format!("block {} ({}s)", i + 1, block.ask.words());
+    let asked = block.count as usize;
+    let mut right = Vec::new();
+    let mut wrong = Vec::new();
+    for (n, region) in here.regions.iter().enumerate() {
+        match not_asked(block.ask, region, boundary, here) {
+            Some(what) => wrong.push((n + 1, region, what)),
+            None => right.push(*region),
+        }
+    }
+    for (n, region, what) in &wrong {
+        let said = format!(
+            "{named}, breath {n} at {:.1} s: {what} where a {} was asked",
+            seconds(region),
+            block.ask.words()
+        );
+        if right.len() < asked {
+            return Err(FitError::new(format!(
+                "{said}, and without it the block has {} where {asked} were asked: record the calibration again",
+                breaths(right.len(), &format!("{}s", block.ask.words()))
+            )));
+        }
+        out.notes.push(format!(
+            "{said}, left out (the block has its {asked} without it)"
+        ));
+        out.wrong.push(Answer {
+            ask: block.ask,
+            region: **region,
+        });
+    }
+    let got = right.len();
+    if got < MIN_PER_BLOCK {
+        return Err(FitError::new(format!(
+            "{named}: {} where {asked} were asked (at least {MIN_PER_BLOCK} are needed): record the calibration again, or check that those breaths pass the rest's noise",
+            breaths(got, "breaths")
+        )));
+    }
+    if got != asked {
+        if !here.bounded {
+            return Err(FitError::new(format!(
+                "{named}: {} where {asked} were asked, and no pause of {} s marks where the block begins or ends: record the calibration again, resting {} s between blocks",
+                breaths(got, "breaths"),
+                BETWEEN_BLOCKS_MS / 1000,
+                BETWEEN_BLOCKS_MS / 1000
+            )));
+        }
+        out.notes.push(format!(
+            "{named}: {} where {asked} were asked (fitted from the {got})",
+            breaths(got, "breaths")
+        ));
+    }
+    out.answers.extend(right.into_iter().map(|region| Answer {
+        ask: block.ask,
+        region,
+    }));
+    Ok(())
+}
+
+/// What `region` was, if not what `ask` asked for: "a sip", or "a short
+/// puff (150 ms; the block's others 790–810 ms)".
+fn not_asked(ask: Ask, region: &Region, boundary: Option<f64>, here: &Placed) -> Option<String> {
+    if region.breath != ask.breath() {
+        return Some(format!("a {}", breath_word(region.breath)));
+    }
+    let (Ask::Breath(action), Some(boundary)) = (ask, boundary) else {
+        return None;
+    };
+    let long = ms(region) >= boundary;
+    if long == action.is_long() {
+        return None;
+    }
+    let others: Vec<f64> = (here.regions.iter())
+        .filter(|r| r.breath == region.breath && (ms(r) >= boundary) == action.is_long())
+        .map(ms)
+        .collect();
+    let range = match (
+        others.iter().copied().reduce(f64::min),
+        others.iter().copied().reduce(f64::max),
+    ) {
+        (Some(low), Some(high)) => format!("; the block's others {low:.0}–{high:.0} ms"),
+        _ => String::new(),
+    };
+    Some(format!(
+        "a {} {} ({:.0} ms{range})",
+        if long { "long" } else { "short" },
+        breath_word(region.breath),
+        ms(region)
+    ))
+}
+
+/// The length between block `i`'s breaths and its partner's (the same
+/// kind, the other length), ms: the geometric mean of their blocks'
+/// median lengths, when those are [`LENGTHS_APART`].
+fn boundary(protocol: &Protocol, placed: &[Placed], i: usize) -> Option<f64> {
+    let Ask::Breath(action) = protocol.blocks[i].ask else {
+        return None;
+    };
+    let partner = protocol
+        .blocks
+        .iter()
+        .position(|b| matches!(b.ask, Ask::Breath(a) if a.breath() == action.breath() && a.is_long() != action.is_long()))?;
+    let typical = |j: usize| {
+        let lengths: Vec<f64> = (placed.get(j)?.regions.iter())
+            .filter(|r| r.breath == action.breath())
+            .map(ms)
+            .collect();
+        (lengths.len() >= MIN_PER_BLOCK).then(|| stats::median(&lengths))
+    };
+    let (mine, theirs) = (typical(i)?, typical(partner)?);
+    let (short, long) = if action.is_long() {
+        (theirs, mine)
+    } else {
+        (mine, theirs)
+    };
+    (long >= LENGTHS_APART * short).then(|| (short * long).sqrt())
+}
+
+/// A breath's length as found, ms.
+fn ms(region: &Region) -> f64 {
+    (region.end - region.start) as f64
+}
+
+/// When a breath began, s from the session's start.
+fn seconds(region: &Region) -> f64 {
+    region.start as f64 / 1000.0
+}
+
+/// "1 breath", "7 long puffs".
+fn breaths(n: usize, plural: &str) -> String {
+    if n == 1 {
+        format!("1 {}", plural.strip_suffix('s').unwrap_or(plural))
+    } else {
+        format!("{n} {plural}")
+    }
+}
+
+fn breath_word(breath: Breath) -> &'static str {
+    match breath {
+        Breath::Puff => "puff",
+        Breath::Sip => "sip",
+    }
+}
+
+/// The blocks as the pauses show them: one stretch between block pauses
+/// per block, each mostly of its block's kind; `None` otherwise.
+fn by_pauses(protocol: &Protocol, regions: &[Region]) -> Option<Vec<Placed>> {
+    let mut stretches: Vec<Vec<Region>> = Vec::new();
+    for &r in regions {
+        match stretches.last_mut() {
+            Some(s) if !pause_before(&r, s.last()) => s.push(r),
+            _ => stretches.push(vec![r]),
+        }
+    }
+    let fits = stretches.len() == protocol.blocks.len()
+        && (stretches.iter().zip(&protocol.blocks))
+            .all(|(s, b)| 2 * s.iter().filter(|r| r.breath == b.ask.breath()).count() > s.len());
+    fits.then(|| {
+        stretches
+            .into_iter()
+            .map(|regions| Placed {
+                regions,
+                bounded: true,
+            })
+            .collect()
+    })
+}
+
+/// Whether a block pause comes before `r` (after `before`).
+fn pause_before(r: &Region, before: Option<&Region>) -> bool {
+    before.is_none_or(|b| r.start.saturating_sub(b.end) >= BLOCK_PAUSE_MS)
+}
+
+/// The blocks as runs of one kind show them, each run cut at the pauses
+/// nearest the expected counts, and the breaths after the last block.
+fn by_runs(protocol: &Protocol, found: &Found) -> Result<(Vec<Placed>, Vec<Region>), FitError> {
+    let (kept, strays) = strays(&found.regions);
+    let runs = runs(&kept);
+    let wanted = kind_runs(protocol);
     if runs.len() < wanted.len() {
         let kinds: Vec<&str> = runs.iter().map(|r| kind_words(r[0].breath)).collect();
         return Err(FitError::new(format!(
@@ -97,11 +324,12 @@ pub fn answers(protocol: &Protocol, found: &Found) -> Result<Answers, FitError> 
             kinds.join(" then ")
         )));
     }
+    let mut placed: Vec<Placed> = Vec::new();
     for (run, (breath, blocks)) in runs.iter().zip(&wanted) {
         if run[0].breath != *breath {
             return Err(FitError::new(format!(
                 "breaths at {:.1} s are {} where the protocol asks for {}: was the protocol breathed in its order?",
-                run[0].start as f64 / 1000.0,
+                seconds(&run[0]),
                 kind_words(run[0].breath),
                 kind_words(*breath)
             )));
@@ -109,58 +337,28 @@ pub fn answers(protocol: &Protocol, found: &Found) -> Result<Answers, FitError> 
         let counts: Vec<usize> = blocks.iter().map(|b| b.count as usize).collect();
         let cuts = cuts(run, &counts);
         let mut from = 0;
-        for (i, block) in blocks.iter().enumerate() {
+        for i in 0..blocks.len() {
             let to = cuts.get(i).copied().unwrap_or(run.len());
-            let got = to - from;
-            if got != block.count as usize {
-                out.notes.push(format!(
-                    "{} {}s asked for, {got} found",
-                    block.count,
-                    block.ask.words()
-                ));
-            }
-            if got < MIN_PER_BLOCK {
-                return Err(FitError::new(format!(
-                    "only {got} {}s found (at least {MIN_PER_BLOCK} are needed): breathe the block again, or check that those breaths pass the rest's noise",
-                    block.ask.words()
-                )));
-            }
-            out.answers
-                .extend(run[from..to].iter().map(|&region| Answer {
-                    ask: block.ask,
-                    region,
-                }));
+            let at_pause =
+                |at: usize| at == 0 || at >= run.len() || pause_before(&run[at], run.get(at - 1));
+            placed.push(Placed {
+                regions: run[from..to].to_vec(),
+                bounded: at_pause(from) && at_pause(to),
+            });
             from = to;
         }
     }
-    for run in runs.iter().skip(wanted.len()) {
-        out.extra.extend(run.iter().copied());
+    // A stray belongs to the block of the breath before it.
+    for stray in strays {
+        let block = (placed.iter())
+            .rposition(|p| p.regions.first().is_some_and(|r| r.start < stray.start))
+            .unwrap_or(0);
+        let regions = &mut placed[block].regions;
+        regions.push(stray);
+        regions.sort_by_key(|r| r.start);
     }
-    if !out.extra.is_empty() {
-        out.notes.push(format!(
-            "{} breaths after the protocol's end were left out",
-            out.extra.len()
-        ));
-    }
-    for region in wrong {
-        let ask = out
-            .answers
-            .iter()
-            .rev()
-            .find(|a| a.region.start < region.start)
-            .or(out.answers.first())
-            .map(|a| a.ask);
-        if let Some(ask) = ask {
-            out.notes.push(format!(
-                "a {} at {:.1} s inside the {}s was left out",
-                kind_words(region.breath),
-                region.start as f64 / 1000.0,
-                ask.words()
-            ));
-            out.wrong_kind.push(Answer { ask, region });
-        }
-    }
-    Ok(out)
+    let extra = runs.iter().skip(wanted.len()).flatten().copied().collect();
+    Ok((placed, extra))
 }
 
 fn kind_words(breath: Breath) -> &'static str {
@@ -171,8 +369,8 @@ fn kind_words(breath: Breath) -> &'static str {
 }
 
 /// The protocol's blocks grouped into runs of one kind.
-fn kind_runs(protocol: &Protocol) -> Vec<(Breath, Vec<crate::fit::protocol::Block>)> {
-    let mut runs: Vec<(Breath, Vec<crate::fit::protocol::Block>)> = Vec::new();
+fn kind_runs(protocol: &Protocol) -> Vec<(Breath, Vec<Block>)> {
+    let mut runs: Vec<(Breath, Vec<Block>)> = Vec::new();
     for block in &protocol.blocks {
         match runs.last_mut() {
             Some((breath, blocks)) if *breath == block.ask.breath() => blocks.push(*block),

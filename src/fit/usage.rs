@@ -148,7 +148,7 @@ pub fn measure(signal: &Signal, in_use: &Config) -> Result<Use, FitError> {
         },
         answers: Answers {
             answers,
-            wrong_kind: Vec::new(),
+            wrong: Vec::new(),
             extra: Vec::new(),
             notes: Vec::new(),
         },

@@ -5,17 +5,18 @@
 //! profile in use, and written as a profile when it reads the person
 //! reliably.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
 use crate::config::Config;
+use crate::config::invalid::invalid;
 use crate::config::layers::Layered;
 use crate::fit::outcome::Outcome;
 use crate::fit::profile::{self, ProfileHeader};
 use crate::fit::protocol::{DEFAULT_HOLDS, Protocol};
 use crate::fit::signal::{FitError, Signal};
-use crate::fit::{self, Fit, drift, report};
+use crate::fit::{self, Fit, breaths, drift, report};
 use crate::session::Console;
 use crate::tools::recording::read::Recording;
 use crate::tools::signal_file::read_signal;
@@ -77,11 +78,110 @@ pub fn fit_recorded(
     out: Option<&Path>,
     console: &dyn Console,
 ) -> anyhow::Result<FitEnd> {
+    guided_as_asked(request, from)?;
     let signal = read_signal(from).map_err(anyhow::Error::msg)?;
+    in_volts(from, &signal, request.setup)?;
     let (fitted, kind) = recorded(request, from, &signal, console)?;
     let source = from.display().to_string();
     let (end, _) = conclude(request, fitted, kind, &source, out, console)?;
     Ok(end)
+}
+
+/// The sensor's range, volts: every level the settings hold is in it.
+const SENSOR_VOLTS: std::ops::RangeInclusive<f64> = 0.0..=5.0;
+
+/// Refuses a session that starts at a level no sensor in volts gives
+/// (ADC counts, most likely): nothing in it could be read with settings
+/// in volts.
+fn in_volts(from: &Path, signal: &Signal, setup: &Layered) -> anyhow::Result<()> {
+    let key = "detector.neutral_volts";
+    match breaths::opening_level(signal) {
+        Some(rest) if !SENSOR_VOLTS.contains(&rest) => Err(anyhow::anyhow!(
+            "{}: its rest is at {rest:.0}, which looks like ADC counts, but {key} is {} V ({}): the settings are volts at the sensor (0–5 V); convert the recording to volts (counts / full scale × 5)",
+            from.display(),
+            setup.config().core().detector().neutral_volts,
+            setup.origin(key)
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// When `files` hold a level outside the sensor's volts (ADC counts,
+/// from a profile of another sensor) and the session at `from` is in
+/// volts: the one line that says so, naming the key and both scales.
+/// `None` otherwise (the files' own errors say the rest).
+pub fn settings_on_another_scale(from: &Path, files: &[PathBuf]) -> Option<String> {
+    let mut levels: Vec<(&Path, &str, toml::Value)> = Vec::new();
+    for file in files {
+        let Some(detector) = std::fs::read_to_string(file)
+            .ok()
+            .and_then(|text| text.parse::<toml::Table>().ok())
+            .and_then(|mut table| table.remove("detector"))
+        else {
+            continue;
+        };
+        for key in [
+            "neutral_volts",
+            "puff_threshold_volts",
+            "sip_threshold_volts",
+        ] {
+            if let Some(value) = detector.get(key) {
+                levels.retain(|(_, k, _)| *k != key);
+                levels.push((file, key, value.clone()));
+            }
+        }
+    }
+    let volts = |v: &toml::Value| v.as_float().or(v.as_integer().map(|i| i as f64));
+    let (file, key, value) = levels
+        .iter()
+        .find(|(_, _, v)| volts(v).is_some_and(|v| v > *SENSOR_VOLTS.end()))?;
+    let rest = breaths::opening_level(&read_signal(from).ok()?)?;
+    SENSOR_VOLTS.contains(&rest).then(|| {
+        format!(
+            "{}: detector.{key} = {value} looks like ADC counts, but {} is in volts (its rest is at {rest:.2} V): the settings are volts at the sensor (0–5 V); give a profile fitted with this sensor, or none",
+            file.display(),
+            from.display()
+        )
+    })
+}
+
+/// Refuses to fit a guided session's recording with another protocol
+/// than the one its guide followed (`calibration.json`): every block
+/// would read as miscounted.
+fn guided_as_asked(request: &FitRequest, from: &Path) -> anyhow::Result<()> {
+    let path = from.join(CALIBRATION);
+    if !path.is_file() {
+        return Ok(());
+    }
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    let guided: Protocol = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a calibration's protocol", path.display()))?;
+    let asked = request.protocol();
+    if guided == asked {
+        return Ok(());
+    }
+    let count = |p: &Protocol| p.blocks.first().map_or(0, |b| b.count);
+    let words = |p: &Protocol| {
+        let holds = if p.has_holds() {
+            ", then the holds"
+        } else {
+            ""
+        };
+        format!("{} breaths a block{holds}", count(p))
+    };
+    let options = |p: &Protocol| {
+        let holds = if p.has_holds() { " --holds" } else { "" };
+        format!("--count {}{holds}", count(p))
+    };
+    invalid(Err(anyhow::anyhow!(
+        "{}: the session was guided through {} ({CALIBRATION}), where fit asks for {} ({}): fit it with {}",
+        from.display(),
+        words(&guided),
+        words(&asked),
+        options(&asked),
+        options(&guided)
+    )))
 }
 
 /// What kind of session was fitted: the verdict's words differ.

@@ -3,6 +3,8 @@
 //! where they come from on disk.
 
 use std::fmt;
+use std::fs::File;
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 use crate::control::sample::Sample;
@@ -14,6 +16,8 @@ use crate::tools::recording::read::Recording;
 
 /// A day of samples: no calibration is longer.
 const MAX_SAMPLES: usize = 86_400_000;
+/// Rows of a CSV whose ticks tell its rate.
+const RATE_ROWS: usize = 1000;
 
 /// Reads a CSV file or a recording directory.
 pub fn read_signal(path: &Path) -> Result<Signal, FitError> {
@@ -24,15 +28,42 @@ pub fn read_signal(path: &Path) -> Result<Signal, FitError> {
     }
 }
 
-/// Reads the `volts` column of a CSV recording (1 kHz).
+/// Reads the `volts` column of a CSV recording (1 kHz; one whose `tick`
+/// column shows another rate is refused).
 pub fn csv_signal(path: &Path) -> Result<Signal, FitError> {
     let in_file = |e: &dyn fmt::Display| FitError::new(format!("{}: {e}", path.display()));
+    if let Some(e) = other_rate(path) {
+        return Err(in_file(&e));
+    }
     let mut csv = CsvSignal::open(path).map_err(|e| in_file(&e))?;
     let mut volts = Vec::new();
     while let Some(v) = csv.next_sample().map_err(|e| in_file(&e))? {
         volts.push(v);
     }
     Ok(Signal::from_volts(volts))
+}
+
+/// What a CSV's `tick` column says of its rate over its first rows, when
+/// it is not one row per 1 ms tick. Without the column (or a readable
+/// start to it), nothing: the rows are taken as 1 kHz.
+fn other_rate(path: &Path) -> Option<String> {
+    let mut lines = BufReader::new(File::open(path).ok()?).lines();
+    let header = lines.next()?.ok()?;
+    let column = (header.trim_start_matches('\u{feff}').split(','))
+        .position(|name| name.trim().trim_matches('"') == "tick")?;
+    let ticks: Vec<u64> = lines
+        .take(RATE_ROWS)
+        .map_while(|line| line.ok()?.split(',').nth(column)?.trim().parse().ok())
+        .collect();
+    let (first, last) = (*ticks.first()?, *ticks.last()?);
+    let span = last.checked_sub(first).filter(|&ms| ms > 0)?;
+    let hz = 1000.0 * (ticks.len() - 1) as f64 / span as f64;
+    ((hz - 1000.0).abs() > 10.0).then(|| {
+        format!(
+            "its ticks are {hz:.0} Hz ({} rows over {span} ms), where fit reads 1000 Hz (one row per 1 ms tick): resample it to 1 kHz and fit again",
+            ticks.len()
+        )
+    })
 }
 
 /// Reads the samples of a `run --record` directory, tick 0 its first tick.

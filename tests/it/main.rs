@@ -39,6 +39,7 @@ mod display;
 mod fast_paths;
 mod faults;
 mod fit;
+mod fit_inputs;
 mod fit_prompter;
 mod golden;
 mod motion;
