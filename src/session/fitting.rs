@@ -229,11 +229,16 @@ fn recorded(
     Ok((fit::fit_use(signal, &in_use), SessionKind::OrdinaryUse))
 }
 
-/// The settings in which `given` differs from `used` (the rest level
-/// aside: a run measures it again), as `key = given (recorded: used)`,
-/// at most four and a count of the rest.
+/// The settings in which `given` differs from `used`, as `key = given
+/// (recorded: used)`, at most four and a count of the rest. `given` is
+/// first re-zeroed at the recording's rest level as a run re-zeroes it
+/// (its thresholds move with it), so a run's own measurement is no
+/// difference.
 fn differences(given: &Config, used: &Config) -> String {
     const SHOWN: usize = 4;
+    let neutral = used.core().detector().neutral_volts;
+    let rezeroed = given.clone().with_neutral_volts(neutral).ok();
+    let given = rezeroed.as_ref().unwrap_or(given);
     let (given, used) = (profile::values(given), profile::values(used));
     let differ: Vec<String> = given
         .iter()
@@ -351,10 +356,16 @@ pub(super) fn conclude(
                 SessionKind::Calibration => "as asked",
                 SessionKind::OrdinaryUse => "as you made them",
             };
-            Some(match &then {
-                Ok((fitted, from)) => drift::verdict(Some(fitted), from, &fit, meant),
-                Err(why) => drift::verdict(None, why, &fit, meant),
-            })
+            // A calibration against settings that were never fitted (the
+            // built-in ones, a library) has nothing to drift from: the
+            // report's current-against-proposed columns say the rest.
+            match (&then, kind) {
+                (Ok((fitted, from)), _) => Some(drift::verdict(Some(fitted), from, &fit, meant)),
+                (Err(_), SessionKind::Calibration) => None,
+                (Err(why), SessionKind::OrdinaryUse) => {
+                    Some(drift::verdict(None, why, &fit, meant))
+                }
+            }
         }
     };
     if request.json {

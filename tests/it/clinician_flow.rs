@@ -164,6 +164,8 @@ fn a_slow_breather_goes_from_calibration_to_running() {
         )),
         "{notes}"
     );
+    // The library holds no fitting to drift from: no verdict on it.
+    assert!(!notes.contains("verdict:"), "{notes}");
     let text = std::fs::read_to_string(&profile).unwrap();
     assert!(
         text.contains(&format!(

@@ -450,6 +450,6 @@ fn breaths_held_past_max_hold_are_counted_by_the_loop_and_named() {
     };
     assert_eq!(
         reason.to_string(),
-        "breath held 1000 ms at 3.66 V, past max_hold_ms — arm stopped: a breath longer than max_hold_ms allows, or the sensor stuck or its offset shifted"
+        "breath held 1000 ms at 3.66 V, the limit detector.max_hold_ms sets — arm stopped: a breath as long as the settings allow (raise detector.max_hold_ms if it was meant), or the sensor stuck or its offset shifted"
     );
 }

@@ -204,9 +204,16 @@ fn a_refit_reads_with_the_setup_the_run_used() {
         Some("verdict: no drift — the settings in use still read you; no re-fit needed")
     );
 
-    // A library designed for the profile: its header names the profile.
+    // The profile itself: the run re-zeroed its rest level, which moves
+    // its thresholds with it; that is the same setup.
     let profile_path = dir.join("anna.toml");
     std::fs::write(&profile_path, &profile_text).unwrap();
+    let out = sipnpuff(&["fit", "--from", &s(&rec), "--config", &s(&profile_path)]);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(!stderr.contains("is not the setup"), "{stderr}");
+
+    // A library designed for the profile: its header names the profile.
     let library = dir.join("anna-library.toml");
     std::fs::write(
         &library,

@@ -64,7 +64,7 @@ impl fmt::Display for FaultReason {
             FaultReason::Disconnected => f.write_str("sensor disconnected — arm stopped"),
             FaultReason::Stuck { volts, held_ms } => write!(
                 f,
-                "breath held {held_ms} ms at {volts:.2} V, past max_hold_ms — arm stopped: a breath longer than max_hold_ms allows, or the sensor stuck or its offset shifted"
+                "breath held {held_ms} ms at {volts:.2} V, the limit detector.max_hold_ms sets — arm stopped: a breath as long as the settings allow (raise detector.max_hold_ms if it was meant), or the sensor stuck or its offset shifted"
             ),
             FaultReason::Stalled { ms } => write!(
                 f,

@@ -462,7 +462,7 @@ fn a_breath_longer_than_max_hold_is_a_stuck_fault() {
     );
     assert_eq!(
         reason.to_string(),
-        "breath held 6000 ms at 4.00 V, past max_hold_ms — arm stopped: a breath longer than max_hold_ms allows, or the sensor stuck or its offset shifted"
+        "breath held 6000 ms at 4.00 V, the limit detector.max_hold_ms sets — arm stopped: a breath as long as the settings allow (raise detector.max_hold_ms if it was meant), or the sensor stuck or its offset shifted"
     );
 }
 
