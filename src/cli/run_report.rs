@@ -73,7 +73,8 @@ pub fn conclude(
 /// The exit status of a finished run whose stdout failed with
 /// `stdout_failed`, if it did. A fault, or a safe stop that did not end
 /// the stream with a zero command, or a sensor fault (the arm stopped
-/// mid-run), is a failure whatever stopped the run;
+/// mid-run) other than a disconnection the sensor came back from, is a
+/// failure whatever stopped the run;
 /// otherwise the status says what stopped it: a signal (128 + N), the
 /// reader of stdout gone (141), another failed output (1), or the run's
 /// own end (0, or the output's status if the report could not be
@@ -84,7 +85,7 @@ pub fn exit_status(report: &RunReport, stdout_failed: Option<io::ErrorKind>) -> 
         Some(_) => output::FAILED,
         None => output::COMPLETED,
     };
-    if !report.errors.is_empty() || !report.stream_ended_with_zero || report.faults.total() > 0 {
+    if !report.errors.is_empty() || !report.stream_ended_with_zero || report.faults.failing() > 0 {
         return output::FAILED;
     }
     match report.stop_reason {
@@ -169,6 +170,7 @@ mod tests {
             faults: SensorFaults {
                 held_too_long: 3,
                 other: 1,
+                ..SensorFaults::default()
             },
             max_hold: Some("1000 ms, set in anna.toml".into()),
             ..with(StopReason::SensorEnded, &[], true)
@@ -180,6 +182,23 @@ mod tests {
         );
         assert!(faulted.to_text().contains("\nFAULTS: 4 sensor faults"));
         assert_eq!(base.faults_line(), None);
+        // A disconnection the sensor came back from (`reconnect = true`)
+        // is reported but is what the setup asked for; one it did not
+        // come back from fails the run.
+        let reconnected = |back: u64| RunReport {
+            faults: SensorFaults {
+                disconnected: 2,
+                reconnected: back,
+                ..SensorFaults::default()
+            },
+            ..with(StopReason::Time, &[], true)
+        };
+        assert_eq!(exit_status(&reconnected(2), None), 0);
+        assert_eq!(exit_status(&reconnected(1), None), 1);
+        assert_eq!(
+            reconnected(1).faults_line().unwrap(),
+            "FAULTS: 2 sensor faults, each stopped the arm; 2 were the sensor disconnected, 1 of them reconnected (detection resumed)\n"
+        );
         for (report, failed, status) in table {
             assert_eq!(
                 exit_status(&report, failed),

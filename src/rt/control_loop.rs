@@ -86,25 +86,49 @@ pub struct WorkSummary {
     pub faults: SensorFaults,
 }
 
-/// Sensor faults counted on the control thread (RT-safe: two counters).
+/// Sensor faults counted on the control thread (RT-safe: counters).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct SensorFaults {
     /// Breaths held past `detector.max_hold_ms`.
     pub held_too_long: u64,
-    /// Every other sensor fault (a bad, stale or lost sample, a stall).
+    /// The sensor's device went away.
+    pub disconnected: u64,
+    /// Disconnections the sensor came back from (`reconnect = true`), with
+    /// detection resumed.
+    pub reconnected: u64,
+    /// Every other sensor fault (a bad or stale sample, a stall).
     pub other: u64,
 }
 
 impl SensorFaults {
     /// All of them.
     pub fn total(&self) -> u64 {
-        self.held_too_long + self.other
+        self.held_too_long + self.disconnected + self.other
     }
 
-    fn count(&mut self, reason: &FaultReason) {
-        match reason {
-            FaultReason::Stuck { .. } => self.held_too_long += 1,
-            _ => self.other += 1,
+    /// The faults that make the run a failure: all but the disconnections
+    /// the sensor came back from, which `reconnect = true` asked for.
+    pub fn failing(&self) -> u64 {
+        self.total() - self.reconnected
+    }
+
+    /// Counts `event`; `away` keeps whether the fault in force is a
+    /// disconnection, so that its recovery counts as a reconnection.
+    fn count(&mut self, event: &Event, away: &mut bool) {
+        match event {
+            Event::Fault { reason } => {
+                *away = matches!(reason, FaultReason::Disconnected);
+                match reason {
+                    FaultReason::Stuck { .. } => self.held_too_long += 1,
+                    FaultReason::Disconnected => self.disconnected += 1,
+                    _ => self.other += 1,
+                }
+            }
+            Event::Recovered if *away => {
+                *away = false;
+                self.reconnected += 1;
+            }
+            _ => {}
         }
     }
 }
@@ -169,6 +193,8 @@ pub struct ControlTick<S: Samples> {
     /// The core's output, written in place each tick (no copy of it).
     out: TickOutput,
     faults: SensorFaults,
+    /// The sensor fault in force is a disconnection.
+    sensor_away: bool,
 }
 
 impl<S: Samples> ControlTick<S> {
@@ -195,6 +221,7 @@ impl<S: Samples> ControlTick<S> {
             stop_next: false,
             out: TickOutput::default(),
             faults: SensorFaults::default(),
+            sensor_away: false,
         }
     }
 
@@ -290,9 +317,7 @@ impl<S: Samples> TickWork for ControlTick<S> {
         let mut events = 0u8;
         for event in out.events.iter() {
             events = events.saturating_add(1);
-            if let Event::Fault { reason } = event {
-                self.faults.count(reason);
-            }
+            self.faults.count(event, &mut self.sensor_away);
             let timed = TimedEvent {
                 tick: out.tick,
                 event: *event,

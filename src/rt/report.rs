@@ -315,8 +315,9 @@ impl RunReport {
     }
 
     /// The report's line on sensor faults, if there were any: how many,
-    /// how many were breaths held past `max_hold_ms`, and where that
-    /// setting came from.
+    /// how many were breaths held past `max_hold_ms` (and where that
+    /// setting came from), and how many disconnections the sensor came
+    /// back from.
     pub fn faults_line(&self) -> Option<String> {
         let f = &self.faults;
         if f.total() == 0 {
@@ -337,6 +338,14 @@ impl RunReport {
                     .as_ref()
                     .map_or(String::new(), |m| format!(" ({m})")),
                 if f.held_too_long == 1 { "it" } else { "them" },
+            );
+        }
+        if f.disconnected > 0 {
+            line += &format!(
+                "; {} {} the sensor disconnected, {} of them reconnected (detection resumed)",
+                f.disconnected,
+                if f.disconnected == 1 { "was" } else { "were" },
+                f.reconnected,
             );
         }
         Some(line + "\n")

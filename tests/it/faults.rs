@@ -441,7 +441,7 @@ fn breaths_held_past_max_hold_are_counted_by_the_loop_and_named() {
         run.faults,
         SensorFaults {
             held_too_long: 2,
-            other: 0
+            ..SensorFaults::default()
         }
     );
     let reason = FaultReason::Stuck {
@@ -452,4 +452,80 @@ fn breaths_held_past_max_hold_are_counted_by_the_loop_and_named() {
         reason.to_string(),
         "breath held 1000 ms at 3.66 V, the limit detector.max_hold_ms sets — arm stopped: a breath as long as the settings allow (raise detector.max_hold_ms if it was meant), or the sensor stuck or its offset shifted"
     );
+}
+
+/// A sensor read tick by tick from a list: each entry is a count of ticks
+/// and what they read.
+struct Plugged {
+    plan: Vec<(u64, sipnpuff::control::sample::Sample)>,
+    at: usize,
+    left: u64,
+}
+
+impl Plugged {
+    fn new(plan: &[(u64, sipnpuff::control::sample::Sample)]) -> Plugged {
+        Plugged {
+            plan: plan.to_vec(),
+            at: 0,
+            left: plan[0].0,
+        }
+    }
+}
+
+impl sipnpuff::sensor::Samples for Plugged {
+    fn try_read(&mut self, _skipped: u64) -> sipnpuff::sensor::Reading {
+        while self.left == 0 && self.at + 1 < self.plan.len() {
+            self.at += 1;
+            self.left = self.plan[self.at].0;
+        }
+        if self.left == 0 {
+            return sipnpuff::sensor::Reading::default();
+        }
+        self.left -= 1;
+        sipnpuff::sensor::Reading {
+            sample: self.plan[self.at].1,
+            discarded: 0,
+        }
+    }
+
+    fn discard_backlog(&mut self, _skipped: u64) -> u64 {
+        0
+    }
+
+    fn ended(&self) -> bool {
+        self.left == 0 && self.at + 1 == self.plan.len()
+    }
+}
+
+#[test]
+fn a_disconnection_the_sensor_comes_back_from_is_counted_as_reconnected() {
+    use sipnpuff::control::sample::Sample::{Lost, Volts};
+    use sipnpuff::rt::control_loop::SensorFaults;
+    use sipnpuff::rt::simulated::run_simulated;
+
+    let config = Config::default();
+    let rest = Volts(config.core().detector().neutral_volts);
+    let back = run_simulated(
+        config.core(),
+        Plugged::new(&[(2000, rest), (500, Lost), (3000, rest)]),
+    );
+    assert_eq!(
+        back.faults,
+        SensorFaults {
+            disconnected: 1,
+            reconnected: 1,
+            ..SensorFaults::default()
+        }
+    );
+    assert_eq!(back.faults.failing(), 0);
+
+    let gone = run_simulated(config.core(), Plugged::new(&[(2000, rest), (3000, Lost)]));
+    assert_eq!(
+        gone.faults,
+        SensorFaults {
+            disconnected: 1,
+            ..SensorFaults::default()
+        }
+    );
+    assert_eq!(gone.faults.failing(), 1);
 }
