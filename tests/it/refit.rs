@@ -325,3 +325,30 @@ fn breaths_cut_by_a_fault_are_left_out_of_a_refit() {
         drift(&clean)
     );
 }
+
+/// A minute of use by the unchanged short-capacity breather (seed 8):
+/// 11 short puffs, 3 long puffs, 8 short sips, 4 long sips. Before, the 3
+/// long puffs alone said "your long puffs are 25 % longer than at fitting
+/// (553.00 → 688.67 ms): re-fit suggested"; a kind with fewer than 6
+/// breaths is now said too few to judge, and suggests nothing.
+#[test]
+fn drift_is_not_judged_on_too_few_breaths() {
+    let (b, profile, profile_text) = profile_of("short_capacity");
+    let session = practice_session(&b, profile.core().sequences(), 60, 8);
+    let refit = fit_use(&Signal::from_volts(session.signal()), &profile).unwrap();
+    let counts: Vec<usize> = refit.classes.iter().map(|c| c.breaths).collect();
+    assert_eq!(counts, [11, 3, 8, 4]);
+    let then = sipnpuff::fit::drift::fitted(&profile_text);
+    let verdict = sipnpuff::fit::drift::verdict(Some(&then), "p", &refit, "as you made them");
+    assert!(!verdict.refit, "{:#?}", verdict.lines);
+    assert_eq!(
+        verdict.lines[..3],
+        [
+            "drift: none — every kind of breath with enough breaths to judge (at least 6) is within 20 % of its length and strength at fitting (p)",
+            "drift: long puffs: 3 breaths, too few to judge drift",
+            "drift: long sips: 4 breaths, too few to judge drift",
+        ],
+        "{:#?}",
+        verdict.lines
+    );
+}
