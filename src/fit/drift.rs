@@ -10,6 +10,11 @@ use crate::fit::{Fit, MAX_CONFUSION};
 /// A change this large (a fraction of the fitted value) is worth a re-fit.
 pub const REFIT_FRACTION: f64 = 0.2;
 
+/// Fewer breaths of a kind than this say too little to judge its drift:
+/// a session's few breaths of a kind spread by about as much as
+/// [`REFIT_FRACTION`] around the person's own mean.
+pub const MIN_BREATHS: usize = 6;
+
 /// One kind's plateau and length at fitting, from a profile's header.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Fitted {
@@ -51,10 +56,11 @@ pub fn fitted(profile_text: &str) -> Vec<Fitted> {
 }
 
 /// Each kind whose plateau or length moved by more than
-/// [`REFIT_FRACTION`], in plain words.
+/// [`REFIT_FRACTION`], in plain words; kinds with fewer than
+/// [`MIN_BREATHS`] are not judged (see [`too_few`]).
 pub fn drift(then: &[Fitted], now: &[Class]) -> Vec<String> {
     let mut found = Vec::new();
-    for class in now.iter().filter(|c| c.breaths > 0) {
+    for class in now.iter().filter(|c| c.breaths >= MIN_BREATHS) {
         let words = class.ask.words();
         let Some(was) = then.iter().find(|f| f.words == words) else {
             continue;
@@ -82,6 +88,24 @@ pub fn drift(then: &[Fitted], now: &[Class]) -> Vec<String> {
         }
     }
     found
+}
+
+/// Each kind measured at fitting but with fewer than [`MIN_BREATHS`] in
+/// the session (and at least one), in plain words: "long puffs: 4
+/// breaths, too few to judge drift".
+pub fn too_few(then: &[Fitted], now: &[Class]) -> Vec<String> {
+    now.iter()
+        .filter(|c| c.breaths > 0 && c.breaths < MIN_BREATHS)
+        .filter(|c| then.iter().any(|f| f.words == c.ask.words()))
+        .map(|c| {
+            format!(
+                "{}s: {} breath{}, too few to judge drift",
+                c.ask.words(),
+                c.breaths,
+                if c.breaths == 1 { "" } else { "s" }
+            )
+        })
+        .collect()
 }
 
 /// The profile a designed library was made for, from its header's first
@@ -120,9 +144,15 @@ pub fn verdict(then: Option<&[Fitted]>, source: &str, fit: &Fit, meant: &str) ->
     match then {
         Some(then) => {
             let moved = drift(then, &fit.classes);
+            let few = too_few(then, &fit.classes);
             if moved.is_empty() {
+                let which = if few.is_empty() {
+                    "in this session".to_string()
+                } else {
+                    format!("with enough breaths to judge (at least {MIN_BREATHS})")
+                };
                 lines.push(format!(
-                    "drift: none — every kind of breath in this session is within {:.0} % of its length and strength at fitting ({source})",
+                    "drift: none — every kind of breath {which} is within {:.0} % of its length and strength at fitting ({source})",
                     100.0 * REFIT_FRACTION
                 ));
             } else {
@@ -133,6 +163,7 @@ pub fn verdict(then: Option<&[Fitted]>, source: &str, fit: &Fit, meant: &str) ->
                 ));
                 lines.extend(moved.into_iter().map(|m| format!("drift: {m}")));
             }
+            lines.extend(few.into_iter().map(|f| format!("drift: {f}")));
         }
         None => lines.push(format!(
             "drift: not measured: {source}; the session is judged by how the settings in use read it"

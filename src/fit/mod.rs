@@ -108,6 +108,14 @@ pub fn fit_use(signal: &Signal, in_use: &Config) -> Result<Fit, FitError> {
         used.answers.answers.len(),
         used.answers.extra.len()
     ));
+    if used.cut_by_fault > 0 {
+        used.answers.notes.push(format!(
+            "{} breath{} cut by a fault left out (the loop stalled, or a breath was held past detector.max_hold_ms = {} ms)",
+            used.cut_by_fault,
+            if used.cut_by_fault == 1 { "" } else { "s" },
+            in_use.core().detector().max_hold_ms
+        ));
+    }
     fit_answers(
         signal,
         &used.protocol,

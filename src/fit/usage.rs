@@ -44,6 +44,9 @@ pub struct Use {
     pub protocol: Protocol,
     /// The pauses.
     pub pauses: Pauses,
+    /// Breaths cut by a fault (the loop stalled, or a breath held past
+    /// `detector.max_hold_ms`): neither rest nor a breath to measure.
+    pub cut_by_fault: usize,
 }
 
 /// Samples this close to a burst are not rest, ms.
@@ -58,6 +61,7 @@ pub fn measure(signal: &Signal, in_use: &Config) -> Result<Use, FitError> {
     let mut pauses = Pauses::default();
     let mut last_in_sequence: Option<u64> = None;
     let mut mode_since: Option<u64> = None;
+    let mut faults = Vec::new();
     for (tick, &sample) in signal.samples.iter().enumerate() {
         let tick = tick as u64;
         let before = out.command.state;
@@ -83,7 +87,11 @@ pub fn measure(signal: &Signal, in_use: &Config) -> Result<Use, FitError> {
                     last_in_sequence = None;
                     mode_since = Some(tick);
                 }
-                Event::Reset { .. } | Event::Fault { .. } => last_in_sequence = None,
+                Event::Fault { .. } => {
+                    faults.push(tick as usize);
+                    last_in_sequence = None;
+                }
+                Event::Reset { .. } => last_in_sequence = None,
                 Event::Detection { reason } => {
                     mode_since = None;
                     pauses.inactivity_exits +=
@@ -99,7 +107,19 @@ pub fn measure(signal: &Signal, in_use: &Config) -> Result<Use, FitError> {
             bursts.len()
         )));
     }
-    let mut quiet = vec![true; signal.len()];
+    let cut = fault_spans(signal, in_use, &faults);
+    bursts.retain(|(b, _)| {
+        !cut.iter()
+            .any(|&(from, to)| (b.start as usize) < to && from < b.end as usize)
+    });
+    let mut quiet: Vec<bool> = (0..signal.len())
+        .map(|t| signal.volts(t).is_some())
+        .collect();
+    for &(from, to) in &cut {
+        let from = from.saturating_sub(QUIET_MARGIN_MS);
+        let to = (to + QUIET_MARGIN_MS).min(signal.len());
+        quiet[from..to].fill(false);
+    }
     for (b, _) in &bursts {
         let from = (b.start as usize).saturating_sub(QUIET_MARGIN_MS);
         let to = (b.end as usize + QUIET_MARGIN_MS).min(signal.len());
@@ -154,7 +174,43 @@ pub fn measure(signal: &Signal, in_use: &Config) -> Result<Use, FitError> {
         },
         protocol: Protocol { blocks },
         pauses,
+        cut_by_fault: cut.len(),
     })
+}
+
+/// The breaths the faults at `faults` (ticks) cut: for each, the span
+/// the detector did not read as rest, from the start of the breath in
+/// progress to the signal's return inside the band (past both release
+/// levels of the settings in use), missing samples counted as outside.
+/// A fault outside any breath (a stall at rest) cuts none; two faults in
+/// one breath cut it once.
+fn fault_spans(signal: &Signal, in_use: &Config, faults: &[usize]) -> Vec<(usize, usize)> {
+    let d = in_use.core().detector();
+    let puff_off = d.puff_threshold_volts - d.hysteresis_volts;
+    let sip_off = d.sip_threshold_volts + d.sip_hysteresis_volts.unwrap_or(d.hysteresis_volts);
+    let outside = |t: usize| {
+        signal
+            .volts(t)
+            .is_none_or(|v| v >= puff_off || v <= sip_off)
+    };
+    let mut spans: Vec<(usize, usize)> = Vec::new();
+    for &fault in faults {
+        if spans.last().is_some_and(|&(_, to)| fault < to) {
+            continue;
+        }
+        let mut from = fault.min(signal.len());
+        while from > 0 && outside(from - 1) {
+            from -= 1;
+        }
+        let mut to = fault;
+        while to < signal.len() && outside(to) {
+            to += 1;
+        }
+        if (from..to).any(|t| signal.volts(t).is_some()) {
+            spans.push((from, to));
+        }
+    }
+    spans
 }
 
 /// The rest from the quiet stretches: level, noise and its extremes (the

@@ -218,9 +218,8 @@ fn a_slow_breather_goes_from_calibration_to_running() {
         );
     }
     // Each day is read as ordinary use and fitted (exit 0). Days 2 and 3
-    // say no drift and no re-fit; day 1's four long puffs are said to be
-    // weaker than at fitting, which the re-fit's own rules decide and this
-    // flow does not pin.
+    // say no drift and no re-fit; day 1's four long puffs are too few to
+    // judge drift, and its verdict is left to the re-fit's own rules.
     for day in 1..=3u64 {
         let recording = week.join(format!("day{day}"));
         let (_, stderr) = step(

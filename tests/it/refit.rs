@@ -261,3 +261,101 @@ fn a_refit_says_what_drifted_and_suggests_a_new_fit() {
         "{stderr}"
     );
 }
+
+/// A breath cut by a fault (the loop stalled mid-breath: 100 ms of
+/// missing samples; a breath held past `detector.max_hold_ms` = 1000 ms,
+/// 1.5 s) is not rest and not a breath to measure: before, the rest of
+/// each was counted as rest (rest swing ±1 V, negative margins, 3,600,000
+/// false bursts an hour predicted, "50 % weaker" drift, no profile). Both
+/// are left out and said in one note; the rest of the session fits as the
+/// same session without them.
+#[test]
+fn breaths_cut_by_a_fault_are_left_out_of_a_refit() {
+    let (b, profile, profile_text) = profile_of("short_capacity");
+    let mut detector = *profile.core().detector();
+    detector.max_hold_ms = 1000;
+    let profile = profile.with_detector(detector).unwrap();
+    let (signal, meant) = ordinary_use(&b, &profile);
+    let mut cut = signal.clone();
+    // A long breath: 100 ms missing in its middle.
+    let (_, start, _) = *meant
+        .iter()
+        .skip(30)
+        .find(|(a, _, ms)| a.is_long() && *ms >= 400)
+        .unwrap();
+    let start = start as usize;
+    for s in &mut cut.samples[start + 150..start + 250] {
+        *s = sipnpuff::control::sample::Sample::Missing;
+    }
+    // A breath with room after it: held at its middle's level to 1.5 s.
+    let (_, start, ms) = *meant
+        .windows(2)
+        .skip(60)
+        .find(|w| w[1].1 - w[0].1 > 3000)
+        .map(|w| &w[0])
+        .unwrap();
+    let (start, ms) = (start as usize, ms as usize);
+    let held = cut.samples[start + ms / 2];
+    cut.samples[start + ms / 2..start + 1500].fill(held);
+
+    let clean = fit_use(&signal, &profile).unwrap();
+    let faulted = fit_use(&cut, &profile).unwrap();
+    assert_eq!(
+        faulted.answers.notes.last().map(String::as_str),
+        Some(
+            "2 breaths cut by a fault left out (the loop stalled, or a breath was held past detector.max_hold_ms = 1000 ms)"
+        )
+    );
+    assert!(faulted.is_reliable(), "{:?}", faulted.overlap);
+    let rest = |f: &sipnpuff::fit::Fit| {
+        let r = &f.found.rest;
+        format!(
+            "{:.2} +{:.3} −{:.3} V",
+            r.level, r.excursion_up, r.excursion_down
+        )
+    };
+    assert_eq!(rest(&faulted), rest(&clean));
+    assert_eq!(rest(&faulted), "2.65 +0.055 −0.049 V");
+    assert_eq!(
+        faulted.predicted[0].false_per_hour,
+        clean.predicted[0].false_per_hour
+    );
+    let then = sipnpuff::fit::drift::fitted(&profile_text);
+    let drift = |f: &sipnpuff::fit::Fit| {
+        sipnpuff::fit::drift::verdict(Some(&then), "the profile", f, "as you made them").lines[0]
+            .clone()
+    };
+    assert_eq!(drift(&faulted), drift(&clean));
+    assert!(
+        drift(&clean).starts_with("drift: none"),
+        "{}",
+        drift(&clean)
+    );
+}
+
+/// A minute of use by the unchanged short-capacity breather (seed 8):
+/// 11 short puffs, 3 long puffs, 8 short sips, 4 long sips. Before, the 3
+/// long puffs alone said "your long puffs are 25 % longer than at fitting
+/// (553.00 → 688.67 ms): re-fit suggested"; a kind with fewer than 6
+/// breaths is now said too few to judge, and suggests nothing.
+#[test]
+fn drift_is_not_judged_on_too_few_breaths() {
+    let (b, profile, profile_text) = profile_of("short_capacity");
+    let session = practice_session(&b, profile.core().sequences(), 60, 8);
+    let refit = fit_use(&Signal::from_volts(session.signal()), &profile).unwrap();
+    let counts: Vec<usize> = refit.classes.iter().map(|c| c.breaths).collect();
+    assert_eq!(counts, [11, 3, 8, 4]);
+    let then = sipnpuff::fit::drift::fitted(&profile_text);
+    let verdict = sipnpuff::fit::drift::verdict(Some(&then), "p", &refit, "as you made them");
+    assert!(!verdict.refit, "{:#?}", verdict.lines);
+    assert_eq!(
+        verdict.lines[..3],
+        [
+            "drift: none — every kind of breath with enough breaths to judge (at least 6) is within 20 % of its length and strength at fitting (p)",
+            "drift: long puffs: 3 breaths, too few to judge drift",
+            "drift: long sips: 4 breaths, too few to judge drift",
+        ],
+        "{:#?}",
+        verdict.lines
+    );
+}
