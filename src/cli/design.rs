@@ -97,6 +97,16 @@ pub struct DesignArgs {
     force: bool,
 }
 
+/// `design --check`'s JSON: what the text's first line says (the library,
+/// why this usage), then the analysis, whose `usage` names the usage.
+#[derive(serde::Serialize)]
+struct CheckReport<'a> {
+    library: &'a str,
+    usage_why: &'a str,
+    #[serde(flatten)]
+    analysis: &'a analysis::Analysis,
+}
+
 /// A burst kind on the command line.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 #[clap(rename_all = "snake_case")]
@@ -164,7 +174,11 @@ pub fn design(args: DesignArgs) -> anyhow::Result<()> {
     if args.check {
         let checked = designing::check(&request)?;
         return if args.json {
-            output::stdout_line(&serde_json::to_string(&checked.analysis)?)
+            output::stdout_line(&serde_json::to_string(&CheckReport {
+                library: &checked.library_name,
+                usage_why: &checked.usage_why,
+                analysis: &checked.analysis,
+            })?)
         } else {
             output::stdout(&format!(
                 "{} analysed for: {}\n\n{}",

@@ -30,6 +30,8 @@ pub struct Checked {
     pub library_name: String,
     /// The usage analysed, with why.
     pub usage_line: String,
+    /// Why that usage: asked for, or the default and what decided it.
+    pub usage_why: String,
 }
 
 /// The library designed for the person.
@@ -66,6 +68,7 @@ pub fn check(request: &Request) -> anyhow::Result<Checked> {
     Ok(Checked {
         analysis,
         usage_line: inputs.usage_line(),
+        usage_why: inputs.usage_why,
         library_name: inputs.library_name,
     })
 }
@@ -155,6 +158,7 @@ pub fn design(request: &Request, say: &dyn Fn(&str)) -> anyhow::Result<Designed>
                 .iter()
                 .fold((0, 0), |(a, b), t| (a + t.a_wrong, b + t.b_wrong)),
         }),
+        forced: request.force && request.out.is_some(),
     });
     if let Some(path) = &request.out {
         if !verdict.may_write() && !request.force {

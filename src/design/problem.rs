@@ -80,3 +80,49 @@ fn names(e: &SequenceEntry) -> Vec<String> {
     out.push(e.target.label());
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::search::search_on;
+
+    /// The design `sipnpuff design` runs by default: the built-in library
+    /// on the study's tasks, for the study's simulated user.
+    fn default_design() -> Problem {
+        let request = crate::design::request::Request {
+            library: None,
+            user: None,
+            config: Vec::new(),
+            usage: Vec::new(),
+            mix: None,
+            wrong_cost_ms: None,
+            swap_rate: 0.0,
+            min_breaths: 2,
+            max_breaths: 3,
+            without: Vec::new(),
+            keep: Vec::new(),
+            time_limit_s: 600.0,
+            out: None,
+            svg: None,
+            users: 8,
+            seed: 1,
+            no_study: true,
+            force: false,
+        };
+        let inputs = crate::design::inputs::Inputs::read(&request).unwrap();
+        problem(&request, &inputs).unwrap()
+    }
+
+    #[test]
+    fn the_library_found_does_not_depend_on_the_threads() {
+        let p = default_design();
+        let one = search_on(&p, 1);
+        assert!(one.complete);
+        for threads in [2, 3, 2] {
+            let found = search_on(&p, threads);
+            assert!(found.complete);
+            assert_eq!(found.cost_ms, one.cost_ms, "{threads} threads");
+            assert_eq!(found.sequences, one.sequences, "{threads} threads");
+        }
+    }
+}

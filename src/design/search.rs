@@ -168,8 +168,35 @@ impl Space<'_> {
     }
 }
 
-/// Finds the cheapest library: exact if the time allows.
+/// Finds the cheapest library: exact if the time allows. Of libraries
+/// of equal cost it gives the first in [`before`]'s order, so a complete
+/// search gives the same library however its threads interleave.
 pub fn search(p: &Problem) -> SearchResult {
+    search_on(p, THREADS)
+}
+
+/// Whether library `a` of cost `a_cost` comes before `b`: cheaper, or as
+/// cheap and its sequences first, entry by entry, burst by burst (a total
+/// order, so the library kept does not depend on which is found first).
+fn before(a_cost: f64, a: &[ActionSeq], b_cost: f64, b: &[ActionSeq]) -> bool {
+    a_cost
+        .total_cmp(&b_cost)
+        .then_with(|| {
+            a.iter()
+                .map(ActionSeq::as_slice)
+                .cmp(b.iter().map(ActionSeq::as_slice))
+        })
+        .is_lt()
+}
+
+/// A partial library is cut off when its bound is above the best cost by
+/// more than this share: the bound sums the same terms in another order,
+/// so a library as cheap as the best (a tie) is never cut off by
+/// rounding.
+const ROUNDING: f64 = 1e-9;
+
+/// [`search`] on `threads` threads.
+pub(crate) fn search_on(p: &Problem, threads: usize) -> SearchResult {
     let started = Instant::now();
     let n = p.usage.len();
     let mut order: Vec<usize> = (0..n).filter(|i| p.fixed[*i].is_none()).collect();
@@ -208,7 +235,7 @@ pub fn search(p: &Problem) -> SearchResult {
     };
     let deadline = started + p.time_limit;
     let results: Vec<(u64, bool, f64)> = std::thread::scope(|scope| {
-        let handles: Vec<_> = (0..THREADS)
+        let handles: Vec<_> = (0..threads.max(1))
             .map(|_| {
                 let (space, best, placed) = (&space, &best, placed.clone());
                 scope.spawn(move || {
@@ -306,13 +333,13 @@ impl Branch<'_> {
                 .map(|s| s.map_or_else(ActionSeq::default, |s| space.sequences[s]))
                 .collect();
             let c = cost(space.p, &sequences);
-            if c < self.best_cost() {
+            if c <= self.best_cost() {
                 let mut library = self
                     .best
                     .library
                     .lock()
                     .unwrap_or_else(std::sync::PoisonError::into_inner);
-                if c < self.best_cost() {
+                if before(c, &sequences, self.best_cost(), &library) {
                     self.best.cost.store(c.to_bits(), Ordering::Relaxed);
                     *library = sequences;
                 }
@@ -349,7 +376,7 @@ impl Branch<'_> {
             let bound = placed_cost
                 + space.p.usage[entry] * c_cost
                 + rest.iter().zip(others).map(|(u, c)| u * c).sum::<f64>();
-            if depth > 0 && bound >= self.best_cost() * (1.0 - 1e-12) {
+            if depth > 0 && bound > self.best_cost() * (1.0 + ROUNDING) {
                 continue;
             }
             if self.aborted || (self.nodes.is_multiple_of(64) && Instant::now() >= self.deadline) {
@@ -501,6 +528,18 @@ mod tests {
         assert!(!found.complete);
         assert!(found.bound_ms < found.cost_ms, "{found:?}");
         assert!(found.gap_pct() > 0.0);
+    }
+
+    #[test]
+    fn of_equally_cheap_libraries_the_first_in_order_is_kept() {
+        use Action::{LongPuff, ShortPuff, ShortSip};
+        let seq = |a: &[Action]| ActionSeq::from_slice(a).unwrap();
+        let a = [seq(&[ShortSip, ShortPuff]), seq(&[ShortPuff, ShortSip])];
+        let b = [seq(&[ShortSip, LongPuff]), seq(&[ShortPuff, ShortSip])];
+        assert_eq!(ShortSip.cmp(&ShortPuff), std::cmp::Ordering::Less);
+        assert!(before(1430.0, &a, 1430.0, &b) != before(1430.0, &b, 1430.0, &a));
+        assert!(!before(1430.0, &a, 1430.0, &a));
+        assert!(before(1429.0, &b, 1430.0, &a));
     }
 
     proptest! {

@@ -3,7 +3,7 @@
 //! and, when the study measured that same usage, from the study. A study
 //! of another usage is reported beside, never silently mixed in; a
 //! designed library slower than the one it replaces is not written
-//! without `--force`.
+//! without `--force`, and the bottom line says which happened.
 
 use serde::Serialize;
 
@@ -51,6 +51,9 @@ pub struct Evidence<'a> {
     pub unbreathable: Vec<Action>,
     /// The study, unless skipped.
     pub study: Option<StudyFigures>,
+    /// `--force` with `--out`: the designed library is written whatever
+    /// the verdict.
+    pub forced: bool,
 }
 
 /// The decision.
@@ -179,6 +182,11 @@ pub fn verdict(e: &Evidence) -> Verdict {
         })
         .unwrap_or_default();
     let verdict = |decision: Decision, text: String| Verdict { decision, text };
+    let writing = if e.forced {
+        "written because of --force"
+    } else {
+        "not written without --force"
+    };
     if !e.unbreathable.is_empty() {
         let bursts: Vec<String> = e.unbreathable.iter().map(|a| format!("{a}s")).collect();
         return verdict(
@@ -196,7 +204,7 @@ pub fn verdict(e: &Evidence) -> Verdict {
         return verdict(
             Decision::Slower,
             format!(
-                "keep {name}: {model}{}; not written without --force",
+                "keep {name}: {model}{}; {writing}",
                 same_study
                     .map(|s| format!("; the study: {}", study_words(s)))
                     .unwrap_or(other_study)
@@ -210,7 +218,7 @@ pub fn verdict(e: &Evidence) -> Verdict {
             Found::Slower => verdict(
                 Decision::Slower,
                 format!(
-                    "keep {name}: the study measures the designed library slower, {study}, though {model}; not written without --force"
+                    "keep {name}: the study measures the designed library slower, {study}, though {model}; {writing}"
                 ),
             ),
             Found::Faster => verdict(
@@ -288,6 +296,7 @@ mod tests {
             model,
             unbreathable: Vec::new(),
             study,
+            forced: false,
         }
     }
 
@@ -316,6 +325,38 @@ mod tests {
         assert_eq!(
             v.text,
             "keep the built-in library: the model expects the designed library 10.0 % slower and 33 % less often wrong for the study's tasks (1.00 → 1.10 s per selection); not written without --force"
+        );
+    }
+
+    #[test]
+    fn slower_but_forced_says_it_is_written() {
+        let e = Evidence {
+            forced: true,
+            ..evidence(model(1000.0, 1100.0, 0.03, 0.02), None)
+        };
+        let v = verdict(&e);
+        assert_eq!(v.decision, Decision::Slower);
+        assert!(
+            v.text
+                .ends_with("(1.00 → 1.10 s per selection); written because of --force"),
+            "{}",
+            v.text
+        );
+        let s = study(
+            true,
+            (1.37, 1.45),
+            &[(-5.0, 0.01), (-1.0, 0.02), (-4.0, 0.3)],
+        );
+        let e = Evidence {
+            forced: true,
+            ..evidence(model(1000.0, 970.0, 0.03, 0.03), Some(s))
+        };
+        let v = verdict(&e);
+        assert_eq!(v.decision, Decision::Slower);
+        assert!(
+            v.text.ends_with("; written because of --force"),
+            "{}",
+            v.text
         );
     }
 
