@@ -10,20 +10,27 @@ use crate::fit::{Fit, MAX_CONFUSION};
 /// A change this large (a fraction of the fitted value) is worth a re-fit.
 pub const REFIT_FRACTION: f64 = 0.2;
 
-/// Fewer breaths of a kind than this say too little to judge its drift:
-/// a session's few breaths of a kind spread by about as much as
-/// [`REFIT_FRACTION`] around the person's own mean.
-pub const MIN_BREATHS: usize = 6;
+/// A change must also stand this many standard errors clear of the
+/// person's own spread to be judged: a session's few breaths of a kind
+/// scatter about their mean by the spread over the root of their count,
+/// so three or four long puffs can differ by 20 % by chance alone.
+pub const CLEAR_BY_STANDARD_ERRORS: f64 = 3.0;
 
 /// One kind's plateau and length at fitting, from a profile's header.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Fitted {
     /// Its words, e.g. "long puff".
     pub words: &'static str,
+    /// How many breaths of it the fit measured.
+    pub breaths: usize,
     /// Mean plateau, volts.
     pub plateau_volts: f64,
+    /// The plateaus' standard deviation, volts.
+    pub plateau_sd: f64,
     /// Mean length, ms.
     pub ms: f64,
+    /// The lengths' standard deviation, ms.
+    pub ms_sd: f64,
 }
 
 /// The kinds a profile's header lists: lines like `# 8 × short puff:
@@ -40,72 +47,100 @@ pub fn fitted(profile_text: &str) -> Vec<Fitted> {
     profile_text
         .lines()
         .filter_map(|line| {
-            let (_, rest) = line.strip_prefix("# ")?.split_once(" × ")?;
+            let (breaths, rest) = line.strip_prefix("# ")?.split_once(" × ")?;
             let (words, rest) = rest.split_once(": plateau ")?;
             let words = *asks.iter().find(|a| **a == words)?;
             let (plateau, rest) = rest.split_once(" ± ")?;
+            let (plateau_sd, rest) = rest.split_once(" V")?;
             let (_, rest) = rest.split_once("), ")?;
-            let (ms, _) = rest.split_once(" ± ")?;
+            let (ms, rest) = rest.split_once(" ± ")?;
+            let (ms_sd, _) = rest.split_once(" ms")?;
             Some(Fitted {
                 words,
+                breaths: breaths.parse().ok()?,
                 plateau_volts: plateau.parse().ok()?,
+                plateau_sd: plateau_sd.parse().ok()?,
                 ms: ms.parse().ok()?,
+                ms_sd: ms_sd.parse().ok()?,
             })
         })
         .collect()
 }
 
+/// What the session's breaths of one kind say against the fitting.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Drifts {
+    /// Each change of more than [`REFIT_FRACTION`] that stands
+    /// [`CLEAR_BY_STANDARD_ERRORS`] clear of chance, in plain words.
+    pub moved: Vec<String>,
+    /// Each change of more than [`REFIT_FRACTION`] that the person's own
+    /// spread could give by chance with this few breaths: not judged.
+    pub unclear: Vec<String>,
+}
+
 /// Each kind whose plateau or length moved by more than
-/// [`REFIT_FRACTION`], in plain words; kinds with fewer than
-/// [`MIN_BREATHS`] are not judged (see [`too_few`]).
-pub fn drift(then: &[Fitted], now: &[Class]) -> Vec<String> {
-    let mut found = Vec::new();
-    for class in now.iter().filter(|c| c.breaths >= MIN_BREATHS) {
+/// [`REFIT_FRACTION`]: judged when the change stands clear of chance,
+/// said as unclear when it does not.
+pub fn drift(then: &[Fitted], now: &[Class]) -> Drifts {
+    let mut found = Drifts {
+        moved: Vec::new(),
+        unclear: Vec::new(),
+    };
+    for class in now.iter().filter(|c| c.breaths > 0) {
         let words = class.ask.words();
         let Some(was) = then.iter().find(|f| f.words == words) else {
             continue;
         };
-        for (what, before, after, unit) in [
-            ("shorter", was.ms, class.duration_ms.mean, "ms"),
-            ("weaker", was.plateau_volts, class.plateau_volts.mean, "V"),
+        // The standard error of the difference of the two means, in
+        // units of the person's spread (the larger of the fitting's and
+        // this session's: one session's breaths may scatter more).
+        let se = (1.0 / class.breaths as f64 + 1.0 / was.breaths.max(1) as f64).sqrt();
+        for (what, before, after, sd, unit) in [
+            (
+                "shorter",
+                was.ms,
+                class.duration_ms.mean,
+                was.ms_sd.max(class.duration_ms.sd),
+                "ms",
+            ),
+            (
+                "weaker",
+                was.plateau_volts,
+                class.plateau_volts.mean,
+                was.plateau_sd.max(class.plateau_volts.sd),
+                "V",
+            ),
         ] {
             if before <= 0.0 {
                 continue;
             }
             let change = (after - before) / before;
-            if change.abs() > REFIT_FRACTION {
-                let word = match (what, change < 0.0) {
-                    ("shorter", true) => "shorter",
-                    ("shorter", false) => "longer",
-                    (_, true) => "weaker",
-                    (_, false) => "stronger",
-                };
-                found.push(format!(
-                    "your {words}s are {:.0} % {word} than at fitting ({before:.2} → {after:.2} {unit}): re-fit suggested",
-                    100.0 * change.abs()
+            if change.abs() <= REFIT_FRACTION {
+                continue;
+            }
+            let word = match (what, change < 0.0) {
+                ("shorter", true) => "shorter",
+                ("shorter", false) => "longer",
+                (_, true) => "weaker",
+                (_, false) => "stronger",
+            };
+            let said = format!(
+                "your {words}s are {:.0} % {word} than at fitting ({before:.2} → {after:.2} {unit})",
+                100.0 * change.abs()
+            );
+            if (after - before).abs() > CLEAR_BY_STANDARD_ERRORS * sd * se {
+                found.moved.push(format!("{said}: re-fit suggested"));
+            } else {
+                let digits = if unit == "ms" { 0 } else { 2 };
+                found.unclear.push(format!(
+                    "{said} over {} breath{}, which the spread of your breaths (± {sd:.digits$} {unit}) could give by chance: not judged",
+                    class.breaths,
+                    if class.breaths == 1 { "" } else { "s" }
                 ));
             }
         }
     }
     found
-}
-
-/// Each kind measured at fitting but with fewer than [`MIN_BREATHS`] in
-/// the session (and at least one), in plain words: "long puffs: 4
-/// breaths, too few to judge drift".
-pub fn too_few(then: &[Fitted], now: &[Class]) -> Vec<String> {
-    now.iter()
-        .filter(|c| c.breaths > 0 && c.breaths < MIN_BREATHS)
-        .filter(|c| then.iter().any(|f| f.words == c.ask.words()))
-        .map(|c| {
-            format!(
-                "{}s: {} breath{}, too few to judge drift",
-                c.ask.words(),
-                c.breaths,
-                if c.breaths == 1 { "" } else { "s" }
-            )
-        })
-        .collect()
 }
 
 /// The profile a designed library was made for, from its header's first
@@ -143,16 +178,15 @@ pub fn verdict(then: Option<&[Fitted]>, source: &str, fit: &Fit, meant: &str) ->
     let mut reasons = Vec::new();
     match then {
         Some(then) => {
-            let moved = drift(then, &fit.classes);
-            let few = too_few(then, &fit.classes);
+            let Drifts { moved, unclear } = drift(then, &fit.classes);
             if moved.is_empty() {
-                let which = if few.is_empty() {
-                    "in this session".to_string()
+                let which = if unclear.is_empty() {
+                    ""
                 } else {
-                    format!("with enough breaths to judge (at least {MIN_BREATHS})")
+                    " or too few to tell from chance"
                 };
                 lines.push(format!(
-                    "drift: none — every kind of breath {which} is within {:.0} % of its length and strength at fitting ({source})",
+                    "drift: none — every kind of breath in this session is within {:.0} % of its length and strength at fitting{which} ({source})",
                     100.0 * REFIT_FRACTION
                 ));
             } else {
@@ -163,7 +197,7 @@ pub fn verdict(then: Option<&[Fitted]>, source: &str, fit: &Fit, meant: &str) ->
                 ));
                 lines.extend(moved.into_iter().map(|m| format!("drift: {m}")));
             }
-            lines.extend(few.into_iter().map(|f| format!("drift: {f}")));
+            lines.extend(unclear.into_iter().map(|f| format!("drift: {f}")));
         }
         None => lines.push(format!(
             "drift: not measured: {source}; the session is judged by how the settings in use read it"
@@ -218,13 +252,19 @@ mod tests {
             [
                 Fitted {
                     words: "long puff",
+                    breaths: 8,
                     plateau_volts: 1.28,
-                    ms: 795.0
+                    plateau_sd: 0.12,
+                    ms: 795.0,
+                    ms_sd: 166.0,
                 },
                 Fitted {
                     words: "longest comfortable sip",
+                    breaths: 3,
                     plateau_volts: 0.40,
-                    ms: 4100.0
+                    plateau_sd: 0.02,
+                    ms: 4100.0,
+                    ms_sd: 200.0,
                 }
             ]
         );

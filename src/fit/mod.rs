@@ -43,8 +43,11 @@ pub const MAX_CONFUSION: f64 = 0.05;
 /// The outcome of fitting one calibration.
 #[derive(Debug, Clone)]
 pub struct Fit {
-    /// The protocol the session followed.
+    /// The protocol the session followed; for ordinary use, the breaths
+    /// found that selected a mode, one block per kind and length.
     pub protocol: Protocol,
+    /// Fitted from ordinary use (recorded runs), not a calibration.
+    pub ordinary_use: bool,
     /// The rest and the breaths found.
     pub found: breaths::Found,
     /// The breaths matched to the prompts.
@@ -158,6 +161,7 @@ fn fit_answers(
         classes: summary::classes(signal, &answers, protocol, &d),
         gaps: summary::gaps(&answers),
         protocol: protocol.clone(),
+        ordinary_use: pauses.is_some(),
         found,
         answers,
         proposal,

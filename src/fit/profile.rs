@@ -42,7 +42,11 @@ pub fn text_keeping(fit: &Fit, header: &ProfileHeader, setup: &Layered) -> Strin
         env!("CARGO_PKG_VERSION"),
         header.source
     );
-    let _ = writeln!(out, "# protocol: {}", fit.protocol.describe());
+    if fit.ordinary_use {
+        let _ = writeln!(out, "# ordinary use: {}", fit.protocol.describe_found());
+    } else {
+        let _ = writeln!(out, "# protocol: {}", fit.protocol.describe());
+    }
     let rest = &fit.found.rest;
     let _ = writeln!(
         out,

@@ -143,18 +143,32 @@ impl Protocol {
 
     /// One line for a profile's header, e.g. "rest 5 s; 8 short puffs, …".
     pub fn describe(&self) -> String {
+        format!(
+            "rest {} s; {} (≥ {} s between breaths, ≥ {} s between blocks)",
+            REST_MS / 1000,
+            self.counts(),
+            BETWEEN_BREATHS_MS / 1000,
+            BETWEEN_BLOCKS_MS / 1000
+        )
+    }
+
+    /// The breaths of ordinary use these blocks stand for, in words: no
+    /// rest or spacing was asked for.
+    pub fn describe_found(&self) -> String {
+        format!(
+            "{} (the breaths that selected a mode, short and long as made)",
+            self.counts()
+        )
+    }
+
+    /// "8 × short puff, 8 × long puff, …".
+    fn counts(&self) -> String {
         let blocks: Vec<String> = self
             .blocks
             .iter()
             .map(|b| format!("{} × {}", b.count, b.ask.words()))
             .collect();
-        format!(
-            "rest {} s; {} (≥ {} s between breaths, ≥ {} s between blocks)",
-            REST_MS / 1000,
-            blocks.join(", "),
-            BETWEEN_BREATHS_MS / 1000,
-            BETWEEN_BLOCKS_MS / 1000
-        )
+        blocks.join(", ")
     }
 }
 
