@@ -20,7 +20,8 @@
 //!   arm's news, the start of a safe stop) and what comes out;
 //! * [`pipeline`] wires the stages into one [`Pipeline::step`] per tick,
 //!   the only call that changes the core;
-//! * [`view`] is where the user is, for the display.
+//! * [`view`] is where the user is, for the display;
+//! * [`imu`] is a head-worn IMU's sample, the gesture front end's input.
 //!
 //! Everything here is pure: time enters as a [`Tick`] argument; nothing
 //! reads a clock, sleeps, locks, does I/O or allocates after construction.
@@ -40,6 +41,7 @@ pub mod action;
 pub mod core_config;
 pub mod detector;
 pub mod event;
+pub mod imu;
 pub mod keys;
 pub mod mode;
 pub mod modes;
