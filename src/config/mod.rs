@@ -233,4 +233,6 @@ impl Config {
 }
 
 #[cfg(test)]
+mod key_tests;
+#[cfg(test)]
 mod tests;
