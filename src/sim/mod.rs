@@ -5,6 +5,7 @@
 //! the core nor the runtime imports it.
 
 pub mod breather;
+pub mod head;
 pub mod script;
 pub mod sensor_model;
 pub mod study;
