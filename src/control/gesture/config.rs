@@ -1,7 +1,7 @@
 //! The gesture front end's settings: how samples become frames, when a
 //! segment starts and ends, and how strict the matching is.
 
-use crate::control::gesture::MAX_FRAMES;
+use crate::control::gesture::features::MAX_FRAMES;
 
 /// Gesture front end settings. `Copy`; check with [`GestureConfig::validate`]
 /// before building a [`Segmenter`](super::Segmenter) or

@@ -16,8 +16,7 @@
 //!   max), and every row holds a cell of the path whose weight is at
 //!   least 1; so the sum over rows, normalised the same way, is ≤ the DTW.
 
-use crate::control::gesture::MAX_FRAMES;
-use crate::control::gesture::features::{FEATURES, Frame};
+use crate::control::gesture::features::{FEATURES, Frame, MAX_FRAMES};
 
 /// The per-feature lower and upper envelope of a template over a band:
 /// `lower[j]`/`upper[j]` are the min/max of its frames `j−band ..= j+band`.

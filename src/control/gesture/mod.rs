@@ -27,11 +27,7 @@ pub mod templates;
 
 pub use config::GestureConfig;
 pub use dtw::{Envelope, dtw_distance, lb_keogh};
-pub use features::{FEATURES, Frame, FrameBuilder};
+pub use features::{FEATURES, Frame, FrameBuilder, MAX_FRAMES};
 pub use recognizer::{Classification, GestureEvent, Recognizer, RejectReason};
 pub use segmenter::{Segment, SegmentEnd, Segmenter, segments};
 pub use templates::{GestureId, GestureTemplates, MAX_GESTURES, MAX_TEMPLATES, TemplateError};
-
-/// Most frames a segment or template holds: 64 (2.56 s at the default
-/// 40 ms frames), which bounds the classifying tick's work.
-pub const MAX_FRAMES: usize = 64;

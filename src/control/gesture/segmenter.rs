@@ -14,10 +14,9 @@
 //! * The gyro bias and the gravity are tracked only at rest.
 
 use crate::control::Tick;
-use crate::control::gesture::MAX_FRAMES;
 use crate::control::gesture::config::GestureConfig;
 use crate::control::gesture::features::{
-    FEATURES, Frame, FrameBuilder, RestEstimate, rate_magnitude, tilt_magnitude,
+    FEATURES, Frame, FrameBuilder, MAX_FRAMES, RestEstimate, rate_magnitude, tilt_magnitude,
 };
 use crate::control::imu::ImuSample;
 

@@ -5,8 +5,7 @@
 
 use std::fmt;
 
-use crate::control::gesture::MAX_FRAMES;
-use crate::control::gesture::features::Frame;
+use crate::control::gesture::features::{Frame, MAX_FRAMES};
 
 /// Which gesture: an index into the gesture set (below [`MAX_GESTURES`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
