@@ -21,7 +21,8 @@
 //! * [`pipeline`] wires the stages into one [`Pipeline::step`] per tick,
 //!   the only call that changes the core;
 //! * [`view`] is where the user is, for the display;
-//! * [`imu`] is a head-worn IMU's sample, the gesture front end's input.
+//! * [`imu`] is a head-worn IMU's sample, the gesture front end's input;
+//! * [`gesture`] turns those samples into recognised or rejected gestures.
 //!
 //! Everything here is pure: time enters as a [`Tick`] argument; nothing
 //! reads a clock, sleeps, locks, does I/O or allocates after construction.
@@ -41,6 +42,7 @@ pub mod action;
 pub mod core_config;
 pub mod detector;
 pub mod event;
+pub mod gesture;
 pub mod imu;
 pub mod keys;
 pub mod mode;

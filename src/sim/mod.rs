@@ -5,6 +5,12 @@
 //! the core nor the runtime imports it.
 
 pub mod breather;
+pub mod head;
+pub mod head_gesture;
+pub mod head_motion;
+pub mod imu_session;
+pub mod imu_user;
+pub mod ordinary_movement;
 pub mod script;
 pub mod sensor_model;
 pub mod study;

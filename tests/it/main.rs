@@ -41,6 +41,7 @@ mod faults;
 mod fit;
 mod fit_inputs;
 mod fit_prompter;
+mod gesture;
 mod golden;
 mod motion;
 mod motion_safety;

@@ -1,0 +1,211 @@
+//! What the gesture front end sees of the IMU: one [`Frame`] of features
+//! per `frame_ms` window.
+//!
+//! * [`FrameBuilder`] averages the held sample over each window of time
+//!   (every tick counts, whatever the sensor's rate), so a 100 Hz sensor
+//!   whose samples are held between ticks and a 1 kHz one give the same
+//!   frames, and tremor and vibration above the frame rate are damped.
+//! * [`RestEstimate`] turns an averaged sample into features relative to
+//!   the head at rest: the three angular rates minus the gyro's bias
+//!   (rad/s), and the acceleration's deviation from the resting gravity
+//!   divided by g (for small angles, the tilt away from rest in radians).
+//!   Rates show the movement itself (a nod, a shake); the gravity
+//!   deviation shows where the head points, so a held tilt or look stays
+//!   visible after the rates have died down. Both are in radians-ish units,
+//!   so neither dominates the distance. Bias and gravity are tracked
+//!   (exponential average) only while the head is at rest.
+//!
+//! Frames are `f32`: the features carry far less than seven significant
+//! digits of meaning, and half the size halves the templates' memory and
+//! the distance's memory traffic.
+
+use crate::control::Tick;
+use crate::control::imu::{CHANNELS, ImuSample};
+
+/// How many features a [`Frame`] holds: rates x, y, z, then gravity
+/// deviation x, y, z.
+pub const FEATURES: usize = 6;
+
+/// Most frames a segment or template holds: 64 (2.56 s at the default
+/// 40 ms frames), which bounds the classifying tick's work.
+pub const MAX_FRAMES: usize = 64;
+
+/// One frame of features (see the module's documentation).
+pub type Frame = [f32; FEATURES];
+
+/// Standard gravity, m/s²: the acceleration deviation is divided by it.
+pub const GRAVITY: f64 = 9.806_65;
+
+/// Averages the held sample over consecutive windows of `frame_ms` ticks
+/// (window `k` covers ticks `k·frame_ms ..< (k+1)·frame_ms`). RT-safe.
+#[derive(Debug, Clone)]
+pub struct FrameBuilder {
+    frame_ms: u64,
+    /// The window being summed and its first tick.
+    window_start: Option<Tick>,
+    sum: [f64; CHANNELS],
+    count: u32,
+}
+
+impl FrameBuilder {
+    /// A builder for windows of `frame_ms` ticks (at least 1).
+    pub fn new(frame_ms: u32) -> Self {
+        FrameBuilder {
+            frame_ms: u64::from(frame_ms.max(1)),
+            window_start: None,
+            sum: [0.0; CHANNELS],
+            count: 0,
+        }
+    }
+
+    /// Adds tick `now` with the sample held at that tick (none before the
+    /// first). When `now` is in a later window than the one being summed,
+    /// returns that window's first tick and mean sample: the frame is
+    /// complete. Windows no tick fell in (a stall) give no frame.
+    pub fn push(&mut self, now: Tick, held: Option<&ImuSample>) -> Option<(Tick, ImuSample)> {
+        let window = now - now % self.frame_ms;
+        let mut done = None;
+        if let Some(start) = self.window_start
+            && start != window
+        {
+            if self.count > 0 {
+                let n = f64::from(self.count);
+                let mut mean = ImuSample::default();
+                for (m, s) in mean.values.iter_mut().zip(self.sum) {
+                    *m = s / n;
+                }
+                done = Some((start, mean));
+            }
+            self.sum = [0.0; CHANNELS];
+            self.count = 0;
+        }
+        self.window_start = Some(window);
+        if let Some(sample) = held {
+            for (s, v) in self.sum.iter_mut().zip(sample.values) {
+                *s += v;
+            }
+            self.count += 1;
+        }
+        done
+    }
+
+    /// Forgets the window being summed.
+    pub fn reset(&mut self) {
+        *self = FrameBuilder::new(self.frame_ms as u32);
+    }
+}
+
+/// The head at rest: the gyro's bias and the gravity vector, tracked
+/// while at rest. RT-safe.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RestEstimate {
+    /// Gyro bias, rad/s.
+    pub bias: [f64; 3],
+    /// Gravity as the accelerometer reads it at rest, m/s².
+    pub gravity: [f64; 3],
+    /// Whether a first frame has set them.
+    started: bool,
+}
+
+impl Default for RestEstimate {
+    fn default() -> Self {
+        RestEstimate {
+            bias: [0.0; 3],
+            gravity: [0.0; 3],
+            started: false,
+        }
+    }
+}
+
+impl RestEstimate {
+    /// The features of `mean` (a frame's mean sample) against this rest.
+    pub fn features(&self, mean: &ImuSample) -> Frame {
+        let rate = mean.rate();
+        let acc = mean.acceleration();
+        let mut frame = [0.0f32; FEATURES];
+        let (rates, tilts) = frame.split_at_mut(3);
+        for ((f, r), b) in rates.iter_mut().zip(rate).zip(self.bias) {
+            *f = (r - b) as f32;
+        }
+        for ((f, a), g) in tilts.iter_mut().zip(acc).zip(self.gravity) {
+            *f = ((a - g) / GRAVITY) as f32;
+        }
+        frame
+    }
+
+    /// Moves bias and gravity towards `mean` by `alpha` (0–1), or sets
+    /// gravity from it on the first frame (the bias starts at zero).
+    pub fn track(&mut self, mean: &ImuSample, alpha: f64) {
+        if !self.started {
+            self.started = true;
+            self.gravity = mean.acceleration();
+            return;
+        }
+        for (b, r) in self.bias.iter_mut().zip(mean.rate()) {
+            *b += alpha * (r - *b);
+        }
+        for (g, a) in self.gravity.iter_mut().zip(mean.acceleration()) {
+            *g += alpha * (a - *g);
+        }
+    }
+
+    /// Takes `mean`'s acceleration as the new gravity at once (a new
+    /// posture after a too-long segment).
+    pub fn reanchor(&mut self, mean: &ImuSample) {
+        self.started = true;
+        self.gravity = mean.acceleration();
+    }
+}
+
+/// The angular rate's magnitude in a frame, rad/s.
+pub fn rate_magnitude(frame: &Frame) -> f64 {
+    norm(frame.iter().take(3))
+}
+
+/// The gravity deviation's magnitude in a frame (≈ the tilt from rest, rad).
+pub fn tilt_magnitude(frame: &Frame) -> f64 {
+    norm(frame.iter().skip(3))
+}
+
+fn norm<'a>(values: impl Iterator<Item = &'a f32>) -> f64 {
+    values
+        .map(|&v| f64::from(v) * f64::from(v))
+        .sum::<f64>()
+        .sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(values: [f64; 6]) -> ImuSample {
+        ImuSample { values }
+    }
+
+    #[test]
+    fn a_frame_is_the_mean_of_the_held_sample_over_its_ticks() {
+        let mut builder = FrameBuilder::new(20);
+        let a = sample([1.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let b = sample([3.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        // 100 Hz: a held for ticks 0–9, b for 10–19.
+        for t in 0..20 {
+            let held = if t < 10 { &a } else { &b };
+            assert_eq!(builder.push(t, Some(held)), None);
+        }
+        let (start, mean) = builder.push(20, Some(&b)).unwrap();
+        assert_eq!(start, 0);
+        assert_eq!(mean.values[0], 2.0);
+    }
+
+    #[test]
+    fn features_are_bias_free_rates_and_tilt_in_g() {
+        let mut rest = RestEstimate::default();
+        rest.track(&sample([0.0, 0.0, GRAVITY, 0.0, 0.0, 0.0]), 0.1);
+        rest.bias = [0.1, 0.0, 0.0];
+        let tilted = sample([0.0, GRAVITY * 0.5, GRAVITY, 1.1, 0.0, 0.0]);
+        let frame = rest.features(&tilted);
+        assert_eq!(frame, [1.0, 0.0, 0.0, 0.0, 0.5, 0.0]);
+        assert!((tilt_magnitude(&frame) - 0.5).abs() < 1e-9);
+        assert!((rate_magnitude(&frame) - 1.0).abs() < 1e-9);
+    }
+}

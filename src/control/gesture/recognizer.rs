@@ -1,0 +1,224 @@
+//! Segments to gestures: the nearest template by banded DTW, or a
+//! rejection. Motion that matches nothing is rejected, never guessed.
+//!
+//! * Every template is a candidate; LB_Keogh skips those whose bound
+//!   already exceeds what could still matter, and the DTW of the rest
+//!   abandons early at the same bound.
+//! * What could matter: a distance below the nearest gesture's so far
+//!   (a new nearest), or, for a different gesture, within the ambiguity
+//!   margin of it; and only below that gesture's own best.
+//! * Rejected: a too-long segment; no threshold or a distance above the
+//!   nearest gesture's threshold; another gesture within
+//!   `ambiguity_margin` of the nearest.
+
+use crate::control::Tick;
+use crate::control::gesture::config::GestureConfig;
+use crate::control::gesture::dtw::{Envelope, dtw_distance, lb_keogh};
+use crate::control::gesture::features::Frame;
+use crate::control::gesture::segmenter::Segmenter;
+use crate::control::gesture::templates::{GestureId, GestureTemplates, MAX_GESTURES};
+use crate::control::imu::ImuSample;
+
+/// Why a segment was rejected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RejectReason {
+    /// Further from the nearest gesture than its threshold (or it has none,
+    /// or there are no templates).
+    AboveThreshold,
+    /// A different gesture is within the ambiguity margin of the nearest.
+    Ambiguous,
+    /// The segment lasted longer than `max_ms`.
+    TooLong,
+}
+
+/// What the recognizer says about a segment that ended. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GestureEvent {
+    /// The segment is this gesture.
+    Recognised {
+        /// Which gesture.
+        gesture: GestureId,
+        /// First tick of the segment.
+        start: Tick,
+        /// First tick after it.
+        end: Tick,
+        /// DTW distance to the nearest template.
+        distance: f64,
+    },
+    /// The segment is no gesture.
+    Rejected {
+        /// First tick of the segment.
+        start: Tick,
+        /// First tick after it.
+        end: Tick,
+        /// The nearest gesture, if any was compared.
+        nearest: Option<GestureId>,
+        /// Its distance (∞ if none).
+        distance: f64,
+        /// Why.
+        why: RejectReason,
+    },
+}
+
+/// The nearest gestures to a sequence of frames. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Classification {
+    /// The nearest gesture and its distance (its nearest template's).
+    pub nearest: Option<(GestureId, f64)>,
+    /// The nearest other gesture and its distance: exact when within the
+    /// ambiguity margin of the nearest; beyond it, the search may have
+    /// skipped that gesture's templates, so the distance may be too high
+    /// or the gesture absent.
+    pub runner_up: Option<(GestureId, f64)>,
+}
+
+/// A template ready to compare: its frames, gesture and envelope.
+#[derive(Debug, Clone)]
+struct Prepared {
+    gesture: GestureId,
+    frames: Vec<Frame>,
+    envelope: Envelope,
+}
+
+/// The gesture front end: samples in, gesture events out. Construct once
+/// (allocates); [`Recognizer::step`] is RT-safe (no allocation, no panic).
+#[derive(Debug, Clone)]
+pub struct Recognizer {
+    config: GestureConfig,
+    segmenter: Segmenter,
+    templates: Vec<Prepared>,
+    thresholds: [Option<f64>; MAX_GESTURES],
+}
+
+impl Recognizer {
+    /// A recognizer with `templates` (their envelopes are made here), or
+    /// every bad field of `config`. Not RT-safe.
+    pub fn new(config: GestureConfig, templates: GestureTemplates) -> Result<Self, Vec<String>> {
+        config.validate()?;
+        let mut thresholds = [None; MAX_GESTURES];
+        for (id, slot) in thresholds.iter_mut().enumerate() {
+            *slot = templates.threshold(GestureId(id as u8));
+        }
+        let templates = templates
+            .iter()
+            .map(|t| Prepared {
+                gesture: t.gesture,
+                envelope: Envelope::of(&t.frames, config.band_frames(t.frames.len())),
+                frames: t.frames.clone(),
+            })
+            .collect();
+        Ok(Recognizer {
+            config,
+            segmenter: Segmenter::new(&config),
+            templates,
+            thresholds,
+        })
+    }
+
+    /// Tick `now`, with the sensor's new sample if one arrived (else the
+    /// last is held). Returns the verdict on a segment that ended on this
+    /// tick. RT-safe.
+    pub fn step(&mut self, now: Tick, sample: Option<&ImuSample>) -> Option<GestureEvent> {
+        let end = self.segmenter.step(now, sample)?;
+        let (start, end_tick) = (end.start, end.end);
+        if end.too_long {
+            return Some(GestureEvent::Rejected {
+                start,
+                end: end_tick,
+                nearest: None,
+                distance: f64::INFINITY,
+                why: RejectReason::TooLong,
+            });
+        }
+        let found = self.classify(self.segmenter.frames());
+        let Some((gesture, distance)) = found.nearest else {
+            return Some(GestureEvent::Rejected {
+                start,
+                end: end_tick,
+                nearest: None,
+                distance: f64::INFINITY,
+                why: RejectReason::AboveThreshold,
+            });
+        };
+        let threshold = self
+            .thresholds
+            .get(usize::from(gesture.0))
+            .copied()
+            .flatten();
+        let why = if threshold.is_none_or(|t| distance > t) {
+            Some(RejectReason::AboveThreshold)
+        } else if found
+            .runner_up
+            .is_some_and(|(_, d)| d <= distance * (1.0 + self.config.ambiguity_margin))
+        {
+            Some(RejectReason::Ambiguous)
+        } else {
+            None
+        };
+        Some(match why {
+            None => GestureEvent::Recognised {
+                gesture,
+                start,
+                end: end_tick,
+                distance,
+            },
+            Some(why) => GestureEvent::Rejected {
+                start,
+                end: end_tick,
+                nearest: Some(gesture),
+                distance,
+                why,
+            },
+        })
+    }
+
+    /// The nearest gesture to `frames` and the nearest other one, by the
+    /// same search [`Recognizer::step`] makes. RT-safe.
+    pub fn classify(&self, frames: &[Frame]) -> Classification {
+        let mut best = [f64::INFINITY; MAX_GESTURES];
+        let mut nearest: Option<(GestureId, f64)> = None;
+        let widen = 1.0 + self.config.ambiguity_margin;
+        for template in &self.templates {
+            let index = usize::from(template.gesture.0);
+            let Some(own) = best.get(index).copied() else {
+                continue;
+            };
+            let bound = own.min(nearest.map_or(f64::INFINITY, |(_, d)| d * widen));
+            if lb_keogh(frames, &template.envelope) > bound {
+                continue;
+            }
+            let d = dtw_distance(frames, &template.frames, template.envelope.band, bound);
+            if d < own {
+                if let Some(slot) = best.get_mut(index) {
+                    *slot = d;
+                }
+                if nearest.is_none_or(|(_, n)| d < n) {
+                    nearest = Some((template.gesture, d));
+                }
+            }
+        }
+        let runner_up = nearest.and_then(|(g, _)| {
+            best.iter()
+                .enumerate()
+                .filter(|&(i, d)| i != usize::from(g.0) && d.is_finite())
+                .min_by(|a, b| a.1.total_cmp(b.1))
+                .map(|(i, &d)| (GestureId(i as u8), d))
+        });
+        Classification { nearest, runner_up }
+    }
+
+    /// The frames of the last segment that ended.
+    pub fn frames(&self) -> &[Frame] {
+        self.segmenter.frames()
+    }
+
+    /// The settings it runs with.
+    pub fn config(&self) -> &GestureConfig {
+        &self.config
+    }
+
+    /// Back to rest with no sample (the templates stay). RT-safe.
+    pub fn reset(&mut self) {
+        self.segmenter.reset();
+    }
+}

@@ -1,0 +1,423 @@
+//! A simulated IMU user's sessions, with the truth: the recording
+//! protocol ([`protocol_session`]) and ordinary use ([`use_session`]).
+//!
+//! A gesture's true extent: from the start of its first move to the end
+//! of its last one ([`GestureExample::duration`] later), in ms, rounded
+//! to the nearest tick. Outside it the head makes no move of that
+//! gesture; the tremor, the noise and the vibration go on throughout.
+
+use std::f64::consts::PI;
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::Serialize;
+
+use crate::control::Tick;
+use crate::control::imu::{Channels, ImuSample};
+use crate::sim::head_gesture::{GestureName, gesture_example};
+use crate::sim::head_motion::{Axis, Envelope, HeadMotion, Step, Wave, ideal_reading};
+use crate::sim::imu_user::ImuUser;
+use crate::sim::ordinary_movement::{Gaze, ordinary_movement, vibration};
+
+/// Examples of each gesture in the protocol.
+pub const EXAMPLES: u32 = 5;
+/// The protocol's first rest, ms (uniform).
+pub const PROTOCOL_START_MS: (u32, u32) = (3000, 4000);
+/// Rest between the examples of one gesture, ms (uniform).
+pub const EXAMPLE_GAP_MS: (u32, u32) = (1500, 3000);
+/// Rest between gestures, and before the ordinary movement, ms (uniform).
+pub const GESTURE_GAP_MS: (u32, u32) = (3000, 4000);
+/// The protocol's closing stretch of ordinary movement, ms.
+pub const ORDINARY_MS: u32 = 60_000;
+/// In ordinary use, a stretch of ordinary movement between gestures, ms
+/// (uniform).
+pub const USE_ORDINARY_MS: (u32, u32) = (20_000, 90_000);
+/// In ordinary use, the rest just before and after a gesture, ms (uniform).
+pub const USE_GESTURE_REST_MS: (u32, u32) = (1500, 3000);
+
+/// A gesture the user truly made.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TrueGesture {
+    /// Which.
+    pub name: GestureName,
+    /// Its example number within the session's examples of it, from 1.
+    pub example: u32,
+    /// The tick its first move starts.
+    pub start: Tick,
+    /// The tick its last move ends.
+    pub end: Tick,
+}
+
+/// A simulated session: samples every `1000 / rate_hz` ms (rounded), the
+/// gestures made and the stretches of ordinary movement.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImuSession {
+    /// All six.
+    pub channels: Channels,
+    /// Increasing ticks.
+    pub samples: Vec<(Tick, ImuSample)>,
+    /// In time order.
+    pub truth: Vec<TrueGesture>,
+    /// Ordinary movement, `[start, end)` ticks, in time order.
+    pub ordinary: Vec<(Tick, Tick)>,
+}
+
+/// A session's plan before it is sampled.
+struct Plan {
+    motion: HeadMotion,
+    truth: Vec<TrueGesture>,
+    ordinary: Vec<(Tick, Tick)>,
+    gaze: Gaze,
+    /// Where the plan has got to, ms.
+    now: Tick,
+}
+
+impl Plan {
+    fn new() -> Plan {
+        Plan {
+            motion: HeadMotion::default(),
+            truth: Vec::new(),
+            ordinary: Vec::new(),
+            gaze: Gaze::default(),
+            now: 0,
+        }
+    }
+
+    fn rest(&mut self, (low, high): (u32, u32), rng: &mut ChaCha8Rng) {
+        self.now += Tick::from(rng.random_range(low..=high));
+    }
+
+    fn gesture(&mut self, user: &ImuUser, name: GestureName, example: u32, rng: &mut ChaCha8Rng) {
+        let g = gesture_example(name, user, rng);
+        let start = self.now as f64 / 1000.0;
+        self.motion.steps.extend(g.steps.iter().map(|s| Step {
+            start: s.start + start,
+            ..*s
+        }));
+        // Round the end up, so the next rest starts after the head stops.
+        let end = self.now + (g.duration * 1000.0).ceil() as Tick;
+        self.truth.push(TrueGesture {
+            name,
+            example,
+            start: self.now,
+            end,
+        });
+        self.now = end;
+    }
+
+    fn ordinary(&mut self, user: &ImuUser, ms: u32, rng: &mut ChaCha8Rng) {
+        let end = self.now + Tick::from(ms);
+        let span = (self.now as f64 / 1000.0, end as f64 / 1000.0);
+        ordinary_movement(&mut self.motion, user, &mut self.gaze, span, rng);
+        self.ordinary.push((self.now, end));
+        self.now = end;
+    }
+
+    /// Samples the plan, `user`'s sensor and body added.
+    fn sample(mut self, user: &ImuUser, rng: &mut ChaCha8Rng) -> ImuSession {
+        let length = self.now;
+        let posture = [
+            (Axis::Pitch, user.posture_pitch_deg),
+            (Axis::Roll, user.posture_roll_deg),
+        ];
+        for (axis, degrees) in posture {
+            self.motion.steps.push(Step {
+                axis,
+                start: -2.0,
+                duration: 1.0,
+                amount: degrees.to_radians(),
+            });
+        }
+        if user.tremor_deg > 0.0 {
+            // Mostly pitch and yaw, a little roll; one modulation.
+            let envelope = Envelope::Modulated {
+                depth: user.tremor_modulation,
+                hz: ImuUser::TREMOR_MODULATION_HZ,
+                phase: rng.random_range(0.0..2.0 * PI),
+            };
+            for (axis, share) in [(Axis::Pitch, 1.0), (Axis::Yaw, 0.7), (Axis::Roll, 0.3)] {
+                self.motion.waves.push(Wave {
+                    axis,
+                    amplitude: share * user.tremor_deg.to_radians(),
+                    hz: user.tremor_hz,
+                    phase: rng.random_range(0.0..2.0 * PI),
+                    envelope,
+                });
+            }
+        }
+        if user.wheelchair > 0.0 {
+            let jolts = vibration(user.wheelchair, (0.0, f64::INFINITY), rng);
+            self.motion.jolts.extend(jolts);
+        }
+        self.motion.finish();
+        let bias: [f64; 3] = std::array::from_fn(|_| user.gyro_bias * rng.random_range(-1.0..=1.0));
+        let drift_phase: [f64; 3] = std::array::from_fn(|_| rng.random_range(0.0..2.0 * PI));
+        let accel_noise = Normal::new(0.0, user.accel_noise).ok();
+        let gyro_noise = Normal::new(0.0, user.gyro_noise).ok();
+        let mut cursor = self.motion.cursor();
+        let rate = u64::from(user.rate_hz.clamp(1, 1000));
+        let mut samples = Vec::new();
+        for i in 0.. {
+            let tick = (i * 1000 + rate / 2) / rate;
+            if tick > length {
+                break;
+            }
+            let t = tick as f64 / 1000.0;
+            let (accel, gyro) = ideal_reading(&cursor.at(t));
+            let mut values = [0.0; 6];
+            for k in 0..3 {
+                let drift =
+                    user.gyro_drift * (2.0 * PI * t / user.drift_period_s + drift_phase[k]).sin();
+                values[k] = accel[k] + accel_noise.map_or(0.0, |n| n.sample(rng));
+                values[k + 3] =
+                    gyro[k] + bias[k] + drift + gyro_noise.map_or(0.0, |n| n.sample(rng));
+            }
+            samples.push((tick, ImuSample { values }));
+        }
+        ImuSession {
+            channels: Channels::ALL,
+            samples,
+            truth: self.truth,
+            ordinary: self.ordinary,
+        }
+    }
+}
+
+/// `user` following the recording protocol for `gestures`, seeded:
+/// [`PROTOCOL_START_MS`] of rest; then for each gesture in order,
+/// [`EXAMPLES`] examples with [`EXAMPLE_GAP_MS`] of rest between them
+/// and [`GESTURE_GAP_MS`] between gestures; then, after another
+/// [`GESTURE_GAP_MS`], [`ORDINARY_MS`] of ordinary movement. The session
+/// ends with that stretch.
+pub fn protocol_session(user: &ImuUser, gestures: &[GestureName], seed: u64) -> ImuSession {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut plan = Plan::new();
+    plan.rest(PROTOCOL_START_MS, &mut rng);
+    for (i, &name) in gestures.iter().enumerate() {
+        if i > 0 {
+            plan.rest(GESTURE_GAP_MS, &mut rng);
+        }
+        for example in 1..=EXAMPLES {
+            if example > 1 {
+                plan.rest(EXAMPLE_GAP_MS, &mut rng);
+            }
+            plan.gesture(user, name, example, &mut rng);
+        }
+    }
+    plan.rest(GESTURE_GAP_MS, &mut rng);
+    plan.ordinary(user, ORDINARY_MS, &mut rng);
+    plan.sample(user, &mut rng)
+}
+
+/// `user` in ordinary use for `minutes`, seeded: stretches of ordinary
+/// movement ([`USE_ORDINARY_MS`]), and between them one of `gestures`
+/// (in turn, from a random first) with [`USE_GESTURE_REST_MS`] of rest
+/// either side. With no gestures, `minutes` of ordinary movement alone.
+/// The session is exactly `minutes` long; a gesture that would not fit
+/// is left out.
+pub fn use_session(
+    user: &ImuUser,
+    gestures: &[GestureName],
+    minutes: u32,
+    seed: u64,
+) -> ImuSession {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut plan = Plan::new();
+    let length = Tick::from(minutes) * 60_000;
+    let mut examples = vec![0; gestures.len()];
+    let mut next = if gestures.is_empty() {
+        0
+    } else {
+        rng.random_range(0..gestures.len())
+    };
+    while plan.now < length {
+        let ms = rng.random_range(USE_ORDINARY_MS.0..=USE_ORDINARY_MS.1);
+        let ms = ms.min(u32::try_from(length - plan.now).unwrap_or(u32::MAX));
+        plan.ordinary(user, ms, &mut rng);
+        // Room for a gesture, its rests and a little ordinary movement.
+        if gestures.is_empty() || plan.now + 15_000 > length {
+            continue;
+        }
+        plan.rest(USE_GESTURE_REST_MS, &mut rng);
+        examples[next] += 1;
+        plan.gesture(user, gestures[next], examples[next], &mut rng);
+        plan.rest(USE_GESTURE_REST_MS, &mut rng);
+        next = (next + 1) % gestures.len();
+    }
+    plan.sample(user, &mut rng)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::head_motion::GRAVITY;
+
+    fn typical() -> ImuUser {
+        ImuUser::builtin("typical").unwrap()
+    }
+
+    /// Samples `motion` noise-free at 1 kHz for `seconds`.
+    fn ideal(mut motion: HeadMotion, seconds: f64) -> Vec<([f64; 3], [f64; 3])> {
+        motion.finish();
+        let mut cursor = motion.cursor();
+        (0..=(seconds * 1000.0) as u64)
+            .map(|ms| ideal_reading(&cursor.at(ms as f64 / 1000.0)))
+            .collect()
+    }
+
+    #[test]
+    fn the_same_seed_gives_the_same_samples_and_another_differs() {
+        let user = ImuUser::builtin("wheelchair").unwrap();
+        let a = use_session(&user, &GestureName::DEFAULT, 2, 7);
+        assert_eq!(a, use_session(&user, &GestureName::DEFAULT, 2, 7));
+        let b = use_session(&user, &GestureName::DEFAULT, 2, 8);
+        assert_eq!(a.samples.len(), b.samples.len());
+        assert_ne!(a.samples, b.samples);
+        assert_eq!(a.samples.last().unwrap().0, 120_000);
+    }
+
+    #[test]
+    fn at_rest_the_accelerometer_reads_gravity_and_the_gyro_its_bias() {
+        let user = typical();
+        let session = protocol_session(&user, &[GestureName::Nod], 2);
+        // The first rest: the head still at its posture.
+        let rest: Vec<&ImuSample> = session
+            .samples
+            .iter()
+            .filter(|(tick, _)| *tick < session.truth[0].start)
+            .map(|(_, s)| s)
+            .collect();
+        assert!(rest.len() >= 300);
+        let n = rest.len() as f64;
+        let norm = rest
+            .iter()
+            .map(|s| s.acceleration().iter().map(|a| a * a).sum::<f64>().sqrt())
+            .sum::<f64>()
+            / n;
+        // The mean of the norm: within a few noise σ / √n of g.
+        assert!((norm - GRAVITY).abs() < 0.005, "{norm}");
+        for k in 0..3 {
+            let mean = rest.iter().map(|s| s.rate()[k]).sum::<f64>() / n;
+            // Bias (≤ 0.01) + drift (≤ 0.002) + tremor's rate (≈ 0.005).
+            assert!(mean.abs() <= 0.0125, "{k}: {mean}");
+        }
+    }
+
+    #[test]
+    fn a_nods_gyro_integrates_to_its_amplitude_and_back_to_zero() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for user in ImuUser::all() {
+            let nod = gesture_example(GestureName::Nod, &user, &mut rng);
+            let motion = HeadMotion {
+                steps: nod.steps.clone(),
+                ..HeadMotion::default()
+            };
+            let samples = ideal(motion, nod.duration + 0.1);
+            let mut angle = 0.0;
+            let mut peak: f64 = 0.0;
+            for pair in samples.windows(2) {
+                angle += (pair[0].1[1] + pair[1].1[1]) / 2.0 / 1000.0;
+                peak = peak.max(angle.abs());
+            }
+            assert!(angle.abs() < 1e-4, "{}: net {angle}", user.name);
+            let relative = (peak - nod.amplitude.abs()) / nod.amplitude.abs();
+            assert!(
+                relative.abs() < 0.01,
+                "{}: {peak} vs {}",
+                user.name,
+                nod.amplitude
+            );
+        }
+    }
+
+    #[test]
+    fn a_tilts_hold_reads_g_sin_roll_on_y() {
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let user = typical();
+        for name in [GestureName::TiltLeft, GestureName::TiltRight] {
+            let tilt = gesture_example(name, &user, &mut rng);
+            let hold = tilt.steps[0].end() + 0.1;
+            let (mut roll, mut pitch) = (0.0, 0.0);
+            for s in tilt.steps.iter().filter(|s| s.end() <= hold) {
+                match s.axis {
+                    Axis::Roll => roll += s.amount,
+                    Axis::Pitch => pitch += s.amount,
+                    Axis::Yaw => {}
+                }
+            }
+            assert_eq!(roll, tilt.amplitude);
+            let motion = HeadMotion {
+                steps: tilt.steps.clone(),
+                ..HeadMotion::default()
+            };
+            let (accel, gyro) = ideal(motion, hold)[(hold * 1000.0) as usize];
+            assert_eq!(gyro, [0.0; 3]);
+            let ay = GRAVITY * f64::cos(pitch) * roll.sin();
+            assert!((accel[1] - ay).abs() < 1e-9, "{accel:?} vs {ay}");
+            assert!((accel[1] - GRAVITY * roll.sin()).abs() < 0.002 * GRAVITY);
+        }
+    }
+
+    #[test]
+    fn the_protocol_keeps_every_rule_for_every_user() {
+        let gestures = GestureName::DEFAULT;
+        for user in ImuUser::all() {
+            for seed in 1..=4 {
+                let s = protocol_session(&user.at_rate(10), &gestures, seed);
+                let t = &s.truth;
+                assert_eq!(t.len(), gestures.len() * EXAMPLES as usize);
+                assert!(t[0].start >= 3000, "{}", t[0].start);
+                for (i, pair) in t.windows(2).enumerate() {
+                    let gap = pair[1].start - pair[0].end;
+                    if (i + 1) % EXAMPLES as usize == 0 {
+                        assert!(gap >= 3000, "{}/{seed}: between gestures {gap}", user.name);
+                        assert_ne!(pair[0].name, pair[1].name);
+                    } else {
+                        assert!((1500..=3000).contains(&gap), "{}/{seed}: {gap}", user.name);
+                        assert_eq!(pair[0].name, pair[1].name);
+                        assert_eq!(pair[1].example, pair[0].example + 1);
+                    }
+                }
+                for (k, g) in t.iter().enumerate() {
+                    assert_eq!(g.name, gestures[k / EXAMPLES as usize]);
+                    assert!(g.end > g.start);
+                }
+                let &[(start, end)] = &s.ordinary[..] else {
+                    panic!("{:?}", s.ordinary)
+                };
+                assert!(start >= t.last().unwrap().end + 3000);
+                assert!(end - start >= 60_000);
+                // At 10 Hz the last sample is within 100 ms of the end.
+                assert!(end - s.samples.last().unwrap().0 < 100);
+            }
+        }
+    }
+
+    #[test]
+    fn an_ideal_head_moves_only_in_gestures_and_ordinary_movement() {
+        let user = typical().ideal();
+        let s = use_session(&user, &GestureName::DEFAULT, 5, 3);
+        assert!(s.truth.len() >= 3, "{:?}", s.truth);
+        let inside = |tick: Tick| {
+            s.truth.iter().any(|g| (g.start..=g.end).contains(&tick))
+                || s.ordinary.iter().any(|&(a, b)| (a..=b).contains(&tick))
+        };
+        let mut moving = 0;
+        for (tick, sample) in &s.samples {
+            if sample.rate() != [0.0; 3] {
+                moving += 1;
+                assert!(inside(*tick), "moving at {tick}");
+            }
+        }
+        assert!(moving > 1000);
+        let ordinary: Tick = s.ordinary.iter().map(|(a, b)| b - a).sum();
+        assert!(ordinary >= 180_000, "{ordinary}");
+        let only = use_session(&user, &[], 3, 3);
+        assert!(only.truth.is_empty());
+        assert_eq!(
+            only.ordinary.iter().map(|(a, b)| b - a).sum::<Tick>(),
+            180_000
+        );
+    }
+}
