@@ -26,6 +26,9 @@
 //! * [`fit`]: fitting the interface to a person: a calibration's breaths
 //!   measured, their settings proposed with reasons, checked by replay,
 //!   written as a profile;
+//! * [`gestures`]: a person's own head gestures: a recording cut along
+//!   the gesture protocol, templates and thresholds from their data,
+//!   leave-one-out accuracy and false activations per hour;
 //! * [`sim`]: the sensor model, simulated users (and breathers with known
 //!   breathing), the synthetic sensor that plays one live, and the
 //!   paper's study;
@@ -52,7 +55,7 @@
 //!
 //! Import rules (checked by `tests/it/architecture.rs`): the modules stand
 //! on floors — `control`; `sensor`, `arm`, `output`; `config`, `rt`;
-//! `fit`, `wiring`; `sim`, `display`; `tools`; `design`, `session`; `cli` —
+//! `fit`, `gestures`, `wiring`; `sim`, `display`; `tools`; `design`, `session`; `cli` —
 //! and each imports only from the floors below its own (`rt` only the
 //! seams' roots); the backends the specs name are opened in `wiring`; no
 //! import cycle between files.
@@ -106,6 +109,7 @@ pub mod design;
 #[cfg(feature = "display")]
 pub mod display;
 pub mod fit;
+pub mod gestures;
 pub mod output;
 pub mod rt;
 pub mod sensor;

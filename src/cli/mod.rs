@@ -28,6 +28,7 @@ pub mod design;
 pub mod display;
 pub mod fit;
 pub mod generate;
+pub mod gestures;
 pub mod output;
 pub mod replay;
 pub mod run;
@@ -80,6 +81,12 @@ enum Command {
         ))
     )]
     Fit(fit::FitArgs),
+    /// A person's own head gestures from an IMU: make a gesture set from
+    /// their recording (`record`), check how well it works (`check`).
+    Gestures {
+        #[command(subcommand)]
+        what: gestures::GesturesCommand,
+    },
     /// Measure the control path.
     Bench {
         #[command(subcommand)]
@@ -112,6 +119,7 @@ pub fn main() -> ExitCode {
         Command::Design(args) => design::design(args).map(|()| output::COMPLETED),
         Command::Generate(args) => generate::generate(args).map(|()| output::COMPLETED),
         Command::Fit(args) => fit::fit(args),
+        Command::Gestures { what } => gestures::gestures(what),
         Command::Bench { what } => bench::bench(what),
         Command::Config(args) => config::config(args).map(|()| output::COMPLETED),
         Command::Sensors(args) => sensors::sensors(args).map(|()| output::COMPLETED),

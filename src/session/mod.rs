@@ -7,6 +7,7 @@
 
 pub mod calibration;
 pub mod fitting;
+pub mod gestures;
 pub mod guide;
 pub mod run;
 pub mod showing;

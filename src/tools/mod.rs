@@ -13,6 +13,7 @@ pub mod bench_tick;
 pub mod csv_replay;
 pub mod float_text;
 pub mod generate;
+pub mod gesture_accuracy;
 pub mod imu_csv;
 pub mod latency;
 pub mod output_file;

@@ -36,7 +36,7 @@ pub const FLOORS: &[&[&str]] = &[
     &["control"],
     &["sensor", "arm", "output"],
     &["config", "rt"],
-    &["fit", "wiring"],
+    &["fit", "gestures", "wiring"],
     &["sim", "display"],
     &["tools"],
     &["design", "session"],

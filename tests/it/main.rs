@@ -42,6 +42,7 @@ mod fit;
 mod fit_inputs;
 mod fit_prompter;
 mod gesture;
+mod gesture_sets;
 mod golden;
 mod motion;
 mod motion_safety;

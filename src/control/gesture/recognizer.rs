@@ -60,6 +60,27 @@ pub enum GestureEvent {
     },
 }
 
+/// The decision on one segment's frames. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Verdict {
+    /// The frames are this gesture, at this distance.
+    Recognised {
+        /// Which gesture.
+        gesture: GestureId,
+        /// DTW distance to its nearest template.
+        distance: f64,
+    },
+    /// The frames are no gesture.
+    Rejected {
+        /// The nearest gesture, if any was compared.
+        nearest: Option<GestureId>,
+        /// Its distance (∞ if none).
+        distance: f64,
+        /// Why.
+        why: RejectReason,
+    },
+}
+
 /// The nearest gestures to a sequence of frames. `Copy`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Classification {
@@ -205,6 +226,42 @@ impl Recognizer {
                 .map(|(i, &d)| (GestureId(i as u8), d))
         });
         Classification { nearest, runner_up }
+    }
+
+    /// What the core decides for a segment classified as `found`: the
+    /// nearest gesture if within its threshold and no other gesture is
+    /// within the ambiguity margin; else rejected, with why. RT-safe.
+    pub fn verdict(&self, found: &Classification) -> Verdict {
+        let Some((gesture, distance)) = found.nearest else {
+            return Verdict::Rejected {
+                nearest: None,
+                distance: f64::INFINITY,
+                why: RejectReason::AboveThreshold,
+            };
+        };
+        let threshold = self
+            .thresholds
+            .get(usize::from(gesture.0))
+            .copied()
+            .flatten();
+        if threshold.is_none_or(|t| distance > t) {
+            Verdict::Rejected {
+                nearest: Some(gesture),
+                distance,
+                why: RejectReason::AboveThreshold,
+            }
+        } else if found
+            .runner_up
+            .is_some_and(|(_, d)| d <= distance * (1.0 + self.config.ambiguity_margin))
+        {
+            Verdict::Rejected {
+                nearest: Some(gesture),
+                distance,
+                why: RejectReason::Ambiguous,
+            }
+        } else {
+            Verdict::Recognised { gesture, distance }
+        }
     }
 
     /// The frames of the last segment that ended.

@@ -1,0 +1,162 @@
+//! `gestures record --from` and `gestures check` end to end: the IMU
+//! recordings read, the set made or read, checked, and written only when
+//! everything before it succeeded (through a temporary file beside it,
+//! renamed into place, so a set is never half-written).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+
+use crate::control::Tick;
+use crate::control::gesture::{GestureConfig, segments};
+use crate::control::imu::ImuSample;
+use crate::gestures::check::{self, Check, Ordinary};
+use crate::gestures::protocol::{self, Span};
+use crate::gestures::record::{self, Recorded};
+use crate::gestures::report;
+use crate::gestures::set::GestureSet;
+use crate::tools::imu_csv::{ImuRecording, read_imu_csv};
+
+/// A set recorded from a file, and its check.
+#[derive(Debug)]
+pub struct RecordedSet {
+    /// The set, what it was made from and how.
+    pub recorded: Recorded,
+    /// Its check on the recording's own ordinary movement.
+    pub check: Check,
+}
+
+/// Reads an IMU recording: its error is one line naming file and line.
+fn read(path: &Path) -> anyhow::Result<ImuRecording> {
+    read_imu_csv(path).map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+/// The samples of `samples` from `span.start` to `span.end`.
+fn within(samples: &[(Tick, ImuSample)], span: Span) -> &[(Tick, ImuSample)] {
+    let from = samples.partition_point(|(t, _)| *t < span.start);
+    let to = samples.partition_point(|(t, _)| *t <= span.end);
+    samples.get(from..to).unwrap_or_default()
+}
+
+/// Makes the set for `names` from the protocol recording `from` and
+/// writes it to `out`; the set's header says how each threshold was
+/// chosen and what the check found.
+pub fn record_from(from: &Path, names: &[String], out: &Path) -> anyhow::Result<RecordedSet> {
+    record::check_names(names).map_err(|e| anyhow::anyhow!(e))?;
+    let recording = read(from)?;
+    let recorded = record::record(
+        &recording.samples,
+        recording.channels,
+        names,
+        GestureConfig::default(),
+        Some(from.display().to_string()),
+    )
+    .map_err(|e| anyhow::anyhow!("{}: {e}", from.display()))?;
+    let ordinary = Ordinary {
+        source: format!("{} (ordinary stretch)", from.display()),
+        samples: within(&recording.samples, recorded.cut.ordinary),
+    };
+    let check = check::check(&recorded.set, &[ordinary]);
+    let mut header = vec![
+        format!(
+            "sipnpuff gesture set: {} gestures × 5 examples from {} ({})",
+            names.len(),
+            from.display(),
+            recording.channels
+        ),
+        format!(
+            "leave-one-out {}/{} right; ordinary movement {:.0} s: {} activations",
+            check.right,
+            check.examples,
+            check.ordinary_hours * 3600.0,
+            check.activations.len()
+        ),
+    ];
+    header.extend(report::choices(names, &recorded.choices));
+    write_atomically(out, &recorded.set.to_toml(&header))?;
+    Ok(RecordedSet { recorded, check })
+}
+
+/// Reads the set at `path`: every problem at once, each with its line.
+pub fn read_set(path: &Path) -> anyhow::Result<GestureSet> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    GestureSet::from_toml(&text).map_err(|problems| {
+        anyhow::anyhow!(
+            "{}: {}",
+            path.display(),
+            problems.join(&format!("\n{}: ", path.display()))
+        )
+    })
+}
+
+/// Checks the set at `set_path` on the ordinary movement of `recordings`,
+/// or, with none, on the ordinary stretch of the recording it was made
+/// from (when that file is still there).
+pub fn check_set(set_path: &Path, recordings: &[PathBuf]) -> anyhow::Result<Check> {
+    let set = read_set(set_path)?;
+    let mut read_ones = Vec::with_capacity(recordings.len());
+    for path in recordings {
+        let recording = read(path)?;
+        if !recording.channels.covers(set.channels) {
+            bail!(
+                "{}: has {} but the set {} was recorded with {}: a set from another sensor's channels",
+                path.display(),
+                recording.channels,
+                set_path.display(),
+                set.channels
+            );
+        }
+        read_ones.push((path.display().to_string(), recording));
+    }
+    if read_ones.is_empty()
+        && let Some(source) = set.recording.as_deref()
+    {
+        let path = Path::new(source);
+        if path.exists() {
+            let recording = read(path)?;
+            let names: Vec<String> = set.gestures.iter().map(|g| g.name.clone()).collect();
+            let spans: Vec<Span> = segments(&set.config, recording.samples.iter().copied())
+                .iter()
+                .map(|s| Span {
+                    start: s.start,
+                    end: s.end,
+                })
+                .collect();
+            let (Some(&(first, _)), Some(&(last, _))) =
+                (recording.samples.first(), recording.samples.last())
+            else {
+                bail!("{source}: the recording has no sample");
+            };
+            let slack = Tick::from(set.config.rest_ms) + 2 * Tick::from(set.config.frame_ms);
+            let cut = protocol::cut(&names, first, last, &spans, slack)
+                .map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
+            let ordinary = within(&recording.samples, cut.ordinary).to_vec();
+            let samples = ImuRecording {
+                channels: recording.channels,
+                samples: ordinary,
+            };
+            read_ones.push((format!("{source} (ordinary stretch)"), samples));
+        }
+    }
+    let ordinary: Vec<Ordinary<'_>> = read_ones
+        .iter()
+        .map(|(source, recording)| Ordinary {
+            source: source.clone(),
+            samples: &recording.samples,
+        })
+        .collect();
+    Ok(check::check(&set, &ordinary))
+}
+
+/// Writes `text` to `path` through a temporary file beside it.
+fn write_atomically(path: &Path, text: &str) -> anyhow::Result<()> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "set.toml".into());
+    let temporary = path.with_file_name(format!(".{name}.partial"));
+    std::fs::write(&temporary, text)
+        .with_context(|| format!("cannot write {}", temporary.display()))?;
+    std::fs::rename(&temporary, path).with_context(|| format!("cannot write {}", path.display()))
+}
