@@ -13,6 +13,10 @@ use crate::sim::head_gesture::GestureName;
 use crate::sim::imu_user::ImuUser;
 use crate::tools::generate::{self, BreatherSession, Disturbances, ImuSessionKind, Script, Who};
 
+/// The most samples an IMU session may have (a day at 100 Hz, ~0.5 GB
+/// in memory).
+const MAX_IMU_SAMPLES: u64 = 8_640_000;
+
 /// What a simulated IMU user does (`--session`).
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 enum ImuSessionArg {
@@ -115,8 +119,8 @@ pub struct GenerateArgs {
     )]
     gestures: Gestures,
     /// With `--session use` or `ordinary`: its length, in minutes (at
-    /// most a week).
-    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=10_080), requires = "imu_user")]
+    /// most a day, and at most 8 640 000 samples: a day at 100 Hz).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=1440), requires = "imu_user")]
     minutes: u32,
     /// With `--imu-user`: samples per second (ticks are whole ms, rounded).
     #[arg(long, default_value_t = ImuUser::DEFAULT_RATE_HZ, value_parser = clap::value_parser!(u32).range(1..=1000), requires = "imu_user")]
@@ -168,6 +172,15 @@ pub fn generate(args: GenerateArgs) -> anyhow::Result<()> {
     let config = args.config.load()?;
     if let Some(ImuUserName(name)) = args.imu_user {
         let user = ImuUser::builtin(name).map_err(anyhow::Error::msg)?;
+        let samples = u64::from(args.minutes) * 60 * u64::from(args.rate_hz);
+        if args.session != ImuSessionArg::Protocol && samples > MAX_IMU_SAMPLES {
+            return crate::cli::output::invalid(Err(anyhow::anyhow!(
+                "--minutes {} at --rate-hz {} is {samples} samples: at most {MAX_IMU_SAMPLES} \
+                 (the session is held in memory)",
+                args.minutes,
+                args.rate_hz
+            )));
+        }
         let who = Who::ImuUser {
             user: user.at_rate(args.rate_hz),
             session: match args.session {

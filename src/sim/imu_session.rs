@@ -63,6 +63,16 @@ pub struct ImuSession {
     pub ordinary: Vec<(Tick, Tick)>,
 }
 
+/// The random generator of `user`'s session seeded `seed`: the user's
+/// name is mixed in (FNV-1a), so two users given one seed still move
+/// differently.
+fn session_rng(user: &ImuUser, seed: u64) -> ChaCha8Rng {
+    let name = user.name.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
+    ChaCha8Rng::seed_from_u64(seed ^ name)
+}
+
 /// A session's plan before it is sampled.
 struct Plan {
     motion: HeadMotion,
@@ -191,7 +201,7 @@ impl Plan {
 /// [`GESTURE_GAP_MS`], [`ORDINARY_MS`] of ordinary movement. The session
 /// ends with that stretch.
 pub fn protocol_session(user: &ImuUser, gestures: &[GestureName], seed: u64) -> ImuSession {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut rng = session_rng(user, seed);
     let mut plan = Plan::new();
     plan.rest(PROTOCOL_START_MS, &mut rng);
     for (i, &name) in gestures.iter().enumerate() {
@@ -222,7 +232,7 @@ pub fn use_session(
     minutes: u32,
     seed: u64,
 ) -> ImuSession {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut rng = session_rng(user, seed);
     let mut plan = Plan::new();
     let length = Tick::from(minutes) * 60_000;
     let mut examples = vec![0; gestures.len()];

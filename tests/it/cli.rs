@@ -500,4 +500,17 @@ fn generate_writes_an_imu_users_protocol_and_its_truth() {
         "/dev/null",
     ]);
     assert!(e.contains("cannot be used with"), "{e}");
+    let long = [
+        "generate",
+        "--imu-user",
+        "typical",
+        "--session",
+        "use",
+        "--minutes",
+        "1000",
+    ];
+    let out = sipnpuff(&[&long[..], &["--rate-hz", "1000", "--out", "/dev/null"]].concat());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert_exit(out.status, &e, 2, "a session too long to hold");
+    assert!(e.contains("is 60000000 samples: at most 8640000"), "{e}");
 }
