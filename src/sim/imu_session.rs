@@ -61,6 +61,9 @@ pub struct ImuSession {
     pub truth: Vec<TrueGesture>,
     /// Ordinary movement, `[start, end)` ticks, in time order.
     pub ordinary: Vec<(Tick, Tick)>,
+    /// The gyro's constant bias this session, rad/s, x y z (its slow
+    /// drift, ± [`ImuUser::gyro_drift`], comes on top).
+    pub gyro_bias: [f64; 3],
 }
 
 /// The random generator of `user`'s session seeded `seed`: the user's
@@ -190,6 +193,7 @@ impl Plan {
             samples,
             truth: self.truth,
             ordinary: self.ordinary,
+            gyro_bias: bias,
         }
     }
 }
@@ -309,9 +313,12 @@ mod tests {
         assert!((norm - GRAVITY).abs() < 0.005, "{norm}");
         for k in 0..3 {
             let mean = rest.iter().map(|s| s.rate()[k]).sum::<f64>() / n;
-            // Bias (≤ 0.01) + drift (≤ 0.002) + tremor's rate (≈ 0.005).
-            assert!(mean.abs() <= 0.0125, "{k}: {mean}");
+            // The bias, give or take the drift (≤ 0.002), what is left of
+            // the tremor's rate over ≥ 15 cycles (≤ 0.001) and the noise.
+            let bias = session.gyro_bias[k];
+            assert!((mean - bias).abs() <= 0.003, "{k}: {mean} vs {bias}");
         }
+        assert!(session.gyro_bias.iter().any(|b| b.abs() > 0.003));
     }
 
     #[test]

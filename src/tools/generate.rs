@@ -335,6 +335,8 @@ pub struct ImuTruth<'a> {
     pub gestures: &'a [TrueGesture],
     /// The stretches of ordinary movement, `[start, end)` ticks.
     pub ordinary: Vec<Stretch>,
+    /// The gyro's constant bias this session, rad/s, x y z.
+    pub gyro_bias: [f64; 3],
 }
 
 /// A stretch of ordinary movement, ticks.
@@ -368,5 +370,6 @@ pub fn imu_truth<'a>(
             .iter()
             .map(|&(start, end)| Stretch { start, end })
             .collect(),
+        gyro_bias: made.gyro_bias,
     }
 }
