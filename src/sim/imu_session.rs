@@ -262,6 +262,12 @@ pub fn use_session(
     plan.sample(user, &mut rng)
 }
 
+/// `user`'s ordinary movement alone for `minutes`, seeded: no gesture
+/// ([`use_session`] with none).
+pub fn ordinary_session(user: &ImuUser, minutes: u32, seed: u64) -> ImuSession {
+    use_session(user, &[], minutes, seed)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -430,7 +436,7 @@ mod tests {
         assert!(moving > 1000);
         let ordinary: Tick = s.ordinary.iter().map(|(a, b)| b - a).sum();
         assert!(ordinary >= 180_000, "{ordinary}");
-        let only = use_session(&user, &[], 3, 3);
+        let only = ordinary_session(&user, 3, 3);
         assert!(only.truth.is_empty());
         assert_eq!(
             only.ordinary.iter().map(|(a, b)| b - a).sum::<Tick>(),

@@ -17,7 +17,7 @@ use crate::control::mode::Mode;
 use crate::fit::protocol::Protocol;
 use crate::sim::breather::{Breather, Session, practice_session, protocol_session};
 use crate::sim::head_gesture::GestureName;
-use crate::sim::imu_session::{self, ImuSession, TrueGesture, use_session};
+use crate::sim::imu_session::{self, ImuSession, TrueGesture, ordinary_session, use_session};
 use crate::sim::imu_user::ImuUser;
 use crate::sim::script::{
     demo_script, outputs_session, parse_sequences, random_session, sequences_script,
@@ -284,7 +284,7 @@ fn generate_imu(
     let session = match kind {
         ImuSessionKind::Protocol => imu_session::protocol_session(user, gestures, seed),
         ImuSessionKind::Use { minutes } => use_session(user, gestures, minutes, seed),
-        ImuSessionKind::Ordinary { minutes } => use_session(user, &[], minutes, seed),
+        ImuSessionKind::Ordinary { minutes } => ordinary_session(user, minutes, seed),
     };
     write_whole(out, |writer| {
         Ok(write_imu_csv(writer, session.channels, &session.samples)?)
