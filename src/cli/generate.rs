@@ -1,17 +1,39 @@
 //! `sipnpuff generate`: a synthetic recording of a scripted user, or of a
 //! simulated person with known breathing (a breather) in ordinary use or
 //! following the calibration protocol, with the truth beside it
-//! ([`crate::tools::generate`]).
+//! ([`crate::tools::generate`]); or a simulated person wearing a head
+//! IMU, as the IMU CSV.
 
 use std::path::PathBuf;
 
 use crate::cli::args::{ConfigArg, parse_volts};
 use crate::fit::protocol::{DEFAULT_COUNT, DEFAULT_HOLDS, Protocol};
 use crate::sim::breather::Breather;
-use crate::tools::generate::{self, BreatherSession, Disturbances, Script, Who};
+use crate::sim::head_gesture::GestureName;
+use crate::sim::imu_user::ImuUser;
+use crate::tools::generate::{self, BreatherSession, Disturbances, ImuSessionKind, Script, Who};
+
+/// The most samples an IMU session may have (a day at 100 Hz, ~0.5 GB
+/// in memory).
+const MAX_IMU_SAMPLES: u64 = 8_640_000;
+
+/// What a simulated IMU user does (`--session`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum ImuSessionArg {
+    /// The recording protocol: rest ≥ 3 s, 5 examples of each gesture
+    /// (1.5–3 s apart, ≥ 3 s between gestures), then 60 s of ordinary
+    /// movement.
+    Protocol,
+    /// `--minutes` of ordinary use: gestures now and then among long
+    /// stretches of ordinary movement.
+    Use,
+    /// `--minutes` of ordinary movement alone.
+    Ordinary,
+}
 
 /// `generate`'s options.
 #[derive(clap::Args, Debug)]
+#[group(id = "person", args = ["breather", "imu_user"], multiple = false)]
 pub struct GenerateArgs {
     /// Output CSV file.
     #[arg(long)]
@@ -68,8 +90,41 @@ pub struct GenerateArgs {
     /// With `--breather`: also write the truth as JSON (the breather's
     /// parameters, the true crossings, and each breath's kind, first tick
     /// and length in ms).
-    #[arg(long, value_name = "FILE.json", requires = "breather")]
+    #[arg(long, value_name = "FILE.json", requires = "person")]
     truth: Option<PathBuf>,
+    /// Instead of a breath signal, a simulated person wearing a head IMU,
+    /// written as the IMU CSV (`tick,ax,ay,az,gx,gy,gz`: m/s² with
+    /// gravity, rad/s): typical, slow_small, fast_large, tremor,
+    /// wheelchair or drifting. With `--truth`, the user's parameters and
+    /// each gesture's and ordinary stretch's ticks.
+    #[arg(
+        long,
+        value_name = "NAME",
+        value_parser = parse_imu_user,
+        conflicts_with_all = ["demo", "sequences", "each_entry", "protocol", "noise_volts", "hum_volts", "drift_volts", "spike_every_ms"]
+    )]
+    imu_user: Option<ImuUserName>,
+    /// With `--imu-user`: what they do.
+    #[arg(long, value_enum, default_value_t = ImuSessionArg::Protocol, requires = "imu_user")]
+    session: ImuSessionArg,
+    /// With `--imu-user`: the gestures, in order, comma-separated, from
+    /// nod, double_nod, shake, tilt_left, tilt_right, look_up, look_down,
+    /// turn_left, turn_right.
+    #[arg(
+        long,
+        value_name = "LIST",
+        default_value = "nod,shake,tilt_left,tilt_right,look_up,look_down",
+        value_parser = parse_gestures,
+        requires = "imu_user"
+    )]
+    gestures: Gestures,
+    /// With `--session use` or `ordinary`: its length, in minutes (at
+    /// most a day, and at most 8 640 000 samples: a day at 100 Hz).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=1440), requires = "imu_user")]
+    minutes: u32,
+    /// With `--imu-user`: samples per second (ticks are whole ms, rounded).
+    #[arg(long, default_value_t = ImuUser::DEFAULT_RATE_HZ, value_parser = clap::value_parser!(u32).range(1..=1000), requires = "imu_user")]
+    rate_hz: u32,
     /// Random seed.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -87,6 +142,23 @@ pub struct GenerateArgs {
     spike_every_ms: u64,
 }
 
+/// `--imu-user`: a built-in IMU user's name (the user itself is large to
+/// keep in the arguments).
+#[derive(Clone, Debug)]
+struct ImuUserName(&'static str);
+
+fn parse_imu_user(name: &str) -> Result<ImuUserName, String> {
+    ImuUser::builtin(name).map(|user| ImuUserName(user.name))
+}
+
+/// `--gestures`: a list of gesture names.
+#[derive(Clone, Debug)]
+struct Gestures(Vec<GestureName>);
+
+fn parse_gestures(text: &str) -> Result<Gestures, String> {
+    GestureName::parse_list(text).map(Gestures)
+}
+
 /// A built-in breather's name; the error lists them all.
 fn parse_breather(name: &str) -> Result<Breather, String> {
     Breather::named(name).ok_or_else(|| {
@@ -98,6 +170,33 @@ fn parse_breather(name: &str) -> Result<Breather, String> {
 /// Writes the recording.
 pub fn generate(args: GenerateArgs) -> anyhow::Result<()> {
     let config = args.config.load()?;
+    if let Some(ImuUserName(name)) = args.imu_user {
+        let user = ImuUser::builtin(name).map_err(anyhow::Error::msg)?;
+        let samples = u64::from(args.minutes) * 60 * u64::from(args.rate_hz);
+        if args.session != ImuSessionArg::Protocol && samples > MAX_IMU_SAMPLES {
+            return crate::cli::output::invalid(Err(anyhow::anyhow!(
+                "--minutes {} at --rate-hz {} is {samples} samples: at most {MAX_IMU_SAMPLES} \
+                 (the session is held in memory)",
+                args.minutes,
+                args.rate_hz
+            )));
+        }
+        let who = Who::ImuUser {
+            user: user.at_rate(args.rate_hz),
+            session: match args.session {
+                ImuSessionArg::Protocol => ImuSessionKind::Protocol,
+                ImuSessionArg::Use => ImuSessionKind::Use {
+                    minutes: args.minutes,
+                },
+                ImuSessionArg::Ordinary => ImuSessionKind::Ordinary {
+                    minutes: args.minutes,
+                },
+            },
+            gestures: args.gestures.0,
+            truth: args.truth,
+        };
+        return generate::generate(&config, &who, args.seed, &args.out, &|line| note!("{line}"));
+    }
     let who = match args.breather {
         Some(breather) => Who::Breather {
             breather,

@@ -437,6 +437,35 @@ mod tests {
     }
 
     #[test]
+    fn a_nodding_head_adds_the_lever_arms_acceleration() {
+        // Level, pitching at 2 rad/s and speeding up at 20 rad/s².
+        let mut state = still(0.0, 0.0, 0.0);
+        state.angles[1] = Kin {
+            angle: 0.0,
+            rate: 2.0,
+            accel: 20.0,
+        };
+        let (a, w) = ideal_reading(&state);
+        assert_eq!(w, [0.0, 2.0, 0.0]);
+        // Tangential α·L along x, centripetal ω²·L towards the pivot.
+        assert!((a[0] - 20.0 * LEVER_M).abs() < 1e-12, "{a:?}");
+        assert!((a[2] - (GRAVITY - 4.0 * LEVER_M)).abs() < 1e-12, "{a:?}");
+        // A turn about the lever's own axis adds nothing.
+        let mut state = still(0.0, 0.0, 0.0);
+        state.angles[2] = Kin {
+            angle: 0.3,
+            rate: 3.0,
+            accel: -10.0,
+        };
+        let (a, w) = ideal_reading(&state);
+        assert_eq!(w, [0.0, 0.0, 3.0]);
+        assert!(
+            (a[2] - GRAVITY).abs() < 1e-12 && a[0].abs() < 1e-12,
+            "{a:?}"
+        );
+    }
+
+    #[test]
     fn rates_and_accelerations_are_the_derivatives_of_the_profile() {
         let step = Step {
             axis: Axis::Yaw,

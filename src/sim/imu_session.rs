@@ -61,6 +61,19 @@ pub struct ImuSession {
     pub truth: Vec<TrueGesture>,
     /// Ordinary movement, `[start, end)` ticks, in time order.
     pub ordinary: Vec<(Tick, Tick)>,
+    /// The gyro's constant bias this session, rad/s, x y z (its slow
+    /// drift, ± [`ImuUser::gyro_drift`], comes on top).
+    pub gyro_bias: [f64; 3],
+}
+
+/// The random generator of `user`'s session seeded `seed`: the user's
+/// name is mixed in (FNV-1a), so two users given one seed still move
+/// differently.
+fn session_rng(user: &ImuUser, seed: u64) -> ChaCha8Rng {
+    let name = user.name.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
+    ChaCha8Rng::seed_from_u64(seed ^ name)
 }
 
 /// A session's plan before it is sampled.
@@ -180,6 +193,7 @@ impl Plan {
             samples,
             truth: self.truth,
             ordinary: self.ordinary,
+            gyro_bias: bias,
         }
     }
 }
@@ -191,7 +205,7 @@ impl Plan {
 /// [`GESTURE_GAP_MS`], [`ORDINARY_MS`] of ordinary movement. The session
 /// ends with that stretch.
 pub fn protocol_session(user: &ImuUser, gestures: &[GestureName], seed: u64) -> ImuSession {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut rng = session_rng(user, seed);
     let mut plan = Plan::new();
     plan.rest(PROTOCOL_START_MS, &mut rng);
     for (i, &name) in gestures.iter().enumerate() {
@@ -222,7 +236,7 @@ pub fn use_session(
     minutes: u32,
     seed: u64,
 ) -> ImuSession {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut rng = session_rng(user, seed);
     let mut plan = Plan::new();
     let length = Tick::from(minutes) * 60_000;
     let mut examples = vec![0; gestures.len()];
@@ -246,6 +260,12 @@ pub fn use_session(
         next = (next + 1) % gestures.len();
     }
     plan.sample(user, &mut rng)
+}
+
+/// `user`'s ordinary movement alone for `minutes`, seeded: no gesture
+/// ([`use_session`] with none).
+pub fn ordinary_session(user: &ImuUser, minutes: u32, seed: u64) -> ImuSession {
+    use_session(user, &[], minutes, seed)
 }
 
 #[cfg(test)]
@@ -299,9 +319,12 @@ mod tests {
         assert!((norm - GRAVITY).abs() < 0.005, "{norm}");
         for k in 0..3 {
             let mean = rest.iter().map(|s| s.rate()[k]).sum::<f64>() / n;
-            // Bias (≤ 0.01) + drift (≤ 0.002) + tremor's rate (≈ 0.005).
-            assert!(mean.abs() <= 0.0125, "{k}: {mean}");
+            // The bias, give or take the drift (≤ 0.002), what is left of
+            // the tremor's rate over ≥ 15 cycles (≤ 0.001) and the noise.
+            let bias = session.gyro_bias[k];
+            assert!((mean - bias).abs() <= 0.003, "{k}: {mean} vs {bias}");
         }
+        assert!(session.gyro_bias.iter().any(|b| b.abs() > 0.003));
     }
 
     #[test]
@@ -413,7 +436,7 @@ mod tests {
         assert!(moving > 1000);
         let ordinary: Tick = s.ordinary.iter().map(|(a, b)| b - a).sum();
         assert!(ordinary >= 180_000, "{ordinary}");
-        let only = use_session(&user, &[], 3, 3);
+        let only = ordinary_session(&user, 3, 3);
         assert!(only.truth.is_empty());
         assert_eq!(
             only.ordinary.iter().map(|(a, b)| b - a).sum::<Tick>(),

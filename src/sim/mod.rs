@@ -1,7 +1,9 @@
 //! Simulation: the seeded sensor model, the scripts and simulated users
 //! that breathe into it (played live by the synthetic sensor), simulated people with known breathing for
 //! calibration, and the paper's study run with them through the
-//! production core. Set-up and tooling code: it may allocate, and neither
+//! production core; and simulated people wearing a head IMU (their head
+//! motion, gestures, ordinary movement and sessions, with the truth).
+//! Set-up and tooling code: it may allocate, and neither
 //! the core nor the runtime imports it.
 
 pub mod breather;

@@ -249,3 +249,45 @@ pub fn vibration(level: f64, (start, end): (f64, f64), rng: &mut ChaCha8Rng) -> 
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use rand::SeedableRng;
+
+    use super::*;
+
+    #[test]
+    fn ten_minutes_hold_every_activity_and_end_inside_the_stretch() {
+        for user in ImuUser::all() {
+            let mut motion = HeadMotion::default();
+            let mut gaze = Gaze::default();
+            let mut rng = ChaCha8Rng::seed_from_u64(11);
+            ordinary_movement(&mut motion, &user, &mut gaze, (5.0, 605.0), &mut rng);
+            let steps = &motion.steps;
+            assert!(steps.iter().all(|s| s.start >= 5.0 && s.end() <= 605.0));
+            let quick_glances = steps
+                .iter()
+                .filter(|s| s.axis == Axis::Yaw && s.amount.abs() >= 17f64.to_radians())
+                .filter(|s| s.duration <= 0.7 / user.speed)
+                .count();
+            let looks = steps
+                .iter()
+                .filter(|s| s.axis == Axis::Yaw && s.duration >= 0.8 / user.speed)
+                .count();
+            let talking = motion.waves.iter().filter(|w| w.hz >= 2.0 && w.hz <= 5.0);
+            let bumps = motion.jolts.iter().filter(|j| j.decay > 0.0).count();
+            let name = user.name;
+            assert!(quick_glances >= 3, "{name}: {quick_glances} glances");
+            assert!(looks >= 10, "{name}: {looks} looks");
+            assert!(talking.count() >= 8, "{name}: talking");
+            assert!(bumps >= 3, "{name}: {bumps} bumps");
+            let waves_end = motion.waves.iter().map(|w| match w.envelope {
+                Envelope::Window { end, .. } => end,
+                Envelope::Modulated { .. } => f64::INFINITY,
+            });
+            assert!(waves_end.fold(0.0, f64::max) <= 605.0);
+            assert!(gaze.yaw.abs() <= 60f64.to_radians() * user.amplitude.max(1.0));
+            assert!(gaze.roll.abs() <= 8f64.to_radians() + 1e-12);
+        }
+    }
+}

@@ -1,7 +1,9 @@
 //! A synthetic recording written as the `tick,volts` CSV: a scripted
 //! user on the sensor model (with noise, hum, drift and spikes as asked),
 //! or a simulated person with known breathing (a breather) in ordinary
-//! use or following the calibration protocol, with the truth beside it.
+//! use or following the calibration protocol, with the truth beside it;
+//! or a simulated IMU user's head motion as the IMU CSV
+//! (`tick,ax,ay,az,gx,gy,gz`), with its truth.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -10,14 +12,19 @@ use anyhow::Context;
 use serde::Serialize;
 
 use crate::config::Config;
+use crate::control::Tick;
 use crate::control::mode::Mode;
 use crate::fit::protocol::Protocol;
 use crate::sim::breather::{Breather, Session, practice_session, protocol_session};
+use crate::sim::head_gesture::GestureName;
+use crate::sim::imu_session::{self, ImuSession, TrueGesture, ordinary_session, use_session};
+use crate::sim::imu_user::ImuUser;
 use crate::sim::script::{
     demo_script, outputs_session, parse_sequences, random_session, sequences_script,
 };
 use crate::sim::sensor_model::{Crossings, SignalGenerator, SignalParams, write_csv};
-use crate::tools::output_file::create;
+use crate::tools::imu_csv::write_imu_csv;
+use crate::tools::output_file::{create, write_whole};
 
 /// Whose signal to write.
 #[derive(Debug, Clone)]
@@ -38,6 +45,37 @@ pub enum Who {
         session: BreatherSession,
         /// Where to write the truth as JSON, if asked.
         truth: Option<PathBuf>,
+    },
+    /// A simulated person wearing a head IMU: the output is the IMU CSV.
+    ImuUser {
+        /// Who (at the sample rate to write).
+        user: ImuUser,
+        /// What they do.
+        session: ImuSessionKind,
+        /// The gestures they make, in order.
+        gestures: Vec<GestureName>,
+        /// Where to write the truth as JSON, if asked.
+        truth: Option<PathBuf>,
+    },
+}
+
+/// What a simulated IMU user does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ImuSessionKind {
+    /// The recording protocol: rest, 5 examples of each gesture, 60 s of
+    /// ordinary movement.
+    Protocol,
+    /// Ordinary use, this many minutes: gestures now and then among
+    /// long stretches of ordinary movement.
+    Use {
+        /// The session's length, min.
+        minutes: u32,
+    },
+    /// Ordinary movement alone, this many minutes.
+    Ordinary {
+        /// The session's length, min.
+        minutes: u32,
     },
 }
 
@@ -103,6 +141,12 @@ pub fn generate(
             session,
             truth,
         } => return generate_breather(config, breather, session, truth.as_deref(), seed, out, say),
+        Who::ImuUser {
+            user,
+            session,
+            gestures,
+            truth,
+        } => return generate_imu(user, *session, gestures, truth.as_deref(), seed, out, say),
     };
     let params = SignalParams::clean(config.core().detector(), seed)
         .with_noise(disturbances.noise_volts)
@@ -224,4 +268,108 @@ fn write_truth<B: Serialize>(
         path.display()
     ));
     Ok(())
+}
+
+/// An IMU user's session as the IMU CSV, and its truth; each file
+/// written whole or not at all.
+fn generate_imu(
+    user: &ImuUser,
+    kind: ImuSessionKind,
+    gestures: &[GestureName],
+    truth: Option<&Path>,
+    seed: u64,
+    out: &Path,
+    say: &dyn Fn(&str),
+) -> anyhow::Result<()> {
+    let session = match kind {
+        ImuSessionKind::Protocol => imu_session::protocol_session(user, gestures, seed),
+        ImuSessionKind::Use { minutes } => use_session(user, gestures, minutes, seed),
+        ImuSessionKind::Ordinary { minutes } => ordinary_session(user, minutes, seed),
+    };
+    write_whole(out, |writer| {
+        Ok(write_imu_csv(writer, session.channels, &session.samples)?)
+    })?;
+    let seconds = session.samples.last().map_or(0, |(tick, _)| *tick) as f64 / 1000.0;
+    say(&format!(
+        "wrote {} samples ({seconds:.1} s at {} Hz) to {}",
+        session.samples.len(),
+        user.rate_hz,
+        out.display()
+    ));
+    if let Some(path) = truth {
+        write_whole(path, |writer| {
+            let truth = imu_truth(user, kind, gestures, seed, &session);
+            serde_json::to_writer_pretty(&mut *writer, &truth)?;
+            Ok(writeln!(writer)?)
+        })?;
+        say(&format!(
+            "wrote the truth of {} gestures and {} stretch(es) of ordinary movement to {}",
+            session.truth.len(),
+            session.ordinary.len(),
+            path.display()
+        ));
+    }
+    Ok(())
+}
+
+/// `--truth`'s JSON for an IMU user: who, what was asked, and where each
+/// gesture and stretch of ordinary movement truly lies.
+#[derive(Serialize)]
+pub struct ImuTruth<'a> {
+    /// The user's true parameters.
+    pub user: &'a ImuUser,
+    /// The session asked for.
+    pub session: ImuSessionKind,
+    /// The gestures asked for, in order.
+    pub asked: &'a [GestureName],
+    /// The seed.
+    pub seed: u64,
+    /// The channels in the CSV (`ax,ay,az,gx,gy,gz`).
+    pub channels: String,
+    /// Samples in the CSV.
+    pub samples: usize,
+    /// The last sample's tick, ms.
+    pub last_tick: Tick,
+    /// Every gesture made: `name`, `example` (from 1), `start` and `end`
+    /// ticks (its first move's start and its last move's end).
+    pub gestures: &'a [TrueGesture],
+    /// The stretches of ordinary movement, `[start, end)` ticks.
+    pub ordinary: Vec<Stretch>,
+    /// The gyro's constant bias this session, rad/s, x y z.
+    pub gyro_bias: [f64; 3],
+}
+
+/// A stretch of ordinary movement, ticks.
+#[derive(Serialize)]
+pub struct Stretch {
+    /// First tick.
+    pub start: Tick,
+    /// The tick after the last.
+    pub end: Tick,
+}
+
+/// The truth of `session`.
+pub fn imu_truth<'a>(
+    user: &'a ImuUser,
+    session: ImuSessionKind,
+    asked: &'a [GestureName],
+    seed: u64,
+    made: &'a ImuSession,
+) -> ImuTruth<'a> {
+    ImuTruth {
+        user,
+        session,
+        asked,
+        seed,
+        channels: made.channels.to_string(),
+        samples: made.samples.len(),
+        last_tick: made.samples.last().map_or(0, |(tick, _)| *tick),
+        gestures: &made.truth,
+        ordinary: made
+            .ordinary
+            .iter()
+            .map(|&(start, end)| Stretch { start, end })
+            .collect(),
+        gyro_bias: made.gyro_bias,
+    }
 }

@@ -424,3 +424,93 @@ fn missing_devices_and_wrong_forms_are_clear_errors() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("evdev:name=SUBSTRING"));
 }
+
+#[test]
+fn generate_writes_an_imu_users_protocol_and_its_truth() {
+    use sipnpuff::control::imu::Channels;
+    use sipnpuff::tools::imu_csv::read_imu_csv;
+
+    let dir = Scratch::new();
+    let (csv, truth) = (dir.join("imu.csv"), dir.join("truth.json"));
+    let out = sipnpuff(&[
+        "generate",
+        "--imu-user",
+        "tremor",
+        "--gestures",
+        "nod,tilt_left",
+        "--rate-hz",
+        "50",
+        "--seed",
+        "4",
+        "--out",
+        csv.to_str().unwrap(),
+        "--truth",
+        truth.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let recording = read_imu_csv(&csv).unwrap();
+    assert_eq!(recording.channels, Channels::ALL);
+    assert!(recording.samples.windows(2).all(|w| w[1].0 - w[0].0 == 20));
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&truth).unwrap()).unwrap();
+    assert_eq!(truth["user"]["name"], "tremor");
+    assert_eq!(truth["user"]["rate_hz"], 50);
+    assert_eq!(truth["session"], "protocol");
+    assert_eq!(truth["asked"], serde_json::json!(["nod", "tilt_left"]));
+    assert_eq!(truth["samples"], recording.samples.len());
+    let gestures = truth["gestures"].as_array().unwrap();
+    assert_eq!(gestures.len(), 10);
+    assert_eq!(gestures[5]["name"], "tilt_left");
+    assert_eq!(gestures[5]["example"], 1);
+    let ordinary = &truth["ordinary"][0];
+    let length = ordinary["end"].as_u64().unwrap() - ordinary["start"].as_u64().unwrap();
+    assert!(length >= 60_000, "{ordinary}");
+    // Only the two files: nothing partial left beside them.
+    assert_eq!(std::fs::read_dir(&*dir).unwrap().count(), 2);
+
+    let e = refused(&["generate", "--imu-user", "nobody", "--out", "/dev/null"]);
+    assert!(
+        e.contains("no IMU user \"nobody\": one of typical, slow_small, fast_large, tremor, wheelchair, drifting"),
+        "{e}"
+    );
+    let e = refused(&[
+        "generate",
+        "--imu-user",
+        "typical",
+        "--gestures",
+        "nod,wave",
+        "--out",
+        "/dev/null",
+    ]);
+    assert!(
+        e.contains("no gesture \"wave\": one of nod, double_nod,"),
+        "{e}"
+    );
+    let e = refused(&[
+        "generate",
+        "--imu-user",
+        "typical",
+        "--breather",
+        "typical",
+        "--out",
+        "/dev/null",
+    ]);
+    assert!(e.contains("cannot be used with"), "{e}");
+    let long = [
+        "generate",
+        "--imu-user",
+        "typical",
+        "--session",
+        "use",
+        "--minutes",
+        "1000",
+    ];
+    let out = sipnpuff(&[&long[..], &["--rate-hz", "1000", "--out", "/dev/null"]].concat());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert_exit(out.status, &e, 2, "a session too long to hold");
+    assert!(e.contains("is 60000000 samples: at most 8640000"), "{e}");
+}
