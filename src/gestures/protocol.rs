@@ -122,12 +122,12 @@ pub fn cut(
                 if k == 0 {
                     if rest + slack_ms < BETWEEN_GESTURES_MS {
                         let before = gestures.get(g.wrapping_sub(1)).map_or("", |n| n.as_str());
-                        return Err(hint(ProtocolError(format!(
+                        return Err(ProtocolError(format!(
                             "gesture '{name}': its first example at {} follows '{before}' after {} of rest; the protocol rests at least {} between gestures (a movement of '{before}' too many?)",
                             s(span.start - first),
                             s(rest),
                             s(BETWEEN_GESTURES_MS)
-                        ))));
+                        )));
                     }
                 } else if rest > BETWEEN_EXAMPLES_MS.1 + slack_ms {
                     let next_name = gestures.get(g + 1);
@@ -142,12 +142,12 @@ pub fn cut(
                         s(end - first)
                     ))));
                 } else if rest + slack_ms < BETWEEN_EXAMPLES_MS.0 {
-                    return Err(hint(ProtocolError(format!(
+                    return Err(ProtocolError(format!(
                         "gesture '{name}': examples {} and {example} are {} apart at {}; the protocol rests 1.5–3 s between examples (one movement seen as two?)",
                         example - 1,
                         s(rest),
                         s(end - first)
-                    ))));
+                    )));
                 }
             }
             *slot = next;
