@@ -65,6 +65,12 @@ fn cost(a: &Frame, b: &Frame) -> f64 {
     f64::from(sum)
 }
 
+/// The lesser of two sums of costs (never NaN: frames are finite), as
+/// one `minsd`: `f64::min`'s NaN handling lengthens the loop's chain.
+fn least(x: f64, y: f64) -> f64 {
+    if x < y { x } else { y }
+}
+
 /// The frame of `b` (length `m`) on the diagonal at row `i` of `a`
 /// (length `n`), and the band's half-width widened to the slope.
 fn diagonal(i: usize, n: usize, m: usize) -> usize {
@@ -127,10 +133,10 @@ pub fn dtw_distance(a: &[Frame], b: &[Frame], band: usize, abandon_above: f64) -
         let mut row_min = f64::INFINITY;
         for (((y, &d_diag), &d_up), slot) in row_b.iter().zip(diag).zip(up).zip(out) {
             let d = cost(x, y);
-            let value = (d_diag + 2.0 * d).min(d_up + d).min(left + d);
+            let value = least(least(d_diag + 2.0 * d, d_up + d), left + d);
             *slot = value;
             left = value;
-            row_min = row_min.min(value);
+            row_min = least(row_min, value);
         }
         if row_min > bound {
             return f64::INFINITY;
