@@ -39,7 +39,8 @@ pub struct GestureConfig {
     /// tracked only at rest (2000).
     pub rest_tracking_ms: u32,
     /// Half-width of the Sakoe–Chiba band as a fraction of the template's
-    /// length (0.1; at least one frame). Uniform speed differences are
+    /// length (0.08: ±4 frames, ±200 ms, on the longest; at least one
+    /// frame). Uniform speed differences are
     /// taken up by the band following the diagonal; the band is for the
     /// uneven ones.
     pub band_fraction: f64,
@@ -60,7 +61,7 @@ impl Default for GestureConfig {
             min_ms: 200,
             max_ms: 2400,
             rest_tracking_ms: 2000,
-            band_fraction: 0.1,
+            band_fraction: 0.08,
             ambiguity_margin: 0.1,
         }
     }
