@@ -22,6 +22,13 @@
 //! * `replay/*`: `sipnpuff replay` end to end on 60 s of noisy recording
 //!   (CSV parsing, core, simulated arm, JSON events to a sink) against the
 //!   core alone and the CSV reading alone on the same samples.
+//! * `gesture/*`: the tick that classifies a segment (`Recognizer::step`
+//!   on the tick its end is confirmed), with 10 gestures × 5 templates:
+//!   `classify_worst_case`, a segment of `MAX_FRAMES` frames against 50
+//!   templates as long, each nearer than the one before so LB_Keogh
+//!   prunes none and no DTW abandons; `classify_typical`, a nod against
+//!   examples of ten head gestures; against `step_at_rest`, one tick
+//!   with nothing to classify.
 //! * `design/*`: `design --check`'s analysis of a library for the study's
 //!   user (the built-in 9 entries; 12 entries with prefixes), against one
 //!   simulated participant doing the study's first task (the unit a
@@ -438,8 +445,114 @@ fn design(c: &mut Criterion) {
     group.finish();
 }
 
+/// A recognizer one tick before it classifies the segment of `samples`
+/// (stepping every tick, samples held), and that tick.
+fn primed(
+    recognizer: &sipnpuff::control::gesture::Recognizer,
+    samples: &[(u64, sipnpuff::control::imu::ImuSample)],
+) -> (sipnpuff::control::gesture::Recognizer, u64) {
+    let mut probe = recognizer.clone();
+    let mut next = samples.iter().peekable();
+    let mut held = Vec::new();
+    let last = samples.last().map_or(0, |s| s.0);
+    let end = (0..=last)
+        .find(|&tick| {
+            let sample = next.next_if(|s| s.0 == tick).map(|s| s.1);
+            held.push(sample);
+            probe.step(tick, sample.as_ref()).is_some()
+        })
+        .expect("the recording holds a segment");
+    let mut primed = recognizer.clone();
+    for (tick, sample) in held.iter().enumerate().take(end as usize) {
+        primed.step(tick as u64, sample.as_ref());
+    }
+    (primed, end)
+}
+
+fn gesture(c: &mut Criterion) {
+    use criterion::BatchSize;
+    use sipnpuff::control::gesture::{
+        GestureConfig, GestureId, GestureTemplates, MAX_FRAMES, Recognizer, segments,
+    };
+    use sipnpuff::sim::head::{Head, HeadScript, Move, Noise, example_templates, ten_gestures};
+
+    let config = GestureConfig {
+        max_ms: GestureConfig::default().frame_ms * MAX_FRAMES as u32,
+        ..GestureConfig::default()
+    };
+    let mut group = c.benchmark_group("gesture");
+
+    // Worst case: a segment of MAX_FRAMES frames (a slow tilt's,
+    // stretched) against 50 templates as long, each a little nearer than
+    // the one before: LB_Keogh prunes none and no DTW abandons. Timed as
+    // `classify` (the classifying tick is this plus one segmenter step,
+    // `step_at_rest`).
+    let tilt = Move::new(Head::TiltLeft).varied(0.3, 1.5).held(0);
+    let script = HeadScript::new().rest(1000).then(tilt).rest(1000);
+    let cut = segments(&config, script.samples(10, Noise::TYPICAL, 3));
+    let frames = &cut.first().expect("a segment").frames;
+    let query: Vec<_> = (0..MAX_FRAMES)
+        .map(|i| frames[i * frames.len() / MAX_FRAMES])
+        .collect();
+    let mut templates = GestureTemplates::new();
+    for k in 0..50u8 {
+        let offset = 0.5 - 0.009 * f32::from(k);
+        let shifted: Vec<_> = query
+            .iter()
+            .map(|f| {
+                let mut f = *f;
+                f[0] += offset;
+                f
+            })
+            .collect();
+        templates.add(GestureId(k / 5), &shifted).unwrap();
+    }
+    for g in 0..10 {
+        templates.set_threshold(GestureId(g), 1.0);
+    }
+    let worst = Recognizer::new(config, templates).unwrap();
+    eprintln!(
+        "gesture: worst case: {} frames against 50 × {} (a tilt's segment: {} frames)",
+        query.len(),
+        MAX_FRAMES,
+        frames.len()
+    );
+    group.bench_function("classify_worst_case", |b| {
+        b.iter(|| black_box(worst.classify(black_box(&query))))
+    });
+
+    // Typical: a nod against examples of ten head gestures.
+    let set = example_templates(&config, &ten_gestures(), 5, 0.6, 500);
+    let typical = Recognizer::new(config, set).unwrap();
+    let script = HeadScript::new()
+        .rest(1000)
+        .then(Move::new(Head::Nod))
+        .rest(1000);
+    let samples = script.samples(10, Noise::TYPICAL, 4);
+    let (primed_typical, end) = primed(&typical, &samples);
+    group.bench_function("classify_typical", |b| {
+        b.iter_batched_ref(
+            || primed_typical.clone(),
+            |r| black_box(r.step(end, None)),
+            BatchSize::SmallInput,
+        )
+    });
+
+    let mut at_rest = typical.clone();
+    let mut tick = 0u64;
+    let still = samples[0].1;
+    group.bench_function("step_at_rest", |b| {
+        b.iter(|| {
+            tick += 1;
+            black_box(at_rest.step(tick, Some(black_box(&still))))
+        })
+    });
+    group.finish();
+}
+
 criterion_group!(
     benches,
+    gesture,
     design,
     per_sample,
     matcher_per_burst,

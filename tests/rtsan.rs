@@ -92,6 +92,54 @@ fn control_loop_ticks_driving_the_computer_and_the_home_are_realtime_safe() {
     assert_eq!(run.stop_reason, StopReason::SensorEnded, "{run:?}");
 }
 
+/// The gesture front end (10 gestures × 5 templates) over 40 s of head
+/// gestures, looking around and too-long holds, each `step` marked as a
+/// real-time region: under RTSan any allocation, free or lock in a tick
+/// aborts; here the counting allocator sees none.
+#[test]
+fn gesture_ticks_are_realtime_safe() {
+    use sipnpuff::control::gesture::{GestureConfig, GestureEvent, Recognizer};
+    use sipnpuff::rt::alloc_counter::thread_allocations;
+    use sipnpuff::sim::head::{Head, HeadScript, Move, Noise, example_templates, ten_gestures};
+
+    let config = GestureConfig::default();
+    let gestures = ten_gestures();
+    let templates = example_templates(&config, &gestures, 5, 0.6, 500);
+    let mut recognizer = Recognizer::new(config, templates).unwrap();
+    let mut script = HeadScript::new().rest(1000);
+    for round in 0..2 {
+        for m in gestures {
+            let speed = 0.9 + 0.2 * round as f64;
+            script = script
+                .then(m.varied(m.speed * speed, m.amplitude))
+                .rest(600);
+        }
+        script = script
+            .then(Move::new(Head::LookAround))
+            .rest(500)
+            .then(Move::new(Head::LookDown).held(3000))
+            .rest(800);
+    }
+    let samples = script.samples(10, Noise::TYPICAL, 78);
+    let mut next = samples.iter().peekable();
+    let (mut recognised, mut rejected) = (0, 0);
+    let before = thread_allocations();
+    for tick in 0..=script.length_ms() {
+        let sample = next.next_if(|s| s.0 == tick).map(|s| &s.1);
+        let event = {
+            let _realtime = rtsan_standalone::ScopedSanitizeRealtime::default();
+            recognizer.step(tick, sample)
+        };
+        match event {
+            Some(GestureEvent::Recognised { .. }) => recognised += 1,
+            Some(GestureEvent::Rejected { .. }) => rejected += 1,
+            None => {}
+        }
+    }
+    assert_eq!(thread_allocations() - before, 0);
+    assert!(recognised >= 10 && rejected >= 2, "{recognised} {rejected}");
+}
+
 /// A tick that does the core's work and then formats a log line, the kind
 /// of slip a code review can miss. Run only as a child of
 /// `rtsan_catches_an_allocating_tick`.

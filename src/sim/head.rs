@@ -16,6 +16,7 @@ use rand_distr::{Distribution, StandardNormal};
 
 use crate::control::Tick;
 use crate::control::gesture::features::GRAVITY;
+use crate::control::gesture::{GestureConfig, GestureId, GestureTemplates, segments};
 use crate::control::imu::ImuSample;
 
 /// A kind of head movement.
@@ -260,6 +261,57 @@ impl HeadScript {
             })
             .collect()
     }
+}
+
+/// Ten gestures: the seven kinds, then a nod, a shake and a tilt made
+/// larger and slower (a second set of gestures for the same person).
+pub fn ten_gestures() -> [Move; 10] {
+    let big = |head| Move::new(head).varied(0.7, 1.8);
+    [
+        Move::new(Head::Nod),
+        Move::new(Head::Shake),
+        Move::new(Head::TiltLeft),
+        Move::new(Head::TiltRight),
+        Move::new(Head::LookUp),
+        Move::new(Head::LookDown),
+        Move::new(Head::TurnLeft),
+        big(Head::Nod),
+        big(Head::Shake),
+        big(Head::TiltLeft).held(300),
+    ]
+}
+
+/// A template set: `per_gesture` examples of each of `moves` (gesture
+/// `i` is `moves[i]`), their speed and amplitude spread over ±30 %, each
+/// cut from its own noisy recording by [`segments`]; every threshold
+/// `threshold`.
+pub fn example_templates(
+    config: &GestureConfig,
+    moves: &[Move],
+    per_gesture: usize,
+    threshold: f64,
+    seed: u64,
+) -> GestureTemplates {
+    let mut set = GestureTemplates::new();
+    for (id, m) in moves.iter().enumerate() {
+        let gesture = GestureId(id as u8);
+        for k in 0..per_gesture {
+            let spread = if per_gesture > 1 {
+                -0.3 + 0.6 * k as f64 / (per_gesture - 1) as f64
+            } else {
+                0.0
+            };
+            let example = m.varied(m.speed * (1.0 + spread), m.amplitude * (1.0 - spread));
+            let script = HeadScript::new().rest(1000).then(example).rest(1000);
+            let samples = script.samples(10, Noise::TYPICAL, seed + (id * 100 + k) as u64);
+            for segment in segments(config, samples).iter().take(1) {
+                set.add(gesture, &segment.frames)
+                    .expect("a gesture's example is a valid template");
+            }
+        }
+        set.set_threshold(gesture, threshold);
+    }
+    set
 }
 
 fn normal(rng: &mut ChaCha8Rng) -> f64 {

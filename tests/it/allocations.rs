@@ -112,3 +112,56 @@ fn generator_never_allocates() {
     assert_eq!(thread_allocations() - before, 0);
     assert!(sum > 0.0);
 }
+
+/// The gesture front end with 10 gestures × 5 templates over 80 s of
+/// gestures, looking around, twitches and too-long holds: no allocation
+/// in `Recognizer::step`, and both verdicts happen.
+#[test]
+fn gesture_step_never_allocates() {
+    use sipnpuff::control::gesture::{GestureConfig, GestureEvent, Recognizer, RejectReason};
+    use sipnpuff::sim::head::{Head, HeadScript, Move, Noise, example_templates, ten_gestures};
+
+    let config = GestureConfig::default();
+    let gestures = ten_gestures();
+    let templates = example_templates(&config, &gestures, 5, 0.6, 500);
+    assert_eq!(templates.len(), 50);
+    let mut recognizer = Recognizer::new(config, templates).unwrap();
+    let mut script = HeadScript::new().rest(1000);
+    for round in 0..4 {
+        for m in gestures {
+            let speed = 0.8 + 0.1 * round as f64;
+            script = script
+                .then(m.varied(m.speed * speed, m.amplitude))
+                .rest(600);
+        }
+        script = script
+            .then(Move::new(Head::LookAround))
+            .rest(500)
+            .then(Move::new(Head::Twitch))
+            .rest(500)
+            .then(Move::new(Head::LookDown).held(3000))
+            .rest(800);
+    }
+    assert!(script.length_ms() >= 60_000, "{} ms", script.length_ms());
+    let samples = script.samples(10, Noise::TYPICAL, 77);
+
+    let (mut recognised, mut rejected, mut too_long) = (0, 0, 0);
+    let mut next = samples.iter().peekable();
+    let before = thread_allocations();
+    for tick in 0..=script.length_ms() {
+        let sample = next.next_if(|s| s.0 == tick).map(|s| &s.1);
+        match recognizer.step(tick, sample) {
+            Some(GestureEvent::Recognised { .. }) => recognised += 1,
+            Some(GestureEvent::Rejected { why, .. }) => {
+                rejected += 1;
+                too_long += usize::from(why == RejectReason::TooLong);
+            }
+            None => {}
+        }
+    }
+    assert_eq!(thread_allocations() - before, 0);
+    assert!(
+        recognised >= 20 && rejected >= 4 && too_long >= 1,
+        "{recognised} recognised, {rejected} rejected ({too_long} too long)"
+    );
+}

@@ -8,9 +8,10 @@ use crate::control::gesture::features::MAX_FRAMES;
 /// [`Recognizer`](super::Recognizer).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GestureConfig {
-    /// Length of one frame, ms (40: 25 frames a second, well above a head
-    /// gesture's 0.5–3 Hz; the mean over 40 ms damps vibration at 25 Hz
-    /// and above, and 2.5 s fit in [`MAX_FRAMES`]).
+    /// Length of one frame, ms (50: 20 frames a second, well above a head
+    /// gesture's 0.5–3.5 Hz; the mean over 50 ms damps vibration at 20 Hz
+    /// and above; 2.4 s fit in [`MAX_FRAMES`], and the worst classifying
+    /// tick stays within its budget).
     pub frame_ms: u32,
     /// A segment starts when the angular rate's magnitude (bias removed)
     /// exceeds this, rad/s (0.6: a deliberate nod peaks at 1.5–3 rad/s;
@@ -30,14 +31,16 @@ pub struct GestureConfig {
     /// Segments shorter than this, ms, are ignored as twitches (200).
     pub min_ms: u32,
     /// Segments longer than this, ms, end as too long and are rejected;
-    /// the next starts only after rest (2500, at most
+    /// the next starts only after rest (2400: a tilt held 1.5 s with its
+    /// 0.3 s ramps fits; at most
     /// `MAX_FRAMES · frame_ms`).
     pub max_ms: u32,
     /// Time constant of the rest estimate (gyro bias, gravity), ms,
     /// tracked only at rest (2000).
     pub rest_tracking_ms: u32,
     /// Half-width of the Sakoe–Chiba band as a fraction of the template's
-    /// length (0.1; at least one frame). Uniform speed differences are
+    /// length (0.08: ±4 frames, ±200 ms, on the longest; at least one
+    /// frame). Uniform speed differences are
     /// taken up by the band following the diagonal; the band is for the
     /// uneven ones.
     pub band_fraction: f64,
@@ -50,15 +53,15 @@ pub struct GestureConfig {
 impl Default for GestureConfig {
     fn default() -> Self {
         GestureConfig {
-            frame_ms: 40,
+            frame_ms: 50,
             motion_on_rad_s: 0.6,
             motion_off_rad_s: 0.3,
             hold_tilt_rad: 0.12,
             rest_ms: 200,
             min_ms: 200,
-            max_ms: 2500,
+            max_ms: 2400,
             rest_tracking_ms: 2000,
-            band_fraction: 0.1,
+            band_fraction: 0.08,
             ambiguity_margin: 0.1,
         }
     }

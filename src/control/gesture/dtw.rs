@@ -65,6 +65,12 @@ fn cost(a: &Frame, b: &Frame) -> f64 {
     f64::from(sum)
 }
 
+/// The lesser of two sums of costs (never NaN: frames are finite), as
+/// one `minsd`: `f64::min`'s NaN handling lengthens the loop's chain.
+fn least(x: f64, y: f64) -> f64 {
+    if x < y { x } else { y }
+}
+
 /// The frame of `b` (length `m`) on the diagonal at row `i` of `a`
 /// (length `n`), and the band's half-width widened to the slope.
 fn diagonal(i: usize, n: usize, m: usize) -> usize {
@@ -94,39 +100,50 @@ pub fn dtw_distance(a: &[Frame], b: &[Frame], band: usize, abandon_above: f64) -
     let weight = (n + m) as f64;
     let bound = abandon_above * abandon_above * weight;
     let band = effective_band(band, n, m);
-    let mut prev = [f64::INFINITY; MAX_FRAMES];
-    let mut cur = [f64::INFINITY; MAX_FRAMES];
+    // Rows of the cumulative cost, shifted by one: slot `j + 1` is column
+    // `j`, slot 0 the column before the first (∞, but 0 diagonally before
+    // the first cell so that it weighs 2·cost). Slots a row does not
+    // write are ∞ or older than what the next row reads (see below).
+    let mut prev = [f64::INFINITY; MAX_FRAMES + 1];
+    let mut cur = [f64::INFINITY; MAX_FRAMES + 1];
+    if let Some(start) = prev.first_mut() {
+        *start = 0.0;
+    }
     for (i, x) in a.iter().enumerate() {
         let center = diagonal(i, n, m);
         let lo = center.saturating_sub(band);
         let hi = (center + band).min(m - 1);
-        cur.fill(f64::INFINITY);
-        let mut row_min = f64::INFINITY;
-        let mut left = f64::INFINITY;
-        for (j, y) in b.iter().enumerate().take(hi + 1).skip(lo) {
-            let d = cost(x, y);
-            let value = if i == 0 && j == 0 {
-                2.0 * d
-            } else {
-                let diag = match j.checked_sub(1) {
-                    Some(k) => prev.get(k).copied().unwrap_or(f64::INFINITY),
-                    None => f64::INFINITY,
-                };
-                let up = prev.get(j).copied().unwrap_or(f64::INFINITY);
-                (diag + 2.0 * d).min(up + d).min(left + d)
-            };
-            if let Some(slot) = cur.get_mut(j) {
-                *slot = value;
+        // The next row reads slots lo' ..= hi' + 1 with lo' ≥ lo: slot lo
+        // and slot hi + 2 are written ∞ here; slots beyond were never
+        // written by a row with a lower `hi`.
+        for edge in [lo, hi + 2] {
+            if let Some(slot) = cur.get_mut(edge) {
+                *slot = f64::INFINITY;
             }
+        }
+        let (Some(row_b), Some(diag), Some(up), Some(out)) = (
+            b.get(lo..=hi),
+            prev.get(lo..=hi),
+            prev.get(lo + 1..=hi + 1),
+            cur.get_mut(lo + 1..=hi + 1),
+        ) else {
+            return f64::INFINITY;
+        };
+        let mut left = f64::INFINITY;
+        let mut row_min = f64::INFINITY;
+        for (((y, &d_diag), &d_up), slot) in row_b.iter().zip(diag).zip(up).zip(out) {
+            let d = cost(x, y);
+            let value = least(least(d_diag + 2.0 * d, d_up + d), left + d);
+            *slot = value;
             left = value;
-            row_min = row_min.min(value);
+            row_min = least(row_min, value);
         }
         if row_min > bound {
             return f64::INFINITY;
         }
         std::mem::swap(&mut prev, &mut cur);
     }
-    let total = prev.get(m - 1).copied().unwrap_or(f64::INFINITY);
+    let total = prev.get(m).copied().unwrap_or(f64::INFINITY);
     (total / weight).sqrt()
 }
 

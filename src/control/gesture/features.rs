@@ -26,9 +26,9 @@ use crate::control::imu::{CHANNELS, ImuSample};
 /// deviation x, y, z.
 pub const FEATURES: usize = 6;
 
-/// Most frames a segment or template holds: 64 (2.56 s at the default
-/// 40 ms frames), which bounds the classifying tick's work.
-pub const MAX_FRAMES: usize = 64;
+/// Most frames a segment or template holds: 48 (2.4 s at the default
+/// 50 ms frames), which bounds the classifying tick's work.
+pub const MAX_FRAMES: usize = 48;
 
 /// One frame of features (see the module's documentation).
 pub type Frame = [f32; FEATURES];
