@@ -60,6 +60,16 @@ pub fn gestures(command: GesturesCommand) -> anyhow::Result<u8> {
     let (check, json) = match command {
         GesturesCommand::Record(args) => {
             let recorded = invalid(record_from(&args.from, &args.gestures, &args.out))?;
+            let names: Vec<String> = recorded
+                .recorded
+                .set
+                .gestures
+                .iter()
+                .map(|g| g.name.clone())
+                .collect();
+            for line in report::choices(&names, &recorded.recorded.choices) {
+                note!("{line}");
+            }
             note!("wrote the gesture set to {}", args.out.display());
             (recorded.check, args.json)
         }

@@ -136,7 +136,7 @@ pub fn choices(names: &[String], choices: &[Choice]) -> Vec<String> {
                 String::new()
             };
             format!(
-                "{name}: threshold {:.3} (its examples within {:.3} of each other; {ordinary}){left_out}",
+                "{name}: threshold {:.3} (each of its examples within {:.3} of another; {ordinary}){left_out}",
                 c.threshold, c.own_max
             )
         })

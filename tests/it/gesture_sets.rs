@@ -136,7 +136,10 @@ fn a_set_is_recorded_and_checked_from_the_command_line() {
     assert!(stderr.contains("wrote the gesture set to"), "{stderr}");
     let first = stdout.lines().next().unwrap_or_default();
     assert!(first.starts_with("leave-one-out: "), "{stdout}");
-    assert!(first.contains("/30 examples recognised as themselves ("), "{stdout}");
+    assert!(
+        first.contains("/30 examples recognised as themselves ("),
+        "{stdout}"
+    );
     let written = std::fs::read_to_string(&set).unwrap();
     assert!(
         written.starts_with("# sipnpuff gesture set: 6 gestures × 5 examples from "),
