@@ -143,8 +143,10 @@ impl File {
     /// checked against (is it known, what replaces a wrong value). Keys
     /// unset by default are there with a value of their kind.
     pub(super) fn sample() -> toml::Value {
-        let mut sample = toml::Value::try_from(File::default())
-            .unwrap_or_else(|_| toml::Value::Table(toml::Table::new()));
+        let mut file = File::default();
+        file.output.mqtt.credentials_file = Some(std::path::PathBuf::from("credentials.toml"));
+        let mut sample =
+            toml::Value::try_from(file).unwrap_or_else(|_| toml::Value::Table(toml::Table::new()));
         if let Some(toml::Value::Table(detector)) = sample.get_mut("detector") {
             let shared = detector.get("hysteresis_volts").cloned();
             if let Some(value) = shared {

@@ -145,3 +145,13 @@ fn the_ethernet_and_timeout_keys_are_read_and_checked() {
         assert!(keys.contains(&key), "{key} in {keys:?}");
     }
 }
+
+#[test]
+fn an_unknown_key_lists_the_optional_keys_too() {
+    assert_eq!(
+        problems("[output.mqtt]\nhost = \"broker\"\ncolour = 1\n"),
+        [
+            "output.mqtt.colour: unknown key (known: host, port, prefix, credentials_file, tls, device_id, max_delay_ms)"
+        ]
+    );
+}
