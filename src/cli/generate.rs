@@ -108,12 +108,13 @@ pub struct GenerateArgs {
     #[arg(long, value_enum, default_value_t = ImuSessionArg::Protocol, requires = "imu_user")]
     session: ImuSessionArg,
     /// With `--imu-user`: the gestures, in order, comma-separated, from
-    /// nod, double_nod, shake, tilt_left, tilt_right, look_up, look_down,
-    /// turn_left, turn_right.
+    /// nod, double_nod, shake, tilt_left, tilt_right, wobble, look_up,
+    /// look_down, turn_left, turn_right (by default the first six: those
+    /// ordinary movement does not imitate).
     #[arg(
         long,
         value_name = "LIST",
-        default_value = "nod,shake,tilt_left,tilt_right,look_up,look_down",
+        default_value = "nod,double_nod,shake,tilt_left,tilt_right,wobble",
         value_parser = parse_gestures,
         requires = "imu_user"
     )]

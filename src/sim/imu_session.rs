@@ -328,29 +328,28 @@ mod tests {
     }
 
     #[test]
-    fn a_nods_gyro_integrates_to_its_amplitude_and_back_to_zero() {
+    fn a_nods_and_a_wobbles_gyro_integrate_to_their_amplitude_and_back_to_zero() {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        for user in ImuUser::all() {
-            let nod = gesture_example(GestureName::Nod, &user, &mut rng);
-            let motion = HeadMotion {
-                steps: nod.steps.clone(),
-                ..HeadMotion::default()
-            };
-            let samples = ideal(motion, nod.duration + 0.1);
-            let mut angle = 0.0;
-            let mut peak: f64 = 0.0;
-            for pair in samples.windows(2) {
-                angle += (pair[0].1[1] + pair[1].1[1]) / 2.0 / 1000.0;
-                peak = peak.max(angle.abs());
+        // The gyro's axis of each: gy for pitch, gx for roll.
+        for (name, k) in [(GestureName::Nod, 1), (GestureName::Wobble, 0)] {
+            for user in ImuUser::all() {
+                let g = gesture_example(name, &user, &mut rng);
+                let motion = HeadMotion {
+                    steps: g.steps.clone(),
+                    ..HeadMotion::default()
+                };
+                let samples = ideal(motion, g.duration + 0.1);
+                let mut angle = 0.0;
+                let mut peak: f64 = 0.0;
+                for pair in samples.windows(2) {
+                    angle += (pair[0].1[k] + pair[1].1[k]) / 2.0 / 1000.0;
+                    peak = peak.max(angle.abs());
+                }
+                let who = format!("{name}/{}", user.name);
+                assert!(angle.abs() < 1e-4, "{who}: net {angle}");
+                let relative = (peak - g.amplitude.abs()) / g.amplitude.abs();
+                assert!(relative.abs() < 0.01, "{who}: {peak} vs {}", g.amplitude);
             }
-            assert!(angle.abs() < 1e-4, "{}: net {angle}", user.name);
-            let relative = (peak - nod.amplitude.abs()) / nod.amplitude.abs();
-            assert!(
-                relative.abs() < 0.01,
-                "{}: {peak} vs {}",
-                user.name,
-                nod.amplitude
-            );
         }
     }
 
