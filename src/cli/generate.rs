@@ -16,6 +16,14 @@ use crate::tools::generate::{self, BreatherSession, Disturbances, ImuSessionKind
 /// The most samples an IMU session may have (a day at 100 Hz, ~0.5 GB
 /// in memory).
 const MAX_IMU_SAMPLES: u64 = 8_640_000;
+/// `--session use` and `ordinary`: minutes unless told.
+const DEFAULT_MINUTES: u32 = 10;
+/// `--session practice`: examples of each gesture unless told.
+const DEFAULT_PER_GESTURE: u32 = 10;
+/// The longest a practice gesture can take, s: the gesture (under 6 s),
+/// its rests (at most 3 s each) and a stretch of ordinary movement (at
+/// most 15 s).
+const PRACTICE_MOST_S: u64 = 30;
 
 /// What a simulated IMU user does (`--session`).
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -24,6 +32,10 @@ enum ImuSessionArg {
     /// (1.5–3 s apart, ≥ 3 s between gestures), then 60 s of ordinary
     /// movement.
     Protocol,
+    /// Practice: each gesture `--per-gesture` times in a shuffled order,
+    /// 1.5–3 s of rest before and after each, now and then 5–15 s of
+    /// ordinary movement between two.
+    Practice,
     /// `--minutes` of ordinary use: gestures now and then among long
     /// stretches of ordinary movement.
     Use,
@@ -107,21 +119,21 @@ pub struct GenerateArgs {
     /// With `--imu-user`: what they do.
     #[arg(long, value_enum, default_value_t = ImuSessionArg::Protocol, requires = "imu_user")]
     session: ImuSessionArg,
-    /// With `--imu-user`: the gestures, in order, comma-separated, from
-    /// nod, double_nod, shake, tilt_left, tilt_right, look_up, look_down,
-    /// turn_left, turn_right.
-    #[arg(
-        long,
-        value_name = "LIST",
-        default_value = "nod,shake,tilt_left,tilt_right,look_up,look_down",
-        value_parser = parse_gestures,
-        requires = "imu_user"
-    )]
-    gestures: Gestures,
+    /// With `--imu-user` (not `--session ordinary`): the gestures, in
+    /// order, comma-separated, from nod, double_nod, shake, tilt_left,
+    /// tilt_right, wobble, look_up, look_down, turn_left, turn_right
+    /// [default: the first six, those ordinary movement does not
+    /// imitate].
+    #[arg(long, value_name = "LIST", value_parser = parse_gestures, requires = "imu_user")]
+    gestures: Option<Gestures>,
     /// With `--session use` or `ordinary`: its length, in minutes (at
-    /// most a day, and at most 8 640 000 samples: a day at 100 Hz).
-    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=1440), requires = "imu_user")]
-    minutes: u32,
+    /// most a day, and at most 8 640 000 samples: a day at 100 Hz)
+    /// [default: 10].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1440), requires = "imu_user")]
+    minutes: Option<u32>,
+    /// With `--session practice`: examples of each gesture [default: 10].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000), requires = "imu_user")]
+    per_gesture: Option<u32>,
     /// With `--imu-user`: samples per second (ticks are whole ms, rounded).
     #[arg(long, default_value_t = ImuUser::DEFAULT_RATE_HZ, value_parser = clap::value_parser!(u32).range(1..=1000), requires = "imu_user")]
     rate_hz: u32,
@@ -159,6 +171,76 @@ fn parse_gestures(text: &str) -> Result<Gestures, String> {
     GestureName::parse_list(text).map(Gestures)
 }
 
+/// The IMU session `args` ask for; an option that does not apply to it,
+/// or a session too long to hold, is refused (exit status 2).
+fn imu_session(args: &GenerateArgs) -> anyhow::Result<ImuSessionKind> {
+    let refuse = |message: String| crate::cli::output::invalid(Err(anyhow::anyhow!(message)));
+    let session = args.session;
+    if args.minutes.is_some() && !matches!(session, ImuSessionArg::Use | ImuSessionArg::Ordinary) {
+        return refuse(format!(
+            "--minutes is for --session use or ordinary: a {} session's length is set by its \
+             gestures",
+            session.name()
+        ));
+    }
+    if args.gestures.is_some() && session == ImuSessionArg::Ordinary {
+        return refuse(
+            "--gestures is not for --session ordinary: ordinary movement makes no gesture".into(),
+        );
+    }
+    if args.per_gesture.is_some() && session != ImuSessionArg::Practice {
+        return refuse(format!(
+            "--per-gesture is for --session practice, not {}",
+            session.name()
+        ));
+    }
+    let rate = u64::from(args.rate_hz);
+    let minutes = args.minutes.unwrap_or(DEFAULT_MINUTES);
+    let per_gesture = args.per_gesture.unwrap_or(DEFAULT_PER_GESTURE);
+    let held = "(the session is held in memory)";
+    let (kind, samples, asked) = match session {
+        ImuSessionArg::Protocol => return Ok(ImuSessionKind::Protocol),
+        ImuSessionArg::Practice => {
+            let gestures = args
+                .gestures
+                .as_ref()
+                .map_or(GestureName::DEFAULT.len(), |g| g.0.len());
+            let samples = u64::from(per_gesture) * gestures as u64 * PRACTICE_MOST_S * rate;
+            let asked = format!(
+                "--per-gesture {per_gesture} of {gestures} gestures at --rate-hz {rate} is up to \
+                 {samples} samples"
+            );
+            (ImuSessionKind::Practice { per_gesture }, samples, asked)
+        }
+        ImuSessionArg::Use | ImuSessionArg::Ordinary => {
+            let samples = u64::from(minutes) * 60 * rate;
+            let asked = format!("--minutes {minutes} at --rate-hz {rate} is {samples} samples");
+            let kind = if session == ImuSessionArg::Use {
+                ImuSessionKind::Use { minutes }
+            } else {
+                ImuSessionKind::Ordinary { minutes }
+            };
+            (kind, samples, asked)
+        }
+    };
+    if samples > MAX_IMU_SAMPLES {
+        return refuse(format!("{asked}: at most {MAX_IMU_SAMPLES} {held}"));
+    }
+    Ok(kind)
+}
+
+impl ImuSessionArg {
+    /// Its name on the command line.
+    fn name(self) -> &'static str {
+        match self {
+            ImuSessionArg::Protocol => "protocol",
+            ImuSessionArg::Practice => "practice",
+            ImuSessionArg::Use => "use",
+            ImuSessionArg::Ordinary => "ordinary",
+        }
+    }
+}
+
 /// A built-in breather's name; the error lists them all.
 fn parse_breather(name: &str) -> Result<Breather, String> {
     Breather::named(name).ok_or_else(|| {
@@ -169,34 +251,19 @@ fn parse_breather(name: &str) -> Result<Breather, String> {
 
 /// Writes the recording.
 pub fn generate(args: GenerateArgs) -> anyhow::Result<()> {
-    let config = args.config.load()?;
     if let Some(ImuUserName(name)) = args.imu_user {
         let user = ImuUser::builtin(name).map_err(anyhow::Error::msg)?;
-        let samples = u64::from(args.minutes) * 60 * u64::from(args.rate_hz);
-        if args.session != ImuSessionArg::Protocol && samples > MAX_IMU_SAMPLES {
-            return crate::cli::output::invalid(Err(anyhow::anyhow!(
-                "--minutes {} at --rate-hz {} is {samples} samples: at most {MAX_IMU_SAMPLES} \
-                 (the session is held in memory)",
-                args.minutes,
-                args.rate_hz
-            )));
-        }
+        let session = imu_session(&args)?;
+        let config = args.config.load()?;
         let who = Who::ImuUser {
             user: user.at_rate(args.rate_hz),
-            session: match args.session {
-                ImuSessionArg::Protocol => ImuSessionKind::Protocol,
-                ImuSessionArg::Use => ImuSessionKind::Use {
-                    minutes: args.minutes,
-                },
-                ImuSessionArg::Ordinary => ImuSessionKind::Ordinary {
-                    minutes: args.minutes,
-                },
-            },
-            gestures: args.gestures.0,
+            session,
+            gestures: args.gestures.map_or(GestureName::DEFAULT.to_vec(), |g| g.0),
             truth: args.truth,
         };
         return generate::generate(&config, &who, args.seed, &args.out, &|line| note!("{line}"));
     }
+    let config = args.config.load()?;
     let who = match args.breather {
         Some(breather) => Who::Breather {
             breather,

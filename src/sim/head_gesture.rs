@@ -11,6 +11,7 @@
 //! |---|---|---|---|
 //! | `nod` | pitch | 15° down | down 0.25 s, up 0.30 s |
 //! | `shake` | yaw | 20° | left 0.2 s, right, left (0.35 s each, 40°), centre 0.2 s; moves overlap 20 % |
+//! | `wobble` | roll | 15° left | left 0.2 s, right 0.35 s (30°), centre 0.25 s, one after another |
 //! | `tilt_left` / `tilt_right` | roll | 20° | out 0.40 s, hold 0.3–1.2 s, back 0.45 s |
 //! | `look_up` / `look_down` | pitch | 25° | out 0.45 s, hold 0.3–1.2 s, back 0.50 s |
 //! | `turn_left` / `turn_right` | yaw | 45° | out 0.50 s, hold 0.3–1.2 s, back 0.55 s |
@@ -41,6 +42,8 @@ pub enum GestureName {
     TiltLeft,
     /// Roll right ear down, hold, back.
     TiltRight,
+    /// Roll left, right, centre: a quick head bobble.
+    Wobble,
     /// Pitch up, hold, back.
     LookUp,
     /// Pitch down, hold, back.
@@ -53,26 +56,31 @@ pub enum GestureName {
 
 impl GestureName {
     /// Every gesture.
-    pub const ALL: [GestureName; 9] = [
+    pub const ALL: [GestureName; 10] = [
         GestureName::Nod,
         GestureName::DoubleNod,
         GestureName::Shake,
         GestureName::TiltLeft,
         GestureName::TiltRight,
+        GestureName::Wobble,
         GestureName::LookUp,
         GestureName::LookDown,
         GestureName::TurnLeft,
         GestureName::TurnRight,
     ];
 
-    /// The six a session makes unless told otherwise.
+    /// The six a session makes unless told otherwise: those ordinary
+    /// movement does not imitate. Not the looks: an everyday glance up
+    /// or down (10–25° of pitch, held, back) is the same movement as
+    /// `look_up`/`look_down`, which ordinary movement set off 11–15 times
+    /// an hour; nor the turns, which a glance aside resembles.
     pub const DEFAULT: [GestureName; 6] = [
         GestureName::Nod,
+        GestureName::DoubleNod,
         GestureName::Shake,
         GestureName::TiltLeft,
         GestureName::TiltRight,
-        GestureName::LookUp,
-        GestureName::LookDown,
+        GestureName::Wobble,
     ];
 
     /// Its name: `nod`, `tilt_left`, ….
@@ -83,6 +91,7 @@ impl GestureName {
             GestureName::Shake => "shake",
             GestureName::TiltLeft => "tilt_left",
             GestureName::TiltRight => "tilt_right",
+            GestureName::Wobble => "wobble",
             GestureName::LookUp => "look_up",
             GestureName::LookDown => "look_down",
             GestureName::TurnLeft => "turn_left",
@@ -123,6 +132,7 @@ impl GestureName {
             GestureName::Shake => (Axis::Yaw, 1.0, 20.0),
             GestureName::TiltLeft => (Axis::Roll, -1.0, 20.0),
             GestureName::TiltRight => (Axis::Roll, 1.0, 20.0),
+            GestureName::Wobble => (Axis::Roll, -1.0, 15.0),
             GestureName::LookUp => (Axis::Pitch, -1.0, 25.0),
             GestureName::LookDown => (Axis::Pitch, 1.0, 25.0),
             GestureName::TurnLeft => (Axis::Yaw, 1.0, 45.0),
@@ -192,6 +202,15 @@ pub fn gesture_example(name: GestureName, user: &ImuUser, rng: &mut ChaCha8Rng) 
                     m
                 })
                 .collect()
+        }
+        // In turn, not overlapping: the head reaches each side.
+        GestureName::Wobble => {
+            let (left, right, centre) = (0.2 * time, 0.35 * time, 0.25 * time);
+            vec![
+                (0.0, left, 1.0),
+                (left, right, -2.0),
+                (left + right, centre, 1.0),
+            ]
         }
         _ => {
             let (out, back) = match axis {
@@ -271,7 +290,7 @@ mod tests {
         assert_eq!(
             GestureName::parse("wave").unwrap_err(),
             "no gesture \"wave\": one of nod, double_nod, shake, tilt_left, tilt_right, \
-             look_up, look_down, turn_left, turn_right"
+             wobble, look_up, look_down, turn_left, turn_right"
         );
         assert!(GestureName::parse_list("nod,nod").is_err());
     }

@@ -1,5 +1,6 @@
 //! A simulated IMU user's sessions, with the truth: the recording
-//! protocol ([`protocol_session`]) and ordinary use ([`use_session`]).
+//! protocol ([`protocol_session`]), practice ([`practice_session`]: many
+//! examples, to measure accuracy on) and ordinary use ([`use_session`]).
 //!
 //! A gesture's true extent: from the start of its first move to the end
 //! of its last one ([`GestureExample::duration`] later), in ms, rounded
@@ -8,6 +9,7 @@
 
 use std::f64::consts::PI;
 
+use rand::seq::SliceRandom;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -35,6 +37,15 @@ pub const ORDINARY_MS: u32 = 60_000;
 pub const USE_ORDINARY_MS: (u32, u32) = (20_000, 90_000);
 /// In ordinary use, the rest just before and after a gesture, ms (uniform).
 pub const USE_GESTURE_REST_MS: (u32, u32) = (1500, 3000);
+
+/// In practice, the rest just before and after a gesture, ms (uniform):
+/// two gestures are at least twice its low end apart, as in the protocol.
+pub const PRACTICE_REST_MS: (u32, u32) = (1500, 3000);
+/// In practice, the chance of a stretch of ordinary movement between two
+/// gestures.
+pub const PRACTICE_ORDINARY_CHANCE: f64 = 0.3;
+/// In practice, a stretch of ordinary movement, ms (uniform).
+pub const PRACTICE_ORDINARY_MS: (u32, u32) = (5000, 15_000);
 
 /// A gesture the user truly made.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -224,6 +235,38 @@ pub fn protocol_session(user: &ImuUser, gestures: &[GestureName], seed: u64) -> 
     plan.sample(user, &mut rng)
 }
 
+/// `user` practising `gestures`, seeded: each `per_gesture` times, in a
+/// shuffled order, each with [`PRACTICE_REST_MS`] of rest before and
+/// after it; between two gestures, with [`PRACTICE_ORDINARY_CHANCE`], a
+/// stretch of ordinary movement ([`PRACTICE_ORDINARY_MS`]) as well, so
+/// a gesture does not always start from the head at rest where it rests.
+/// The session ends with the last gesture's rest.
+pub fn practice_session(
+    user: &ImuUser,
+    gestures: &[GestureName],
+    per_gesture: u32,
+    seed: u64,
+) -> ImuSession {
+    let mut rng = session_rng(user, seed);
+    let mut plan = Plan::new();
+    let mut order: Vec<usize> = (0..gestures.len())
+        .flat_map(|k| std::iter::repeat_n(k, per_gesture as usize))
+        .collect();
+    order.shuffle(&mut rng);
+    let mut examples = vec![0; gestures.len()];
+    for (i, &k) in order.iter().enumerate() {
+        if i > 0 && rng.random_bool(PRACTICE_ORDINARY_CHANCE) {
+            let ms = rng.random_range(PRACTICE_ORDINARY_MS.0..=PRACTICE_ORDINARY_MS.1);
+            plan.ordinary(user, ms, &mut rng);
+        }
+        plan.rest(PRACTICE_REST_MS, &mut rng);
+        examples[k] += 1;
+        plan.gesture(user, gestures[k], examples[k], &mut rng);
+        plan.rest(PRACTICE_REST_MS, &mut rng);
+    }
+    plan.sample(user, &mut rng)
+}
+
 /// `user` in ordinary use for `minutes`, seeded: stretches of ordinary
 /// movement ([`USE_ORDINARY_MS`]), and between them one of `gestures`
 /// (in turn, from a random first) with [`USE_GESTURE_REST_MS`] of rest
@@ -328,29 +371,28 @@ mod tests {
     }
 
     #[test]
-    fn a_nods_gyro_integrates_to_its_amplitude_and_back_to_zero() {
+    fn a_nods_and_a_wobbles_gyro_integrate_to_their_amplitude_and_back_to_zero() {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        for user in ImuUser::all() {
-            let nod = gesture_example(GestureName::Nod, &user, &mut rng);
-            let motion = HeadMotion {
-                steps: nod.steps.clone(),
-                ..HeadMotion::default()
-            };
-            let samples = ideal(motion, nod.duration + 0.1);
-            let mut angle = 0.0;
-            let mut peak: f64 = 0.0;
-            for pair in samples.windows(2) {
-                angle += (pair[0].1[1] + pair[1].1[1]) / 2.0 / 1000.0;
-                peak = peak.max(angle.abs());
+        // The gyro's axis of each: gy for pitch, gx for roll.
+        for (name, k) in [(GestureName::Nod, 1), (GestureName::Wobble, 0)] {
+            for user in ImuUser::all() {
+                let g = gesture_example(name, &user, &mut rng);
+                let motion = HeadMotion {
+                    steps: g.steps.clone(),
+                    ..HeadMotion::default()
+                };
+                let samples = ideal(motion, g.duration + 0.1);
+                let mut angle = 0.0;
+                let mut peak: f64 = 0.0;
+                for pair in samples.windows(2) {
+                    angle += (pair[0].1[k] + pair[1].1[k]) / 2.0 / 1000.0;
+                    peak = peak.max(angle.abs());
+                }
+                let who = format!("{name}/{}", user.name);
+                assert!(angle.abs() < 1e-4, "{who}: net {angle}");
+                let relative = (peak - g.amplitude.abs()) / g.amplitude.abs();
+                assert!(relative.abs() < 0.01, "{who}: {peak} vs {}", g.amplitude);
             }
-            assert!(angle.abs() < 1e-4, "{}: net {angle}", user.name);
-            let relative = (peak - nod.amplitude.abs()) / nod.amplitude.abs();
-            assert!(
-                relative.abs() < 0.01,
-                "{}: {peak} vs {}",
-                user.name,
-                nod.amplitude
-            );
         }
     }
 
@@ -415,6 +457,56 @@ mod tests {
                 assert!(end - s.samples.last().unwrap().0 < 100);
             }
         }
+    }
+
+    #[test]
+    fn practice_keeps_every_rule_for_every_user() {
+        let gestures = GestureName::DEFAULT;
+        let per = 3;
+        let (mut orders, mut stretches) = (Vec::new(), 0);
+        for user in ImuUser::all() {
+            for seed in 1..=4 {
+                let s = practice_session(&user.at_rate(10), &gestures, per, seed);
+                let (t, who) = (&s.truth, format!("{}/{seed}", user.name));
+                assert_eq!(t.len(), gestures.len() * per as usize, "{who}");
+                for name in gestures {
+                    let examples: Vec<u32> = t
+                        .iter()
+                        .filter(|g| g.name == name)
+                        .map(|g| g.example)
+                        .collect();
+                    assert_eq!(examples, [1, 2, 3], "{who}: {name}");
+                }
+                let rest = |ms: Tick| (1500..=3000).contains(&ms);
+                assert!(rest(t[0].start), "{who}: first {}", t[0].start);
+                let last = s.samples.last().unwrap().0;
+                // At 10 Hz the last sample is within 100 ms of the end.
+                let end = last - t.last().unwrap().end;
+                assert!((1400..=3000).contains(&end), "{who}: ends {end} after");
+                let mut ordinary = s.ordinary.iter().peekable();
+                for pair in t.windows(2) {
+                    let (before, after) = (pair[0].end, pair[1].start);
+                    assert!(after - before >= 3000, "{who}: {before}..{after}");
+                    match ordinary.next_if(|&&(a, _)| a < after) {
+                        Some(&(a, b)) => {
+                            assert!(rest(a - before), "{who}: {before}, ordinary {a}");
+                            assert!((5000..=15_000).contains(&(b - a)), "{who}: {a}..{b}");
+                            assert!(rest(after - b), "{who}: ordinary to {b}, {after}");
+                            stretches += 1;
+                        }
+                        None => assert!(after - before <= 6000, "{who}: {before}..{after}"),
+                    }
+                }
+                assert!(ordinary.next().is_none(), "{who}: {:?}", s.ordinary);
+                orders.push(t.iter().map(|g| g.name.name()).collect::<Vec<_>>());
+            }
+        }
+        // Shuffled: no two sessions in the same order; now and then a
+        // stretch of ordinary movement (0.3 of 17 gaps in 24 sessions).
+        orders.sort();
+        orders.dedup();
+        assert_eq!(orders.len(), 24);
+        assert!((60..=180).contains(&stretches), "{stretches}");
     }
 
     #[test]

@@ -66,6 +66,12 @@ pub enum ImuSessionKind {
     /// The recording protocol: rest, 5 examples of each gesture, 60 s of
     /// ordinary movement.
     Protocol,
+    /// Practice: each gesture this many times, shuffled, with rests and
+    /// now and then ordinary movement between them.
+    Practice {
+        /// Examples of each gesture.
+        per_gesture: u32,
+    },
     /// Ordinary use, this many minutes: gestures now and then among
     /// long stretches of ordinary movement.
     Use {
@@ -283,6 +289,9 @@ fn generate_imu(
 ) -> anyhow::Result<()> {
     let session = match kind {
         ImuSessionKind::Protocol => imu_session::protocol_session(user, gestures, seed),
+        ImuSessionKind::Practice { per_gesture } => {
+            imu_session::practice_session(user, gestures, per_gesture, seed)
+        }
         ImuSessionKind::Use { minutes } => use_session(user, gestures, minutes, seed),
         ImuSessionKind::Ordinary { minutes } => ordinary_session(user, minutes, seed),
     };

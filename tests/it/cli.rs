@@ -514,3 +514,96 @@ fn generate_writes_an_imu_users_protocol_and_its_truth() {
     assert_exit(out.status, &e, 2, "a session too long to hold");
     assert!(e.contains("is 60000000 samples: at most 8640000"), "{e}");
 }
+
+#[test]
+fn generate_writes_an_imu_users_practice() {
+    let dir = Scratch::new();
+    let (csv, truth) = (dir.join("imu.csv"), dir.join("truth.json"));
+    let out = sipnpuff(&[
+        "generate",
+        "--imu-user",
+        "typical",
+        "--session",
+        "practice",
+        "--per-gesture",
+        "2",
+        "--gestures",
+        "wobble,nod",
+        "--rate-hz",
+        "10",
+        "--out",
+        csv.to_str().unwrap(),
+        "--truth",
+        truth.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_exit(out.status, &stderr, 0, "practice");
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&truth).unwrap()).unwrap();
+    assert_eq!(
+        truth["session"],
+        serde_json::json!({"practice": {"per_gesture": 2}})
+    );
+    let gestures = truth["gestures"].as_array().unwrap();
+    assert_eq!(gestures.len(), 4);
+    let wobbles = gestures.iter().filter(|g| g["name"] == "wobble").count();
+    assert_eq!(wobbles, 2, "{gestures:?}");
+    assert!(stderr.contains("wrote the truth of 4 gestures"), "{stderr}");
+}
+
+/// An option that does not apply to the session asked for: refused in
+/// one line, before anything is written.
+#[test]
+fn generate_refuses_imu_options_the_session_does_not_use() {
+    let dir = Scratch::new();
+    let csv = dir.join("imu.csv");
+    let csv = csv.to_str().unwrap();
+    for (options, says) in [
+        (
+            &["--minutes", "5"][..],
+            "--minutes is for --session use or ordinary: a protocol session's length is set by \
+             its gestures",
+        ),
+        (
+            &["--session", "protocol", "--minutes", "5"],
+            "--minutes is for --session use or ordinary: a protocol",
+        ),
+        (
+            &["--session", "practice", "--minutes", "5"],
+            "--minutes is for --session use or ordinary: a practice",
+        ),
+        (
+            &["--session", "ordinary", "--gestures", "nod"],
+            "--gestures is not for --session ordinary: ordinary movement makes no gesture",
+        ),
+        (
+            &["--session", "use", "--per-gesture", "3"],
+            "--per-gesture is for --session practice, not use",
+        ),
+        (
+            &[
+                "--session",
+                "practice",
+                "--per-gesture",
+                "1000",
+                "--rate-hz",
+                "1000",
+            ],
+            "--per-gesture 1000 of 6 gestures at --rate-hz 1000 is up to 180000000 samples: \
+             at most 8640000",
+        ),
+    ] {
+        let args = [
+            &["generate", "--imu-user", "typical", "--out", csv],
+            options,
+        ]
+        .concat();
+        let out = sipnpuff(&args);
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert_exit(out.status, &e, 2, &args.join(" "));
+        assert!(e.contains(says), "{options:?}: {e}");
+        assert_eq!(e.lines().count(), 1, "{options:?}: {e}");
+        assert!(out.stdout.is_empty());
+    }
+    assert_eq!(std::fs::read_dir(&*dir).unwrap().count(), 0);
+}
