@@ -12,6 +12,11 @@ use crate::control::gesture::{Frame, GestureId, Recognizer, Segment, Verdict, se
 use crate::control::imu::ImuSample;
 use crate::gestures::set::GestureSet;
 
+/// A gesture that ordinary movement sets off more often than this, per
+/// hour, is said to be imitated by it (the bar: one false
+/// activation an hour).
+pub const IMITATED_PER_HOUR: f64 = 1.0;
+
 /// The thresholds' scales the trade-off is shown at.
 pub const SCALES: [f64; 7] = [0.5, 0.7, 0.85, 1.0, 1.2, 1.5, 2.0];
 
@@ -39,6 +44,8 @@ pub struct GestureResult {
     pub confused: Vec<(String, usize)>,
     /// Rejected (above threshold or ambiguous).
     pub rejected: usize,
+    /// Ordinary movement taken for it.
+    pub ordinary_activations: usize,
 }
 
 /// An activation in ordinary movement: a gesture recognised where none
@@ -99,6 +106,9 @@ pub struct Check {
     pub activations: Vec<Activation>,
     /// Pairs too alike.
     pub too_alike: Vec<TooAlike>,
+    /// What to do about each gesture ordinary movement sets off more than
+    /// [`IMITATED_PER_HOUR`].
+    pub imitated: Vec<String>,
     /// Accuracy against activations per hour, thresholds scaled.
     pub trade_off: Vec<TradeOff>,
 }
@@ -193,6 +203,7 @@ pub fn check(set: &GestureSet, ordinary: &[Ordinary<'_>]) -> Check {
             right: 0,
             confused: Vec::new(),
             rejected: 0,
+            ordinary_activations: 0,
         };
         for v in verdicts {
             let column = recognised(v).map_or(n, |id| usize::from(id.0));
@@ -251,6 +262,24 @@ pub fn check(set: &GestureSet, ordinary: &[Ordinary<'_>]) -> Check {
         found
     };
     let activations = activations_at(1.0);
+    for activation in &activations {
+        if let Some(g) = gestures.iter_mut().find(|g| g.name == activation.gesture) {
+            g.ordinary_activations += 1;
+        }
+    }
+    let imitated = gestures
+        .iter()
+        .filter(|g| per_hour(g.ordinary_activations, ordinary_hours) > IMITATED_PER_HOUR)
+        .map(|g| {
+            format!(
+                "ordinary movement was taken for '{}' {} times in {:.2} h ({:.1} per hour): everyday movement imitates it; choose a gesture people seldom make by chance (a roll of the head: tilt_left, tilt_right, wobble), or drop it",
+                g.name,
+                g.ordinary_activations,
+                ordinary_hours,
+                per_hour(g.ordinary_activations, ordinary_hours)
+            )
+        })
+        .collect();
     let trade_off = SCALES
         .iter()
         .map(|&scale| {
@@ -284,6 +313,7 @@ pub fn check(set: &GestureSet, ordinary: &[Ordinary<'_>]) -> Check {
         ordinary_hours,
         activations,
         too_alike,
+        imitated,
         trade_off,
     }
 }

@@ -33,9 +33,9 @@ pub fn text(check: &Check) -> String {
     let _ = writeln!(out);
     let _ = writeln!(
         out,
-        "| gesture | threshold | right | taken for | rejected |"
+        "| gesture | threshold | right | taken for | rejected | ordinary taken for it |"
     );
-    let _ = writeln!(out, "|---|---|---|---|---|");
+    let _ = writeln!(out, "|---|---|---|---|---|---|");
     for g in &check.gestures {
         let confused: Vec<String> = g
             .confused
@@ -44,7 +44,7 @@ pub fn text(check: &Check) -> String {
             .collect();
         let _ = writeln!(
             out,
-            "| {} | {:.3} | {}/{} | {} | {} |",
+            "| {} | {:.3} | {}/{} | {} | {} | {} |",
             g.name,
             g.threshold,
             g.right,
@@ -54,7 +54,8 @@ pub fn text(check: &Check) -> String {
             } else {
                 confused.join(", ")
             },
-            g.rejected
+            g.rejected,
+            g.ordinary_activations
         );
     }
     let _ = writeln!(out);
@@ -86,6 +87,13 @@ pub fn text(check: &Check) -> String {
                 a.gesture,
                 a.distance
             );
+        }
+    }
+    if !check.imitated.is_empty() {
+        let _ = writeln!(out);
+        let _ = writeln!(out, "imitated by ordinary movement:");
+        for line in &check.imitated {
+            let _ = writeln!(out, "  {line}");
         }
     }
     if !check.too_alike.is_empty() {
