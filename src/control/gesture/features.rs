@@ -11,8 +11,10 @@
 //!   divided by g (for small angles, the tilt away from rest in radians).
 //!   Rates show the movement itself (a nod, a shake); the gravity
 //!   deviation shows where the head points, so a held tilt or look stays
-//!   visible after the rates have died down. Both are in radians-ish units,
-//!   so neither dominates the distance. Bias and gravity are tracked
+//!   visible after the rates have died down. The rates enter as their
+//!   signed square roots ([`rate_feature`]), so a fast small movement
+//!   does not outweigh the angle a larger one reaches. Bias and gravity
+//!   are tracked
 //!   (exponential average) only while the head is at rest.
 //!
 //! Frames are `f32`: the features carry far less than seven significant
@@ -118,19 +120,37 @@ impl Default for RestEstimate {
 }
 
 impl RestEstimate {
-    /// The features of `mean` (a frame's mean sample) against this rest.
+    /// The features of `mean` (a frame's mean sample) against this rest:
+    /// [`rate_feature`] of each bias-free rate, then the gravity
+    /// deviation in g.
     pub fn features(&self, mean: &ImuSample) -> Frame {
-        let rate = mean.rate();
-        let acc = mean.acceleration();
         let mut frame = [0.0f32; FEATURES];
         let (rates, tilts) = frame.split_at_mut(3);
-        for ((f, r), b) in rates.iter_mut().zip(rate).zip(self.bias) {
-            *f = (r - b) as f32;
+        for (f, r) in rates.iter_mut().zip(self.rate(mean)) {
+            *f = rate_feature(r) as f32;
         }
-        for ((f, a), g) in tilts.iter_mut().zip(acc).zip(self.gravity) {
-            *f = ((a - g) / GRAVITY) as f32;
+        for (f, t) in tilts.iter_mut().zip(self.tilt(mean)) {
+            *f = t as f32;
         }
         frame
+    }
+
+    /// The angular rate of `mean` less the gyro's bias, rad/s.
+    pub fn rate(&self, mean: &ImuSample) -> [f64; 3] {
+        let mut rate = mean.rate();
+        for (r, b) in rate.iter_mut().zip(self.bias) {
+            *r -= b;
+        }
+        rate
+    }
+
+    /// The acceleration of `mean` less the resting gravity, in g.
+    pub fn tilt(&self, mean: &ImuSample) -> [f64; 3] {
+        let mut tilt = mean.acceleration();
+        for (t, g) in tilt.iter_mut().zip(self.gravity) {
+            *t = (*t - g) / GRAVITY;
+        }
+        tilt
     }
 
     /// Moves bias and gravity towards `mean` by `alpha` (0–1), or sets
@@ -202,7 +222,22 @@ impl MovingAverage {
     }
 }
 
-/// The angular rate's magnitude in a frame, rad/s.
+/// How much the rates weigh against the tilt in a frame (1: a rate of
+/// 1 rad/s weighs as a tilt of 1 rad; 0.3 and 2 gave more false
+/// activations on the synthetic users' ordinary movement).
+pub const RATE_WEIGHT: f64 = 1.0;
+
+/// A rate's feature: its signed square root (rad/s), times
+/// [`RATE_WEIGHT`]. The root compresses speed: talk's small fast nods
+/// (2–5 Hz, 0.5–8°) reach rates near a deliberate nod's, and plain
+/// rates let that speed outweigh the amplitude the gravity deviation
+/// shows; with the root, false activations of nod and double nod on the
+/// typical user's hour of ordinary movement fell from 35/h to 20/h.
+pub fn rate_feature(rate: f64) -> f64 {
+    RATE_WEIGHT * rate.signum() * rate.abs().sqrt()
+}
+
+/// The magnitude of a frame's rate features.
 pub fn rate_magnitude(frame: &Frame) -> f64 {
     norm(frame.iter().take(3))
 }

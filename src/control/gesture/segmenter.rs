@@ -86,7 +86,7 @@ pub struct Segmenter {
     last_tilt: [f64; 3],
     /// The last [`LEAD_FRAMES`] frames at rest and their first ticks,
     /// oldest first.
-    lead: [(Tick, Frame); LEAD_FRAMES],
+    lead: [(Tick, Frame, [f64; 3]); LEAD_FRAMES],
     /// The rates integrated since the segment began, rad.
     turned: [f64; 3],
 }
@@ -107,7 +107,7 @@ impl Segmenter {
             tilt_smoother: MovingAverage::default(),
             gyro: false,
             last_tilt: [0.0; 3],
-            lead: [(0, [0.0; FEATURES]); LEAD_FRAMES],
+            lead: [(0, [0.0; FEATURES], [0.0; 3]); LEAD_FRAMES],
             turned: [0.0; 3],
         }
     }
@@ -144,15 +144,8 @@ impl Segmenter {
         let frame = self.rest.features(mean);
         let frame_ms = u64::from(self.config.frame_ms.max(1));
         let frame_s = frame_ms as f64 / 1000.0;
-        let (rates, tilts) = frame.split_at(3);
-        let mut rate = [0.0; 3];
-        let mut tilt = [0.0; 3];
-        for (r, &f) in rate.iter_mut().zip(rates) {
-            *r = f64::from(f);
-        }
-        for (t, &f) in tilt.iter_mut().zip(tilts) {
-            *t = f64::from(f);
-        }
+        let mut rate = self.rest.rate(mean);
+        let tilt = self.rest.tilt(mean);
         self.gyro |= mean.rate().iter().any(|&r| r != 0.0);
         if !self.gyro {
             // No gyros: the gravity direction's rate of change stands in.
@@ -175,15 +168,15 @@ impl Segmenter {
                     self.len = 0;
                     self.turned = [0.0; 3];
                     let mut seg_start = start;
-                    for (tick, lead) in self.lead {
+                    for (tick, lead, lead_rate) in self.lead {
                         if tick < start && start - tick <= LEAD_FRAMES as u64 * frame_ms {
                             seg_start = seg_start.min(tick);
                             self.push(lead);
-                            self.integrate(&lead, frame_s);
+                            self.integrate(lead_rate, frame_s);
                         }
                     }
                     self.push(frame);
-                    self.integrate(&frame, frame_s);
+                    self.integrate(rate, frame_s);
                     self.state = State::Motion {
                         start: seg_start,
                         quiet: None,
@@ -192,7 +185,7 @@ impl Segmenter {
                     self.rest.track(mean, self.config.rest_alpha());
                     self.lead.rotate_left(1);
                     if let Some(last) = self.lead.last_mut() {
-                        *last = (start, frame);
+                        *last = (start, frame, rate);
                     }
                 }
                 None
@@ -269,10 +262,10 @@ impl Segmenter {
     }
 
     /// Adds a frame's rates (with gyros) to the angle turned.
-    fn integrate(&mut self, frame: &Frame, frame_s: f64) {
+    fn integrate(&mut self, rate: [f64; 3], frame_s: f64) {
         if self.gyro {
-            for (a, &r) in self.turned.iter_mut().zip(frame.iter()) {
-                *a += f64::from(r) * frame_s;
+            for (a, r) in self.turned.iter_mut().zip(rate) {
+                *a += r * frame_s;
             }
         }
     }
