@@ -8,6 +8,7 @@
 
 pub mod check;
 pub mod distances;
+pub mod front_end;
 pub mod protocol;
 pub mod record;
 pub mod report;

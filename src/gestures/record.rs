@@ -6,6 +6,7 @@
 use crate::control::Tick;
 use crate::control::gesture::{GestureConfig, MAX_GESTURES, Segment, segments};
 use crate::control::imu::{Channel, Channels, ImuSample};
+use crate::gestures::front_end::{self, Rest};
 use crate::gestures::protocol::{self, EXAMPLES, ProtocolCut, Span};
 use crate::gestures::set::{Example, Gesture, GestureSet, is_name};
 use crate::gestures::thresholds::{self, Choice};
@@ -24,6 +25,9 @@ pub struct Recorded {
     pub segments: Vec<Segment>,
     /// How each gesture's threshold was chosen.
     pub choices: Vec<Choice>,
+    /// The opening rest the front end was fitted to (none if the
+    /// recording is too short to hold it: the config given is kept).
+    pub rest: Option<Rest>,
 }
 
 impl Recorded {
@@ -65,7 +69,9 @@ pub fn check_names(names: &[String]) -> Result<(), String> {
 }
 
 /// The set for `names` from `samples` (of `channels`), recorded by the
-/// protocol; `recording` names it in the set.
+/// protocol; `recording` names it in the set. `config`'s onset, end and
+/// hold thresholds are first fitted to the person's opening rest
+/// ([`front_end`]); the set keeps the fitted config.
 pub fn record(
     samples: &[(Tick, ImuSample)],
     channels: Channels,
@@ -88,6 +94,9 @@ pub fn record(
     let (Some(&(first, _)), Some(&(last, _))) = (samples.first(), samples.last()) else {
         return Err("the recording has no sample".into());
     };
+    // The front end fitted to the person's rest before anything is cut.
+    let rest = front_end::rest(&config, samples);
+    let config = rest.map_or(config, |rest| front_end::fit(&config, &rest));
     let segments = segments(&config, samples.iter().copied());
     let spans: Vec<Span> = segments
         .iter()
@@ -137,6 +146,7 @@ pub fn record(
         cut,
         segments,
         choices: Vec::new(),
+        rest,
     };
     let ordinary: Vec<_> = recorded
         .ordinary()

@@ -147,15 +147,17 @@ fn gesture_a_tilt_held_for_a_second_and_a_half_is_one_segment() {
     let cut = segments(&config(), recording(&script, 10, 3));
     assert_eq!(cut.len(), 1, "{cut:?}");
     let (start, end) = (1000, 1000 + tilt.duration_ms());
-    // The segment starts and ends where the rate passes the thresholds:
-    // within the ramps (300 ms each).
+    // The segment starts and ends where the smoothed rate passes the
+    // thresholds: within the ramps (300 ms each), the start up to the
+    // lead frames (2 × 60 ms) earlier, the end up to the smoothing's
+    // tail (3 × 60 ms) later.
     assert!(
-        cut[0].start >= start && cut[0].start < start + 300,
+        cut[0].start + 120 >= start && cut[0].start < start + 300,
         "{}",
         cut[0].start
     );
     assert!(
-        cut[0].end > end - 300 && cut[0].end <= end + 40,
+        cut[0].end > end - 300 && cut[0].end <= end + 200,
         "{}",
         cut[0].end
     );
@@ -222,8 +224,8 @@ fn gesture_same_input_gives_the_same_events_bit_for_bit() {
         .rest(800)
         .then(Move::new(Head::Nod))
         .rest(500)
-        .then(Move::new(Head::LookAround))
-        .rest(500)
+        .then(Move::new(Head::LookAround).varied(1.5, 1.0))
+        .rest(800)
         .then(Move::new(Head::Shake).varied(1.2, 0.8))
         .rest(800);
     let samples = recording(&script, 10, 9);
@@ -246,7 +248,7 @@ fn gesture_classify_says_what_step_decided() {
         .rest(1000)
         .then(Move::new(Head::Shake).varied(0.8, 1.1))
         .rest(800)
-        .then(Move::new(Head::LookAround))
+        .then(Move::new(Head::LookAround).varied(1.5, 1.0))
         .rest(1000);
     let samples = recording(&script, 10, 11);
     let mut seen = 0;
@@ -277,4 +279,26 @@ fn gesture_classify_says_what_step_decided() {
         seen += 1;
     }
     assert!(seen >= 2, "{seen}");
+}
+
+#[test]
+fn gesture_a_sensor_without_gyros_cuts_nods_and_tilts_from_gravity() {
+    let script = HeadScript::new()
+        .rest(1000)
+        .then(Move::new(Head::Nod))
+        .rest(1000)
+        .then(Move::new(Head::TiltLeft).held(1000))
+        .rest(1000)
+        .then(Move::new(Head::Shake))
+        .rest(1000);
+    let mut samples = recording(&script, 10, 12);
+    for (_, s) in &mut samples {
+        s.values[3..].fill(0.0);
+    }
+    let cut = segments(&config(), samples);
+    // The nod and the tilt, each once; the shake is a turn about the
+    // vertical, which leaves the gravity where it is: unseen.
+    assert_eq!(cut.len(), 2, "{cut:?}");
+    let nod_end = 1000 + Move::new(Head::Nod).duration_ms();
+    assert!(cut[0].start < nod_end && cut[1].start > nod_end, "{cut:?}");
 }

@@ -105,6 +105,95 @@ fn figures_per_user() {
     }
 }
 
+/// The gestures ordinary movement does not imitate, scored per user as
+/// the targets ask: leave-one-out, a held-out hour of use, and false
+/// activations per gesture on an hour of ordinary movement. Prints only.
+/// `SIPNPUFF_GESTURES=a,b` scores other gestures.
+#[test]
+fn figures_for_the_targets() {
+    let gestures: Vec<GestureName> = match std::env::var("SIPNPUFF_GESTURES") {
+        Ok(list) => list
+            .split(',')
+            .map(|n| {
+                *GestureName::ALL
+                    .iter()
+                    .find(|g| g.name() == n)
+                    .unwrap_or_else(|| panic!("no gesture {n}"))
+            })
+            .collect(),
+        Err(_) => vec![
+            GestureName::Nod,
+            GestureName::DoubleNod,
+            GestureName::Shake,
+            GestureName::TiltLeft,
+            GestureName::TiltRight,
+        ],
+    };
+    for user in ImuUser::all() {
+        let protocol = protocol_session(&user, &gestures, 1);
+        let recorded = match record(
+            &protocol.samples,
+            protocol.channels,
+            &names(&gestures),
+            GestureConfig::default(),
+            None,
+        ) {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!("{}: does not record: {e}", user.name);
+                continue;
+            }
+        };
+        let check = sipnpuff::gestures::check::check(&recorded.set, &[]);
+        let held_out = use_session(&user, &gestures, 60, 2);
+        let s = score(
+            &recorded.set,
+            &held_out.samples,
+            &made(&held_out),
+            ordinary_ms(&held_out),
+        )
+        .unwrap();
+        let ordinary = use_session(&user, &[], 60, 3);
+        let o = score(
+            &recorded.set,
+            &ordinary.samples,
+            &[],
+            ordinary_ms(&ordinary),
+        )
+        .unwrap();
+        let c = &recorded.set.config;
+        eprintln!("   rest {:?}", recorded.rest);
+        eprintln!(
+            "{}: on {:.2} off {:.2} rad/s; loo {}/{}; false {:.1}/h ordinary, {:.1}/h in use",
+            user.name,
+            c.motion_on_rad_s,
+            c.motion_off_rad_s,
+            check.right,
+            check.examples,
+            o.false_activations.len() as f64 / o.ordinary_hours,
+            s.false_activations.len() as f64 / s.ordinary_hours,
+        );
+        for (g, gesture) in s.gestures.iter().zip(&check.gestures) {
+            let false_ordinary = o
+                .false_activations
+                .iter()
+                .filter(|(_, n)| *n == g.name)
+                .count();
+            eprintln!(
+                "   {:<11} loo {}/{}  held-out {}/{} (confused {}, missed {})  false {:.1}/h",
+                g.name,
+                gesture.right,
+                gesture.examples,
+                g.right,
+                g.made,
+                g.confused,
+                g.missed,
+                false_ordinary as f64 / o.ordinary_hours
+            );
+        }
+    }
+}
+
 /// `session`'s samples as a CSV of `channels` in a new scratch folder.
 fn csv(session: &ImuSession, channels: Channels, name: &str) -> (Scratch, PathBuf) {
     let dir = Scratch::new();

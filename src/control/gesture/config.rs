@@ -8,17 +8,20 @@ use crate::control::gesture::features::MAX_FRAMES;
 /// [`Recognizer`](super::Recognizer).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GestureConfig {
-    /// Length of one frame, ms (50: 20 frames a second, well above a head
-    /// gesture's 0.5–3.5 Hz; the mean over 50 ms damps vibration at 20 Hz
-    /// and above; 2.4 s fit in [`MAX_FRAMES`], and the worst classifying
-    /// tick stays within its budget).
+    /// Length of one frame, ms (60: 16.7 frames a second, well above a
+    /// head gesture's 0.5–3.5 Hz; the mean over 60 ms damps vibration at
+    /// 17 Hz and above; 3.36 s fit in [`MAX_FRAMES`], the slowest tilt
+    /// held for a second, and the worst classifying tick stays within
+    /// its budget).
     pub frame_ms: u32,
-    /// A segment starts when the angular rate's magnitude (bias removed)
-    /// exceeds this, rad/s (0.6: a deliberate nod peaks at 1.5–3 rad/s;
-    /// tremor and drift stay well below).
+    /// A segment starts when the smoothed angular rate's magnitude (bias
+    /// removed; see the segmenter) exceeds this, rad/s (0.3: a deliberate
+    /// nod peaks at 1.5–3 rad/s, a small slow one at 0.6; smoothed tremor
+    /// stays below 0.1). Fitted to the person's rest when a set is
+    /// recorded (`gestures::front_end`).
     pub motion_on_rad_s: f64,
-    /// The rate must fall below this, rad/s, for the head to be quiet
-    /// (0.3: the hysteresis that keeps a gesture's slow middle from
+    /// The smoothed rate must fall below this, rad/s, for the head to be
+    /// quiet (0.15: the hysteresis that keeps a gesture's slow middle from
     /// ending it).
     pub motion_off_rad_s: f64,
     /// While the head is tilted further than this from its rest
@@ -26,13 +29,16 @@ pub struct GestureConfig {
     /// a held tilt or look keeps its segment open (0.12 ≈ 7°).
     pub hold_tilt_rad: f64,
     /// The head must be quiet and near rest this long, ms, to end a
-    /// segment (200).
+    /// segment (300: the pause between a slow double nod's two nods is
+    /// 200 ms).
     pub rest_ms: u32,
-    /// Segments shorter than this, ms, are ignored as twitches (200).
+    /// Segments shorter than this, ms, are ignored as twitches (450: the
+    /// lead frames and the smoothing's tail add about 300 ms to the
+    /// movement, so a 120 ms twitch is cut as 400 ms; a quick nod as 600).
     pub min_ms: u32,
     /// Segments longer than this, ms, end as too long and are rejected;
-    /// the next starts only after rest (2400: a tilt held 1.5 s with its
-    /// 0.3 s ramps fits; at most
+    /// the next starts only after rest (3360: a slow tilt, 2.9 s with its
+    /// hold, fits; at most
     /// `MAX_FRAMES · frame_ms`).
     pub max_ms: u32,
     /// Time constant of the rest estimate (gyro bias, gravity), ms,
@@ -53,13 +59,13 @@ pub struct GestureConfig {
 impl Default for GestureConfig {
     fn default() -> Self {
         GestureConfig {
-            frame_ms: 50,
-            motion_on_rad_s: 0.6,
-            motion_off_rad_s: 0.3,
+            frame_ms: 60,
+            motion_on_rad_s: 0.3,
+            motion_off_rad_s: 0.15,
             hold_tilt_rad: 0.12,
-            rest_ms: 200,
-            min_ms: 200,
-            max_ms: 2400,
+            rest_ms: 300,
+            min_ms: 450,
+            max_ms: 3360,
             rest_tracking_ms: 2000,
             band_fraction: 0.08,
             ambiguity_margin: 0.1,

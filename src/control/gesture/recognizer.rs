@@ -152,41 +152,21 @@ impl Recognizer {
             });
         }
         let found = self.classify(self.segmenter.frames());
-        let Some((gesture, distance)) = found.nearest else {
-            return Some(GestureEvent::Rejected {
-                start,
-                end: end_tick,
-                nearest: None,
-                distance: f64::INFINITY,
-                why: RejectReason::AboveThreshold,
-            });
-        };
-        let threshold = self
-            .thresholds
-            .get(usize::from(gesture.0))
-            .copied()
-            .flatten();
-        let why = if threshold.is_none_or(|t| distance > t) {
-            Some(RejectReason::AboveThreshold)
-        } else if found
-            .runner_up
-            .is_some_and(|(_, d)| d <= distance * (1.0 + self.config.ambiguity_margin))
-        {
-            Some(RejectReason::Ambiguous)
-        } else {
-            None
-        };
-        Some(match why {
-            None => GestureEvent::Recognised {
+        Some(match self.verdict(&found) {
+            Verdict::Recognised { gesture, distance } => GestureEvent::Recognised {
                 gesture,
                 start,
                 end: end_tick,
                 distance,
             },
-            Some(why) => GestureEvent::Rejected {
+            Verdict::Rejected {
+                nearest,
+                distance,
+                why,
+            } => GestureEvent::Rejected {
                 start,
                 end: end_tick,
-                nearest: Some(gesture),
+                nearest,
                 distance,
                 why,
             },

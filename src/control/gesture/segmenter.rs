@@ -1,12 +1,25 @@
 //! Rest/motion segmentation of the frames, with hysteresis.
 //!
-//! * At rest, a frame whose angular rate exceeds `motion_on_rad_s` starts
-//!   a segment (dated to that frame's first tick).
-//! * The segment ends once the head has been quiet (rate below
-//!   `motion_off_rad_s`) *and* back near its rest orientation (tilt below
-//!   `hold_tilt_rad`) for `rest_ms`; it ends where that quiet run began,
-//!   and the quiet frames are not part of it. So a tilt or look held for a
-//!   second does not split its gesture: the rates die down, the tilt stays.
+//! * The rate compared with the thresholds is smoothed ([`MovingAverage`]:
+//!   the mean rate vector of the last 200 ms), so tremor and vibration at
+//!   4–9 Hz neither start a segment at rest nor keep one open, while a
+//!   gesture's 0.5–3 Hz movement passes.
+//! * At rest, a frame whose smoothed rate exceeds `motion_on_rad_s`
+//!   starts a segment; the [`LEAD_FRAMES`] frames before it (the
+//!   movement's beginning, which the smoothing delays) open it.
+//! * The segment ends once the head has been quiet (smoothed rate below
+//!   `motion_off_rad_s`) *and* back near its orientation at the start for
+//!   `rest_ms`; it ends where that quiet run began, and the quiet frames
+//!   are not part of it. Near means both the gravity's deviation from rest
+//!   and the rate about the vertical integrated since the segment began
+//!   (the yaw) are below `hold_tilt_rad`: a tilt, look or turn held for a
+//!   second does not split its gesture (the rates die down, the
+//!   orientation stays; a held turn changes no gravity, so only the
+//!   integrated yaw shows it).
+//! * A sensor without gyros (its rates read exactly zero) starts and ends
+//!   segments on the rate at which the gravity's direction changes. That
+//!   sees nods and tilts but never a pure turn or shake: yaw about the
+//!   vertical leaves gravity where it is.
 //! * A segment shorter than `min_ms` is ignored (a twitch). One longer
 //!   than `max_ms` ends at once as too long (the recognizer rejects it);
 //!   the next starts only after `rest_ms` of quiet (any orientation: the
@@ -16,7 +29,7 @@
 use crate::control::Tick;
 use crate::control::gesture::config::GestureConfig;
 use crate::control::gesture::features::{
-    FEATURES, Frame, FrameBuilder, MAX_FRAMES, RestEstimate, rate_magnitude, tilt_magnitude,
+    FEATURES, Frame, FrameBuilder, MAX_FRAMES, MovingAverage, RestEstimate,
 };
 use crate::control::imu::ImuSample;
 
@@ -33,6 +46,11 @@ pub struct SegmentEnd {
     /// `max_ms`); never to be recognised.
     pub too_long: bool,
 }
+
+/// How many frames before the onset frame open a segment: 2, half the
+/// smoothing's length, which is about how late the smoothed rate crosses
+/// the onset threshold.
+pub const LEAD_FRAMES: usize = 2;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum State {
@@ -59,6 +77,18 @@ pub struct Segmenter {
     state: State,
     buffer: [Frame; MAX_FRAMES],
     len: usize,
+    /// The smoothed rate and gravity deviation the thresholds see.
+    smoother: MovingAverage,
+    tilt_smoother: MovingAverage,
+    /// Whether the sensor has shown a non-zero rate (it has gyros).
+    gyro: bool,
+    /// The last frame's gravity deviation (for a sensor without gyros).
+    last_tilt: [f64; 3],
+    /// The last [`LEAD_FRAMES`] frames at rest and their first ticks,
+    /// oldest first.
+    lead: [(Tick, Frame, [f64; 3]); LEAD_FRAMES],
+    /// The rates integrated since the segment began, rad.
+    turned: [f64; 3],
 }
 
 impl Segmenter {
@@ -73,6 +103,12 @@ impl Segmenter {
             state: State::Rest,
             buffer: [[0.0; FEATURES]; MAX_FRAMES],
             len: 0,
+            smoother: MovingAverage::default(),
+            tilt_smoother: MovingAverage::default(),
+            gyro: false,
+            last_tilt: [0.0; 3],
+            lead: [(0, [0.0; FEATURES], [0.0; 3]); LEAD_FRAMES],
+            turned: [0.0; 3],
         }
     }
 
@@ -100,20 +136,57 @@ impl Segmenter {
 
     /// One frame beginning at `start` with mean sample `mean`.
     fn frame(&mut self, start: Tick, mean: &ImuSample) -> Option<SegmentEnd> {
+        if !self.rest.started() {
+            // The first frame is the rest: nothing to compare it with.
+            self.rest.track(mean, self.config.rest_alpha());
+            return None;
+        }
         let frame = self.rest.features(mean);
         let frame_ms = u64::from(self.config.frame_ms.max(1));
-        let rate = rate_magnitude(&frame);
-        let quiet = rate < self.config.motion_off_rad_s;
-        let near_rest = tilt_magnitude(&frame) < self.config.hold_tilt_rad;
+        let frame_s = frame_ms as f64 / 1000.0;
+        let mut rate = self.rest.rate(mean);
+        let tilt = self.rest.tilt(mean);
+        self.gyro |= mean.rate().iter().any(|&r| r != 0.0);
+        if !self.gyro {
+            // No gyros: the gravity direction's rate of change stands in.
+            for ((r, t), last) in rate.iter_mut().zip(tilt).zip(self.last_tilt) {
+                *r = (t - last) / frame_s;
+            }
+        }
+        self.last_tilt = tilt;
+        let smoothed = self.smoother.push(rate);
+        for (a, r) in self.turned.iter_mut().zip(rate) {
+            *a += r * frame_s;
+        }
+        let quiet = smoothed < self.config.motion_off_rad_s;
+        let away = self.tilt_smoother.push(tilt).max(self.yaw().abs());
+        let near_rest = away < self.config.hold_tilt_rad;
         let rest_ms = u64::from(self.config.rest_ms);
         match self.state {
             State::Rest => {
-                if rate > self.config.motion_on_rad_s {
+                if smoothed > self.config.motion_on_rad_s {
                     self.len = 0;
+                    self.turned = [0.0; 3];
+                    let mut seg_start = start;
+                    for (tick, lead, lead_rate) in self.lead {
+                        if tick < start && start - tick <= LEAD_FRAMES as u64 * frame_ms {
+                            seg_start = seg_start.min(tick);
+                            self.push(lead);
+                            self.integrate(lead_rate, frame_s);
+                        }
+                    }
                     self.push(frame);
-                    self.state = State::Motion { start, quiet: None };
+                    self.integrate(rate, frame_s);
+                    self.state = State::Motion {
+                        start: seg_start,
+                        quiet: None,
+                    };
                 } else {
                     self.rest.track(mean, self.config.rest_alpha());
+                    self.lead.rotate_left(1);
+                    if let Some(last) = self.lead.last_mut() {
+                        *last = (start, frame, rate);
+                    }
                 }
                 None
             }
@@ -174,6 +247,29 @@ impl Segmenter {
         }
     }
 
+    /// The angle turned since the segment began about the vertical (the
+    /// resting gravity's axis), rad: what a held turn shows. The other
+    /// axes' turn shows in the gravity itself, without the integration's
+    /// error.
+    fn yaw(&self) -> f64 {
+        let g = self.rest.gravity;
+        let norm = norm3(g);
+        if norm > 0.0 {
+            self.turned.iter().zip(g).map(|(a, g)| a * g).sum::<f64>() / norm
+        } else {
+            0.0
+        }
+    }
+
+    /// Adds a frame's rates (with gyros) to the angle turned.
+    fn integrate(&mut self, rate: [f64; 3], frame_s: f64) {
+        if self.gyro {
+            for (a, r) in self.turned.iter_mut().zip(rate) {
+                *a += r * frame_s;
+            }
+        }
+    }
+
     /// Appends a frame; false if the buffer is full.
     fn push(&mut self, frame: Frame) -> bool {
         match self.buffer.get_mut(self.len) {
@@ -185,6 +281,10 @@ impl Segmenter {
             None => false,
         }
     }
+}
+
+fn norm3(v: [f64; 3]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
 /// A segment cut from a recording by [`segments`].
