@@ -36,162 +36,93 @@ fn ordinary_ms(session: &ImuSession) -> u64 {
     session.ordinary.iter().map(|(a, b)| b - a).sum()
 }
 
-#[test]
-fn figures_per_user() {
-    let gestures = GestureName::DEFAULT;
-    for user in ImuUser::all() {
-        let protocol = protocol_session(&user, &gestures, 1);
-        let recorded = match record(
-            &protocol.samples,
-            protocol.channels,
-            &names(&gestures),
-            GestureConfig::default(),
-            None,
-        ) {
-            Ok(r) => r,
-            Err(e) => {
-                eprintln!("{}: {e}", user.name);
-                continue;
-            }
-        };
-        let check = sipnpuff::gestures::check::check(&recorded.set, &[]);
-        let clock = std::time::Instant::now();
-        let held_out = practice_session(&user, &gestures, 30, 2);
-        let generated = clock.elapsed().as_secs_f64();
-        let s = score(
-            &recorded.set,
-            &held_out.samples,
-            &made(&held_out),
-            ordinary_ms(&held_out),
-        )
-        .unwrap();
-        let ordinary = use_session(&user, &[], 60, 3);
-        let o = score(
-            &recorded.set,
-            &ordinary.samples,
-            &[],
-            ordinary_ms(&ordinary),
-        )
-        .unwrap();
-        eprintln!(
-            "{}: loo {}/{}; held-out {}/{} ({}); false {} in {:.2} h + {} in {:.2} h; \
-             practice made in {generated:.2} s",
-            user.name,
-            check.right,
-            check.examples,
-            s.gestures.iter().map(|g| g.right).sum::<usize>(),
-            s.gestures.iter().map(|g| g.made).sum::<usize>(),
-            s.gestures
+/// One person's figures: leave-one-out, a held-out practice session (30
+/// of each gesture) and an hour of ordinary movement, per gesture.
+struct Figures {
+    user: &'static str,
+    /// Per gesture: (name, leave-one-out right of 5, held-out right,
+    /// held-out made, false activations in the hour).
+    rows: Vec<(String, usize, usize, usize, usize)>,
+}
+
+fn figures(user: &ImuUser, gestures: &[GestureName]) -> Figures {
+    let protocol = protocol_session(user, gestures, 1);
+    let recorded = record(
+        &protocol.samples,
+        protocol.channels,
+        &names(gestures),
+        GestureConfig::default(),
+        None,
+    )
+    .unwrap_or_else(|e| panic!("{}: {e}", user.name));
+    let check = sipnpuff::gestures::check::check(&recorded.set, &[]);
+    let held_out = practice_session(user, gestures, 30, 2);
+    let held = score(
+        &recorded.set,
+        &held_out.samples,
+        &made(&held_out),
+        ordinary_ms(&held_out),
+    )
+    .unwrap();
+    let hour = use_session(user, &[], 60, 3);
+    let ordinary = score(&recorded.set, &hour.samples, &[], ordinary_ms(&hour)).unwrap();
+    assert!(
+        (ordinary.ordinary_hours - 1.0).abs() < 0.01,
+        "{}",
+        ordinary.ordinary_hours
+    );
+    let rows = held
+        .gestures
+        .iter()
+        .zip(&check.gestures)
+        .map(|(h, c)| {
+            let false_ones = ordinary
+                .false_activations
                 .iter()
-                .map(|g| format!(
-                    "{} {}/{} (c{} m{})",
-                    g.name, g.right, g.made, g.confused, g.missed
-                ))
-                .collect::<Vec<_>>()
-                .join(", "),
-            s.false_activations.len(),
-            s.ordinary_hours,
-            o.false_activations.len(),
-            o.ordinary_hours
-        );
-        let mut by: std::collections::BTreeMap<&str, usize> = Default::default();
-        for (_, name) in o.false_activations.iter().chain(&s.false_activations) {
-            *by.entry(name.as_str()).or_default() += 1;
-        }
-        eprintln!(
-            "   false by gesture: {by:?}; at {:?}",
-            o.false_activations.iter().take(5).collect::<Vec<_>>()
-        );
+                .filter(|(_, n)| *n == h.name)
+                .count();
+            (h.name.clone(), c.right, h.right, h.made, false_ones)
+        })
+        .collect();
+    Figures {
+        user: user.name,
+        rows,
     }
 }
 
-/// The gestures ordinary movement does not imitate, scored per user as
-/// the targets ask: leave-one-out, a held-out hour of use, and false
-/// activations per gesture on an hour of ordinary movement. Prints only.
-/// `SIPNPUFF_GESTURES=a,b` scores other gestures.
+/// Every simulated person's own set, from their protocol recording, read
+/// on a held-out session (30 of each of the six gestures) and an hour of
+/// ordinary movement. What holds today: every person records; across
+/// everyone ≥ 95 % of the held-out gestures are read right; the rolls of
+/// the head (tilts, wobble) ≥ 26/30 each and never set off by ordinary
+/// movement. Nods are not yet there (ordinary glances down set `nod` off
+/// up to 14 times an hour; a drifting gyro reads 18/30): the table in
+/// `docs/gestures.md` is this test's (`-- --nocapture`).
 #[test]
-fn figures_for_the_targets() {
-    let gestures: Vec<GestureName> = match std::env::var("SIPNPUFF_GESTURES") {
-        Ok(list) => list
-            .split(',')
-            .map(|n| {
-                *GestureName::ALL
-                    .iter()
-                    .find(|g| g.name() == n)
-                    .unwrap_or_else(|| panic!("no gesture {n}"))
-            })
-            .collect(),
-        Err(_) => vec![
-            GestureName::Nod,
-            GestureName::DoubleNod,
-            GestureName::Shake,
-            GestureName::TiltLeft,
-            GestureName::TiltRight,
-        ],
-    };
+fn every_simulated_person_is_read_by_their_own_set() {
+    let gestures = GestureName::DEFAULT;
+    let (mut right_all, mut made_all) = (0, 0);
+    let mut short = Vec::new();
     for user in ImuUser::all() {
-        let protocol = protocol_session(&user, &gestures, 1);
-        let recorded = match record(
-            &protocol.samples,
-            protocol.channels,
-            &names(&gestures),
-            GestureConfig::default(),
-            None,
-        ) {
-            Ok(r) => r,
-            Err(e) => {
-                eprintln!("{}: does not record: {e}", user.name);
-                continue;
-            }
-        };
-        let check = sipnpuff::gestures::check::check(&recorded.set, &[]);
-        let held_out = use_session(&user, &gestures, 60, 2);
-        let s = score(
-            &recorded.set,
-            &held_out.samples,
-            &made(&held_out),
-            ordinary_ms(&held_out),
-        )
-        .unwrap();
-        let ordinary = use_session(&user, &[], 60, 3);
-        let o = score(
-            &recorded.set,
-            &ordinary.samples,
-            &[],
-            ordinary_ms(&ordinary),
-        )
-        .unwrap();
-        let c = &recorded.set.config;
-        eprintln!("   rest {:?}", recorded.rest);
-        eprintln!(
-            "{}: on {:.2} off {:.2} rad/s; loo {}/{}; false {:.1}/h ordinary, {:.1}/h in use",
-            user.name,
-            c.motion_on_rad_s,
-            c.motion_off_rad_s,
-            check.right,
-            check.examples,
-            o.false_activations.len() as f64 / o.ordinary_hours,
-            s.false_activations.len() as f64 / s.ordinary_hours,
-        );
-        for (g, gesture) in s.gestures.iter().zip(&check.gestures) {
-            let false_ordinary = o
-                .false_activations
-                .iter()
-                .filter(|(_, n)| *n == g.name)
-                .count();
+        let f = figures(&user, &gestures);
+        for (name, loo, right, made, false_ones) in &f.rows {
             eprintln!(
-                "   {:<11} loo {}/{}  held-out {}/{} (confused {}, missed {})  false {:.1}/h",
-                g.name,
-                gesture.right,
-                gesture.examples,
-                g.right,
-                g.made,
-                g.confused,
-                g.missed,
-                false_ordinary as f64 / o.ordinary_hours
+                "| {} | {name} | {loo}/5 | {right}/{made} | {false_ones} |",
+                f.user
             );
+            right_all += right;
+            made_all += made;
+            let roll = ["tilt_left", "tilt_right", "wobble"].contains(&name.as_str());
+            if *made != 30 || (roll && (*right < 26 || *false_ones > 0)) {
+                short.push(format!(
+                    "{} {name}: {right}/{made}, {false_ones} false",
+                    f.user
+                ));
+            }
         }
     }
+    assert!(short.is_empty(), "{short:#?}");
+    assert!(100 * right_all >= 95 * made_all, "{right_all}/{made_all}");
 }
 
 /// `session`'s samples as a CSV of `channels` in a new scratch folder.
