@@ -4,11 +4,12 @@
 //! gesture. Plain DTW as the core computes it, without pruning, so every
 //! figure is exact.
 
-use crate::control::gesture::{Frame, GestureConfig, dtw_distance};
+use crate::control::gesture::{Frame, GestureConfig, comparable_lengths, dtw_distance};
 use crate::gestures::set::GestureSet;
 
-/// The distance from `frames` to the nearest of `templates`, by the
-/// core's banded DTW (the band of each template's length); ∞ if none.
+/// The distance from `frames` to the nearest of `templates` it may be
+/// compared with (of a comparable length), by the core's banded DTW (the
+/// band of each template's length); ∞ if none.
 pub fn nearest<'a>(
     config: &GestureConfig,
     frames: &[Frame],
@@ -16,6 +17,7 @@ pub fn nearest<'a>(
 ) -> f64 {
     templates
         .into_iter()
+        .filter(|t| comparable_lengths(frames.len(), t.len()))
         .map(|t| dtw_distance(frames, t, config.band_frames(t.len()), f64::INFINITY))
         .fold(f64::INFINITY, f64::min)
 }

@@ -13,7 +13,7 @@ use crate::gestures::set::GestureSet;
 /// The threshold is this many times the largest distance between an
 /// example and the nearest other of its gesture: a new movement is
 /// compared with all of them, but varies more than one session does.
-pub const OWN_MARGIN: f64 = 1.5;
+pub const OWN_MARGIN: f64 = 1.2;
 /// …and at most this fraction of the nearest ordinary movement's distance.
 pub const ORDINARY_MARGIN: f64 = 0.8;
 

@@ -60,6 +60,14 @@ pub enum GestureEvent {
     },
 }
 
+/// A movement is compared only with templates at most 1.5 times longer
+/// or shorter than it: DTW would otherwise match a slow glance down and
+/// back with a quick nod, shapes that differ mostly in speed. A person
+/// repeats their own gesture within ±15 %.
+pub fn comparable_lengths(a: usize, b: usize) -> bool {
+    2 * a <= 3 * b && 2 * b <= 3 * a
+}
+
 /// The decision on one segment's frames. `Copy`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Verdict {
@@ -184,6 +192,9 @@ impl Recognizer {
             let Some(own) = best.get(index).copied() else {
                 continue;
             };
+            if !comparable_lengths(frames.len(), template.frames.len()) {
+                continue;
+            }
             let bound = own.min(nearest.map_or(f64::INFINITY, |(_, d)| d * widen));
             if lb_keogh(frames, &template.envelope) > bound {
                 continue;
