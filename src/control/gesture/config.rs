@@ -45,7 +45,7 @@ pub struct GestureConfig {
     /// tracked only at rest (2000).
     pub rest_tracking_ms: u32,
     /// Half-width of the Sakoe–Chiba band as a fraction of the template's
-    /// length (0.08: ±4 frames, ±200 ms, on the longest; at least one
+    /// length (0.07: ±4 frames, ±240 ms, on the longest; at least one
     /// frame). Uniform speed differences are
     /// taken up by the band following the diagonal; the band is for the
     /// uneven ones.
@@ -67,7 +67,7 @@ impl Default for GestureConfig {
             min_ms: 450,
             max_ms: 3360,
             rest_tracking_ms: 2000,
-            band_fraction: 0.08,
+            band_fraction: 0.07,
             ambiguity_margin: 0.1,
         }
     }
