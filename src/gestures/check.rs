@@ -183,7 +183,7 @@ fn recognised(v: &Verdict) -> Option<GestureId> {
     }
 }
 
-/// The segments of each ordinary recording, with its source and hours.
+/// The segments of each ordinary recording, with its source.
 struct OrdinarySegments {
     source: String,
     segments: Vec<Segment>,

@@ -91,22 +91,13 @@ pub fn record(
             missing.join(", ")
         ));
     }
-    let (Some(&(first, _)), Some(&(last, _))) = (samples.first(), samples.last()) else {
+    let Some(&(first, _)) = samples.first() else {
         return Err("the recording has no sample".into());
     };
     // The front end fitted to the person's rest before anything is cut.
     let rest = front_end::rest(&config, samples);
     let config = rest.map_or(config, |rest| front_end::fit(&config, &rest));
-    let segments = segments(&config, samples.iter().copied());
-    let spans: Vec<Span> = segments
-        .iter()
-        .map(|s| Span {
-            start: s.start,
-            end: s.end,
-        })
-        .collect();
-    let slack = Tick::from(config.rest_ms) + 2 * Tick::from(config.frame_ms);
-    let cut = protocol::cut(names, first, last, &spans, slack).map_err(|e| e.to_string())?;
+    let (segments, cut) = cut_protocol(&config, names, samples)?;
     let mut gestures = Vec::with_capacity(names.len());
     for (name, indices) in names.iter().zip(&cut.examples) {
         let mut examples = Vec::with_capacity(EXAMPLES);
@@ -160,4 +151,29 @@ pub fn record(
     recorded.set = set;
     recorded.choices = choices;
     Ok(recorded)
+}
+
+/// The movements the front end cuts from `samples` with `config`, and the
+/// protocol's cut of them for `names`: which movement is which example,
+/// and the ordinary stretch. The front end sees a movement begin and end
+/// a little away from the head, by up to its rest time and two frames.
+pub fn cut_protocol(
+    config: &GestureConfig,
+    names: &[String],
+    samples: &[(Tick, ImuSample)],
+) -> Result<(Vec<Segment>, ProtocolCut), String> {
+    let (Some(&(first, _)), Some(&(last, _))) = (samples.first(), samples.last()) else {
+        return Err("the recording has no sample".into());
+    };
+    let segments = segments(config, samples.iter().copied());
+    let spans: Vec<Span> = segments
+        .iter()
+        .map(|s| Span {
+            start: s.start,
+            end: s.end,
+        })
+        .collect();
+    let slack = Tick::from(config.rest_ms) + 2 * Tick::from(config.frame_ms);
+    let cut = protocol::cut(names, first, last, &spans, slack).map_err(|e| e.to_string())?;
+    Ok((segments, cut))
 }

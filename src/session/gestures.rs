@@ -1,21 +1,23 @@
 //! `gestures record --from` and `gestures check` end to end: the IMU
 //! recordings read, the set made or read, checked, and written only when
-//! everything before it succeeded (through a temporary file beside it,
-//! renamed into place, so a set is never half-written).
+//! everything before it succeeded (written whole or not at all:
+//! [`write_whole`]).
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 
 use crate::control::Tick;
-use crate::control::gesture::{GestureConfig, segments};
+use crate::control::gesture::GestureConfig;
 use crate::control::imu::ImuSample;
 use crate::gestures::check::{self, Check, Ordinary};
-use crate::gestures::protocol::{self, Span};
+use crate::gestures::protocol::Span;
 use crate::gestures::record::{self, Recorded};
 use crate::gestures::report;
 use crate::gestures::set::GestureSet;
 use crate::tools::imu_csv::{ImuRecording, read_imu_csv};
+use crate::tools::output_file::write_whole;
 
 /// A set recorded from a file, and its check.
 #[derive(Debug)]
@@ -73,7 +75,8 @@ pub fn record_from(from: &Path, names: &[String], out: &Path) -> anyhow::Result<
         ),
     ];
     header.extend(report::choices(names, &recorded.choices));
-    write_atomically(out, &recorded.set.to_toml(&header))?;
+    let text = recorded.set.to_toml(&header);
+    write_whole(out, |w| Ok(w.write_all(text.as_bytes())?))?;
     Ok(RecordedSet { recorded, check })
 }
 
@@ -116,20 +119,7 @@ pub fn check_set(set_path: &Path, recordings: &[PathBuf]) -> anyhow::Result<Chec
         if path.exists() {
             let recording = read(path)?;
             let names: Vec<String> = set.gestures.iter().map(|g| g.name.clone()).collect();
-            let spans: Vec<Span> = segments(&set.config, recording.samples.iter().copied())
-                .iter()
-                .map(|s| Span {
-                    start: s.start,
-                    end: s.end,
-                })
-                .collect();
-            let (Some(&(first, _)), Some(&(last, _))) =
-                (recording.samples.first(), recording.samples.last())
-            else {
-                bail!("{source}: the recording has no sample");
-            };
-            let slack = Tick::from(set.config.rest_ms) + 2 * Tick::from(set.config.frame_ms);
-            let cut = protocol::cut(&names, first, last, &spans, slack)
+            let (_, cut) = record::cut_protocol(&set.config, &names, &recording.samples)
                 .map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
             let ordinary = within(&recording.samples, cut.ordinary).to_vec();
             let samples = ImuRecording {
@@ -147,16 +137,4 @@ pub fn check_set(set_path: &Path, recordings: &[PathBuf]) -> anyhow::Result<Chec
         })
         .collect();
     Ok(check::check(&set, &ordinary))
-}
-
-/// Writes `text` to `path` through a temporary file beside it.
-fn write_atomically(path: &Path, text: &str) -> anyhow::Result<()> {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "set.toml".into());
-    let temporary = path.with_file_name(format!(".{name}.partial"));
-    std::fs::write(&temporary, text)
-        .with_context(|| format!("cannot write {}", temporary.display()))?;
-    std::fs::rename(&temporary, path).with_context(|| format!("cannot write {}", path.display()))
 }
