@@ -159,7 +159,7 @@ fn bench_matcher(
 ) {
     let bursts: Vec<Action> = library
         .iter()
-        .flat_map(|e| e.actions.as_slice().to_vec())
+        .flat_map(|e| e.breaths().unwrap().as_slice().to_vec())
         .collect();
     let mut matcher = SequenceMatcher::new(
         library,

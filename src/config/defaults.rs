@@ -26,6 +26,9 @@ pub(super) fn core() -> CoreConfig {
         feedback: Default::default(),
         interface: Default::default(),
         pointer: Default::default(),
+        gesture_section: Default::default(),
+        gestures: None,
+        breath: true,
         scanning: Default::default(),
         sequences,
     }

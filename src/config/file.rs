@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::arm::settings::ArmSettings;
 use crate::config::defaults;
 use crate::config::library::LibraryEntry;
-use crate::control::core_config::{CoreConfig, InterfaceSection};
+use crate::control::core_config::{CoreConfig, GesturesSection, InterfaceSection};
 use crate::control::detector::DetectorConfig;
 use crate::control::modes::CommandConfig;
 use crate::control::motion::feedback::FeedbackConfig;
@@ -38,6 +38,7 @@ pub(super) struct File {
     #[serde(rename = "sequence")]
     sequences: Vec<LibraryEntry>,
     sensor: SensorSettings,
+    gestures: GesturesSection,
     output: OutputSection,
 }
 
@@ -107,6 +108,7 @@ impl File {
             scanning: core.scanning,
             sequences: core.sequences.into_iter().map(LibraryEntry).collect(),
             sensor,
+            gestures: core.gesture_section,
             output: OutputSection {
                 uinput: UinputSection {
                     device: output.uinput,
@@ -131,6 +133,9 @@ impl File {
             scanning: self.scanning,
             sequences: self.sequences.into_iter().map(|e| e.0).collect(),
             pointer: self.output.uinput.pointer,
+            gesture_section: self.gestures,
+            gestures: None,
+            breath: true,
         };
         let output = OutputSettings {
             uinput: self.output.uinput.device,
@@ -145,6 +150,7 @@ impl File {
     pub(super) fn sample() -> toml::Value {
         let mut file = File::default();
         file.output.mqtt.credentials_file = Some(std::path::PathBuf::from("credentials.toml"));
+        file.gestures.set = Some(std::path::PathBuf::from("gestures.toml"));
         let mut sample =
             toml::Value::try_from(file).unwrap_or_else(|_| toml::Value::Table(toml::Table::new()));
         if let Some(toml::Value::Table(detector)) = sample.get_mut("detector") {

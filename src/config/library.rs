@@ -11,9 +11,9 @@ use serde::de::{Deserializer, Error, Visitor};
 use serde::ser::SerializeMap;
 use serde::{Deserialize, Serialize, Serializer};
 
-use crate::control::action::ActionSeq;
 use crate::control::mode::Mode;
 use crate::control::selection::SequenceEntry;
+use crate::control::sequence::Sequence;
 use crate::control::target::{Chord, Click, DRAG, HomeEvent, Target};
 
 /// The keys of an entry that say what it does; an entry has one.
@@ -43,7 +43,7 @@ impl Serialize for LibraryEntry {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Written {
-    actions: ActionSeq,
+    actions: Sequence,
     mode: Option<ModeChoice>,
     key: Option<ChordText>,
     click: Option<ClickName>,

@@ -7,9 +7,13 @@ use std::marker::PhantomData;
 use serde::de::{Deserialize, Deserializer, Error, Visitor};
 
 use crate::arm::settings::Ros2Message;
-use crate::control::action::{Action, ActionSeq, MAX_SEQUENCE_LEN};
+use crate::control::action::{Action, MAX_SEQUENCE_LEN};
+use crate::control::gesture::name::{GestureName, MAX_GESTURE_NAME};
+use crate::control::head::TiltAxis;
 use crate::control::mode::Mode;
 use crate::control::selection::Interface;
+use crate::control::sequence::Sequence;
+use crate::control::token::Token;
 use crate::sensor::settings::{EvdevInput, SerialFormat};
 
 /// A setting whose value is one of a few names.
@@ -46,6 +50,7 @@ named!(Interface, "an interface");
 named!(EvdevInput, "an input");
 named!(SerialFormat, "a format");
 named!(Ros2Message, "a message");
+named!(TiltAxis, "a tilt axis");
 
 /// Reads a [`Named`] value from its name.
 struct ByName<T>(PhantomData<T>);
@@ -75,39 +80,73 @@ fn not_a_choice<T: Named>(name: &str) -> String {
     }
 }
 
-/// A sequence is written as its list of paper codes, e.g. `[1, 2, -1]`.
-impl<'de> Deserialize<'de> for ActionSeq {
+/// A sequence is written as its list of tokens: paper codes for breaths,
+/// gesture names for gestures, e.g. `[1, 2, -1]` or `["nod", -1]`.
+impl<'de> Deserialize<'de> for Sequence {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        let codes = Vec::<i64>::deserialize(deserializer)?;
-        actions(&codes).map_err(D::Error::custom)
+        let written = Vec::<WrittenToken>::deserialize(deserializer)?;
+        tokens(&written).map_err(D::Error::custom)
     }
 }
 
-/// The actions of `codes`: at least one, at most [`MAX_SEQUENCE_LEN`],
-/// each a paper code.
-fn actions(codes: &[i64]) -> Result<ActionSeq, String> {
-    if codes.is_empty() {
+/// One token as a file has it.
+#[derive(serde::Deserialize)]
+#[serde(untagged)]
+enum WrittenToken {
+    Code(i64),
+    Name(String),
+}
+
+/// The tokens written: at least one, at most [`MAX_SEQUENCE_LEN`], each a
+/// paper code or a gesture's name.
+fn tokens(written: &[WrittenToken]) -> Result<Sequence, String> {
+    if written.is_empty() {
         return Err("must hold at least one action".into());
     }
-    if codes.len() > MAX_SEQUENCE_LEN {
+    if written.len() > MAX_SEQUENCE_LEN {
         return Err(format!(
             "{} actions, at most {MAX_SEQUENCE_LEN} allowed",
-            codes.len()
+            written.len()
         ));
     }
-    let bad: Vec<String> = codes
+    let read = |w: &WrittenToken| match w {
+        WrittenToken::Code(code) => Action::from_code(*code).map(Token::Breath),
+        WrittenToken::Name(name) => GestureName::new(name).map(Token::Gesture),
+    };
+    let bad_codes: Vec<String> = written
         .iter()
-        .filter(|&&code| Action::from_code(code).is_none())
-        .map(|code| code.to_string())
+        .filter(|w| matches!(w, WrittenToken::Code(_)) && read(w).is_none())
+        .filter_map(|w| match w {
+            WrittenToken::Code(code) => Some(code.to_string()),
+            WrittenToken::Name(_) => None,
+        })
         .collect();
-    if !bad.is_empty() {
-        return Err(format!(
+    let bad_names: Vec<String> = written
+        .iter()
+        .filter_map(|w| match w {
+            WrittenToken::Name(name) if GestureName::new(name).is_none() => {
+                Some(format!("{name:?}"))
+            }
+            _ => None,
+        })
+        .collect();
+    let mut problems = Vec::new();
+    if !bad_codes.is_empty() {
+        problems.push(format!(
             "{} not an action (1 = short sip, 2 = long sip, -1 = short puff, -2 = long puff)",
-            bad.join(", ")
+            bad_codes.join(", ")
         ));
     }
-    let actions: Vec<Action> = codes.iter().filter_map(|&c| Action::from_code(c)).collect();
-    ActionSeq::from_slice(&actions).ok_or_else(|| "too many actions".into())
+    if !bad_names.is_empty() {
+        problems.push(format!(
+            "{} not a gesture name (lower-case letters, digits and _, starting with a letter, at most {MAX_GESTURE_NAME})",
+            bad_names.join(", ")
+        ));
+    }
+    if !problems.is_empty() {
+        return Err(problems.join("; "));
+    }
+    Sequence::from_tokens(written.iter().filter_map(read)).ok_or_else(|| "too many actions".into())
 }
 
 #[cfg(test)]
@@ -152,8 +191,15 @@ mod tests {
                 .remove("a")
                 .unwrap();
             value
-                .try_into::<ActionSeq>()
-                .map(|seq| seq.as_slice().iter().map(|a| a.code()).collect())
+                .try_into::<Sequence>()
+                .map(|seq| {
+                    seq.actions()
+                        .unwrap()
+                        .as_slice()
+                        .iter()
+                        .map(|a| a.code())
+                        .collect()
+                })
                 .map_err(|e| e.message().to_string())
         };
         assert_eq!(codes("[1, 2, -1, -2]"), Ok(vec![1, 2, -1, -2]));

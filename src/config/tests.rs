@@ -122,7 +122,7 @@ fn issue_example_parses() {
         Some(Mode::TranslateX)
     );
     assert_eq!(
-        c.core().sequences()[0].actions.as_slice(),
+        c.core().sequences()[0].breaths().unwrap().as_slice(),
         &[Action::ShortSip, Action::ShortSip]
     );
     assert_eq!(c.core().matcher().sequence_timeout_ms, 1000);

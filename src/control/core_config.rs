@@ -6,9 +6,13 @@
 //! limits are within the JACO2's caps, the thresholds on the right sides of
 //! the neutral, the library non-empty and free of duplicates.
 
+use std::path::{Path, PathBuf};
+
 use serde::Serialize;
 
 use crate::control::detector::DetectorConfig;
+use crate::control::gesture::name::GestureName;
+use crate::control::head::{GestureSetup, HeadConfig};
 use crate::control::modes::CommandConfig;
 use crate::control::motion::feedback::FeedbackConfig;
 use crate::control::motion::home::HomeConfig;
@@ -18,6 +22,7 @@ use crate::control::pointer::PointerConfig;
 use crate::control::selection::matcher::MatcherConfig;
 use crate::control::selection::scanning::ScanningConfig;
 use crate::control::selection::{Interface, SequenceEntry};
+use crate::control::token::Token;
 
 /// The validated settings of the whole core (`config::file` lays them out
 /// as the file's sections).
@@ -36,6 +41,25 @@ pub struct CoreConfig {
     pub(crate) sequences: Vec<SequenceEntry>,
     /// The pointer's speeds (`[output.uinput]`).
     pub(crate) pointer: PointerConfig,
+    /// `[gestures]`: the gesture set's file and the head's settings.
+    pub(crate) gesture_section: GesturesSection,
+    /// The person's gestures, once their set is loaded.
+    pub(crate) gestures: Option<GestureSetup>,
+    /// A breath sensor feeds the core (without one, the detector is not
+    /// run and its silence is no fault).
+    pub(crate) breath: bool,
+}
+
+/// The `[gestures]` section: the person's gesture set (written by
+/// `sipnpuff gestures record`) and the head's settings.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub(crate) struct GesturesSection {
+    /// The gesture set's file, if the person uses gestures.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(crate) set: Option<PathBuf>,
+    #[serde(flatten)]
+    pub(crate) head: HeadConfig,
 }
 
 /// The `[interface]` section.
@@ -89,6 +113,54 @@ impl CoreConfig {
     /// The pointer's speeds.
     pub fn pointer(&self) -> &PointerConfig {
         &self.pointer
+    }
+
+    /// The person's gestures, once loaded ([`CoreConfig::with_gestures`]).
+    pub fn gestures(&self) -> Option<&GestureSetup> {
+        self.gestures.as_ref()
+    }
+
+    /// The gesture set's file (`[gestures] set`), if any.
+    pub fn gesture_set_file(&self) -> Option<&Path> {
+        self.gesture_section.set.as_deref()
+    }
+
+    /// The head's settings (`[gestures]`).
+    pub fn head(&self) -> &HeadConfig {
+        &self.gesture_section.head
+    }
+
+    /// The names of the gestures the library uses, in first use.
+    pub fn gestures_used(&self) -> Vec<GestureName> {
+        let mut used = Vec::new();
+        for entry in &self.sequences {
+            for token in entry.actions.as_slice() {
+                if let Token::Gesture(name) = token
+                    && !used.contains(name)
+                {
+                    used.push(*name);
+                }
+            }
+        }
+        used
+    }
+
+    /// The same settings with the person's gestures loaded (the caller
+    /// checks the library's gestures are in the set).
+    pub fn with_gestures(mut self, setup: GestureSetup) -> CoreConfig {
+        self.gestures = Some(setup);
+        self
+    }
+
+    /// Whether a breath sensor feeds the core.
+    pub fn has_breath_sensor(&self) -> bool {
+        self.breath
+    }
+
+    /// The same settings for a run whose only sensor is the IMU.
+    pub fn without_breath_sensor(mut self) -> CoreConfig {
+        self.breath = false;
+        self
     }
 
     /// How the user selects a mode.

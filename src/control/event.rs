@@ -7,13 +7,15 @@
 use serde::Serialize;
 
 use crate::control::Tick;
-use crate::control::action::ActionSeq;
 use crate::control::detector::{Burst, FaultReason};
+use crate::control::gesture::name::GestureName;
+use crate::control::gesture::recognizer::RejectReason;
 use crate::control::mode::Mode;
 use crate::control::modes::DetectionReason;
 use crate::control::motion::MotionEvent;
 use crate::control::motion::feedback::ArmFault;
 use crate::control::selection::matcher::ResetReason;
+use crate::control::sequence::Sequence;
 use crate::control::target::Target;
 
 /// Something worth telling the user, the clinician or the log. `Copy`.
@@ -26,16 +28,30 @@ pub enum Event {
     /// action fires.
     Match {
         /// The matched sequence.
-        sequence: ActionSeq,
+        sequence: Sequence,
         /// What it selects or fires (`"mode":…`, `"key":…`, `"click":…`,
         /// `"home_event":…`).
         #[serde(flatten)]
         target: Target,
     },
+    /// A head gesture was recognised: the sequence's next token.
+    Gesture {
+        /// Its name in the person's gesture set.
+        name: GestureName,
+        /// The movement's first tick.
+        start_tick: Tick,
+    },
+    /// A movement matched none of the person's gestures (never guessed).
+    GestureRejected {
+        /// The nearest gesture compared, if any.
+        nearest: Option<GestureName>,
+        /// Why.
+        why: RejectReason,
+    },
     /// The current sequence was dropped.
     Reset {
         /// The dropped sequence.
-        sequence: ActionSeq,
+        sequence: Sequence,
         /// Why.
         reason: ResetReason,
     },
@@ -119,6 +135,10 @@ impl Default for Events {
 impl Events {
     /// Adds an event; returns it back if the list is full (cannot happen
     /// with the core's event sources, see [`MAX_EVENTS_PER_TICK`]).
+    #[allow(
+        clippy::result_large_err,
+        reason = "the event handed back is the inline value itself"
+    )]
     pub fn push(&mut self, event: Event) -> Result<(), Event> {
         let slot = self.items.get_mut(usize::from(self.len)).ok_or(event)?;
         *slot = Some(event);

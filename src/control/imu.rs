@@ -163,6 +163,20 @@ impl ImuSample {
     }
 }
 
+/// One tick's input from the IMU, as [`Sample`](crate::control::sample::Sample)
+/// is the breath sensor's. `Copy`, RT-safe.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum ImuInput {
+    /// A sample arrived on this tick.
+    Sample(ImuSample),
+    /// No sample on this tick (an IMU samples at its own rate; after
+    /// `stale_ms` without one it is in fault).
+    #[default]
+    Missing,
+    /// The IMU's device is gone: in fault at once.
+    Lost,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -43,6 +43,7 @@ pub mod core_config;
 pub mod detector;
 pub mod event;
 pub mod gesture;
+pub mod head;
 pub mod imu;
 pub mod keys;
 pub mod mode;
@@ -53,9 +54,11 @@ pub mod pipeline;
 pub mod pointer;
 pub mod sample;
 pub mod selection;
+pub mod sequence;
 pub mod skip_count;
 pub mod target;
 pub mod tick;
+pub mod token;
 pub mod view;
 
 /// Time in the core: one tick is one millisecond, one sensor sample at 1 kHz.

@@ -57,6 +57,9 @@ pub struct ModeOutput {
     pub direction: Direction,
     /// Volts past the threshold while a breath is held, else 0.
     pub strength_volts: f64,
+    /// When the head's tilt moves: how far past its dead zone, 0–1 of
+    /// full scale (the speed is always proportional to it).
+    pub speed_fraction: Option<f64>,
 }
 
 /// The mode machine. `step` is RT-safe.

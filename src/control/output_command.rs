@@ -5,11 +5,15 @@
 use serde::Serialize;
 
 use crate::control::Tick;
-use crate::control::action::ActionSeq;
+use crate::control::sequence::Sequence;
 use crate::control::target::{Chord, Click, HomeEvent};
 
 /// One command to the outputs. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "inline (a home event carries its sequence) so the control thread never allocates"
+)]
 pub enum OutputCommand {
     /// Press the chord's keys in order, then release them in reverse.
     Key(Chord),
@@ -29,7 +33,7 @@ pub enum OutputCommand {
         /// The tick of the match.
         tick: Tick,
         /// The sequence matched.
-        sequence: ActionSeq,
+        sequence: Sequence,
     },
     /// Let go of everything held: a fault or a stop.
     ReleaseAll,
@@ -90,6 +94,10 @@ impl Default for OutputCommands {
 impl OutputCommands {
     /// Adds a command; hands it back if full (never with the core's
     /// commands: at most [`MAX_OUTPUT_COMMANDS`] a tick).
+    #[allow(
+        clippy::result_large_err,
+        reason = "the command handed back is the inline value itself"
+    )]
     pub fn push(&mut self, command: OutputCommand) -> Result<(), OutputCommand> {
         match self.items.iter_mut().find(|slot| slot.is_none()) {
             Some(slot) => {

@@ -1,13 +1,13 @@
-//! The pipeline: the core's stages wired together, detector → selection →
-//! mode machine → motion, one [`Pipeline::step`] per sample. Pure and
-//! deterministic: the same samples give the same outputs in replay, in
-//! tests and on the real-time thread.
+//! The pipeline: the core's stages wired together, detector (and the
+//! head's gestures) → selection → mode machine → motion, one
+//! [`Pipeline::step`] per tick. Pure and deterministic: the same inputs
+//! give the same outputs in replay, in tests and on the real-time thread.
 
 use crate::control::Tick;
-use crate::control::action::ActionSeq;
 use crate::control::core_config::CoreConfig;
 use crate::control::detector::{BurstDetector, DetectorEvent, DetectorOutput};
 use crate::control::event::Event;
+use crate::control::head::{Head, HeadEvent, HeadGesture, HeadOutput};
 use crate::control::mode::{Direction, ModeState};
 use crate::control::modes::ModeMachine;
 use crate::control::motion::Motion;
@@ -18,8 +18,10 @@ use crate::control::pointer::Pointer;
 use crate::control::selection::Interface;
 use crate::control::selection::matcher::{MatchEvent, ResetReason, SequenceMatcher};
 use crate::control::selection::scanning::Scanner;
+use crate::control::sequence::Sequence;
 use crate::control::target::Target;
 use crate::control::tick::{ArmInput, ArmPose, TickInput, TickOutput};
+use crate::control::token::Token;
 use crate::control::view::CoreView;
 
 /// The deterministic core's pipeline. Build with [`Pipeline::new`] at
@@ -28,6 +30,10 @@ use crate::control::view::CoreView;
 #[derive(Debug)]
 pub struct Pipeline {
     detector: BurstDetector,
+    /// A breath sensor feeds the core (else the detector is not run).
+    breath: bool,
+    /// The head-worn IMU's stage, for a person with gestures.
+    head: Option<Head>,
     selector: Selector,
     modes: ModeMachine,
     motion: Motion,
@@ -45,6 +51,10 @@ pub struct Pipeline {
 
 /// How a mode is selected in detection mode.
 #[derive(Debug)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "built once and never moved; the matcher's sequence is inline"
+)]
 enum Selector {
     /// ASP: sequences matched against the library.
     Sequences(SequenceMatcher),
@@ -82,6 +92,9 @@ impl Pipeline {
     pub fn new(config: &CoreConfig) -> Self {
         Pipeline {
             detector: BurstDetector::new(config.detector()),
+            breath: config.has_breath_sensor(),
+            // A loaded setup was checked by `Head::new` when it was made.
+            head: config.gestures().and_then(|setup| Head::new(setup).ok()),
             selector: match config.interface() {
                 Interface::Asp => {
                     Selector::Sequences(SequenceMatcher::new(config.sequences(), config.matcher()))
@@ -128,12 +141,13 @@ impl Pipeline {
                 matcher.pending(),
                 None,
             ),
-            Selector::Scanning(scanner) => (ActionSeq::EMPTY, None, None, scanner.highlighted()),
+            Selector::Scanning(scanner) => (Sequence::EMPTY, None, None, scanner.highlighted()),
         };
         CoreView {
             neutral_volts: self.detector.neutral_volts(),
             held: self.detector.held(),
-            sensor_faulted: self.detector.is_faulted(),
+            sensor_faulted: self.detector.is_faulted()
+                || self.head.as_ref().is_some_and(Head::is_faulted),
             sequence,
             decides_at,
             pending,
@@ -163,9 +177,18 @@ impl Pipeline {
             self.modes.stop();
         }
         let now = input.tick;
-        let detected = self.detector.step(now, input.sample);
+        let detected = if self.breath {
+            self.detector.step(now, input.sample)
+        } else {
+            DetectorOutput::default()
+        };
+        let commanding = matches!(self.modes.state(), ModeState::Command(_));
+        let head = match &mut self.head {
+            Some(head) => head.step(now, input.imu, commanding),
+            None => HeadOutput::default(),
+        };
         out.restart(now);
-        self.process(now, detected, &input.arm, out);
+        self.process(now, detected, &head, &input.arm, out);
     }
 
     /// One tick into `out`: the arm's news, the selection (the paper's
@@ -174,6 +197,7 @@ impl Pipeline {
         &mut self,
         now: Tick,
         detected: DetectorOutput,
+        head: &HeadOutput,
         arm: &ArmInput,
         out: &mut TickOutput,
     ) {
@@ -189,8 +213,9 @@ impl Pipeline {
             out.motion = self.motion.idle_output();
         }
 
+        let faulted = detected.faulted || head.faulted;
         out.held = detected.held;
-        out.faulted = detected.faulted;
+        out.faulted = faulted;
         if let Some(fault) = self.take_arm_news(now, arm, out) {
             if self.arm_fault.is_none() {
                 self.arm_fault = Some(fault);
@@ -203,22 +228,27 @@ impl Pipeline {
                 matcher.interrupt();
             }
         }
-        let matched = self.select(now, &detected, out);
+        let matched = self.select(now, &detected, head, out);
         let entered = matched.and_then(|(_, target)| target.mode());
         if let Some((sequence, target)) = matched {
             self.fire(now, sequence, target, out);
         }
 
-        let (command, left) = self
-            .modes
-            .step(now, detected.held, entered, detected.faulted);
+        // A breath held moves; without one, the head's tilt (proportional
+        // to how far it is past the dead zone).
+        let head_moves = detected.held.breath.is_none() && head.tilt.breath.is_some();
+        let held = if head_moves { head.tilt } else { detected.held };
+        let (mut command, left) = self.modes.step(now, held, entered, faulted);
+        if head_moves && command.direction != Direction::Still {
+            command.speed_fraction = Some(head.speed_fraction);
+        }
         out.command = command;
         self.direction = command.direction;
         if let Some(reason) = left {
             out.log(Event::Detection { reason });
         }
         // A fault or a stop lets go of every key and button held.
-        if (detected.faulted || self.modes.stopping()) && !self.released {
+        if (faulted || self.modes.stopping()) && !self.released {
             self.released = true;
             self.pointer.release(&mut out.outputs);
         }
@@ -233,7 +263,7 @@ impl Pipeline {
     /// A match's action for the outputs: a drag begins or ends, a chord,
     /// a click or a home event fires (a mode is entered by the mode
     /// machine).
-    fn fire(&mut self, now: Tick, sequence: ActionSeq, target: Target, out: &mut TickOutput) {
+    fn fire(&mut self, now: Tick, sequence: Sequence, target: Target, out: &mut TickOutput) {
         self.released = false;
         self.pointer.on_match(target, &mut out.outputs);
         let fired = match target {
@@ -252,14 +282,54 @@ impl Pipeline {
         }
     }
 
+    /// The head's news on this tick: its fault (the sequence begun is
+    /// void), its recovery, a gesture (in detection mode, the sequence's
+    /// next token) or a movement that is none.
+    fn take_head_news(
+        &mut self,
+        now: Tick,
+        head: &HeadOutput,
+        in_detection: bool,
+        out: &mut TickOutput,
+    ) -> Option<MatchEvent> {
+        let Selector::Sequences(matcher) = &mut self.selector else {
+            return None;
+        };
+        match head.event {
+            Some(HeadEvent::Fault(reason)) => {
+                out.log(Event::Fault { reason });
+                return matcher.interrupt();
+            }
+            Some(HeadEvent::Recovered) => out.log(Event::Recovered),
+            None => {}
+        }
+        match head.gesture {
+            Some(HeadGesture::Recognised { name, start }) => {
+                out.log(Event::Gesture {
+                    name,
+                    start_tick: start,
+                });
+                in_detection
+                    .then(|| matcher.on_token(Token::Gesture(name), now))
+                    .flatten()
+            }
+            Some(HeadGesture::Rejected { nearest, why }) => {
+                out.log(Event::GestureRejected { nearest, why });
+                None
+            }
+            None => None,
+        }
+    }
+
     /// The detector's event and the selector's decision on this tick,
     /// logged: the sequence matched and what it selects, if any.
     fn select(
         &mut self,
         now: Tick,
         detected: &DetectorOutput,
+        head: &HeadOutput,
         out: &mut TickOutput,
-    ) -> Option<(ActionSeq, Target)> {
+    ) -> Option<(Sequence, Target)> {
         let in_detection = self.modes.state() == ModeState::Detection;
         let mut decision = None;
         let mut scan_burst = None;
@@ -298,10 +368,13 @@ impl Pipeline {
             }),
             None => {}
         }
+        if decision.is_none() {
+            decision = self.take_head_news(now, head, in_detection, out);
+        }
         match &mut self.selector {
             Selector::Sequences(matcher) => {
                 if decision.is_none() {
-                    decision = matcher.on_tick(now, detected.in_progress);
+                    decision = matcher.on_tick(now, detected.in_progress || head.in_motion);
                 }
             }
             Selector::Scanning(scanner) => {
@@ -311,7 +384,7 @@ impl Pipeline {
                     out.log(Event::Highlight { mode });
                 }
                 if let (Some(mode), Some(burst)) = (scan.selected, scan_burst) {
-                    let mut sequence = ActionSeq::default();
+                    let mut sequence = Sequence::default();
                     // One action always fits.
                     let _ = sequence.try_push(burst.action);
                     decision = Some(MatchEvent::Match {

@@ -200,6 +200,7 @@ mod tests {
             state: ModeState::Command(mode),
             direction,
             strength_volts: 0.5,
+            speed_fraction: None,
         }
     }
 

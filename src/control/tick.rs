@@ -10,6 +10,7 @@ use nalgebra::Isometry3;
 
 use crate::control::Tick;
 use crate::control::event::{Event, Events};
+use crate::control::imu::ImuInput;
 use crate::control::mode::Held;
 use crate::control::modes::ModeOutput;
 use crate::control::motion::MotionOutput;
@@ -21,8 +22,11 @@ use crate::control::sample::Sample;
 pub struct TickInput {
     /// The tick (1 ms each; skipped ticks and stalls show as jumps).
     pub tick: Tick,
-    /// The sensor's sample, or none, or the device gone.
+    /// The breath sensor's sample, or none, or the device gone.
     pub sample: Sample,
+    /// The head-worn IMU's sample, or none, or the device gone (read only
+    /// when the person has gestures).
+    pub imu: ImuInput,
     /// What the arm said since the last tick.
     pub arm: ArmInput,
     /// The safe stop begins on this tick: from it on the interface is in
@@ -44,6 +48,15 @@ impl TickInput {
     /// Tick `tick` with a sample of `volts` and nothing else.
     pub fn volts(tick: Tick, volts: f64) -> Self {
         TickInput::new(tick, Sample::Volts(volts))
+    }
+
+    /// Tick `tick` with the IMU's input and nothing else.
+    pub fn imu(tick: Tick, imu: ImuInput) -> Self {
+        TickInput {
+            tick,
+            imu,
+            ..TickInput::default()
+        }
     }
 }
 

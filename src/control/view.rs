@@ -6,8 +6,9 @@
 //! `Copy` and small: the control thread puts one in every tick's record.
 
 use crate::control::Tick;
-use crate::control::action::{ActionSeq, Breath};
+use crate::control::action::Breath;
 use crate::control::mode::{Direction, Mode, ModeState};
+use crate::control::sequence::Sequence;
 use crate::control::target::Target;
 
 /// The core's state as the user sees it. `Copy`, RT-safe to build.
@@ -21,7 +22,7 @@ pub struct CoreView {
     /// The sensor is in fault: nothing is detected, nothing moves.
     pub sensor_faulted: bool,
     /// The sequence entered so far (ASP; empty with scanning).
-    pub sequence: ActionSeq,
+    pub sequence: Sequence,
     /// When the matcher decides if nothing more is breathed (ASP, with a
     /// sequence entered; a breath held delays it).
     pub decides_at: Option<Tick>,

@@ -15,7 +15,7 @@
 use serde::Serialize;
 
 use crate::config::Config;
-use crate::control::action::Action;
+use crate::control::action::{Action, ActionSeq};
 use crate::control::selection::SequenceEntry;
 use crate::control::target::Target;
 use crate::design::breathing::{Breathing, RatesFrom};
@@ -308,7 +308,8 @@ pub fn analyse(
     usage: &Usage,
     timing: &AttemptTiming,
 ) -> Analysis {
-    let sequences: Vec<&[Action]> = library.iter().map(|e| e.actions.as_slice()).collect();
+    let breaths: Vec<ActionSeq> = library.iter().map(breaths_of).collect();
+    let sequences: Vec<&[Action]> = breaths.iter().map(ActionSeq::as_slice).collect();
     let n = library.len();
     // landed_in[j][i]: chance an attempt at i lands in j.
     let mut landed_in = vec![vec![0.0; n]; n];
@@ -330,7 +331,7 @@ pub fn analyse(
         });
         confusions.sort_by(|a, b| b.p.total_cmp(&a.p));
         entries.push(EntryAnalysis {
-            actions: entry.actions.codes().collect(),
+            actions: breaths_of(entry).codes().collect(),
             target: entry.target,
             usage: usage.shares.get(i).copied().unwrap_or(0.0),
             expected_ms: cost.expected_ms,
@@ -528,6 +529,12 @@ pub fn text(a: &Analysis) -> String {
         let _ = writeln!(out, "- {f}");
     }
     out
+}
+
+/// An entry's breaths (a library with gestures is refused before any
+/// design: [`crate::design::designing`]).
+pub(crate) fn breaths_of(entry: &SequenceEntry) -> ActionSeq {
+    entry.breaths().unwrap_or(ActionSeq::EMPTY)
 }
 
 #[cfg(test)]

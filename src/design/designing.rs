@@ -91,7 +91,7 @@ pub fn design(request: &Request, say: &dyn Fn(&str)) -> anyhow::Result<Designed>
         .iter()
         .zip(&found.sequences)
         .map(|(e, s)| SequenceEntry {
-            actions: *s,
+            actions: (*s).into(),
             target: e.target,
         })
         .collect();
@@ -130,7 +130,10 @@ pub fn design(request: &Request, say: &dyn Fn(&str)) -> anyhow::Result<Designed>
     let unbreathable: Vec<Action> = Action::ALL
         .into_iter()
         .filter(|a| {
-            request.without.contains(a) && library.iter().any(|e| e.actions.as_slice().contains(a))
+            request.without.contains(a)
+                && library
+                    .iter()
+                    .any(|e| e.breaths().is_some_and(|b| b.as_slice().contains(a)))
         })
         .collect();
     let verdict = verdict::verdict(&Evidence {

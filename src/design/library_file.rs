@@ -9,7 +9,7 @@ use std::fmt::Write;
 use crate::config::Config;
 use crate::config::print::entry_toml;
 use crate::control::selection::SequenceEntry;
-use crate::design::analysis::Analysis;
+use crate::design::analysis::{Analysis, breaths_of};
 use crate::design::search::SearchResult;
 use crate::fit::profile::{same, values};
 
@@ -113,7 +113,7 @@ pub fn text(d: &Designed) -> Result<String, toml::ser::Error> {
             if was.actions == entry.actions {
                 "kept".to_string()
             } else {
-                format!("was [{}]", codes(was.actions.as_slice()))
+                format!("was [{}]", codes(breaths_of(was).as_slice()))
             },
             e.expected_ms / 1000.0,
             if e.wait_ms > 0.0 {

@@ -9,6 +9,7 @@ use anyhow::bail;
 use crate::config::invalid::invalid;
 use crate::control::action::{Action, ActionSeq};
 use crate::control::selection::SequenceEntry;
+use crate::design::analysis::breaths_of;
 use crate::design::inputs::Inputs;
 use crate::design::request::Request;
 use crate::design::search::{Problem, candidates};
@@ -36,7 +37,7 @@ pub fn problem(request: &Request, inputs: &Inputs) -> anyhow::Result<Problem> {
                 all.join(", ")
             )));
         };
-        fixed[i] = Some(library[i].actions);
+        fixed[i] = Some(breaths_of(&library[i]));
     }
     let candidates = candidates(
         &allowed,

@@ -179,6 +179,7 @@ mod tests {
     use crate::control::mode::Mode;
     use crate::control::selection::SequenceEntry;
     use crate::control::selection::matcher::{MatchEvent, MatcherConfig, SequenceMatcher};
+    use crate::control::sequence::Sequence;
     use crate::sim::user::UserModel;
     use proptest::prelude::*;
 
@@ -265,8 +266,8 @@ mod tests {
                 .map(|e| SequenceEntry::mode(ActionSeq::from_slice(e).unwrap(), Mode::TranslateX))
                 .collect();
             let mut matcher = SequenceMatcher::new(&production, &MatcherConfig { sequence_timeout_ms: 1000 });
-            let position = |sequence: ActionSeq| {
-                library.iter().position(|e| e.as_slice() == sequence.as_slice()).unwrap()
+            let position = |sequence: Sequence| {
+                library.iter().position(|e| Sequence::from_slice(e).unwrap() == sequence).unwrap()
             };
             let mut got = None;
             let mut tick = 0;

@@ -574,20 +574,20 @@ mod tests {
             let mut p = problem(vec![1.0 / 9.0; 9], &allowed, 2, max);
             p.time_limit = Duration::from_millis(200);
             if keep_first {
-                p.fixed[0] = Some(library[0].actions);
+                p.fixed[0] = library[0].breaths();
             }
             prop_assume!(p.candidates.len() >= 9);
             let found = search(&p);
             let designed: Vec<SequenceEntry> = library
                 .iter()
                 .zip(&found.sequences)
-                .map(|(e, s)| SequenceEntry { actions: *s, target: e.target })
+                .map(|(e, s)| SequenceEntry { actions: (*s).into(), target: e.target })
                 .collect();
             prop_assert!(config.clone().with_sequences(designed).is_ok());
             for (i, s) in found.sequences.iter().enumerate() {
                 prop_assert!(found.sequences[..i].iter().all(|t| t != s));
                 if keep_first && i == 0 {
-                    prop_assert_eq!(*s, library[0].actions);
+                    prop_assert_eq!(Some(*s), library[0].breaths());
                 } else {
                     prop_assert!((2..=max).contains(&s.len()));
                     prop_assert!(s.as_slice().iter().all(|a| allowed.contains(a)));

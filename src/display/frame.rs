@@ -6,30 +6,53 @@
 use serde::Serialize;
 
 use crate::control::Tick;
-use crate::control::action::{Action, ActionSeq, Breath};
+use crate::control::action::Breath;
+use crate::control::gesture::name::GestureName;
+use crate::control::sequence::Sequence;
+use crate::control::token::Token;
 use crate::fit::outcome::Outcome;
 use crate::fit::prompter::{Phase, Say, View};
 
-/// One breath of a sequence, as the page draws it.
+/// One breath or gesture of a sequence, as the page draws it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct Symbol {
-    /// `sip` or `puff`.
+    /// `sip`, `puff` or `gesture`.
     pub breath: &'static str,
     /// A long one.
     pub long: bool,
+    /// The gesture's name (`nod`), for a gesture.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gesture: Option<GestureName>,
 }
 
 impl Symbol {
-    fn of(action: Action) -> Symbol {
-        Symbol {
-            breath: action.breath().word(),
-            long: action.is_long(),
+    fn of(token: Token) -> Symbol {
+        match token {
+            Token::Breath(action) => Symbol {
+                breath: action.breath().word(),
+                long: action.is_long(),
+                gesture: None,
+            },
+            Token::Gesture(name) => Symbol {
+                breath: "gesture",
+                long: false,
+                gesture: Some(name),
+            },
+        }
+    }
+
+    /// How a person reads it: `sip`, `long puff`, `nod`.
+    pub fn words(&self) -> String {
+        match (self.gesture, self.long) {
+            (Some(name), _) => name.to_string(),
+            (None, true) => format!("long {}", self.breath),
+            (None, false) => self.breath.to_string(),
         }
     }
 }
 
-pub(super) fn symbols(sequence: &ActionSeq) -> Vec<Symbol> {
-    sequence.as_slice().iter().map(|&a| Symbol::of(a)).collect()
+pub(super) fn symbols(sequence: &Sequence) -> Vec<Symbol> {
+    sequence.as_slice().iter().map(|&t| Symbol::of(t)).collect()
 }
 
 /// A mode as listed on the screen.

@@ -5,7 +5,7 @@
 //! the same [`Frame`]; [`Setup`] is what does not change during a run.
 
 use crate::control::Tick;
-use crate::control::action::{ActionSeq, Breath};
+use crate::control::action::Breath;
 use crate::control::core_config::CoreConfig;
 use crate::control::event::{Event, TimedEvent};
 use crate::control::mode::{Direction, Mode, ModeState};
@@ -13,6 +13,7 @@ use crate::control::modes::DetectionReason;
 use crate::control::motion::MotionEvent;
 use crate::control::sample::Sample;
 use crate::control::selection::Interface;
+use crate::control::sequence::Sequence;
 use crate::control::target::Target;
 use crate::control::view::CoreView;
 use crate::fit::outcome::Outcome;
@@ -29,7 +30,7 @@ use crate::display::words::{fired_words, limit_words, motion_shown, target_id, t
 #[derive(Debug, Clone)]
 pub struct Screen {
     setup: Setup,
-    library: Vec<ActionSeq>,
+    library: Vec<Sequence>,
     view: CoreView,
     tick: Tick,
     volts: Option<f64>,
@@ -266,7 +267,19 @@ impl Screen {
                 Some(Cue::Fault)
             }
             Event::Motion(motion) => self.motion_event(motion, tick),
-            Event::Burst(_) | Event::Reset { .. } | Event::Highlight { .. } => None,
+            Event::GestureRejected { nearest, .. } => {
+                // Never guessed: said, so the person knows to do it again.
+                let words = match nearest {
+                    Some(name) => format!("movement not read as a gesture (nearest: {name})"),
+                    None => "movement not read as a gesture".into(),
+                };
+                self.news = Some((words, tick));
+                None
+            }
+            Event::Burst(_)
+            | Event::Gesture { .. }
+            | Event::Reset { .. }
+            | Event::Highlight { .. } => None,
         }
     }
 
@@ -416,6 +429,6 @@ impl Screen {
 }
 
 /// `sequence` starts with `prefix`.
-fn starts_with(sequence: &ActionSeq, prefix: &ActionSeq) -> bool {
+fn starts_with(sequence: &Sequence, prefix: &Sequence) -> bool {
     sequence.as_slice().starts_with(prefix.as_slice())
 }

@@ -27,11 +27,15 @@ use crate::display::hub::Feed;
 const REDRAW_MS: u64 = 50;
 
 fn symbol_span(s: &Symbol) -> Span<'static> {
-    let (text, color) = match (s.breath, s.long) {
-        ("sip", false) => (" sip ", Color::Cyan),
-        ("sip", true) => (" LONG SIP ", Color::Cyan),
-        (_, false) => (" puff ", Color::Yellow),
-        (_, true) => (" LONG PUFF ", Color::Yellow),
+    let (text, color) = match (s.gesture, s.breath, s.long) {
+        (Some(name), _, _) => (
+            format!(" {} ", name.as_str().to_uppercase()),
+            Color::Magenta,
+        ),
+        (None, "sip", false) => (" sip ".into(), Color::Cyan),
+        (None, "sip", true) => (" LONG SIP ".into(), Color::Cyan),
+        (None, _, false) => (" puff ".into(), Color::Yellow),
+        (None, _, true) => (" LONG PUFF ".into(), Color::Yellow),
     };
     Span::styled(
         text,
@@ -149,13 +153,7 @@ fn draw_modes(out: &mut ratatui::Frame<'_>, area: Rect, setup: &Setup, frame: &F
                 spans.push(Span::styled(
                     sequence
                         .iter()
-                        .map(|s| {
-                            if s.long {
-                                format!("long {}", s.breath)
-                            } else {
-                                s.breath.to_string()
-                            }
-                        })
+                        .map(Symbol::words)
                         .collect::<Vec<_>>()
                         .join(" "),
                     Style::default().fg(Color::DarkGray),

@@ -292,6 +292,7 @@ impl<S: Samples> TickWork for ControlTick<S> {
             sample: reading.sample,
             arm,
             stop: std::mem::take(&mut self.stop_next),
+            ..TickInput::default()
         };
         self.core.step(&input, &mut self.out);
         let out = &self.out;

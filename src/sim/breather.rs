@@ -17,10 +17,11 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Serialize, Serializer};
 
-use crate::control::action::{Action, Breath};
+use crate::control::action::{Action, ActionSeq, Breath};
 use crate::control::detector::DetectorConfig;
 use crate::control::mode::Mode;
 use crate::control::selection::SequenceEntry;
+use crate::control::target::Target;
 use crate::fit::protocol::{Ask, BETWEEN_BLOCKS_MS, BETWEEN_BREATHS_MS, Protocol, REST_MS};
 use crate::sim::sensor_model::{
     Crossings, DEFAULT_RAMP_MS, ScriptedBreath, SignalGenerator, SignalParams, Step, Tremor,
@@ -544,11 +545,16 @@ pub fn practice_session(
     let mut actions = Vec::new();
     let mut modes = Vec::new();
     let mut high = u64::from(PRACTICE_START_MS);
+    // A breather breathes the entries made of breaths only.
+    let library: Vec<(ActionSeq, Target)> = library
+        .iter()
+        .filter_map(|e| Some((e.breaths()?, e.target)))
+        .collect();
     while !library.is_empty() {
-        let entry = library[rng.random_range(0..library.len())];
+        let (entry_actions, target) = library[rng.random_range(0..library.len())];
         let mut steps = Vec::new();
         let mut length = 0;
-        for (i, &action) in entry.actions.as_slice().iter().enumerate() {
+        for (i, &action) in entry_actions.as_slice().iter().enumerate() {
             if i > 0 {
                 let ms = vary(breather.gap_ms, VARIATION, &mut rng);
                 steps.push(Step::Rest { ms });
@@ -568,8 +574,8 @@ pub fn practice_session(
         }
         high += length + u64::from(rest);
         script.extend(steps);
-        actions.extend_from_slice(entry.actions.as_slice());
-        if let Some(mode) = entry.target.mode() {
+        actions.extend_from_slice(entry_actions.as_slice());
+        if let Some(mode) = target.mode() {
             modes.push(mode);
         }
     }

@@ -9,6 +9,8 @@ use crate::config::Config;
 use crate::control::action::{Action, ActionSeq, Breath};
 use crate::control::detector::DetectorConfig;
 use crate::control::mode::Mode;
+use crate::control::selection::SequenceEntry;
+use crate::control::sequence::Sequence;
 use crate::control::target::Target;
 use crate::fit::protocol::{Ask, Protocol};
 use crate::sim::sensor_model::{DEFAULT_RAMP_MS, SignalParams, Step};
@@ -127,8 +129,12 @@ pub fn outputs_session(config: &Config) -> Vec<Step> {
     let library = core.sequences();
     let mut script = vec![Step::Rest { ms: 1000 }];
     let select = |script: &mut Vec<Step>, target: Target, holds: &[(Breath, u32)]| {
-        if let Some(entry) = library.iter().find(|e| e.target == target) {
-            script.extend(sequence_steps(entry.actions.as_slice(), Timing::DEFAULT));
+        if let Some(actions) = library
+            .iter()
+            .find(|e| e.target == target)
+            .and_then(SequenceEntry::breaths)
+        {
+            script.extend(sequence_steps(actions.as_slice(), Timing::DEFAULT));
             for &(breath, ms) in holds {
                 script.push(Step::Breath { breath, ms });
                 script.push(Step::Rest { ms: 300 });
@@ -180,7 +186,7 @@ pub fn run_script(config: &Config) -> (Vec<Step>, Vec<Mode>) {
 fn scripted_user(config: &Config, plan: &[(Mode, &[(Breath, u32)])]) -> (Vec<Step>, Vec<Mode>) {
     let library = config.core().sequences();
     // A sequence that starts another is matched only at the timeout.
-    let wait = |actions: &ActionSeq| {
+    let wait = |actions: &Sequence| {
         let prefix = library.iter().any(|e| {
             e.actions.len() > actions.len() && e.actions.as_slice().starts_with(actions.as_slice())
         });
@@ -194,15 +200,16 @@ fn scripted_user(config: &Config, plan: &[(Mode, &[(Breath, u32)])]) -> (Vec<Ste
     let mut script = vec![Step::Rest { ms: 1000 }];
     let mut modes = Vec::new();
     for &(mode, breaths) in plan {
-        let Some(entry) = config
+        let Some((entry, actions)) = config
             .core()
             .sequences()
             .iter()
-            .find(|e| e.target.mode() == Some(mode))
+            .filter(|e| e.target.mode() == Some(mode))
+            .find_map(|e| Some((e, e.breaths()?)))
         else {
             continue;
         };
-        script.extend(sequence_steps(entry.actions.as_slice(), Timing::DEFAULT));
+        script.extend(sequence_steps(actions.as_slice(), Timing::DEFAULT));
         script.push(Step::Rest {
             ms: wait(&entry.actions),
         });
@@ -269,7 +276,13 @@ pub fn random_session_with(
     let inactivity = config.core().command().inactivity_timeout_ms;
     // Ramps add up to ~100 ms around a pause; stay well inside the timeout.
     let longest_pause = inactivity.saturating_sub(400).max(201);
-    let library = config.core().sequences();
+    // A breather breathes the entries made of breaths only.
+    let library: Vec<(ActionSeq, Target)> = config
+        .core()
+        .sequences()
+        .iter()
+        .filter_map(|e| Some((e.breaths()?, e.target)))
+        .collect();
     let total_ms = seconds * 1000;
     // Samples a step plays: at least its `ms`, and for a breath at most its
     // `ms` plus both ramps whole.
@@ -286,8 +299,8 @@ pub fn random_session_with(
     let mut modes = Vec::new();
     let (mut low, mut high) = (1000, 1000);
     while !library.is_empty() {
-        let entry = library[rng.random_range(0..library.len())];
-        let mut steps = sequence_steps(entry.actions.as_slice(), timing);
+        let (actions, target) = library[rng.random_range(0..library.len())];
+        let mut steps = sequence_steps(actions.as_slice(), timing);
         // Wait out the sequence timeout in case the entry is a prefix.
         steps.push(Step::Rest {
             ms: config.core().matcher().sequence_timeout_ms,
@@ -316,7 +329,7 @@ pub fn random_session_with(
         low += step_low;
         high += step_high;
         script.extend(steps);
-        if let Some(mode) = entry.target.mode() {
+        if let Some(mode) = target.mode() {
             modes.push(mode);
         }
     }

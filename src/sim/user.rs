@@ -16,7 +16,7 @@ use crate::control::action::{Action, Breath};
 use crate::control::event::Event;
 use crate::control::mode::{Direction, Mode, ModeState};
 use crate::control::pipeline::Pipeline;
-use crate::control::selection::Interface;
+use crate::control::selection::{Interface, SequenceEntry};
 use crate::control::tick::{TickInput, TickOutput};
 use crate::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 use crate::sim::study::tasks::{Task, TaskStep};
@@ -417,9 +417,10 @@ impl Agent<'_> {
                 .core()
                 .sequences()
                 .iter()
-                .find(|e| e.target.mode() == Some(mode))
-                .is_some_and(|e| {
-                    e.actions
+                .filter(|e| e.target.mode() == Some(mode))
+                .find_map(SequenceEntry::breaths)
+                .is_some_and(|actions| {
+                    actions
                         .as_slice()
                         .iter()
                         .all(|a| onset > if a.is_long() { long } else { short })
@@ -429,18 +430,19 @@ impl Agent<'_> {
     /// ASP: the library's first sequence for `mode`, breathed with this
     /// user's timing; sometimes one burst in the wrong length class.
     fn enter_sequence(&mut self, mode: Mode, signal: &mut SignalGenerator) {
-        let Some(entry) = self
+        let Some(breaths) = self
             .config
             .core()
             .sequences()
             .iter()
-            .find(|e| e.target.mode() == Some(mode))
+            .filter(|e| e.target.mode() == Some(mode))
+            .find_map(SequenceEntry::breaths)
         else {
             // Not in the library: nothing to breathe; the caller waits.
             signal.push(Step::Rest { ms: 1 });
             return;
         };
-        let actions: Vec<Action> = entry.actions.as_slice().to_vec();
+        let actions: Vec<Action> = breaths.as_slice().to_vec();
         let wrong = self
             .rng
             .random_bool(self.user.error_rate)

@@ -161,6 +161,8 @@ pub fn observe(config: &Config, params: SignalParams, script: &[Step]) -> Observ
                 Event::Recovered => seen.recoveries += 1,
                 Event::Rezeroed { .. } => seen.rezeroes += 1,
                 Event::Detection { .. }
+                | Event::Gesture { .. }
+                | Event::GestureRejected { .. }
                 | Event::Highlight { .. }
                 | Event::Motion(_)
                 | Event::ArmFault { .. } => {}

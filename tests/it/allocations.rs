@@ -57,7 +57,11 @@ fn core_step_never_allocates() {
                 Event::Motion(MotionEvent::GotoReached) => 8,
                 Event::Motion(MotionEvent::WorkspaceLimit { boundary: _ }) => 9,
                 Event::Rezeroed { .. } => 10,
-                Event::Highlight { .. } | Event::Motion(_) | Event::ArmFault { .. } => 11,
+                Event::Highlight { .. }
+                | Event::Motion(_)
+                | Event::ArmFault { .. }
+                | Event::Gesture { .. }
+                | Event::GestureRejected { .. } => 11,
             };
             counts[kind] += 1;
         }

@@ -204,7 +204,7 @@ fn a_practice_session_is_library_sequences_read_exactly_at_the_truth() {
                     .iter()
                     .find(|e| e.target.mode() == Some(*m))
                     .unwrap();
-                entry.actions.as_slice().to_vec()
+                entry.breaths().unwrap().as_slice().to_vec()
             })
             .collect();
         let actions: Vec<_> = s.breaths.iter().map(|b| b.action).collect();

@@ -335,7 +335,8 @@ fn a_slow_breather_goes_from_calibration_to_running() {
     // Every selection is an entry of the designed library.
     let designed_sequences: Vec<Vec<i64>> = (designed_setup.config().core().sequences().iter())
         .map(|e| {
-            e.actions
+            e.breaths()
+                .unwrap()
                 .as_slice()
                 .iter()
                 .map(|a| i64::from(a.code()))

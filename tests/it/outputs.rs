@@ -81,7 +81,7 @@ fn each_entry_asks_the_outputs_for_what_it_does() {
     let home = |name: &str, codes: &[i8]| OutputCommand::Home {
         event: HomeEvent::new(name).unwrap(),
         tick: 0,
-        sequence: seq(codes),
+        sequence: seq(codes).into(),
     };
     assert_eq!(
         actions,

@@ -4,13 +4,15 @@
 use crate::common::TickByTick;
 use proptest::prelude::*;
 use sipnpuff::config::Config;
-use sipnpuff::control::action::{Action, ActionSeq, Breath};
+use sipnpuff::control::action::{Action, Breath};
 use sipnpuff::control::event::Event;
 use sipnpuff::control::mode::{Direction, Mode, ModeState};
 use sipnpuff::control::motion::limits::{caps, hold_to_run_min_jerk};
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::control::sample::Sample;
 use sipnpuff::control::selection::Interface;
+use sipnpuff::control::sequence::Sequence;
+use sipnpuff::control::token::Token;
 use sipnpuff::sim::script::{Timing, sequence_steps};
 use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
 use sipnpuff::tools::safety::SafetyMonitor;
@@ -195,7 +197,7 @@ fn samples() -> impl Strategy<Value = Vec<f64>> {
     })
 }
 
-fn in_library(config: &Config, sequence: &ActionSeq, mode: Mode) -> bool {
+fn in_library(config: &Config, sequence: &Sequence, mode: Mode) -> bool {
     config
         .core()
         .sequences()
@@ -205,11 +207,12 @@ fn in_library(config: &Config, sequence: &ActionSeq, mode: Mode) -> bool {
 
 /// Whether a match could come from the interface: a library entry (ASP),
 /// or one puff on a mode of the scan (BSP).
-fn selectable(config: &Config, sequence: &ActionSeq, mode: Mode) -> bool {
+fn selectable(config: &Config, sequence: &Sequence, mode: Mode) -> bool {
     match config.core().interface() {
         Interface::Asp => in_library(config, sequence, mode),
         Interface::Bsp => {
-            let one_puff = matches!(sequence.as_slice(), [a] if a.breath() == Breath::Puff);
+            let one_puff =
+                matches!(sequence.as_slice(), [Token::Breath(a)] if a.breath() == Breath::Puff);
             one_puff && config.core().scanning().modes().contains(&mode)
         }
     }
@@ -246,7 +249,8 @@ proptest! {
     fn clean_bursts_of_a_uds_match_it(config in library(), pick in any::<prop::sample::Index>(), seed in any::<u64>()) {
         let entry = config.core().sequences()[pick.index(config.core().sequences().len())];
         let mut script = vec![Step::Rest { ms: 500 }];
-        script.extend(sequence_steps(entry.actions.as_slice(), Timing::DEFAULT));
+        let actions = entry.breaths().unwrap();
+        script.extend(sequence_steps(actions.as_slice(), Timing::DEFAULT));
         script.push(Step::Rest { ms: 3000 });
         let mut core: Pipeline = Pipeline::new(config.core());
         let mut bursts = Vec::new();
@@ -260,7 +264,7 @@ proptest! {
                 }
             }
         }
-        prop_assert_eq!(bursts.as_slice(), entry.actions.as_slice());
+        prop_assert_eq!(bursts.as_slice(), actions.as_slice());
         prop_assert_eq!(decisions, vec![Event::Match { sequence: entry.actions, target: entry.target }]);
     }
 
@@ -383,7 +387,7 @@ fn session_samples(config: &Config, segments: &[Segment], seed: u64) -> Vec<(u64
                 rest,
             } => {
                 let sequences = config.core().sequences();
-                let actions = sequences[entry.index(sequences.len())].actions;
+                let actions = sequences[entry.index(sequences.len())].breaths().unwrap();
                 let mut steps =
                     sequence_steps(actions.as_slice(), if *fast { quick } else { comfortable });
                 steps.push(Step::Breath {

@@ -69,7 +69,10 @@ fn a_puff_enters_the_highlighted_mode_and_inactivity_restarts_the_scan() {
         .iter()
         .filter_map(|(t, e)| match e {
             Event::Match { target, sequence } => {
-                assert_eq!(sequence.codes().collect::<Vec<_>>(), [-1]);
+                assert_eq!(
+                    sequence.actions().unwrap().codes().collect::<Vec<_>>(),
+                    [-1]
+                );
                 target.mode().map(|mode| (*t, mode))
             }
             _ => None,

@@ -91,6 +91,8 @@ pub fn assert_session(
                 | Event::Recovered
                 | Event::Rezeroed { .. }
                 | Event::ArmFault { .. }
+                | Event::Gesture { .. }
+                | Event::GestureRejected { .. }
                 | Event::Motion(MotionEvent::TrajectoryError) => {
                     panic!("unexpected {event:?} at tick {t}")
                 }

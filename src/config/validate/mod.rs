@@ -85,6 +85,7 @@ pub(super) fn config(
     arm::backends(p, arm);
     selection::scanning(p, core.scanning());
     selection::library(p, core.sequences());
+    selection::gestures(p, core);
     sensor::sensor(p, sensor);
     output::output(p, output, core.pointer());
 }

@@ -4,10 +4,11 @@
 use std::collections::HashSet;
 
 use crate::config::error::Problems;
+use crate::control::core_config::CoreConfig;
 use crate::control::modes::CommandConfig;
-use crate::control::selection::SequenceEntry;
 use crate::control::selection::matcher::MatcherConfig;
 use crate::control::selection::scanning::ScanningConfig;
+use crate::control::selection::{Interface, SequenceEntry};
 use crate::control::target::Target;
 
 /// Largest library the matcher accepts.
@@ -94,5 +95,34 @@ pub(super) fn library(p: &mut Problems, entries: &[SequenceEntry]) {
                 ),
             );
         }
+    }
+}
+
+/// `[gestures]`: the head's settings, a set where the library names
+/// gestures, and the sequences' interface.
+pub(super) fn gestures(p: &mut Problems, core: &CoreConfig) {
+    if let Err(bad) = core.head().validate() {
+        for problem in bad {
+            let (key, message) = problem.split_once(": ").unwrap_or(("", &problem));
+            p.add(format!("gestures.{key}"), message);
+        }
+    }
+    let has_set = core.gesture_set_file().is_some();
+    for (i, entry) in core.sequences().iter().enumerate() {
+        if entry.actions.has_gesture() && !has_set {
+            p.add(
+                format!("sequence #{}.actions", i + 1),
+                format!(
+                    "{:?} names gestures, but no gesture set is given: add [gestures] set = \"FILE\" (made by `sipnpuff gestures record`)",
+                    entry.actions
+                ),
+            );
+        }
+    }
+    if has_set && core.interface() == Interface::Bsp {
+        p.add(
+            "gestures.set",
+            "gestures are read as sequences: they need `[interface] kind = \"asp\"`",
+        );
     }
 }

@@ -41,6 +41,21 @@ pub enum FaultReason {
         /// Time from the previous tick to this one, ms.
         ms: u64,
     },
+    /// No IMU sample arrived for `[gestures] stale_ms`.
+    ImuStale {
+        /// How long without a sample, ms.
+        ms: u64,
+    },
+    /// The IMU gave the same six values bit for bit for `frozen_ms`: a
+    /// live sensor's noise always moves one of them, so it has stopped.
+    ImuFrozen {
+        /// How long the values stayed the same, ms.
+        ms: u64,
+    },
+    /// An IMU value is NaN or infinite.
+    ImuNotFinite,
+    /// The IMU's device went away.
+    ImuDisconnected,
     /// A tick no later than the previous one: time must increase, so the
     /// runtime feeding the core is broken. Everything stops.
     TickNotIncreasing {
@@ -70,6 +85,13 @@ impl fmt::Display for FaultReason {
                 f,
                 "the control loop stalled for {ms} ms (process stopped or machine paused): samples of the gap discarded — arm stopped"
             ),
+            FaultReason::ImuStale { ms } => write!(f, "no IMU sample for {ms} ms — arm stopped"),
+            FaultReason::ImuFrozen { ms } => write!(
+                f,
+                "the IMU's six values have not changed for {ms} ms: it has stopped — arm stopped"
+            ),
+            FaultReason::ImuNotFinite => f.write_str("IMU sample is NaN or infinite — arm stopped"),
+            FaultReason::ImuDisconnected => f.write_str("IMU disconnected — arm stopped"),
             FaultReason::TickNotIncreasing { tick, previous } => write!(
                 f,
                 "tick {tick} is not after the previous tick {previous}: the runtime's clock is broken"

@@ -21,6 +21,7 @@
 pub mod config;
 pub mod dtw;
 pub mod features;
+pub mod name;
 pub mod recognizer;
 pub mod segmenter;
 pub mod templates;

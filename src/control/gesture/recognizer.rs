@@ -14,13 +14,14 @@
 use crate::control::Tick;
 use crate::control::gesture::config::GestureConfig;
 use crate::control::gesture::dtw::{Envelope, dtw_distance, lb_keogh};
-use crate::control::gesture::features::Frame;
+use crate::control::gesture::features::{Frame, RestEstimate};
 use crate::control::gesture::segmenter::Segmenter;
 use crate::control::gesture::templates::{GestureId, GestureTemplates, MAX_GESTURES};
 use crate::control::imu::ImuSample;
 
-/// Why a segment was rejected.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Why a segment was rejected. Serialized by its name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum RejectReason {
     /// Further from the nearest gesture than its threshold (or it has none,
     /// or there are no templates).
@@ -179,6 +180,16 @@ impl Recognizer {
                 why,
             },
         })
+    }
+
+    /// A movement is under way (see [`Segmenter::in_motion`]).
+    pub fn in_motion(&self) -> bool {
+        self.segmenter.in_motion()
+    }
+
+    /// The head at rest, as last tracked: gyro bias and gravity.
+    pub fn rest(&self) -> &RestEstimate {
+        self.segmenter.rest()
     }
 
     /// The nearest gesture to `frames` and the nearest other one, by the

@@ -129,6 +129,17 @@ impl Segmenter {
         self.buffer.get(..self.len).unwrap_or(&[])
     }
 
+    /// A movement is under way (a segment begun, or a too-long one not yet
+    /// quiet): a sequence's timeout waits for it.
+    pub fn in_motion(&self) -> bool {
+        !matches!(self.state, State::Rest)
+    }
+
+    /// The head at rest, as last tracked.
+    pub fn rest(&self) -> &RestEstimate {
+        &self.rest
+    }
+
     /// Back to rest with no sample, forgetting the rest estimate.
     pub fn reset(&mut self) {
         *self = Segmenter::new(&self.config);

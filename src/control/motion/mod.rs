@@ -368,7 +368,7 @@ impl Motion {
         let pressed = command.direction == Direction::Positive
             && self.previous_direction != Direction::Positive;
         self.previous_direction = command.direction;
-        let scale = self.speed_scale(command.strength_volts);
+        let scale = self.speed_scale(command);
 
         let l = self.limits;
         let mut linear = None;

@@ -5,6 +5,7 @@
 
 use nalgebra::Vector3;
 
+use crate::control::modes::ModeOutput;
 use crate::control::motion::boundaries::Braking;
 use crate::control::motion::workspace::Boundary;
 use crate::control::motion::{LINEAR, Motion, finite_or_zero};
@@ -19,15 +20,19 @@ pub const MIN_START_RAD: f64 = 0.002;
 const SAME_LINE: f64 = 1.0 - 1e-9;
 
 impl Motion {
-    /// The fraction of full speed for a breath `strength_volts` past its
-    /// threshold (proportional control), else 1.
-    pub(super) fn speed_scale(&self, strength_volts: f64) -> f64 {
+    /// The fraction of full speed for a command: proportional to the
+    /// head's tilt past its dead zone; for a breath `strength_volts` past
+    /// its threshold with proportional control, else 1.
+    pub(super) fn speed_scale(&self, command: &ModeOutput) -> f64 {
         let l = &self.limits;
-        if !l.proportional_speed {
-            return 1.0;
-        }
-        let fraction = (strength_volts / l.proportional_full_scale_volts).clamp(0.0, 1.0);
-        l.proportional_min_fraction + (1.0 - l.proportional_min_fraction) * fraction
+        let fraction = match command.speed_fraction {
+            Some(fraction) => fraction,
+            None if l.proportional_speed => {
+                command.strength_volts / l.proportional_full_scale_volts
+            }
+            None => return 1.0,
+        };
+        l.proportional_min_fraction + (1.0 - l.proportional_min_fraction) * fraction.clamp(0.0, 1.0)
     }
 
     /// The arm channel's target on `dof` for a request (signed unit

@@ -9,6 +9,7 @@ fn command(mode: Mode, direction: Direction) -> ModeOutput {
         state: ModeState::Command(mode),
         direction,
         strength_volts: 1.0,
+        speed_fraction: None,
     }
 }
 

@@ -17,10 +17,11 @@
 use serde::Serialize;
 
 use crate::control::Tick;
-use crate::control::action::ActionSeq;
 use crate::control::detector::Burst;
 use crate::control::selection::SequenceEntry;
+use crate::control::sequence::Sequence;
 use crate::control::target::Target;
+use crate::control::token::Token;
 
 /// Sequence matcher settings (`[matcher]` in the config file).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
@@ -60,14 +61,14 @@ pub enum MatchEvent {
     /// The sequence matched a UDS.
     Match {
         /// The matched sequence.
-        sequence: ActionSeq,
+        sequence: Sequence,
         /// What its entry selects or fires.
         target: Target,
     },
     /// The sequence was dropped.
     Reset {
         /// The dropped sequence.
-        sequence: ActionSeq,
+        sequence: Sequence,
         /// Why.
         reason: ResetReason,
     },
@@ -79,7 +80,7 @@ pub enum MatchEvent {
 pub struct SequenceMatcher {
     library: Box<[SequenceEntry]>,
     config: MatcherConfig,
-    cs: ActionSeq,
+    cs: Sequence,
     /// The CS equals this entry's sequence, but a longer one starts with it.
     pending: Option<Target>,
     last_end: Tick,
@@ -101,7 +102,7 @@ impl SequenceMatcher {
         SequenceMatcher {
             library: library.into(),
             config: *config,
-            cs: ActionSeq::EMPTY,
+            cs: Sequence::EMPTY,
             pending: None,
             last_end: 0,
         }
@@ -126,7 +127,7 @@ impl SequenceMatcher {
     }
 
     /// The current sequence (what the user has entered so far).
-    pub fn current(&self) -> &ActionSeq {
+    pub fn current(&self) -> &Sequence {
         &self.cs
     }
 
@@ -148,8 +149,14 @@ impl SequenceMatcher {
 
     /// Appends a finished burst to the current sequence. RT-safe.
     pub fn on_burst(&mut self, burst: &Burst) -> Option<MatchEvent> {
-        self.last_end = burst.end;
-        if self.cs.try_push(burst.action).is_err() {
+        self.on_token(Token::Breath(burst.action), burst.end)
+    }
+
+    /// Appends a token (a burst's action or a recognised gesture) that
+    /// ended at `end` to the current sequence. RT-safe.
+    pub fn on_token(&mut self, token: Token, end: Tick) -> Option<MatchEvent> {
+        self.last_end = end;
+        if self.cs.try_push(token).is_err() {
             // Unreachable with a validated library (a full CS is never a
             // proper prefix); kept total so the control thread cannot panic.
             return self.reset(ResetReason::NoMatch);
@@ -225,7 +232,7 @@ mod tests {
 
     fn entry(actions: &[Action], mode: Mode) -> SequenceEntry {
         SequenceEntry {
-            actions: ActionSeq::from_slice(actions).unwrap(),
+            actions: Sequence::from_slice(actions).unwrap(),
             target: Target::Mode(mode),
         }
     }
@@ -254,14 +261,14 @@ mod tests {
 
     fn matched(actions: &[Action], mode: Mode) -> Option<MatchEvent> {
         Some(MatchEvent::Match {
-            sequence: ActionSeq::from_slice(actions).unwrap(),
+            sequence: Sequence::from_slice(actions).unwrap(),
             target: Target::Mode(mode),
         })
     }
 
     fn reset(actions: &[Action], reason: ResetReason) -> Option<MatchEvent> {
         Some(MatchEvent::Reset {
-            sequence: ActionSeq::from_slice(actions).unwrap(),
+            sequence: Sequence::from_slice(actions).unwrap(),
             reason,
         })
     }

@@ -14,15 +14,16 @@ use serde::Serialize;
 
 use crate::control::action::{Action, ActionSeq};
 use crate::control::mode::Mode;
+use crate::control::sequence::Sequence;
 use crate::control::target::Target;
 
 /// One user-defined sequence and what it selects or fires. Written in a
 /// file as `actions` and one of `mode`, `key`, `click` or `event`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct SequenceEntry {
-    /// The actions, non-empty, at most
+    /// The breaths and gestures, non-empty, at most
     /// [`MAX_SEQUENCE_LEN`](crate::control::action::MAX_SEQUENCE_LEN).
-    pub actions: ActionSeq,
+    pub actions: Sequence,
     /// What it selects or fires.
     #[serde(flatten)]
     pub target: Target,
@@ -30,11 +31,17 @@ pub struct SequenceEntry {
 
 impl SequenceEntry {
     /// The entry for `actions` selecting `mode`.
-    pub fn mode(actions: ActionSeq, mode: Mode) -> SequenceEntry {
+    pub fn mode(actions: impl Into<Sequence>, mode: Mode) -> SequenceEntry {
         SequenceEntry {
-            actions,
+            actions: actions.into(),
             target: Target::Mode(mode),
         }
+    }
+
+    /// Its breaths, if it holds no gesture: what the tools that play,
+    /// design or fit breaths work with.
+    pub fn breaths(&self) -> Option<ActionSeq> {
+        self.actions.actions()
     }
 }
 

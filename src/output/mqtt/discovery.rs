@@ -13,7 +13,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 use serde_json::{Value, json};
 
 use crate::control::Tick;
-use crate::control::action::ActionSeq;
+use crate::control::sequence::Sequence;
 use crate::control::target::HomeEvent;
 use crate::output::settings::MqttSettings;
 
@@ -143,7 +143,7 @@ pub fn configs(settings: &MqttSettings, events: &[HomeEvent]) -> Vec<(String, St
 pub fn event_message(
     event: &HomeEvent,
     tick: Tick,
-    sequence: &ActionSeq,
+    sequence: &Sequence,
     matched_at: SystemTime,
 ) -> String {
     let unix = matched_at
@@ -221,7 +221,7 @@ mod tests {
 
     #[test]
     fn an_event_message() {
-        let sequence = ActionSeq::from_slice(&[Action::ShortPuff, Action::LongSip]).unwrap();
+        let sequence = Sequence::from_slice(&[Action::ShortPuff, Action::LongSip]).unwrap();
         let at = UNIX_EPOCH + Duration::from_micros(1_700_000_000_123_456);
         assert_eq!(
             event_message(&event("lights_toggle"), 4200, &sequence, at),

@@ -467,7 +467,7 @@ mod tests {
         d.apply(&OutputCommand::Home {
             event: crate::control::target::HomeEvent::new("lights").unwrap(),
             tick: 5,
-            sequence: crate::control::action::ActionSeq::default(),
+            sequence: crate::control::sequence::Sequence::default(),
         });
         assert_eq!(*seen.borrow(), []);
         assert_eq!((d.applied, d.failures.count), (0, 0));

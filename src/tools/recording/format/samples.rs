@@ -181,6 +181,7 @@ impl<R: Read> SampleDecoder<R> {
             sample,
             arm,
             stop: std::mem::take(&mut self.stop),
+            ..TickInput::default()
         })
     }
 

@@ -1,0 +1,392 @@
+//! The head-worn IMU's part of the core, as the burst detector is the
+//! breath sensor's: its faults (silent, frozen, gone, not finite), the
+//! person's gestures (the [`Recognizer`]) and, in a command mode, which
+//! way the head is tilted past a dead zone and how far.
+//!
+//! Tilt is measured against the head's rest when the command mode began:
+//! a person who rests with their head to one side moves nothing until
+//! they tilt it further. A tilt is held past the dead zone and let go
+//! inside three quarters of it, so a head resting at its edge does not
+//! start and stop the arm.
+
+use serde::{Deserialize, Serialize};
+
+use crate::control::Tick;
+use crate::control::action::Breath;
+use crate::control::detector::FaultReason;
+use crate::control::gesture::config::GestureConfig;
+use crate::control::gesture::name::GestureName;
+use crate::control::gesture::recognizer::{GestureEvent, Recognizer, RejectReason};
+use crate::control::gesture::templates::{GestureId, GestureTemplates, MAX_GESTURES};
+use crate::control::imu::{ImuInput, ImuSample};
+use crate::control::mode::Held;
+
+/// How the head's tilt is read in a command mode. Serialized by its name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TiltAxis {
+    /// Chin down moves the positive way (as a puff), chin up the negative.
+    #[default]
+    Pitch,
+    /// Left ear down moves the positive way, right ear down the negative.
+    Roll,
+    /// The head does not move the arm (a breath does).
+    Off,
+}
+
+impl TiltAxis {
+    /// The three choices.
+    pub const ALL: [TiltAxis; 3] = [TiltAxis::Pitch, TiltAxis::Roll, TiltAxis::Off];
+
+    /// `pitch`, `roll` or `off`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            TiltAxis::Pitch => "pitch",
+            TiltAxis::Roll => "roll",
+            TiltAxis::Off => "off",
+        }
+    }
+}
+
+/// The head's settings beyond the gesture set (`[gestures]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HeadConfig {
+    /// No IMU sample for this long is a fault.
+    pub stale_ms: u32,
+    /// The same six values bit for bit for this long is a fault (a frozen
+    /// sensor; a live one's noise always moves one of them).
+    pub frozen_ms: u32,
+    /// After a fault, valid and changing samples for this long end it.
+    pub recover_ms: u32,
+    /// Which tilt moves the arm in a command mode.
+    pub tilt: TiltAxis,
+    /// Tilts within this angle of the rest move nothing, degrees.
+    pub dead_zone_deg: f64,
+    /// At this angle the arm moves at full speed, degrees.
+    pub full_scale_deg: f64,
+}
+
+impl Default for HeadConfig {
+    fn default() -> Self {
+        HeadConfig {
+            stale_ms: 100,
+            frozen_ms: 1000,
+            recover_ms: 300,
+            tilt: TiltAxis::Pitch,
+            dead_zone_deg: 12.0,
+            full_scale_deg: 30.0,
+        }
+    }
+}
+
+impl HeadConfig {
+    /// Every bad value, by key.
+    pub fn validate(&self) -> Result<(), Vec<String>> {
+        let mut bad = Vec::new();
+        if !(1..=10_000).contains(&self.stale_ms) {
+            bad.push(format!("stale_ms: {} is not 1–10000 ms", self.stale_ms));
+        }
+        if !(100..=60_000).contains(&self.frozen_ms) {
+            bad.push(format!("frozen_ms: {} is not 100–60000 ms", self.frozen_ms));
+        }
+        if self.recover_ms > 60_000 {
+            bad.push(format!("recover_ms: {} is over 60000 ms", self.recover_ms));
+        }
+        if !(self.dead_zone_deg.is_finite() && (2.0..=45.0).contains(&self.dead_zone_deg)) {
+            bad.push(format!(
+                "dead_zone_deg: {} is not 2–45 degrees",
+                self.dead_zone_deg
+            ));
+        }
+        if !(self.full_scale_deg.is_finite()
+            && self.full_scale_deg > self.dead_zone_deg
+            && self.full_scale_deg <= 80.0)
+        {
+            bad.push(format!(
+                "full_scale_deg: {} is not above dead_zone_deg ({}) and at most 80 degrees",
+                self.full_scale_deg, self.dead_zone_deg
+            ));
+        }
+        if bad.is_empty() { Ok(()) } else { Err(bad) }
+    }
+}
+
+/// Everything the core needs for a person's gestures: their names (a
+/// library entry's words), the recognizer's settings and templates from
+/// the gesture set, and the head's settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GestureSetup {
+    /// The gestures' names, by [`GestureId`].
+    pub names: Vec<GestureName>,
+    /// The recognizer's settings (fitted to the person's recording).
+    pub recognizer: GestureConfig,
+    /// The person's examples and thresholds.
+    pub templates: GestureTemplates,
+    /// The head's settings.
+    pub head: HeadConfig,
+}
+
+/// What a movement that ended was. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum HeadGesture {
+    /// One of the person's gestures.
+    Recognised {
+        /// Its name.
+        name: GestureName,
+        /// The movement's first tick.
+        start: Tick,
+    },
+    /// No gesture: never guessed.
+    Rejected {
+        /// The nearest gesture compared, if any.
+        nearest: Option<GestureName>,
+        /// Why.
+        why: RejectReason,
+    },
+}
+
+/// The IMU's health changed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum HeadEvent {
+    /// It went into fault.
+    Fault(FaultReason),
+    /// It is healthy again.
+    Recovered,
+}
+
+/// What the head did on one tick. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HeadOutput {
+    /// A movement ended on this tick (outside a command mode).
+    pub gesture: Option<HeadGesture>,
+    /// A movement is under way: a sequence's timeout waits for it.
+    pub in_motion: bool,
+    /// In a command mode: the side the head is tilted to past the dead
+    /// zone (`Puff` is the positive way), else nothing held.
+    pub tilt: Held,
+    /// How far past the dead zone, 0–1 of the way to full scale.
+    pub speed_fraction: f64,
+    /// The IMU is in fault: nothing is recognised, nothing moves.
+    pub faulted: bool,
+    /// Its health changed on this tick.
+    pub event: Option<HeadEvent>,
+}
+
+/// Ticks of the tilt's smoothing (an exponential average's time constant).
+const TILT_SMOOTHING_TICKS: f64 = 80.0;
+/// A tilt is let go inside this fraction of the dead zone.
+const RELEASE_FRACTION: f64 = 0.75;
+
+/// The head stage. Built once (allocates); [`Head::step`] is RT-safe.
+#[derive(Debug, Clone)]
+pub struct Head {
+    config: HeadConfig,
+    recognizer: Recognizer,
+    names: [Option<GestureName>; MAX_GESTURES],
+    /// The last sample and the tick it came.
+    last: Option<(Tick, ImuSample)>,
+    /// The tick the values last changed.
+    changed_at: Tick,
+    faulted: bool,
+    /// In fault: since when the samples have been good.
+    good_since: Option<Tick>,
+    /// The acceleration, smoothed over [`TILT_SMOOTHING_TICKS`].
+    smoothed: Option<[f64; 3]>,
+    /// In a command mode: the gravity at rest when it began.
+    reference: Option<[f64; 3]>,
+    tilted: Option<Breath>,
+}
+
+impl Head {
+    /// The head stage for `setup`, or every bad setting.
+    pub fn new(setup: &GestureSetup) -> Result<Head, Vec<String>> {
+        setup.head.validate()?;
+        let recognizer = Recognizer::new(setup.recognizer, setup.templates.clone())?;
+        let mut names = [None; MAX_GESTURES];
+        for (slot, name) in names.iter_mut().zip(&setup.names) {
+            *slot = Some(*name);
+        }
+        Ok(Head {
+            config: setup.head,
+            recognizer,
+            names,
+            last: None,
+            changed_at: 0,
+            faulted: false,
+            good_since: None,
+            smoothed: None,
+            reference: None,
+            tilted: None,
+        })
+    }
+
+    /// The IMU is in fault.
+    pub fn is_faulted(&self) -> bool {
+        self.faulted
+    }
+
+    /// Tick `now` with the IMU's input; `commanding`: the interface is in a
+    /// command mode (the tilt moves, gestures are not read). RT-safe.
+    pub fn step(&mut self, now: Tick, input: ImuInput, commanding: bool) -> HeadOutput {
+        let mut out = HeadOutput::default();
+        let (sample, problem) = self.check(now, input);
+        out.event = self.health(now, problem);
+        if self.faulted {
+            out.faulted = true;
+            return out;
+        }
+        let verdict = self.recognizer.step(now, sample.as_ref());
+        out.in_motion = self.recognizer.in_motion();
+        if let Some((_, held)) = self.last {
+            let alpha = 1.0 - (-1.0 / TILT_SMOOTHING_TICKS).exp();
+            let a = held.acceleration();
+            let s = self.smoothed.get_or_insert(a);
+            for (s, a) in s.iter_mut().zip(a) {
+                *s += alpha * (a - *s);
+            }
+        }
+        if commanding {
+            (out.tilt, out.speed_fraction) = self.tilt();
+        } else {
+            self.reference = None;
+            self.tilted = None;
+            out.gesture = verdict.map(|v| self.named(v));
+        }
+        out
+    }
+
+    /// The sample to use and what is wrong with the input, if anything.
+    fn check(&mut self, now: Tick, input: ImuInput) -> (Option<ImuSample>, Option<FaultReason>) {
+        match input {
+            ImuInput::Lost => (None, Some(FaultReason::ImuDisconnected)),
+            ImuInput::Sample(s) if !s.is_finite() => (None, Some(FaultReason::ImuNotFinite)),
+            ImuInput::Sample(s) => {
+                let same = self.last.is_some_and(|(_, last)| last == s);
+                if !same {
+                    self.changed_at = now;
+                }
+                self.last = Some((now, s));
+                let unchanged = now.saturating_sub(self.changed_at);
+                if same && unchanged >= u64::from(self.config.frozen_ms) {
+                    (None, Some(FaultReason::ImuFrozen { ms: unchanged }))
+                } else {
+                    (Some(s), None)
+                }
+            }
+            ImuInput::Missing => {
+                let since = self
+                    .last
+                    .map_or(now.saturating_add(1), |(t, _)| now.saturating_sub(t));
+                if since >= u64::from(self.config.stale_ms) {
+                    (None, Some(FaultReason::ImuStale { ms: since }))
+                } else {
+                    (None, None)
+                }
+            }
+        }
+    }
+
+    /// Into and out of fault: into at once, out after `recover_ms` of
+    /// good samples (the rest is learnt anew).
+    fn health(&mut self, now: Tick, problem: Option<FaultReason>) -> Option<HeadEvent> {
+        match (self.faulted, problem) {
+            (false, Some(reason)) => {
+                self.faulted = true;
+                self.good_since = None;
+                self.recognizer.reset();
+                self.smoothed = None;
+                self.reference = None;
+                self.tilted = None;
+                if let FaultReason::ImuStale { .. } = reason {
+                    // Counted anew: recovery needs fresh samples.
+                    self.last = None;
+                }
+                Some(HeadEvent::Fault(reason))
+            }
+            (true, Some(_)) => {
+                self.good_since = None;
+                None
+            }
+            (true, None) => {
+                let since = *self.good_since.get_or_insert(now);
+                if now.saturating_sub(since) >= u64::from(self.config.recover_ms) {
+                    self.faulted = false;
+                    self.good_since = None;
+                    Some(HeadEvent::Recovered)
+                } else {
+                    None
+                }
+            }
+            (false, None) => None,
+        }
+    }
+
+    /// The tilt past the dead zone against the rest at the command mode's
+    /// start: the side (with hysteresis) and the fraction of full scale.
+    fn tilt(&mut self) -> (Held, f64) {
+        let nothing = (Held::default(), 0.0);
+        if self.config.tilt == TiltAxis::Off {
+            return nothing;
+        }
+        let reference = *self.reference.get_or_insert(self.recognizer.rest().gravity);
+        let (Some(now), g) = (self.smoothed, norm(reference)) else {
+            return nothing;
+        };
+        if g <= 0.0 {
+            return nothing;
+        }
+        let d = |i: usize| {
+            (now.get(i).copied().unwrap_or(0.0) - reference.get(i).copied().unwrap_or(0.0)) / g
+        };
+        // Chin down turns gravity towards -x; the left ear down towards -y.
+        let sine = match self.config.tilt {
+            TiltAxis::Pitch => -d(0),
+            TiltAxis::Roll => -d(1),
+            TiltAxis::Off => 0.0,
+        };
+        let angle = sine.clamp(-1.0, 1.0).asin().to_degrees();
+        let dead = self.config.dead_zone_deg;
+        let release = dead * RELEASE_FRACTION;
+        self.tilted = match self.tilted {
+            Some(Breath::Puff) if angle > release => Some(Breath::Puff),
+            Some(Breath::Sip) if angle < -release => Some(Breath::Sip),
+            _ if angle > dead => Some(Breath::Puff),
+            _ if angle < -dead => Some(Breath::Sip),
+            _ => None,
+        };
+        let Some(side) = self.tilted else {
+            return nothing;
+        };
+        let fraction = ((angle.abs() - dead) / (self.config.full_scale_deg - dead)).clamp(0.0, 1.0);
+        (
+            Held {
+                breath: Some(side),
+                strength_volts: 0.0,
+            },
+            fraction,
+        )
+    }
+
+    /// A recognizer's verdict with the gestures' names.
+    fn named(&self, verdict: GestureEvent) -> HeadGesture {
+        let name = |id: GestureId| self.names.get(usize::from(id.0)).copied().flatten();
+        match verdict {
+            GestureEvent::Recognised { gesture, start, .. } => match name(gesture) {
+                Some(name) => HeadGesture::Recognised { name, start },
+                None => HeadGesture::Rejected {
+                    nearest: None,
+                    why: RejectReason::AboveThreshold,
+                },
+            },
+            GestureEvent::Rejected { nearest, why, .. } => HeadGesture::Rejected {
+                nearest: nearest.and_then(name),
+                why,
+            },
+        }
+    }
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
