@@ -8,6 +8,8 @@ use std::path::PathBuf;
 use crate::cli::args::{ConfigArg, InterfaceArg, with_interface};
 use crate::cli::output;
 use crate::config::Config;
+use crate::session::gestures;
+use crate::tools::imu_csv::is_imu_csv;
 use crate::tools::recording::recording_replay::ReplayVerdict;
 use crate::tools::replay::ReplaySummary;
 use crate::tools::replay_files::{self, ReplayTo};
@@ -16,8 +18,10 @@ use crate::tools::replay_files::{self, ReplayTo};
 #[derive(clap::Args, Debug)]
 pub struct ReplayArgs {
     /// CSV with a header row and a `volts` column, one row per 1 ms
-    /// sample; or a directory written by `run --record`, replayed with its
-    /// own configuration and compared with what was recorded.
+    /// sample; an IMU recording (header `tick,ax,ay,az,gx,gy,gz`), read
+    /// with the gesture set the configuration names; or a directory
+    /// written by `run --record`, replayed with its own configuration and
+    /// compared with what was recorded.
     signal: PathBuf,
     #[command(flatten)]
     config: ConfigArg,
@@ -41,12 +45,17 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<u8> {
         return replay_recording(&args);
     }
     let config = with_interface(args.config.load()?, args.interface)?;
-    let replayed = replay_files::replay_csv(
-        config.core(),
-        &args.signal,
-        to(&args),
-        std::io::stdout().lock(),
-    )?;
+    let replayed = if is_imu_csv(&args.signal) {
+        let core = gestures::imu_core(&config)?;
+        replay_files::replay_imu_csv(&core, &args.signal, to(&args), std::io::stdout().lock())?
+    } else {
+        replay_files::replay_csv(
+            config.core(),
+            &args.signal,
+            to(&args),
+            std::io::stdout().lock(),
+        )?
+    };
     let summary = &replayed.summary;
     let signal_seconds = summary.samples as f64 / 1000.0;
     note!(

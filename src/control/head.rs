@@ -93,13 +93,14 @@ impl HeadConfig {
         if self.recover_ms > 60_000 {
             bad.push(format!("recover_ms: {} is over 60000 ms", self.recover_ms));
         }
-        if !(self.dead_zone_deg.is_finite() && (2.0..=45.0).contains(&self.dead_zone_deg)) {
+        let dead_zone_ok =
+            self.dead_zone_deg.is_finite() && (2.0..=45.0).contains(&self.dead_zone_deg);
+        if !dead_zone_ok {
             bad.push(format!(
                 "dead_zone_deg: {} is not 2–45 degrees",
                 self.dead_zone_deg
             ));
-        }
-        if !(self.full_scale_deg.is_finite()
+        } else if !(self.full_scale_deg.is_finite()
             && self.full_scale_deg > self.dead_zone_deg
             && self.full_scale_deg <= 80.0)
         {
@@ -389,4 +390,132 @@ impl Head {
 
 fn norm(v: [f64; 3]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::gesture::features::GRAVITY;
+
+    fn head() -> Head {
+        Head::new(&GestureSetup {
+            names: vec![],
+            recognizer: GestureConfig::default(),
+            templates: GestureTemplates::new(),
+            head: HeadConfig::default(),
+        })
+        .unwrap()
+    }
+
+    /// A still head pitched `degrees` (chin down positive), with a sample
+    /// that changes by a hair each tick (a live sensor's noise).
+    fn pitched(degrees: f64, tick: Tick) -> ImuInput {
+        let (s, c) = degrees.to_radians().sin_cos();
+        let hair = if tick.is_multiple_of(2) { 0.0 } else { 1e-6 };
+        ImuInput::Sample(ImuSample {
+            values: [-GRAVITY * s, 0.0, GRAVITY * c, hair, 0.0, 0.0],
+        })
+    }
+
+    /// Holds `degrees` from `from` for `ms`, commanding; the last output.
+    fn hold(h: &mut Head, degrees: f64, from: Tick, ms: u64) -> HeadOutput {
+        let mut out = HeadOutput::default();
+        for t in from..from + ms {
+            out = h.step(t, pitched(degrees, t), true);
+        }
+        out
+    }
+
+    #[test]
+    fn a_tilt_moves_past_the_dead_zone_in_proportion_and_lets_go_inside_three_quarters() {
+        let mut h = head();
+        for t in 0..2000 {
+            h.step(t, pitched(0.0, t), false);
+        }
+        // 10°: inside the 12° dead zone.
+        assert_eq!(hold(&mut h, 10.0, 2000, 2000).tilt.breath, None);
+        // 21°: half way from 12° to the 30° full scale.
+        let out = hold(&mut h, 21.0, 4000, 2000);
+        assert_eq!(out.tilt.breath, Some(Breath::Puff));
+        assert!(
+            (out.speed_fraction - 0.5).abs() < 1e-3,
+            "{}",
+            out.speed_fraction
+        );
+        // 10° after it: held still (let go below 9°), at no speed.
+        let out = hold(&mut h, 10.0, 6000, 2000);
+        assert_eq!(
+            (out.tilt.breath, out.speed_fraction),
+            (Some(Breath::Puff), 0.0)
+        );
+        assert_eq!(hold(&mut h, 8.0, 8000, 2000).tilt.breath, None);
+        // Chin up past it, beyond full scale: the other way, capped.
+        let out = hold(&mut h, -40.0, 10_000, 2000);
+        assert_eq!(
+            (out.tilt.breath, out.speed_fraction),
+            (Some(Breath::Sip), 1.0)
+        );
+        // Out of the command mode: no tilt is read.
+        assert_eq!(
+            h.step(12_000, pitched(-40.0, 12_000), false).tilt,
+            Held::default()
+        );
+    }
+
+    #[test]
+    fn the_imu_faults_when_silent_frozen_not_finite_or_gone_and_recovers_on_fresh_samples() {
+        let mut h = head();
+        for t in 0..1000 {
+            h.step(t, pitched(0.0, t), false);
+        }
+        // Silent: the fault 100 ms after the last sample.
+        for t in 1000..1099 {
+            assert_eq!(h.step(t, ImuInput::Missing, false).event, None);
+        }
+        let out = h.step(1099, ImuInput::Missing, false);
+        assert_eq!(
+            out.event,
+            Some(HeadEvent::Fault(FaultReason::ImuStale { ms: 100 }))
+        );
+        // Back 300 ms after fresh samples begin.
+        for t in 1200..1500 {
+            let out = h.step(t, pitched(0.0, t), false);
+            assert!(out.faulted && out.event.is_none(), "{t}");
+        }
+        assert_eq!(
+            h.step(1500, pitched(0.0, 1500), false).event,
+            Some(HeadEvent::Recovered)
+        );
+        for t in 1501..2000 {
+            h.step(t, pitched(0.0, t), false);
+        }
+        // Frozen: the same six values for 1000 ms.
+        let still = pitched(0.0, 0);
+        for t in 2000..3000 {
+            assert_eq!(h.step(t, still, false).event, None, "{t}");
+        }
+        assert_eq!(
+            h.step(3000, still, false).event,
+            Some(HeadEvent::Fault(FaultReason::ImuFrozen { ms: 1000 }))
+        );
+        for t in 3001..=3301 {
+            h.step(t, pitched(0.0, t), false);
+        }
+        assert!(!h.is_faulted());
+        let nan = ImuInput::Sample(ImuSample {
+            values: [f64::NAN; 6],
+        });
+        assert_eq!(
+            h.step(3302, nan, false).event,
+            Some(HeadEvent::Fault(FaultReason::ImuNotFinite))
+        );
+        for t in 3303..=3603 {
+            h.step(t, pitched(0.0, t), false);
+        }
+        assert!(!h.is_faulted());
+        assert_eq!(
+            h.step(3604, ImuInput::Lost, false).event,
+            Some(HeadEvent::Fault(FaultReason::ImuDisconnected))
+        );
+    }
 }

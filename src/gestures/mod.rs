@@ -13,4 +13,5 @@ pub mod protocol;
 pub mod record;
 pub mod report;
 pub mod set;
+pub mod setup;
 pub mod thresholds;

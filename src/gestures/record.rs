@@ -46,7 +46,7 @@ pub fn check_names(names: &[String]) -> Result<(), String> {
     for (i, name) in names.iter().enumerate() {
         if !is_name(name) {
             bad.push(format!(
-                "`{name}` is not a name (lower-case letters, digits and _)"
+                "`{name}` is not a name (lower-case letters, digits and _, starting with a letter, at most 15)"
             ));
         } else if names.get(..i).is_some_and(|before| before.contains(name)) {
             bad.push(format!("`{name}` is named twice"));

@@ -11,6 +11,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use crate::control::Tick;
+use crate::control::gesture::name::GestureName;
 use crate::control::gesture::{
     FEATURES, Frame, GestureConfig, GestureId, GestureTemplates, MAX_FRAMES, MAX_GESTURES,
     MAX_TEMPLATES, Recognizer,
@@ -195,7 +196,7 @@ impl GestureSet {
                 problem(
                     entry.name.span(),
                     format!(
-                        "{key}.name: `{name}` is not a name (lower-case letters, digits and _)"
+                        "{key}.name: `{name}` is not a name (lower-case letters, digits and _, starting with a letter, at most 15)"
                     ),
                 );
             } else if gestures.iter().any(|other| other.name == name) {
@@ -273,12 +274,12 @@ impl GestureSet {
     }
 }
 
-/// A gesture's name: lower-case letters, digits and `_`, not empty.
+/// A gesture's name: lower-case letters, digits and `_`, starting with
+/// a letter, at most
+/// [`MAX_GESTURE_NAME`](crate::control::gesture::name::MAX_GESTURE_NAME)
+/// bytes (a library entry names it).
 pub fn is_name(name: &str) -> bool {
-    !name.is_empty()
-        && name
-            .chars()
-            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+    GestureName::new(name).is_some()
 }
 
 /// `text` as a TOML basic string.

@@ -8,7 +8,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 
+use crate::config::Config;
 use crate::control::Tick;
+use crate::control::core_config::CoreConfig;
 use crate::control::gesture::GestureConfig;
 use crate::control::imu::ImuSample;
 use crate::gestures::check::{self, Check, Ordinary};
@@ -16,6 +18,7 @@ use crate::gestures::protocol::Span;
 use crate::gestures::record::{self, Recorded};
 use crate::gestures::report;
 use crate::gestures::set::GestureSet;
+use crate::gestures::setup;
 use crate::tools::imu_csv::{ImuRecording, read_imu_csv};
 use crate::tools::output_file::write_whole;
 
@@ -137,4 +140,23 @@ pub fn check_set(set_path: &Path, recordings: &[PathBuf]) -> anyhow::Result<Chec
         })
         .collect();
     Ok(check::check(&set, &ordinary))
+}
+
+/// The core for a run or replay fed by the IMU alone: `config`'s, with
+/// the gesture set its `[gestures] set` names read and checked against
+/// the library, and no breath sensor.
+pub fn imu_core(config: &Config) -> anyhow::Result<CoreConfig> {
+    let core = config.core();
+    let Some(path) = core.gesture_set_file() else {
+        bail!(
+            "an IMU recording needs the person's gestures: give a --config with [gestures] set = \"FILE\" (made by `sipnpuff gestures record`) and library entries that name them"
+        );
+    };
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("[gestures] set: cannot read {}", path.display()))?;
+    let set = GestureSet::from_toml(&text)
+        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.join("; ")))?;
+    let setup = setup::setup(core, &set)
+        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.join("; ")))?;
+    Ok(core.clone().without_breath_sensor().with_gestures(setup))
 }

@@ -305,6 +305,68 @@ pub fn use_session(
     plan.sample(user, &mut rng)
 }
 
+/// One selection and what follows it in a [`drive_session`]: a gesture,
+/// then the head's pitch tilted and held, then back.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Drive {
+    /// The gesture that selects the mode.
+    pub gesture: GestureName,
+    /// How far the head is pitched from its rest, degrees (positive: chin
+    /// down).
+    pub pitch_deg: f64,
+    /// How long it is held there, ms.
+    pub hold_ms: u32,
+}
+
+/// Rest after a selecting gesture before the head tilts, ms: the gesture
+/// is read once the head has been still for the front end's `rest_ms`.
+pub const DRIVE_AFTER_GESTURE_MS: u32 = 800;
+/// How long a tilt takes to reach its angle, and to come back, ms.
+pub const DRIVE_TILT_MS: u32 = 400;
+/// Rest after a tilt comes back, ms: longer than the default
+/// inactivity timeout, so the next gesture is read in selection.
+pub const DRIVE_REST_MS: u32 = 3500;
+
+/// `user` driving the arm with their head, seeded: after
+/// [`PROTOCOL_START_MS`] of rest, for each drive its gesture, then the
+/// pitch tilted over [`DRIVE_TILT_MS`], held, and brought back, then
+/// [`DRIVE_REST_MS`] of rest. Returns the session and each hold's
+/// `[start, end)` ticks (the head at its angle).
+pub fn drive_session(
+    user: &ImuUser,
+    drives: &[Drive],
+    seed: u64,
+) -> (ImuSession, Vec<(Tick, Tick)>) {
+    let mut rng = session_rng(user, seed);
+    let mut plan = Plan::new();
+    let mut holds = Vec::new();
+    plan.rest(PROTOCOL_START_MS, &mut rng);
+    for (i, drive) in drives.iter().enumerate() {
+        plan.gesture(user, drive.gesture, i as u32 + 1, &mut rng);
+        plan.now += Tick::from(DRIVE_AFTER_GESTURE_MS);
+        let amount = drive.pitch_deg.to_radians();
+        let tilt_s = f64::from(DRIVE_TILT_MS) / 1000.0;
+        plan.motion.steps.push(Step {
+            axis: Axis::Pitch,
+            start: plan.now as f64 / 1000.0,
+            duration: tilt_s,
+            amount,
+        });
+        plan.now += Tick::from(DRIVE_TILT_MS);
+        let hold = (plan.now, plan.now + Tick::from(drive.hold_ms));
+        holds.push(hold);
+        plan.now = hold.1;
+        plan.motion.steps.push(Step {
+            axis: Axis::Pitch,
+            start: plan.now as f64 / 1000.0,
+            duration: tilt_s,
+            amount: -amount,
+        });
+        plan.now += Tick::from(DRIVE_TILT_MS + DRIVE_REST_MS);
+    }
+    (plan.sample(user, &mut rng), holds)
+}
+
 /// `user`'s ordinary movement alone for `minutes`, seeded: no gesture
 /// ([`use_session`] with none).
 pub fn ordinary_session(user: &ImuUser, minutes: u32, seed: u64) -> ImuSession {

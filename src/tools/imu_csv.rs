@@ -64,6 +64,21 @@ impl std::error::Error for ImuCsvError {}
 /// The header a full recording has.
 pub const FULL_HEADER: &str = "tick,ax,ay,az,gx,gy,gz";
 
+/// Whether the file at `path` is an IMU recording: its header names
+/// `tick` and one of the six channels (a breath signal's names `volts`).
+pub fn is_imu_csv(path: &Path) -> bool {
+    use std::io::BufRead;
+    let Ok(file) = std::fs::File::open(path) else {
+        return false;
+    };
+    let mut header = String::new();
+    if io::BufReader::new(file).read_line(&mut header).is_err() {
+        return false;
+    }
+    let names: Vec<&str> = header.trim().split(',').map(str::trim).collect();
+    names.first() == Some(&"tick") && names.iter().any(|n| Channel::from_name(n).is_some())
+}
+
 /// Reads an IMU recording from `path`.
 pub fn read_imu_csv(path: &Path) -> Result<ImuRecording, ImuCsvError> {
     let file = path.display().to_string();

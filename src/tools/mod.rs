@@ -15,6 +15,7 @@ pub mod float_text;
 pub mod generate;
 pub mod gesture_accuracy;
 pub mod imu_csv;
+pub mod imu_replay;
 pub mod latency;
 pub mod output_file;
 pub mod recording;

@@ -4,10 +4,17 @@
 //! replay did, or why it stopped.
 
 use std::fmt;
+use std::io::Write;
 
 use crate::arm::sim::SimulatedJaco;
+use crate::control::Tick;
+use crate::control::core_config::CoreConfig;
+use crate::control::event::TimedEvent;
+use crate::control::pipeline::Pipeline;
+use crate::control::tick::{TickInput, TickOutput};
 use crate::sensor::csv::CsvError;
 use crate::tools::recording::read::RecordingError;
+use crate::tools::trace::{TRACE_HEADER, TraceRows};
 
 /// Why a replay stopped early.
 #[derive(Debug)]
@@ -76,5 +83,79 @@ impl ReplaySummary {
         self.final_position = pose.translation.vector.into();
         self.final_rotation_vector = pose.rotation.scaled_axis().into();
         self.final_fingers = arm.fingers();
+    }
+}
+
+/// A replay under way: a fresh core and simulated arm, each tick's events
+/// written as JSON lines and, if asked for, its trace row.
+pub struct ReplayRun<'a, 'b> {
+    core: Pipeline,
+    arm: SimulatedJaco,
+    output: TickOutput,
+    rows: TraceRows,
+    summary: ReplaySummary,
+    out: &'a mut dyn Write,
+    trace: Option<&'b mut dyn Write>,
+}
+
+impl<'a, 'b> ReplayRun<'a, 'b> {
+    /// Starts a replay through `config` (the trace's header written).
+    pub fn new(
+        config: &CoreConfig,
+        out: &'a mut dyn Write,
+        mut trace: Option<&'b mut dyn Write>,
+    ) -> Result<ReplayRun<'a, 'b>, ReplayError> {
+        if let Some(trace) = trace.as_deref_mut() {
+            writeln!(trace, "{TRACE_HEADER}")?;
+        }
+        Ok(ReplayRun {
+            core: Pipeline::new(config),
+            arm: SimulatedJaco::new(config),
+            output: TickOutput::default(),
+            rows: TraceRows::default(),
+            summary: ReplaySummary::default(),
+            out,
+            trace,
+        })
+    }
+
+    /// Ticks replayed so far (the next tick, counting from 0).
+    pub fn ticks(&self) -> Tick {
+        self.summary.samples
+    }
+
+    /// One tick through the core and the arm.
+    pub fn step(&mut self, input: &TickInput) -> Result<(), ReplayError> {
+        self.core.step(input, &mut self.output);
+        let output = &self.output;
+        for &event in output.events.iter() {
+            let line = TimedEvent {
+                tick: output.tick,
+                event,
+            };
+            serde_json::to_writer(&mut *self.out, &line).map_err(std::io::Error::from)?;
+            self.out.write_all(b"\n")?;
+            self.summary.events += 1;
+        }
+        self.summary.arm_commands += u64::from(output.motion.arm_command.is_some());
+        self.arm.tick(output.motion.arm_command.as_ref());
+        if !self.arm.inside_workspace() {
+            self.summary.ticks_outside_workspace += 1;
+        }
+        if let Some(trace) = self.trace.as_deref_mut() {
+            self.rows.write(trace, output, &self.arm)?;
+        }
+        self.summary.samples += 1;
+        Ok(())
+    }
+
+    /// Flushes the files; what the replay did.
+    pub fn finish(mut self) -> Result<ReplaySummary, ReplayError> {
+        self.out.flush()?;
+        if let Some(trace) = self.trace {
+            trace.flush()?;
+        }
+        self.summary.set_arm_end(&self.arm);
+        Ok(self.summary)
     }
 }

@@ -12,6 +12,8 @@ use crate::config::Config;
 use crate::control::core_config::CoreConfig;
 use crate::sensor::csv::CsvSignal;
 use crate::tools::csv_replay;
+use crate::tools::imu_csv::read_imu_csv;
+use crate::tools::imu_replay;
 use crate::tools::output_file::create;
 use crate::tools::recording::read::Recording;
 use crate::tools::recording::recording_replay::{self, ReplayVerdict};
@@ -59,6 +61,28 @@ pub fn replay_csv(
     let started = Instant::now();
     let (out, trace) = opened.writers();
     let result = csv_replay::replay(config, &mut input, out, trace);
+    let seconds = started.elapsed().as_secs_f64();
+    let summary = match result {
+        Ok(summary) => summary,
+        Err(ReplayError::Write(e)) => return Err(cannot_write(path, e)),
+        Err(e) => return Err(anyhow::Error::new(e).context(path.display().to_string())),
+    };
+    Ok(CsvReplayed { summary, seconds })
+}
+
+/// Replays the IMU recording at `path` through `config` (its gestures
+/// loaded; [`imu_replay::replay`]), writing where `to` says.
+pub fn replay_imu_csv(
+    config: &CoreConfig,
+    path: &Path,
+    to: ReplayTo,
+    stdout: impl Write,
+) -> anyhow::Result<CsvReplayed> {
+    let recording = read_imu_csv(path).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut opened = Opened::open(to, stdout)?;
+    let started = Instant::now();
+    let (out, trace) = opened.writers();
+    let result = imu_replay::replay(config, &recording, out, trace);
     let seconds = started.elapsed().as_secs_f64();
     let summary = match result {
         Ok(summary) => summary,

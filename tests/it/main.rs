@@ -43,6 +43,7 @@ mod fit_inputs;
 mod fit_prompter;
 mod gesture;
 mod gesture_sets;
+mod gesture_use;
 mod golden;
 mod motion;
 mod motion_safety;

@@ -1,0 +1,56 @@
+//! A gesture set made ready for the core: its names as the library writes
+//! them, its templates and thresholds, the front end's settings it was
+//! recorded with and the head's settings from the configuration. Every
+//! gesture the library names must be in the set.
+
+use crate::control::core_config::CoreConfig;
+use crate::control::gesture::name::GestureName;
+use crate::control::head::{GestureSetup, Head};
+use crate::control::token::Token;
+use crate::gestures::set::GestureSet;
+
+/// The core's setup for `set` under `core`'s library and `[gestures]`
+/// settings, or every problem (a library entry naming a gesture the set
+/// lacks is named by its key, `sequence #N.actions`).
+pub fn setup(core: &CoreConfig, set: &GestureSet) -> Result<GestureSetup, Vec<String>> {
+    let mut problems = Vec::new();
+    let names: Vec<GestureName> = set
+        .gestures
+        .iter()
+        .filter_map(|g| GestureName::new(&g.name))
+        .collect();
+    let known: Vec<&str> = names.iter().map(GestureName::as_str).collect();
+    for (i, entry) in core.sequences().iter().enumerate() {
+        let missing: Vec<String> = entry
+            .actions
+            .as_slice()
+            .iter()
+            .filter_map(|token| match token {
+                Token::Gesture(name) if !names.contains(name) => Some(format!("`{name}`")),
+                _ => None,
+            })
+            .collect();
+        if !missing.is_empty() {
+            problems.push(format!(
+                "sequence #{}.actions: {} not in the gesture set (it has {})",
+                i + 1,
+                missing.join(", "),
+                known.join(", ")
+            ));
+        }
+    }
+    let setup = GestureSetup {
+        names,
+        recognizer: set.config,
+        templates: set.templates(None, 1.0),
+        head: *core.head(),
+    };
+    if let Err(bad) = Head::new(&setup) {
+        problems.extend(bad);
+    }
+    if problems.is_empty() {
+        Ok(setup)
+    } else {
+        Err(problems)
+    }
+}

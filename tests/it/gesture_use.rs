@@ -1,0 +1,500 @@
+//! A person who moves rather than breathes, through the whole core: their
+//! own gesture set (recorded by the protocol), a library naming their
+//! gestures, the IMU's samples replayed tick by tick. Gestures select
+//! modes (alone, in sequences, mixed with breaths), the head's tilt moves
+//! the arm in proportion, and a silent or lost IMU is a fault that stops
+//! it, as the breath sensor's is.
+
+use sipnpuff::config::Config;
+use sipnpuff::control::Tick;
+use sipnpuff::control::core_config::CoreConfig;
+use sipnpuff::control::detector::FaultReason;
+use sipnpuff::control::event::Event;
+use sipnpuff::control::gesture::GestureConfig;
+use sipnpuff::control::imu::{ImuInput, ImuSample};
+use sipnpuff::control::mode::{Mode, ModeState};
+use sipnpuff::control::modes::DetectionReason;
+use sipnpuff::control::motion::limits::caps;
+use sipnpuff::control::pipeline::Pipeline;
+use sipnpuff::control::sample::Sample;
+use sipnpuff::control::tick::{TickInput, TickOutput};
+use sipnpuff::gestures::record::record;
+use sipnpuff::gestures::set::GestureSet;
+use sipnpuff::gestures::setup::setup;
+use sipnpuff::rt::alloc_counter::thread_allocations;
+use sipnpuff::sim::head_gesture::GestureName;
+use sipnpuff::sim::imu_session::{
+    Drive, ImuSession, drive_session, practice_session, protocol_session,
+};
+use sipnpuff::sim::imu_user::ImuUser;
+use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
+
+const GESTURES: [GestureName; 6] = GestureName::DEFAULT;
+
+/// The library of these tests: each gesture alone, a pair, and a
+/// gesture followed by a short puff.
+const LIBRARY: &str = r#"
+[gestures]
+set = "my-gestures.toml"
+
+[[sequence]]
+actions = ["nod"]
+mode = "translate_x"
+
+[[sequence]]
+actions = ["double_nod"]
+mode = "translate_z"
+
+[[sequence]]
+actions = ["shake"]
+mode = "translate_y"
+
+[[sequence]]
+actions = ["tilt_left"]
+mode = "fingers"
+
+[[sequence]]
+actions = ["tilt_right", "nod"]
+mode = "rotate_z"
+
+[[sequence]]
+actions = ["wobble"]
+event = "lights_toggle"
+"#;
+
+fn user(name: &str) -> ImuUser {
+    ImuUser::builtin(name).unwrap()
+}
+
+/// `user`'s own set, recorded by the protocol.
+fn own_set(user: &ImuUser) -> GestureSet {
+    let protocol = protocol_session(user, &GESTURES, 1);
+    let names: Vec<String> = GESTURES.iter().map(|g| g.name().to_string()).collect();
+    record(
+        &protocol.samples,
+        protocol.channels,
+        &names,
+        GestureConfig::default(),
+        None,
+    )
+    .unwrap()
+    .set
+}
+
+/// The core for `library` with `set` loaded, `breath` said whether a
+/// breath sensor feeds it too.
+fn core(library: &str, set: &GestureSet, breath: bool) -> CoreConfig {
+    let config = Config::from_toml_str(library).unwrap();
+    let core = config.core().clone();
+    let core = if breath {
+        core
+    } else {
+        core.without_breath_sensor()
+    };
+    let ready = setup(&core, set).unwrap();
+    core.with_gestures(ready)
+}
+
+/// Every tick from the first sample to the last (and `tail` ticks more,
+/// still sampled, the last sample repeated with its noise frozen out),
+/// the IMU's samples on their ticks.
+fn inputs(samples: &[(Tick, ImuSample)]) -> Vec<TickInput> {
+    let (first, last) = (samples[0].0, samples[samples.len() - 1].0);
+    let mut at = samples.iter().peekable();
+    (first..=last)
+        .map(|tick| {
+            let mut imu = ImuInput::Missing;
+            while let Some((_, s)) = at.next_if(|(t, _)| *t <= tick) {
+                imu = ImuInput::Sample(*s);
+            }
+            TickInput::imu(tick, imu)
+        })
+        .collect()
+}
+
+/// Each tick's output.
+fn run(core: &CoreConfig, inputs: &[TickInput]) -> Vec<TickOutput> {
+    let mut pipeline = Pipeline::new(core);
+    let mut out = TickOutput::default();
+    inputs
+        .iter()
+        .map(|input| {
+            pipeline.step(input, &mut out);
+            out
+        })
+        .collect()
+}
+
+fn events(outputs: &[TickOutput]) -> Vec<(Tick, Event)> {
+    outputs
+        .iter()
+        .flat_map(|o| o.events.iter().map(move |e| (o.tick, *e)))
+        .collect()
+}
+
+fn matches(outputs: &[TickOutput]) -> Vec<(Tick, String)> {
+    events(outputs)
+        .into_iter()
+        .filter_map(|(t, e)| match e {
+            Event::Match { target, .. } => Some((t, target.label())),
+            _ => None,
+        })
+        .collect()
+}
+
+/// What the library's one-gesture entries select, by gesture.
+fn selects(gesture: GestureName) -> Option<&'static str> {
+    match gesture {
+        GestureName::Nod => Some("translate_x"),
+        GestureName::DoubleNod => Some("translate_z"),
+        GestureName::Shake => Some("translate_y"),
+        GestureName::TiltLeft => Some("fingers"),
+        GestureName::Wobble => Some("Home: lights_toggle"),
+        _ => None,
+    }
+}
+
+#[test]
+fn gestures_select_modes_and_fire_events_and_nothing_else_does() {
+    for name in ["typical", "slow_small", "wheelchair"] {
+        let person = user(name);
+        let core = core(LIBRARY, &own_set(&person), false);
+        let session: ImuSession = practice_session(&person, &GESTURES, 5, 7);
+        let outputs = run(&core, &inputs(&session.samples));
+        let found = matches(&outputs);
+        let mut right = 0;
+        let mut made = 0;
+        for (i, truth) in session.truth.iter().enumerate() {
+            let next = session.truth.get(i + 1).map_or(Tick::MAX, |t| t.start);
+            let here: Vec<&(Tick, String)> = found
+                .iter()
+                .filter(|(t, _)| *t >= truth.end && *t < next)
+                .collect();
+            match selects(truth.name) {
+                Some(label) => {
+                    made += 1;
+                    // Never a wrong selection; a miss is a rejection.
+                    assert!(
+                        here.iter().all(|(_, l)| l == label),
+                        "{name}: {:?} at {} selected {here:?}",
+                        truth.name,
+                        truth.start
+                    );
+                    right += usize::from(!here.is_empty());
+                }
+                // tilt_right alone is the start of a pair: it selects nothing.
+                None => assert!(here.is_empty(), "{name}: {here:?}"),
+            }
+        }
+        for &(from, to) in &session.ordinary {
+            assert!(
+                found.iter().all(|(t, _)| *t < from || *t > to + 1500),
+                "{name}: ordinary movement selected something: {found:?}"
+            );
+        }
+        assert!(
+            right * 10 >= made * 8,
+            "{name}: {right} of {made} gestures selected"
+        );
+        let arm_moved = outputs.iter().any(|o| o.motion.linear != [0.0; 3]);
+        assert!(!arm_moved, "{name}: the head never tilted, nothing moves");
+    }
+}
+
+/// The tilt `degrees` past a 12° dead zone, on a 30° full scale: the
+/// fraction of full speed above the 25 % floor.
+fn expected_speed(degrees: f64) -> f64 {
+    let fraction = ((degrees.abs() - 12.0) / (30.0 - 12.0)).clamp(0.0, 1.0);
+    caps::LINEAR_SPEED_MPS * (0.25 + 0.75 * fraction)
+}
+
+#[test]
+fn the_heads_tilt_moves_the_arm_along_the_selected_mode_in_proportion() {
+    let person = user("typical");
+    let drives = [
+        Drive {
+            gesture: GestureName::Nod,
+            pitch_deg: 21.0,
+            hold_ms: 2000,
+        },
+        Drive {
+            gesture: GestureName::DoubleNod,
+            pitch_deg: -27.0,
+            hold_ms: 1500,
+        },
+        // Within the dead zone: selected, and nothing moves.
+        Drive {
+            gesture: GestureName::Nod,
+            pitch_deg: 8.0,
+            hold_ms: 1500,
+        },
+    ];
+    let (session, holds) = drive_session(&person, &drives, 3);
+    let core = core(LIBRARY, &own_set(&person), false);
+    let outputs = run(&core, &inputs(&session.samples));
+    let first = outputs[0].tick;
+    let at = |t: Tick| &outputs[(t - first) as usize];
+    let axis = [0, 2, 0];
+    for ((drive, &(from, to)), axis) in drives.iter().zip(&holds).zip(axis) {
+        // Half a second into the hold: the arm has reached its speed.
+        let mid = at(from + 500);
+        let mode = if drive.gesture == GestureName::Nod {
+            Mode::TranslateX
+        } else {
+            Mode::TranslateZ
+        };
+        assert_eq!(mid.command.state, ModeState::Command(mode), "{drive:?}");
+        let speed = at(to - 100).motion.linear;
+        if drive.pitch_deg.abs() < 12.0 {
+            assert_eq!(speed, [0.0; 3], "{drive:?}");
+            continue;
+        }
+        let want = expected_speed(drive.pitch_deg) * drive.pitch_deg.signum();
+        let got = speed[axis];
+        assert!(
+            (got - want).abs() < 0.05 * want.abs(),
+            "{drive:?}: {got} m/s, {want} m/s expected"
+        );
+        for (k, v) in speed.iter().enumerate() {
+            if k != axis {
+                assert!(v.abs() < 1e-9, "{drive:?}: off-axis {speed:?}");
+            }
+        }
+        // Back at rest: the arm stops, and inactivity returns to
+        // selection.
+        assert_eq!(at(to + 1500).motion.linear, [0.0; 3], "{drive:?}");
+    }
+    let back: Vec<DetectionReason> = events(&outputs)
+        .into_iter()
+        .filter_map(|(_, e)| match e {
+            Event::Detection { reason } => Some(reason),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(back, [DetectionReason::Inactivity; 3]);
+}
+
+#[test]
+fn a_gesture_and_a_breath_make_one_sequence() {
+    let person = user("typical");
+    let library = r#"
+[gestures]
+set = "my-gestures.toml"
+
+[[sequence]]
+actions = ["nod"]
+mode = "translate_x"
+
+[[sequence]]
+actions = ["nod", -1]
+mode = "translate_y"
+
+[[sequence]]
+actions = [-1, -1]
+mode = "fingers"
+"#;
+    let set = own_set(&person);
+    let session = practice_session(&person, &[GestureName::Nod], 2, 4);
+    let imu = inputs(&session.samples);
+    // Where each nod is read, with the breath sensor at rest.
+    let core = core(library, &set, true);
+    let rest = core.detector().neutral_volts;
+    let at_rest: Vec<TickInput> = imu
+        .iter()
+        .map(|i| TickInput {
+            sample: Sample::Volts(rest),
+            ..*i
+        })
+        .collect();
+    let read: Vec<Tick> = events(&run(&core, &at_rest))
+        .into_iter()
+        .filter_map(|(t, e)| matches!(e, Event::Gesture { .. }).then_some(t))
+        .collect();
+    assert_eq!(read.len(), 2, "both nods read");
+    // A short puff 300 ms after the first nod is read; none after the
+    // second.
+    let first = imu[0].tick;
+    let puff_at = (read[0] + 300 - first) as u32;
+    let script = [
+        Step::Rest { ms: puff_at },
+        Step::Breath {
+            breath: sipnpuff::control::action::Breath::Puff,
+            ms: 150,
+        },
+        Step::Rest {
+            ms: imu.len() as u32,
+        },
+    ];
+    let volts = SignalGenerator::new(SignalParams::clean(core.detector(), 9), &script);
+    let both: Vec<TickInput> = imu
+        .iter()
+        .zip(volts)
+        .map(|(i, v)| TickInput {
+            sample: Sample::Volts(v),
+            ..*i
+        })
+        .collect();
+    let found = matches(&run(&core, &both));
+    assert_eq!(found.len(), 2, "{found:?}");
+    assert_eq!(found[0].1, "translate_y", "nod then a short puff");
+    assert!(found[0].0 > read[0] + 300, "after the puff");
+    assert_eq!(found[1].1, "translate_x", "a nod alone, at the timeout");
+    assert_eq!(
+        found[1].0,
+        read[1] + 1000,
+        "the sequence timeout after the nod"
+    );
+}
+
+#[test]
+fn a_silent_or_lost_imu_stops_the_arm_and_returns_to_selection() {
+    let person = user("typical");
+    let drive = Drive {
+        gesture: GestureName::Nod,
+        pitch_deg: 24.0,
+        hold_ms: 3000,
+    };
+    let (session, holds) = drive_session(&person, &[drive], 5);
+    let core = core(LIBRARY, &own_set(&person), false);
+    let clean = inputs(&session.samples);
+    let (from, _) = holds[0];
+    for (lost, reason) in [
+        (false, FaultReason::ImuStale { ms: 100 }),
+        (true, FaultReason::ImuDisconnected),
+    ] {
+        // One second into the hold the IMU falls silent (or is
+        // unplugged) for 200 ms.
+        let cut = from + 1000;
+        let faulty: Vec<TickInput> = clean
+            .iter()
+            .map(|i| {
+                if (cut..cut + 200).contains(&i.tick) {
+                    let imu = if lost {
+                        ImuInput::Lost
+                    } else {
+                        ImuInput::Missing
+                    };
+                    TickInput { imu, ..*i }
+                } else {
+                    *i
+                }
+            })
+            .collect();
+        let outputs = run(&core, &faulty);
+        let first = outputs[0].tick;
+        let at = |t: Tick| &outputs[(t - first) as usize];
+        assert!(at(cut - 1).motion.linear[0] > 0.1, "moving before");
+        let said: Vec<(Tick, Event)> = events(&outputs)
+            .into_iter()
+            .filter(|(t, _)| *t >= cut && *t < cut + 1000)
+            .filter(|(_, e)| !matches!(e, Event::Motion(_)))
+            .collect();
+        // Silent: the last sample came up to 10 ms before the cut.
+        let fault_at = said[0].0;
+        assert!(
+            fault_at <= cut + 100,
+            "{reason:?}: the fault at {fault_at}, cut at {cut}"
+        );
+        assert!(
+            matches!(said[0].1, Event::Fault { reason: r } if std::mem::discriminant(&r) == std::mem::discriminant(&reason)),
+            "{said:?}"
+        );
+        assert_eq!(
+            said[1].1,
+            Event::Detection {
+                reason: DetectionReason::Fault
+            }
+        );
+        assert!(at(fault_at).faulted);
+        assert_eq!(at(fault_at).command.state, ModeState::Detection);
+        // Braked through the usual limits, to rest within 0.2 s.
+        // Braked through the usual limits: never faster, at rest within
+        // 0.4 s.
+        let speeds: Vec<f64> = (fault_at..fault_at + 400)
+            .map(|t| at(t).motion.linear[0])
+            .collect();
+        assert!(speeds.windows(2).all(|w| w[1] <= w[0]), "{speeds:?}");
+        assert_eq!(speeds[speeds.len() - 1], 0.0);
+        // The samples come back: healthy again 300 ms after the first,
+        // still in selection though the head is still tilted.
+        let back = clean
+            .iter()
+            .find(|i| i.tick >= cut + 200 && matches!(i.imu, ImuInput::Sample(_)))
+            .unwrap()
+            .tick;
+        assert_eq!(said[2].0, back + 300, "{said:?}");
+        assert_eq!(said[2].1, Event::Recovered);
+        assert!(at(cut + 900).motion.linear == [0.0; 3]);
+    }
+}
+
+#[test]
+fn the_core_with_gestures_allocates_nothing() {
+    let person = user("typical");
+    let (session, _) = drive_session(
+        &person,
+        &[Drive {
+            gesture: GestureName::Nod,
+            pitch_deg: 20.0,
+            hold_ms: 1000,
+        }],
+        6,
+    );
+    let core = core(LIBRARY, &own_set(&person), false);
+    let inputs = inputs(&session.samples);
+    let mut pipeline = Pipeline::new(&core);
+    let mut out = TickOutput::default();
+    let (mut said, mut moved) = (0, 0);
+    let before = thread_allocations();
+    for input in &inputs {
+        pipeline.step(input, &mut out);
+        said += out.events.len();
+        moved += usize::from(out.motion.linear != [0.0; 3]);
+    }
+    assert_eq!(thread_allocations() - before, 0, "{} ticks", inputs.len());
+    assert_eq!(said, 3, "a gesture, its match, back to selection");
+    assert!(moved > 1000, "the head moved the arm for {moved} ticks");
+}
+
+#[test]
+fn a_library_naming_gestures_is_checked_against_the_set_and_the_config() {
+    let person = user("typical");
+    let set = own_set(&person);
+    // Not in the set: named by its entry.
+    let config = Config::from_toml_str(
+        "[gestures]\nset = \"g.toml\"\n[[sequence]]\nactions = [\"nod\"]\nmode = \"fingers\"\n[[sequence]]\nactions = [\"blink\", -1]\nmode = \"rotate_x\"\n",
+    )
+    .unwrap();
+    assert_eq!(
+        setup(config.core(), &set).unwrap_err(),
+        [
+            "sequence #2.actions: `blink` not in the gesture set (it has nod, double_nod, shake, tilt_left, tilt_right, wobble)"
+        ]
+    );
+    // Gestures without a set, a name that cannot be one, a bad dead zone
+    // and gestures with the scanning interface: all said at once, by key
+    // and line.
+    let errors = Config::from_toml_str(
+        "[[sequence]]\nactions = [\"nod\"]\nmode = \"fingers\"\n[[sequence]]\nactions = [\"Nod\", 1]\nmode = \"rotate_x\"\n[gestures]\ndead_zone_deg = 60\n",
+    )
+    .unwrap_err()
+    .to_string();
+    for said in [
+        "line 2, column 1: sequence #1.actions: [\"nod\"] names gestures, but no gesture set is given",
+        "line 5, column 1: sequence #2.actions: \"Nod\" not a gesture name",
+        "line 8, column 1: gestures.dead_zone_deg: 60 is not 2–45 degrees",
+    ] {
+        assert!(errors.contains(said), "{said}\nin\n{errors}");
+    }
+    assert!(errors.starts_with("3 problems"), "{errors}");
+    let errors =
+        Config::from_toml_str("[interface]\nkind = \"bsp\"\n[gestures]\nset = \"g.toml\"\n")
+            .unwrap_err()
+            .to_string();
+    assert!(
+        errors.contains(
+            "gestures.set: gestures are read as sequences: they need `[interface] kind = \"asp\"`"
+        ),
+        "{errors}"
+    );
+}
