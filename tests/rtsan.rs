@@ -140,6 +140,81 @@ fn gesture_ticks_are_realtime_safe() {
     assert!(recognised >= 10 && rejected >= 2, "{recognised} {rejected}");
 }
 
+/// The whole core fed by a head-worn IMU alone: a person's own gesture
+/// set, gestures that select modes, the head's tilt that moves the arm
+/// and returns to rest, each `Pipeline::step` marked as a real-time
+/// region.
+#[test]
+fn pipeline_ticks_with_gestures_are_realtime_safe() {
+    use sipnpuff::control::event::Event;
+    use sipnpuff::control::gesture::GestureConfig;
+    use sipnpuff::control::imu::ImuInput;
+    use sipnpuff::gestures::record::record;
+    use sipnpuff::gestures::setup::setup;
+    use sipnpuff::rt::alloc_counter::thread_allocations;
+    use sipnpuff::sim::head_gesture::GestureName;
+    use sipnpuff::sim::imu_session::{Drive, drive_session, protocol_session};
+    use sipnpuff::sim::imu_user::ImuUser;
+
+    let user = ImuUser::builtin("typical").unwrap();
+    let gestures = [GestureName::Nod, GestureName::DoubleNod];
+    let protocol = protocol_session(&user, &gestures, 1);
+    let names = ["nod".to_string(), "double_nod".to_string()];
+    let set = record(
+        &protocol.samples,
+        protocol.channels,
+        &names,
+        GestureConfig::default(),
+        None,
+    )
+    .unwrap()
+    .set;
+    let config = Config::from_toml_str(
+        "[gestures]\nset = \"g.toml\"\n[[sequence]]\nactions = [\"nod\"]\nmode = \"translate_x\"\n[[sequence]]\nactions = [\"double_nod\"]\nmode = \"translate_z\"\n",
+    )
+    .unwrap();
+    let core = config.core().clone().without_breath_sensor();
+    let ready = setup(&core, &set).unwrap();
+    let core = core.with_gestures(ready);
+    let drive = |gesture, pitch_deg| Drive {
+        gesture,
+        pitch_deg,
+        hold_ms: 1500,
+    };
+    let (session, _) = drive_session(
+        &user,
+        &[
+            drive(GestureName::Nod, 20.0),
+            drive(GestureName::DoubleNod, -25.0),
+        ],
+        2,
+    );
+    let mut pipeline = Pipeline::new(&core);
+    let mut out = TickOutput::default();
+    let mut next = session.samples.iter().peekable();
+    let last = session.samples.last().unwrap().0;
+    let (mut matched, mut moving) = (0, 0);
+    let before = thread_allocations();
+    for tick in 0..=last {
+        let imu = next
+            .next_if(|s| s.0 == tick)
+            .map_or(ImuInput::Missing, |s| ImuInput::Sample(s.1));
+        {
+            let _realtime = rtsan_standalone::ScopedSanitizeRealtime::default();
+            pipeline.step(&TickInput::imu(tick, imu), &mut out);
+        }
+        matched += out
+            .events
+            .iter()
+            .filter(|e| matches!(e, Event::Match { .. }))
+            .count();
+        moving += usize::from(out.motion.linear != [0.0; 3]);
+    }
+    assert_eq!(thread_allocations() - before, 0);
+    assert_eq!(matched, 2);
+    assert!(moving > 2000, "{moving} ticks moving");
+}
+
 /// A tick that does the core's work and then formats a log line, the kind
 /// of slip a code review can miss. Run only as a child of
 /// `rtsan_catches_an_allocating_tick`.

@@ -1,10 +1,13 @@
-//! The deterministic core: one voltage sample per tick in, events and a
-//! jerk-limited Cartesian velocity out.
+//! The deterministic core: one voltage sample (and, for a person with
+//! gestures, one IMU sample) per tick in, events and a jerk-limited
+//! Cartesian velocity out.
 //!
 //! ```text
-//! volts ─► detector ─► selection ─► modes ─► motion ─► twist (1 kHz) ─► ArmCommand (100 Hz)
-//!          (bursts)    (ASP: matcher,  (Fig. 1)  (Ruckig,
-//!                       BSP: scanning)            limits)
+//! volts ─► detector ─┐
+//!          (bursts)  ├► selection ─► modes ─► motion ─► twist (1 kHz) ─► ArmCommand (100 Hz)
+//! IMU ───► head ─────┘  (ASP: matcher,  (Fig. 1)  (Ruckig,
+//!          (gestures,    BSP: scanning)            limits)
+//!           tilt)
 //! ```
 //!
 //! * [`detector`] turns samples into bursts (short/long sip/puff) and says
@@ -22,7 +25,11 @@
 //!   the only call that changes the core;
 //! * [`view`] is where the user is, for the display;
 //! * [`imu`] is a head-worn IMU's sample, the gesture front end's input;
-//! * [`gesture`] turns those samples into recognised or rejected gestures.
+//! * [`gesture`] turns those samples into recognised or rejected gestures,
+//!   and [`head`] is the IMU's stage in the pipeline: its faults, its
+//!   gestures, and in a command mode the tilt that moves;
+//! * [`token`] is a sequence's element (a breath's action or a gesture),
+//!   [`sequence`] the sequences of them.
 //!
 //! Everything here is pure: time enters as a [`Tick`] argument; nothing
 //! reads a clock, sleeps, locks, does I/O or allocates after construction.

@@ -63,6 +63,12 @@ pub fn run(
     events: &mut dyn EventSink,
     console: &dyn Console,
 ) -> anyhow::Result<RunReport> {
+    if let Some(set) = config.core().gesture_set_file() {
+        anyhow::bail!(
+            "[gestures] set = {:?}: a live run reads no IMU yet; replay an IMU recording with these gestures instead (`sipnpuff replay FILE.csv --config …`), or leave [gestures] out to run on breaths",
+            set.display()
+        );
+    }
     // The page's address is taken before anything starts: a clash is an
     // error now, not a display missing later.
     let display = Display::open(&plan.display, console)?;

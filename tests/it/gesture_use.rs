@@ -498,3 +498,89 @@ fn a_library_naming_gestures_is_checked_against_the_set_and_the_config() {
         "{errors}"
     );
 }
+
+/// The fixture `fixtures/gesture-user/`: the simulated `typical` IMU
+/// user's set and a practice session of each gesture once (made as
+/// docs/gestures.md says), replayed as a newcomer would.
+const FIXTURE: [&str; 5] = [
+    "replay",
+    "fixtures/gesture-user/practice.csv",
+    "--config",
+    "fixtures/gesture-user/config.toml",
+    "--events",
+];
+
+#[test]
+fn the_gesture_users_replay_is_its_golden_file_and_says_what_was_made() {
+    let dir = crate::scratch::Scratch::new();
+    let events = dir.join("events.jsonl");
+    let mut args = FIXTURE.to_vec();
+    args.push(events.to_str().unwrap());
+    let out = crate::common::sipnpuff_output(&args);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    crate::common::assert_exit(out.status, &stderr, 0, "replay");
+    let written = std::fs::read_to_string(&events).unwrap();
+    let golden = std::fs::read_to_string("fixtures/gesture-user/practice.events.jsonl").unwrap();
+    assert_eq!(written, golden, "the replay changed its events");
+    // And what the golden says: each gesture made once, each read as
+    // itself and selecting its entry; tilt_right alone, the start of a
+    // pair, waits for the timeout and resets.
+    let lines: Vec<serde_json::Value> = golden
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let read: Vec<&str> = lines
+        .iter()
+        .filter(|e| e["event"] == "gesture")
+        .map(|e| e["name"].as_str().unwrap())
+        .collect();
+    let mut sorted = read.clone();
+    sorted.sort_unstable();
+    assert_eq!(
+        sorted,
+        [
+            "double_nod",
+            "nod",
+            "shake",
+            "tilt_left",
+            "tilt_right",
+            "wobble"
+        ]
+    );
+    for pair in lines.windows(2) {
+        if pair[0]["event"] == "gesture" {
+            let name = pair[0]["name"].as_str().unwrap();
+            let then = &pair[1];
+            let (read_at, then_at) = (pair[0]["tick"].as_u64(), then["tick"].as_u64());
+            if name == "tilt_right" {
+                // The sequence timeout (1000 ms) after it was read.
+                assert_eq!(then_at, read_at.map(|t| t + 1000), "{then}");
+                assert_eq!(then["event"], "reset", "{then}");
+                assert_eq!(then["reason"], "timeout", "{then}");
+            } else {
+                assert_eq!(then_at, read_at, "{then}");
+                assert_eq!(then["event"], "match", "{then}");
+                assert_eq!(then["sequence"], serde_json::json!([name]), "{then}");
+            }
+        }
+    }
+    assert!(stderr.contains("replayed 35191 samples"), "{stderr}");
+}
+
+#[test]
+fn an_imu_recording_without_a_gesture_set_is_refused_with_what_to_give() {
+    let stderr = crate::common::refused(&["replay", "fixtures/gesture-user/practice.csv"]);
+    assert!(
+        stderr.contains("an IMU recording needs the person's gestures: give a --config with [gestures] set = \"FILE\""),
+        "{stderr}"
+    );
+    // A live run does not read an IMU yet: said before anything starts.
+    let stderr = crate::common::refused(&[
+        "run",
+        "--seconds",
+        "1",
+        "--config",
+        "fixtures/gesture-user/config.toml",
+    ]);
+    assert!(stderr.contains("a live run reads no IMU yet"), "{stderr}");
+}
