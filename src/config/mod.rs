@@ -40,6 +40,7 @@ use toml::Table;
 use crate::arm::settings::ArmSettings;
 use crate::control::core_config::{CoreConfig, InterfaceSection};
 use crate::control::detector::DetectorConfig;
+use crate::control::head::GestureSetup;
 use crate::control::selection::scanning::ScanningConfig;
 use crate::control::selection::{Interface, SequenceEntry};
 use crate::output::settings::OutputSettings;
@@ -133,6 +134,14 @@ impl Config {
         } else {
             Err(ConfigErrors(problems.errors))
         }
+    }
+
+    /// The same configuration for a person fed by a head-worn IMU alone:
+    /// their gestures loaded (checked against the library by
+    /// `gestures::setup`), no breath sensor.
+    pub fn for_imu(mut self, gestures: GestureSetup) -> Config {
+        self.core = self.core.without_breath_sensor().with_gestures(gestures);
+        self
     }
 
     /// The core's settings: what the pipeline and the runtime are built

@@ -290,9 +290,9 @@ impl<S: Samples> TickWork for ControlTick<S> {
         let input = TickInput {
             tick,
             sample: reading.sample,
+            imu: reading.imu,
             arm,
             stop: std::mem::take(&mut self.stop_next),
-            ..TickInput::default()
         };
         self.core.step(&input, &mut self.out);
         let out = &self.out;

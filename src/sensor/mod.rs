@@ -30,6 +30,7 @@ pub mod device;
 pub mod evdev;
 pub mod held;
 pub mod iio;
+pub mod imu_playback;
 pub mod listing;
 pub mod rezero;
 pub mod ring;
@@ -42,6 +43,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 
+use crate::control::imu::ImuInput;
 use crate::control::sample::Sample;
 
 /// Which sensor to open: the `--sensor` forms, a contract documented in
@@ -167,6 +169,9 @@ pub struct Reading {
     /// device gone (the core then faults at once instead of waiting
     /// `stale_ms`).
     pub sample: Sample,
+    /// The head-worn IMU's input on this tick (a sensor without one
+    /// leaves it missing).
+    pub imu: ImuInput,
     /// Older samples thrown away to catch up (the producer ran ahead).
     pub discarded: u64,
 }

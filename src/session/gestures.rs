@@ -12,6 +12,7 @@ use crate::config::Config;
 use crate::control::Tick;
 use crate::control::core_config::CoreConfig;
 use crate::control::gesture::GestureConfig;
+use crate::control::head::GestureSetup;
 use crate::control::imu::ImuSample;
 use crate::gestures::check::{self, Check, Ordinary};
 use crate::gestures::protocol::Span;
@@ -142,11 +143,17 @@ pub fn check_set(set_path: &Path, recordings: &[PathBuf]) -> anyhow::Result<Chec
     Ok(check::check(&set, &ordinary))
 }
 
-/// The core for a run or replay fed by the IMU alone: `config`'s, with
-/// the gesture set its `[gestures] set` names read and checked against
-/// the library, and no breath sensor.
+/// The core for a replay fed by the IMU alone: `config`'s, with the
+/// gesture set its `[gestures] set` names ([`load_setup`]), and no breath
+/// sensor.
 pub fn imu_core(config: &Config) -> anyhow::Result<CoreConfig> {
-    let core = config.core();
+    let setup = load_setup(config.core())?;
+    Ok(config.clone().for_imu(setup).core().clone())
+}
+
+/// The gesture set `core`'s `[gestures] set` names, read and checked
+/// against its library; an error says what to give without one.
+pub fn load_setup(core: &CoreConfig) -> anyhow::Result<GestureSetup> {
     let Some(path) = core.gesture_set_file() else {
         bail!(
             "an IMU recording needs the person's gestures: give a --config with [gestures] set = \"FILE\" (made by `sipnpuff gestures record`) and library entries that name them"
@@ -156,7 +163,5 @@ pub fn imu_core(config: &Config) -> anyhow::Result<CoreConfig> {
         .with_context(|| format!("[gestures] set: cannot read {}", path.display()))?;
     let set = GestureSet::from_toml(&text)
         .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.join("; ")))?;
-    let setup = setup::setup(core, &set)
-        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.join("; ")))?;
-    Ok(core.clone().without_breath_sensor().with_gestures(setup))
+    setup::setup(core, &set).map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.join("; ")))
 }

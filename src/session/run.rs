@@ -16,10 +16,13 @@ use crate::rt::recorder::SessionRecorder;
 use crate::rt::report::RunReport;
 use crate::rt::telemetry_thread::{EventSink, Watchers};
 use crate::rt::threads::{self, LoopSettings, RunOptions};
-use crate::sensor::{Sensor, SensorSpec};
+use crate::sensor::imu_playback::ImuPlayback;
+use crate::sensor::{Prepared, Sensor, SensorSpec};
 use crate::session::Console;
+use crate::session::gestures;
 use crate::session::showing::{Display, DisplayChoice};
 use crate::sim::synthetic_sensor::SyntheticSensor;
+use crate::tools::imu_csv::{is_imu_csv, read_imu_csv};
 use crate::tools::recording::recorder::Recorder;
 use crate::tools::recording::writer::RecordOptions;
 use crate::wiring::arm::open_arm;
@@ -63,12 +66,7 @@ pub fn run(
     events: &mut dyn EventSink,
     console: &dyn Console,
 ) -> anyhow::Result<RunReport> {
-    if let Some(set) = config.core().gesture_set_file() {
-        anyhow::bail!(
-            "[gestures] set = {:?}: a live run reads no IMU yet; replay an IMU recording with these gestures instead (`sipnpuff replay FILE.csv --config …`), or leave [gestures] out to run on breaths",
-            set.display()
-        );
-    }
+    let imu = imu_recording(config, plan)?;
     // The page's address is taken before anything starts: a clash is an
     // error now, not a display missing later.
     let display = Display::open(&plan.display, console)?;
@@ -86,6 +84,9 @@ pub fn run(
         display: &display,
         max_hold_set_in: plan.max_hold_set_in,
     };
+    if let Some((config, playback)) = imu {
+        return start.on(&config, playback);
+    }
     open_sensor(
         plan.sensor,
         config,
@@ -101,6 +102,48 @@ pub fn run(
         start,
         &say,
     )
+}
+
+/// For a person with gestures: the IMU recording `--sensor csv:FILE`
+/// names, read whole, and the configuration with their set loaded and no
+/// breath sensor. `None` for a breath sensor; an error, before anything
+/// starts, for gestures without an IMU recording, an IMU recording
+/// without gestures, or `--record` (recordings hold no IMU samples yet).
+fn imu_recording(
+    config: &Config,
+    plan: &RunPlan,
+) -> anyhow::Result<Option<(Config, Prepared<ImuPlayback>)>> {
+    let csv = match plan.sensor {
+        SensorSpec::Csv(path) if is_imu_csv(path) => Some(path),
+        _ => None,
+    };
+    let Some(path) = csv else {
+        if let Some(set) = config.core().gesture_set_file() {
+            anyhow::bail!(
+                "[gestures] set = {:?}: gestures need an IMU: give --sensor csv:IMU.csv (a recording played live); IMU devices (IIO, evdev accelerometers, serial) are not wired yet. Leave [gestures] out to run on breaths",
+                set.display()
+            );
+        }
+        return Ok(None);
+    };
+    if plan.record.is_some() {
+        anyhow::bail!(
+            "--record: a session recording holds no IMU samples yet; replay the IMU recording itself instead (`sipnpuff replay {} --config …`)",
+            path.display()
+        );
+    }
+    let setup = gestures::load_setup(config.core())?;
+    let recording = read_imu_csv(path).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let playback = ImuPlayback::prepared(
+        format!(
+            "IMU recording {} ({}, {} samples)",
+            path.display(),
+            recording.channels,
+            recording.samples.len()
+        ),
+        recording.samples,
+    );
+    Ok(Some((config.clone().for_imu(setup), playback)))
 }
 
 /// The session on the sensor opened: the loop on it, the core built from

@@ -484,7 +484,7 @@ impl sipnpuff::sensor::Samples for Plugged {
         self.left -= 1;
         sipnpuff::sensor::Reading {
             sample: self.plan[self.at].1,
-            discarded: 0,
+            ..sipnpuff::sensor::Reading::default()
         }
     }
 

@@ -574,7 +574,44 @@ fn an_imu_recording_without_a_gesture_set_is_refused_with_what_to_give() {
         stderr.contains("an IMU recording needs the person's gestures: give a --config with [gestures] set = \"FILE\""),
         "{stderr}"
     );
-    // A live run does not read an IMU yet: said before anything starts.
+}
+
+#[test]
+fn the_control_loop_plays_an_imu_recording_and_allocates_nothing() {
+    use sipnpuff::rt::control_loop::StopReason;
+    use sipnpuff::rt::simulated::run_simulated;
+    use sipnpuff::sensor::Sensor;
+    use sipnpuff::sensor::imu_playback::ImuPlayback;
+
+    let person = user("typical");
+    let (session, _) = drive_session(
+        &person,
+        &[Drive {
+            gesture: GestureName::Nod,
+            pitch_deg: 21.0,
+            hold_ms: 2000,
+        }],
+        8,
+    );
+    let core = core(LIBRARY, &own_set(&person), false);
+    let length = session.samples.len();
+    let playback = ImuPlayback::prepared("drive".into(), session.samples)
+        .start()
+        .unwrap();
+    let run = run_simulated(&core, playback.samples);
+    assert_eq!(run.allocations, 0, "{run:?}");
+    assert_eq!(run.stop_reason, StopReason::SensorEnded, "{run:?}");
+    assert!(run.ticks >= (length as u64 - 1) * 10, "{run:?}");
+    // A gesture, its match, back to selection; the arm moved and stopped.
+    assert_eq!(run.events, 3, "{run:?}");
+    assert_eq!(run.arm_commands, run.ticks / 10, "{run:?}");
+    assert!(run.last_arm_command.is_zero(), "{run:?}");
+    assert_eq!(run.drops.samples, 0, "{run:?}");
+}
+
+#[test]
+fn a_run_with_gestures_needs_an_imu_recording_and_records_none() {
+    // Gestures configured, a breath sensor given.
     let stderr = crate::common::refused(&[
         "run",
         "--seconds",
@@ -582,5 +619,30 @@ fn an_imu_recording_without_a_gesture_set_is_refused_with_what_to_give() {
         "--config",
         "fixtures/gesture-user/config.toml",
     ]);
-    assert!(stderr.contains("a live run reads no IMU yet"), "{stderr}");
+    assert!(
+        stderr.contains("gestures need an IMU: give --sensor csv:IMU.csv"),
+        "{stderr}"
+    );
+    // An IMU recording without gestures.
+    let stderr =
+        crate::common::refused(&["run", "--sensor", "csv:fixtures/gesture-user/practice.csv"]);
+    assert!(
+        stderr.contains("an IMU recording needs the person's gestures"),
+        "{stderr}"
+    );
+    // Recorded: not yet.
+    let dir = crate::scratch::Scratch::new();
+    let stderr = crate::common::refused(&[
+        "run",
+        "--sensor",
+        "csv:fixtures/gesture-user/practice.csv",
+        "--config",
+        "fixtures/gesture-user/config.toml",
+        "--record",
+        dir.join("rec").to_str().unwrap(),
+    ]);
+    assert!(
+        stderr.contains("--record: a session recording holds no IMU samples yet"),
+        "{stderr}"
+    );
 }

@@ -406,3 +406,64 @@ fn a_lost_link_reaches_the_core_and_stops_the_run() {
         assert_eq!(report.final_velocity, [0.0; 7]);
     });
 }
+
+/// A person who moves rather than breathes, live: a simulated IMU user's
+/// recording played through `run` (`--sensor csv:IMU.csv`) with the
+/// fixture's gesture set: a nod selects translate_x, a wobble fires the
+/// home event, and the run ends with the recording, at rest, having
+/// allocated nothing on the control thread.
+#[test]
+fn a_run_reads_gestures_from_an_imu_recording() {
+    use sipnpuff::control::imu::Channels;
+    use sipnpuff::sim::head_gesture::GestureName;
+    use sipnpuff::sim::imu_session::practice_session;
+    use sipnpuff::sim::imu_user::ImuUser;
+    use sipnpuff::tools::imu_csv::write_imu_csv;
+
+    let user = ImuUser::builtin("typical").unwrap();
+    let session = practice_session(&user, &[GestureName::Nod, GestureName::Wobble], 1, 3);
+    let dir = crate::scratch::Scratch::new();
+    let csv = dir.join("imu.csv");
+    let mut text = Vec::new();
+    write_imu_csv(&mut text, Channels::ALL, &session.samples).unwrap();
+    std::fs::write(&csv, text).unwrap();
+    let sensor = format!("csv:{}", csv.display());
+    let shared = crate::common::fixture("shared-machine.toml");
+    crate::common::real_time(|| {
+        let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+        let out = binary()
+            .args([
+                "run",
+                "--sensor",
+                &sensor,
+                "--config",
+                "fixtures/gesture-user/config.toml",
+                "--config",
+                shared.to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        let (stdout, stderr) = (
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr),
+        );
+        assert_eq!(out.status.code(), Some(0), "{stderr}\n{stdout}");
+        for said in [
+            r#""event":"gesture","name":"nod""#,
+            r#""event":"match","sequence":["nod"],"mode":"translate_x""#,
+            r#""event":"gesture","name":"wobble""#,
+            r#""event":"match","sequence":["wobble"],"home_event":"lights_toggle""#,
+        ] {
+            assert!(stdout.contains(said), "{said}\n{stdout}");
+        }
+        // The report.
+        for said in [
+            "sensor: IMU recording",
+            "stopped by: sensor ended",
+            crate::common::STOPPED_AT_REST,
+            crate::common::NO_ALLOCATIONS,
+        ] {
+            assert!(stdout.contains(said), "{said}\n{stdout}");
+        }
+    });
+}
