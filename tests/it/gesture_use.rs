@@ -646,3 +646,128 @@ fn a_run_with_gestures_needs_an_imu_recording_and_records_none() {
         "{stderr}"
     );
 }
+
+/// A head held at `pitch` and `roll` (degrees), turning at `rates`
+/// (rad/s): what its IMU reads (x forward, y left, z up).
+fn reading(pitch: f64, roll: f64, rates: [f64; 3]) -> ImuSample {
+    let g = sipnpuff::control::gesture::features::GRAVITY;
+    let (sp, cp) = pitch.to_radians().sin_cos();
+    let (sr, cr) = roll.to_radians().sin_cos();
+    ImuSample {
+        values: [
+            -g * sp,
+            g * sr * cp,
+            g * cp * cr,
+            rates[0],
+            rates[1],
+            rates[2],
+        ],
+    }
+}
+
+/// The fixture person's recording up to a random point (mostly just after
+/// a mode is selected), then runs of any head pose, rate, silence, loss
+/// and non-finite value, sampled every 1–20 ms.
+fn imu_inputs() -> impl proptest::strategy::Strategy<Value = Vec<ImuInput>> {
+    use proptest::prelude::*;
+    let pose = prop_oneof![
+        6 => (-90.0f64..90.0, -90.0f64..90.0, prop::array::uniform3(-4.0f64..4.0))
+            .prop_map(|(p, r, w)| ImuInput::Sample(reading(p, r, w))),
+        1 => Just(ImuInput::Missing),
+        1 => Just(ImuInput::Lost),
+        1 => Just(ImuInput::Sample(ImuSample { values: [f64::NAN, 0.0, 9.8, 0.0, f64::INFINITY, 0.0] })),
+    ];
+    // Mostly just after a mode is selected (the fixture's matches at
+    // 4.2, 15.2, 20.7 and 26.1 s), so the head then moves the arm.
+    let cut = prop_oneof![
+        1 => 0usize..35_000,
+        3 => (prop::sample::select(vec![4200usize, 15_180, 20_700, 26_100]), 0usize..1500)
+            .prop_map(|(selected, after)| selected + after),
+    ];
+    (
+        cut,
+        prop::collection::vec((pose, 1usize..2000, 1usize..20), 0..40),
+    )
+        .prop_map(|(cut, runs)| {
+            let recorded = sipnpuff::tools::imu_csv::read_imu_csv(std::path::Path::new(
+                "fixtures/gesture-user/practice.csv",
+            ))
+            .unwrap();
+            let mut inputs: Vec<ImuInput> = inputs(&recorded.samples)
+                .into_iter()
+                .take(cut)
+                .map(|i| i.imu)
+                .collect();
+            for (input, ticks, every) in runs {
+                for k in 0..ticks {
+                    let sampled = k % every == 0;
+                    inputs.push(match input {
+                        ImuInput::Sample(_) if !sampled => ImuInput::Missing,
+                        other => other,
+                    });
+                }
+            }
+            inputs
+        })
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// Whatever the head and its IMU do, under any valid head settings:
+    /// the motion keeps every limit at every tick (the safety monitor),
+    /// nothing moves outside a command mode or during a fault, the speed
+    /// fraction stays in 0–1, every match is a library entry, no event is
+    /// dropped and nothing panics.
+    #[test]
+    fn any_head_movement_is_safe(
+        imu in imu_inputs(),
+        tilt in proptest::sample::select(vec!["pitch", "roll", "off"]),
+        dead_zone in 2.0f64..45.0,
+        span in 1.0f64..35.0,
+    ) {
+        use proptest::prelude::*;
+        let set_line = "set = \"fixtures/gesture-user/gestures.toml\"";
+        let text = std::fs::read_to_string("fixtures/gesture-user/config.toml")
+            .unwrap()
+            .replacen(
+                set_line,
+                &format!(
+                    "{set_line}\ntilt = \"{tilt}\"\ndead_zone_deg = {dead_zone}\nfull_scale_deg = {}",
+                    dead_zone + span
+                ),
+                1,
+            );
+        let config = Config::from_toml_str(&text).unwrap();
+        let set = GestureSet::from_toml(
+            &std::fs::read_to_string("fixtures/gesture-user/gestures.toml").unwrap(),
+        )
+        .unwrap();
+        let core = config.core().clone().without_breath_sensor();
+        let core = core.clone().with_gestures(setup(&core, &set).unwrap());
+        let mut pipeline = Pipeline::new(&core);
+        let mut monitor = sipnpuff::tools::safety::SafetyMonitor::new(&core);
+        let mut out = TickOutput::default();
+        for (t, imu) in imu.iter().enumerate() {
+            pipeline.step(&TickInput::imu(t as Tick, *imu), &mut out);
+            prop_assert_eq!(out.dropped_events, 0);
+            if let Err(v) = monitor.check(&out) {
+                return Err(TestCaseError::fail(format!("tick {t}: {v:?}")));
+            }
+            if let Some(f) = out.command.speed_fraction {
+                prop_assert!((0.0..=1.0).contains(&f), "{}", f);
+            }
+            if out.command.state == ModeState::Detection || out.faulted {
+                prop_assert_eq!(out.command.direction, sipnpuff::control::mode::Direction::Still);
+            }
+            for event in out.events.iter() {
+                if let Event::Match { sequence, target } = event {
+                    prop_assert!(
+                        core.sequences().iter().any(|e| e.actions == *sequence && e.target == *target),
+                        "{:?} {:?}", sequence, target
+                    );
+                }
+            }
+        }
+    }
+}
