@@ -210,7 +210,7 @@ gain = 0
         "{all}"
     );
     assert!(
-        all.contains("\"modbus\" is not a format (known: volts, counts, flipmouse, lipsync)"),
+        all.contains("\"modbus\" is not a format (known: volts, counts, flipmouse, lipsync, imu)"),
         "{all}"
     );
     // `puff_keys = []` only matters for switches.

@@ -35,6 +35,7 @@ pub mod listing;
 pub mod rezero;
 pub mod ring;
 pub mod serial;
+pub mod serial_imu;
 pub mod settings;
 
 use std::fmt;

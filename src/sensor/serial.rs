@@ -62,7 +62,7 @@ impl LineFormat {
         match self.settings.format {
             SerialFormat::Flipmouse => b"AT SR\r",
             SerialFormat::Lipsync => b"DM,1:2\r\n",
-            SerialFormat::Volts | SerialFormat::Counts => b"",
+            SerialFormat::Volts | SerialFormat::Counts | SerialFormat::Imu => b"",
         }
     }
 
@@ -70,7 +70,10 @@ impl LineFormat {
     pub fn stop_command(&self) -> &'static [u8] {
         match self.settings.format {
             SerialFormat::Flipmouse => b"AT ER\r",
-            SerialFormat::Lipsync | SerialFormat::Volts | SerialFormat::Counts => b"",
+            SerialFormat::Lipsync
+            | SerialFormat::Volts
+            | SerialFormat::Counts
+            | SerialFormat::Imu => b"",
         }
     }
 
@@ -112,6 +115,10 @@ impl LineFormat {
                     number(diff).map(|d| Some(self.neutral_volts + d * self.settings.volts_per_hpa))
                 }
             },
+            SerialFormat::Imu => Err(
+                "format `imu` gives a head-worn IMU's samples, not a breath's: it needs [gestures] set"
+                    .into(),
+            ),
         }
     }
 }
@@ -160,10 +167,14 @@ pub struct SerialSensor {
 }
 
 /// The port's read timeout: how often the reader checks the stop flag.
-const READ_TIMEOUT: Duration = Duration::from_millis(20);
+pub(crate) const READ_TIMEOUT: Duration = Duration::from_millis(20);
 
 /// Opens `path` at `baud` and starts the stream (dialects).
-fn open_port(path: &Path, baud: u32, format: &LineFormat) -> Result<TTYPort, SensorError> {
+pub(crate) fn open_port(
+    path: &Path,
+    baud: u32,
+    format: &LineFormat,
+) -> Result<TTYPort, SensorError> {
     let mut port = serialport::new(path.to_string_lossy(), baud)
         .timeout(READ_TIMEOUT)
         .open_native()

@@ -123,15 +123,19 @@ pub enum SerialFormat {
     /// LipSync: `DM,1:2` starts `SUCCESS,0:DEBUG,2:<mouthpiece>,<ambient>,
     /// <diff>,<offset>` lines (hPa) every 100 ms.
     Lipsync,
+    /// A head-worn IMU: `ax,ay,az,gx,gy,gz` per line, m/s² (gravity
+    /// included) and rad/s, for a person with gestures.
+    Imu,
 }
 
 impl SerialFormat {
     /// Every format, for messages.
-    pub const ALL: [SerialFormat; 4] = [
+    pub const ALL: [SerialFormat; 5] = [
         SerialFormat::Volts,
         SerialFormat::Counts,
         SerialFormat::Flipmouse,
         SerialFormat::Lipsync,
+        SerialFormat::Imu,
     ];
 
     /// The config name.
@@ -141,6 +145,7 @@ impl SerialFormat {
             SerialFormat::Counts => "counts",
             SerialFormat::Flipmouse => "flipmouse",
             SerialFormat::Lipsync => "lipsync",
+            SerialFormat::Imu => "imu",
         }
     }
 

@@ -156,7 +156,7 @@ pub fn imu_core(config: &Config) -> anyhow::Result<CoreConfig> {
 pub fn load_setup(core: &CoreConfig) -> anyhow::Result<GestureSetup> {
     let Some(path) = core.gesture_set_file() else {
         bail!(
-            "an IMU recording needs the person's gestures: give a --config with [gestures] set = \"FILE\" (made by `sipnpuff gestures record`) and library entries that name them"
+            "an IMU needs the person's gestures: give a --config with [gestures] set = \"FILE\" (made by `sipnpuff gestures record`) and library entries that name them"
         );
     };
     let text = std::fs::read_to_string(path)

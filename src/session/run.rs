@@ -17,6 +17,8 @@ use crate::rt::report::RunReport;
 use crate::rt::telemetry_thread::{EventSink, Watchers};
 use crate::rt::threads::{self, LoopSettings, RunOptions};
 use crate::sensor::imu_playback::ImuPlayback;
+use crate::sensor::serial_imu::SerialImu;
+use crate::sensor::settings::SerialFormat;
 use crate::sensor::{Prepared, Sensor, SensorSpec};
 use crate::session::Console;
 use crate::session::gestures;
@@ -66,7 +68,7 @@ pub fn run(
     events: &mut dyn EventSink,
     console: &dyn Console,
 ) -> anyhow::Result<RunReport> {
-    let imu = imu_recording(config, plan)?;
+    let imu = imu_sensor(config, plan)?;
     // The page's address is taken before anything starts: a clash is an
     // error now, not a display missing later.
     let display = Display::open(&plan.display, console)?;
@@ -84,8 +86,10 @@ pub fn run(
         display: &display,
         max_hold_set_in: plan.max_hold_set_in,
     };
-    if let Some((config, playback)) = imu {
-        return start.on(&config, playback);
+    match imu {
+        Some((config, ImuSource::Recording(playback))) => return start.on(&config, playback),
+        Some((config, ImuSource::Serial(port))) => return start.on(&config, port),
+        None => {}
     }
     open_sensor(
         plan.sensor,
@@ -104,46 +108,62 @@ pub fn run(
     )
 }
 
-/// For a person with gestures: the IMU recording `--sensor csv:FILE`
-/// names, read whole, and the configuration with their set loaded and no
-/// breath sensor. `None` for a breath sensor; an error, before anything
-/// starts, for gestures without an IMU recording, an IMU recording
-/// without gestures, or `--record` (recordings hold no IMU samples yet).
-fn imu_recording(
-    config: &Config,
-    plan: &RunPlan,
-) -> anyhow::Result<Option<(Config, Prepared<ImuPlayback>)>> {
-    let csv = match plan.sensor {
-        SensorSpec::Csv(path) if is_imu_csv(path) => Some(path),
-        _ => None,
+/// A head-worn IMU's samples.
+enum ImuSource {
+    /// A recording played live.
+    Recording(Prepared<ImuPlayback>),
+    /// A microcontroller's stream on a serial port.
+    Serial(SerialImu),
+}
+
+/// For a person with gestures: the IMU `--sensor` names (an IMU
+/// recording, `csv:FILE`, read whole; or a serial port with
+/// `[sensor.serial] format = "imu"`, opened and answering), and the
+/// configuration with their set loaded and no breath sensor. `None` for a
+/// breath sensor; an error, before anything starts, for gestures without
+/// an IMU, an IMU without gestures, or `--record` (recordings hold no IMU
+/// samples yet).
+fn imu_sensor(config: &Config, plan: &RunPlan) -> anyhow::Result<Option<(Config, ImuSource)>> {
+    let serial = &config.sensor().serial;
+    let imu = match plan.sensor {
+        SensorSpec::Csv(path) if is_imu_csv(path) => true,
+        SensorSpec::Serial { .. } => serial.format == SerialFormat::Imu,
+        _ => false,
     };
-    let Some(path) = csv else {
+    if !imu {
         if let Some(set) = config.core().gesture_set_file() {
             anyhow::bail!(
-                "[gestures] set = {:?}: gestures need an IMU: give --sensor csv:IMU.csv (a recording played live); IMU devices (IIO, evdev accelerometers, serial) are not wired yet. Leave [gestures] out to run on breaths",
+                "[gestures] set = {:?}: gestures need an IMU: give --sensor csv:IMU.csv (a recording played live) or serial:PORT with [sensor.serial] format = \"imu\"; IIO and evdev IMUs are not wired yet, nor a breath sensor beside an IMU. Leave [gestures] out to run on breaths",
                 set.display()
             );
         }
         return Ok(None);
-    };
+    }
     if plan.record.is_some() {
         anyhow::bail!(
-            "--record: a session recording holds no IMU samples yet; replay the IMU recording itself instead (`sipnpuff replay {} --config …`)",
-            path.display()
+            "--record: a session recording holds no IMU samples yet; record the IMU's own stream instead and replay it (`sipnpuff replay IMU.csv --config …`)"
         );
     }
     let setup = gestures::load_setup(config.core())?;
-    let recording = read_imu_csv(path).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let playback = ImuPlayback::prepared(
-        format!(
-            "IMU recording {} ({}, {} samples)",
-            path.display(),
-            recording.channels,
-            recording.samples.len()
-        ),
-        recording.samples,
-    );
-    Ok(Some((config.clone().for_imu(setup), playback)))
+    let source = match plan.sensor {
+        SensorSpec::Serial { path, baud } => {
+            ImuSource::Serial(SerialImu::open(path, *baud, serial).map_err(anyhow::Error::new)?)
+        }
+        SensorSpec::Csv(path) => {
+            let recording = read_imu_csv(path).map_err(|e| anyhow::anyhow!("{e}"))?;
+            ImuSource::Recording(ImuPlayback::prepared(
+                format!(
+                    "IMU recording {} ({}, {} samples)",
+                    path.display(),
+                    recording.channels,
+                    recording.samples.len()
+                ),
+                recording.samples,
+            ))
+        }
+        _ => return Ok(None),
+    };
+    Ok(Some((config.clone().for_imu(setup), source)))
 }
 
 /// The session on the sensor opened: the loop on it, the core built from

@@ -571,7 +571,9 @@ fn the_gesture_users_replay_is_its_golden_file_and_says_what_was_made() {
 fn an_imu_recording_without_a_gesture_set_is_refused_with_what_to_give() {
     let stderr = crate::common::refused(&["replay", "fixtures/gesture-user/practice.csv"]);
     assert!(
-        stderr.contains("an IMU recording needs the person's gestures: give a --config with [gestures] set = \"FILE\""),
+        stderr.contains(
+            "an IMU needs the person's gestures: give a --config with [gestures] set = \"FILE\""
+        ),
         "{stderr}"
     );
 }
@@ -627,7 +629,7 @@ fn a_run_with_gestures_needs_an_imu_recording_and_records_none() {
     let stderr =
         crate::common::refused(&["run", "--sensor", "csv:fixtures/gesture-user/practice.csv"]);
     assert!(
-        stderr.contains("an IMU recording needs the person's gestures"),
+        stderr.contains("an IMU needs the person's gestures"),
         "{stderr}"
     );
     // Recorded: not yet.

@@ -282,3 +282,77 @@ fn a_port_that_sends_nothing_is_an_error_at_start_saying_what_to_check() {
     assert!(stderr.contains("check the baud rate"), "{stderr}");
     assert!(started.elapsed() >= Duration::from_secs(2));
 }
+
+/// A head-worn IMU on a microcontroller printing `ax,ay,az,gx,gy,gz` at
+/// 100 Hz (`[sensor.serial] format = "imu"`): a simulated person's nod
+/// and wobble through the kernel's tty, read with the fixture's gesture
+/// set. The nod selects translate_x, the wobble fires its home event;
+/// then the port hangs up: an IMU fault at once, and the run ends at rest.
+#[test]
+fn a_serial_imu_streams_a_persons_gestures_then_a_disconnect_is_a_fault() {
+    use sipnpuff::sim::head_gesture::GestureName;
+    use sipnpuff::sim::imu_session::practice_session;
+    use sipnpuff::sim::imu_user::ImuUser;
+
+    let user = ImuUser::builtin("typical").unwrap();
+    let session = practice_session(&user, &[GestureName::Nod, GestureName::Wobble], 1, 3);
+    let lines: Vec<String> = session
+        .samples
+        .iter()
+        .map(|(_, s)| {
+            let v = s.values;
+            format!("{},{},{},{},{},{}\r\n", v[0], v[1], v[2], v[3], v[4], v[5])
+        })
+        .collect();
+    let dir = Scratch::new();
+    let imu_config = dir.join("imu.toml");
+    std::fs::write(&imu_config, "[sensor.serial]\nformat = \"imu\"\n").unwrap();
+    crate::common::real_time(|| {
+        let pty = Pty::open();
+        let path = format!("serial:{}", pty.path);
+        let lines = lines.clone();
+        let feeder = std::thread::spawn(move || {
+            let period = Duration::from_millis(10);
+            let mut next = Instant::now();
+            for line in &lines {
+                if !write_all(&pty.master, line.as_bytes()) {
+                    return;
+                }
+                next += period;
+                if let Some(wait) = next.checked_duration_since(Instant::now()) {
+                    std::thread::sleep(wait);
+                }
+            }
+        });
+        let run = Running::spawn(&[
+            "run",
+            "--sensor",
+            &path,
+            "--config",
+            "fixtures/gesture-user/config.toml",
+            "--config",
+            imu_config.to_str().unwrap(),
+            "--json",
+        ]);
+        let (status, lines, stderr) = run.finish();
+        feeder.join().unwrap();
+        let said = lines.join("\n");
+        for event in [
+            r#""event":"gesture","name":"nod""#,
+            r#""event":"match","sequence":["nod"],"mode":"translate_x""#,
+            r#""event":"match","sequence":["wobble"],"home_event":"lights_toggle""#,
+            r#""event":"fault","reason":"IMU disconnected — arm stopped""#,
+        ] {
+            assert!(said.contains(event), "{event}\n{said}\n{stderr}");
+        }
+        assert_eq!(status.code(), Some(1), "{stderr}");
+        let report: serde_json::Value = serde_json::from_str(lines.last().unwrap()).unwrap();
+        assert_eq!(report["stop_reason"], "sensor ended", "{report}");
+        assert_eq!(report["stream_ended_with_zero"], true);
+        assert_eq!(report["control_thread_allocations"], 0);
+        assert!(
+            report["sensor"].as_str().unwrap().contains("format imu"),
+            "{report}"
+        );
+    });
+}
