@@ -172,7 +172,9 @@ mod tests {
         );
         assert_eq!(
             read::<SerialFormat>("modbus"),
-            Err("\"modbus\" is not a format (known: volts, counts, flipmouse, lipsync, imu)".into())
+            Err(
+                "\"modbus\" is not a format (known: volts, counts, flipmouse, lipsync, imu)".into()
+            )
         );
         let wrong = toml::Value::Integer(3)
             .try_into::<EvdevInput>()

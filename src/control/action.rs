@@ -1,13 +1,12 @@
-//! The vocabulary of the interface: breaths, the four burst actions of the
-//! paper and fixed-capacity sequences of them.
+//! The vocabulary of the breath interface: breaths, the four burst
+//! actions of the paper and inline sequences of them.
 
 use std::fmt;
 
 use serde::{Serialize, Serializer};
 
-/// Longest sequence the matcher accepts: room for large personal
-/// libraries, with [`ActionSeq`] a 17-byte `Copy` value.
-pub const MAX_SEQUENCE_LEN: usize = 16;
+use crate::control::inline_seq::{InlineSeq, SeqItem};
+pub use crate::control::inline_seq::{MAX_SEQUENCE_LEN, SequenceFull};
 
 /// Which way the user is breathing.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -125,105 +124,23 @@ impl fmt::Display for Action {
     }
 }
 
-/// A sequence of at most [`MAX_SEQUENCE_LEN`] actions, stored inline so it is
-/// `Copy` and never touches the heap. RT-safe. Equality and hashing look
-/// only at the actions held, never at the unused tail of the array.
-#[derive(Clone, Copy)]
-pub struct ActionSeq {
-    actions: [Action; MAX_SEQUENCE_LEN],
-    len: u8,
+/// A sequence of at most [`MAX_SEQUENCE_LEN`] actions, inline: what the
+/// tools that play, design and fit breaths work with.
+pub type ActionSeq = InlineSeq<Action>;
+
+impl SeqItem for Action {
+    const FILLER: Action = Action::ShortSip;
+
+    /// Its paper code.
+    fn write(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.code())
+    }
 }
 
-/// Returned by [`ActionSeq::try_push`] when the sequence is full; hands the
-/// action back.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SequenceFull(pub Action);
-
-impl ActionSeq {
-    /// The empty sequence.
-    pub const EMPTY: ActionSeq = ActionSeq {
-        actions: [Action::ShortSip; MAX_SEQUENCE_LEN],
-        len: 0,
-    };
-
-    /// Builds a sequence from a slice; `None` if it is longer than
-    /// [`MAX_SEQUENCE_LEN`].
-    pub fn from_slice(actions: &[Action]) -> Option<ActionSeq> {
-        let mut seq = ActionSeq::EMPTY;
-        for &action in actions {
-            seq.try_push(action).ok()?;
-        }
-        Some(seq)
-    }
-
-    /// Appends an action. RT-safe.
-    pub fn try_push(&mut self, action: Action) -> Result<(), SequenceFull> {
-        let slot = self
-            .actions
-            .get_mut(usize::from(self.len))
-            .ok_or(SequenceFull(action))?;
-        *slot = action;
-        self.len += 1;
-        Ok(())
-    }
-
-    /// The actions, oldest first.
-    pub fn as_slice(&self) -> &[Action] {
-        // `len` never exceeds the capacity (`try_push` checks).
-        self.actions.get(..usize::from(self.len)).unwrap_or(&[])
-    }
-
-    /// Number of actions.
-    pub fn len(&self) -> usize {
-        usize::from(self.len)
-    }
-
-    /// Whether the sequence holds no action.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    /// Empties the sequence. RT-safe.
-    pub fn clear(&mut self) {
-        self.len = 0;
-    }
-
+impl InlineSeq<Action> {
     /// The paper's codes, e.g. `[1, 2, -1]`.
     pub fn codes(&self) -> impl Iterator<Item = i8> + '_ {
         self.as_slice().iter().map(|a| a.code())
-    }
-}
-
-impl PartialEq for ActionSeq {
-    fn eq(&self, other: &Self) -> bool {
-        self.as_slice() == other.as_slice()
-    }
-}
-
-impl Eq for ActionSeq {}
-
-impl std::hash::Hash for ActionSeq {
-    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
-        self.as_slice().hash(state);
-    }
-}
-
-impl Default for ActionSeq {
-    fn default() -> Self {
-        ActionSeq::EMPTY
-    }
-}
-
-/// A sequence is written as its list of paper codes, e.g. `[1, 2, -1]`.
-impl Serialize for ActionSeq {
-    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        serializer.collect_seq(self.as_slice())
-    }
-}
-
-impl fmt::Debug for ActionSeq {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_list().entries(self.codes()).finish()
     }
 }
 

@@ -29,7 +29,8 @@
 //!   and [`head`] is the IMU's stage in the pipeline: its faults, its
 //!   gestures, and in a command mode the tilt that moves;
 //! * [`token`] is a sequence's element (a breath's action or a gesture),
-//!   [`sequence`] the sequences of them.
+//!   [`sequence`] the sequences of them, each an [`inline_seq`] as the
+//!   breath tools' sequences of actions are.
 //!
 //! Everything here is pure: time enters as a [`Tick`] argument; nothing
 //! reads a clock, sleeps, locks, does I/O or allocates after construction.
@@ -52,6 +53,7 @@ pub mod event;
 pub mod gesture;
 pub mod head;
 pub mod imu;
+pub mod inline_seq;
 pub mod keys;
 pub mod mode;
 pub mod modes;

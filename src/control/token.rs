@@ -8,6 +8,7 @@ use serde::{Serialize, Serializer};
 
 use crate::control::action::Action;
 use crate::control::gesture::name::GestureName;
+use crate::control::inline_seq::SeqItem;
 
 /// A breath's action or a gesture. `Copy`, RT-safe.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -24,6 +25,18 @@ impl Token {
         match self {
             Token::Breath(action) => Some(action),
             Token::Gesture(_) => None,
+        }
+    }
+}
+
+impl SeqItem for Token {
+    const FILLER: Token = Token::Breath(Action::ShortSip);
+
+    /// A breath by its paper code, a gesture by its quoted name.
+    fn write(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Token::Breath(action) => write!(f, "{}", action.code()),
+            Token::Gesture(name) => write!(f, "{name:?}"),
         }
     }
 }

@@ -61,13 +61,7 @@ pub fn replay_csv(
     let started = Instant::now();
     let (out, trace) = opened.writers();
     let result = csv_replay::replay(config, &mut input, out, trace);
-    let seconds = started.elapsed().as_secs_f64();
-    let summary = match result {
-        Ok(summary) => summary,
-        Err(ReplayError::Write(e)) => return Err(cannot_write(path, e)),
-        Err(e) => return Err(anyhow::Error::new(e).context(path.display().to_string())),
-    };
-    Ok(CsvReplayed { summary, seconds })
+    timed(path, result, started)
 }
 
 /// Replays the IMU recording at `path` through `config` (its gestures
@@ -83,13 +77,22 @@ pub fn replay_imu_csv(
     let started = Instant::now();
     let (out, trace) = opened.writers();
     let result = imu_replay::replay(config, &recording, out, trace);
+    timed(path, result, started)
+}
+
+/// A CSV's replay that began at `started`: what it did and how long it
+/// took, or its error naming the file.
+fn timed(
+    path: &Path,
+    result: Result<ReplaySummary, ReplayError>,
+    started: Instant,
+) -> anyhow::Result<CsvReplayed> {
     let seconds = started.elapsed().as_secs_f64();
-    let summary = match result {
-        Ok(summary) => summary,
-        Err(ReplayError::Write(e)) => return Err(cannot_write(path, e)),
-        Err(e) => return Err(anyhow::Error::new(e).context(path.display().to_string())),
-    };
-    Ok(CsvReplayed { summary, seconds })
+    match result {
+        Ok(summary) => Ok(CsvReplayed { summary, seconds }),
+        Err(ReplayError::Write(e)) => Err(cannot_write(path, e)),
+        Err(e) => Err(anyhow::Error::new(e).context(path.display().to_string())),
+    }
 }
 
 /// Replays the recording in `dir` through the configuration `config`
