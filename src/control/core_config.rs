@@ -11,7 +11,6 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::control::detector::DetectorConfig;
-use crate::control::gesture::name::GestureName;
 use crate::control::head::{GestureSetup, HeadConfig};
 use crate::control::modes::CommandConfig;
 use crate::control::motion::feedback::FeedbackConfig;
@@ -22,7 +21,6 @@ use crate::control::pointer::PointerConfig;
 use crate::control::selection::matcher::MatcherConfig;
 use crate::control::selection::scanning::ScanningConfig;
 use crate::control::selection::{Interface, SequenceEntry};
-use crate::control::token::Token;
 
 /// The validated settings of the whole core (`config::file` lays them out
 /// as the file's sections).
@@ -128,21 +126,6 @@ impl CoreConfig {
     /// The head's settings (`[gestures]`).
     pub fn head(&self) -> &HeadConfig {
         &self.gesture_section.head
-    }
-
-    /// The names of the gestures the library uses, in first use.
-    pub fn gestures_used(&self) -> Vec<GestureName> {
-        let mut used = Vec::new();
-        for entry in &self.sequences {
-            for token in entry.actions.as_slice() {
-                if let Token::Gesture(name) = token
-                    && !used.contains(name)
-                {
-                    used.push(*name);
-                }
-            }
-        }
-        used
     }
 
     /// The same settings with the person's gestures loaded (the caller

@@ -15,6 +15,7 @@ use crate::control::Tick;
 use crate::control::action::Breath;
 use crate::control::detector::FaultReason;
 use crate::control::gesture::config::GestureConfig;
+use crate::control::gesture::features::norm3;
 use crate::control::gesture::name::GestureName;
 use crate::control::gesture::recognizer::{GestureEvent, Recognizer, RejectReason};
 use crate::control::gesture::templates::{GestureId, GestureTemplates, MAX_GESTURES};
@@ -113,9 +114,9 @@ impl HeadConfig {
     }
 }
 
-/// Everything the core needs for a person's gestures: their names (a
-/// library entry's words), the recognizer's settings and templates from
-/// the gesture set, and the head's settings.
+/// What the core needs of a person's gesture set: their names (a library
+/// entry's words) and the recognizer's settings and templates. The head's
+/// own settings are the configuration's (`[gestures]`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GestureSetup {
     /// The gestures' names, by [`GestureId`].
@@ -124,8 +125,6 @@ pub struct GestureSetup {
     pub recognizer: GestureConfig,
     /// The person's examples and thresholds.
     pub templates: GestureTemplates,
-    /// The head's settings.
-    pub head: HeadConfig,
 }
 
 /// What a movement that ended was. `Copy`.
@@ -200,16 +199,16 @@ pub struct Head {
 }
 
 impl Head {
-    /// The head stage for `setup`, or every bad setting.
-    pub fn new(setup: &GestureSetup) -> Result<Head, Vec<String>> {
-        setup.head.validate()?;
+    /// The head stage for `setup` under `config`, or every bad setting.
+    pub fn new(setup: &GestureSetup, config: &HeadConfig) -> Result<Head, Vec<String>> {
+        config.validate()?;
         let recognizer = Recognizer::new(setup.recognizer, setup.templates.clone())?;
         let mut names = [None; MAX_GESTURES];
         for (slot, name) in names.iter_mut().zip(&setup.names) {
             *slot = Some(*name);
         }
         Ok(Head {
-            config: setup.head,
+            config: *config,
             recognizer,
             names,
             last: None,
@@ -331,7 +330,7 @@ impl Head {
             return nothing;
         }
         let reference = *self.reference.get_or_insert(self.recognizer.rest().gravity);
-        let (Some(now), g) = (self.smoothed, norm(reference)) else {
+        let (Some(now), g) = (self.smoothed, norm3(reference)) else {
             return nothing;
         };
         if g <= 0.0 {
@@ -388,22 +387,20 @@ impl Head {
     }
 }
 
-fn norm(v: [f64; 3]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::control::gesture::features::GRAVITY;
 
     fn head() -> Head {
-        Head::new(&GestureSetup {
-            names: vec![],
-            recognizer: GestureConfig::default(),
-            templates: GestureTemplates::new(),
-            head: HeadConfig::default(),
-        })
+        Head::new(
+            &GestureSetup {
+                names: vec![],
+                recognizer: GestureConfig::default(),
+                templates: GestureTemplates::new(),
+            },
+            &HeadConfig::default(),
+        )
         .unwrap()
     }
 

@@ -94,7 +94,9 @@ impl Pipeline {
             detector: BurstDetector::new(config.detector()),
             breath: config.has_breath_sensor(),
             // A loaded setup was checked by `Head::new` when it was made.
-            head: config.gestures().and_then(|setup| Head::new(setup).ok()),
+            head: config
+                .gestures()
+                .and_then(|setup| Head::new(setup, config.head()).ok()),
             selector: match config.interface() {
                 Interface::Asp => {
                     Selector::Sequences(SequenceMatcher::new(config.sequences(), config.matcher()))

@@ -1,7 +1,7 @@
 //! A gesture set made ready for the core: its names as the library writes
-//! them, its templates and thresholds, the front end's settings it was
-//! recorded with and the head's settings from the configuration. Every
-//! gesture the library names must be in the set.
+//! them, its templates and thresholds, and the front end's settings it
+//! was recorded with, checked with the configuration's head settings.
+//! Every gesture the library names must be in the set.
 
 use crate::control::core_config::CoreConfig;
 use crate::control::gesture::name::GestureName;
@@ -43,9 +43,8 @@ pub fn setup(core: &CoreConfig, set: &GestureSet) -> Result<GestureSetup, Vec<St
         names,
         recognizer: set.config,
         templates: set.templates(None, 1.0),
-        head: *core.head(),
     };
-    if let Err(bad) = Head::new(&setup) {
+    if let Err(bad) = Head::new(&setup, core.head()) {
         problems.extend(bad);
     }
     if problems.is_empty() {

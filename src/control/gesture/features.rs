@@ -247,6 +247,11 @@ pub fn tilt_magnitude(frame: &Frame) -> f64 {
     norm(frame.iter().skip(3))
 }
 
+/// The length of a 3-vector (a gravity, an acceleration).
+pub fn norm3(v: [f64; 3]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
 fn norm<'a>(values: impl Iterator<Item = &'a f32>) -> f64 {
     values
         .map(|&v| f64::from(v) * f64::from(v))

@@ -29,7 +29,7 @@
 use crate::control::Tick;
 use crate::control::gesture::config::GestureConfig;
 use crate::control::gesture::features::{
-    FEATURES, Frame, FrameBuilder, MAX_FRAMES, MovingAverage, RestEstimate,
+    FEATURES, Frame, FrameBuilder, MAX_FRAMES, MovingAverage, RestEstimate, norm3,
 };
 use crate::control::imu::ImuSample;
 
@@ -292,10 +292,6 @@ impl Segmenter {
             None => false,
         }
     }
-}
-
-fn norm3(v: [f64; 3]) -> f64 {
-    v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
 /// A segment cut from a recording by [`segments`].
