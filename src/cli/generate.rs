@@ -20,6 +20,11 @@ const MAX_IMU_SAMPLES: u64 = 8_640_000;
 const DEFAULT_MINUTES: u32 = 10;
 /// `--session practice`: examples of each gesture unless told.
 const DEFAULT_PER_GESTURE: u32 = 10;
+/// `--session drive`: the head's pitch after each gesture unless told,
+/// degrees (past the default dead zone of 12°, short of full scale at 30°).
+const DEFAULT_TILT_DEG: i32 = 24;
+/// `--session drive`: how long each tilt is held unless told, ms.
+const DEFAULT_HOLD_MS: u32 = 3000;
 /// The longest a practice gesture can take, s: the gesture (under 6 s),
 /// its rests (at most 3 s each) and a stretch of ordinary movement (at
 /// most 15 s).
@@ -41,6 +46,9 @@ enum ImuSessionArg {
     Use,
     /// `--minutes` of ordinary movement alone.
     Ordinary,
+    /// Driving the arm: each gesture (selecting its mode), then the head
+    /// pitched `--tilt-deg` and held `--hold-ms`, and back to rest.
+    Drive,
 }
 
 /// `generate`'s options.
@@ -134,6 +142,14 @@ pub struct GenerateArgs {
     /// With `--session practice`: examples of each gesture [default: 10].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000), requires = "imu_user")]
     per_gesture: Option<u32>,
+    /// With `--session drive`: how far the head pitches after each gesture,
+    /// degrees (positive: chin down) [default: 24].
+    #[arg(long, allow_hyphen_values = true, value_parser = clap::value_parser!(i32).range(-45..=45), requires = "imu_user")]
+    tilt_deg: Option<i32>,
+    /// With `--session drive`: how long each tilt is held, ms [default:
+    /// 3000].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=60_000), requires = "imu_user")]
+    hold_ms: Option<u32>,
     /// With `--imu-user`: samples per second (ticks are whole ms, rounded).
     #[arg(long, default_value_t = ImuUser::DEFAULT_RATE_HZ, value_parser = clap::value_parser!(u32).range(1..=1000), requires = "imu_user")]
     rate_hz: u32,
@@ -194,12 +210,24 @@ fn imu_session(args: &GenerateArgs) -> anyhow::Result<ImuSessionKind> {
             session.name()
         ));
     }
+    if (args.tilt_deg.is_some() || args.hold_ms.is_some()) && session != ImuSessionArg::Drive {
+        return refuse(format!(
+            "--tilt-deg and --hold-ms are for --session drive, not {}",
+            session.name()
+        ));
+    }
     let rate = u64::from(args.rate_hz);
     let minutes = args.minutes.unwrap_or(DEFAULT_MINUTES);
     let per_gesture = args.per_gesture.unwrap_or(DEFAULT_PER_GESTURE);
     let held = "(the session is held in memory)";
     let (kind, samples, asked) = match session {
         ImuSessionArg::Protocol => return Ok(ImuSessionKind::Protocol),
+        ImuSessionArg::Drive => {
+            return Ok(ImuSessionKind::Drive {
+                tilt_deg: args.tilt_deg.unwrap_or(DEFAULT_TILT_DEG),
+                hold_ms: args.hold_ms.unwrap_or(DEFAULT_HOLD_MS),
+            });
+        }
         ImuSessionArg::Practice => {
             let gestures = args
                 .gestures
@@ -237,6 +265,7 @@ impl ImuSessionArg {
             ImuSessionArg::Practice => "practice",
             ImuSessionArg::Use => "use",
             ImuSessionArg::Ordinary => "ordinary",
+            ImuSessionArg::Drive => "drive",
         }
     }
 }

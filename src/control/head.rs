@@ -19,7 +19,7 @@ use crate::control::gesture::features::norm3;
 use crate::control::gesture::name::GestureName;
 use crate::control::gesture::recognizer::{GestureEvent, Recognizer, RejectReason};
 use crate::control::gesture::templates::{GestureId, GestureTemplates, MAX_GESTURES};
-use crate::control::imu::{ImuInput, ImuSample};
+use crate::control::imu::{Channels, ImuInput, ImuSample};
 use crate::control::mode::Held;
 
 /// How the head's tilt is read in a command mode. Serialized by its name.
@@ -125,6 +125,9 @@ pub struct GestureSetup {
     pub recognizer: GestureConfig,
     /// The person's examples and thresholds.
     pub templates: GestureTemplates,
+    /// The IMU channels the examples were recorded with: an IMU must give
+    /// each of them.
+    pub channels: Channels,
 }
 
 /// What a movement that ended was. `Copy`.
@@ -398,6 +401,7 @@ mod tests {
                 names: vec![],
                 recognizer: GestureConfig::default(),
                 templates: GestureTemplates::new(),
+                channels: Channels::ALL,
             },
             &HeadConfig::default(),
         )

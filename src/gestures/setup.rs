@@ -3,9 +3,12 @@
 //! was recorded with, checked with the configuration's head settings.
 //! Every gesture the library names must be in the set.
 
+use std::path::Path;
+
 use crate::control::core_config::CoreConfig;
 use crate::control::gesture::name::GestureName;
 use crate::control::head::{GestureSetup, Head};
+use crate::control::imu::Channels;
 use crate::control::token::Token;
 use crate::gestures::set::GestureSet;
 
@@ -43,6 +46,7 @@ pub fn setup(core: &CoreConfig, set: &GestureSet) -> Result<GestureSetup, Vec<St
         names,
         recognizer: set.config,
         templates: set.templates(None, 1.0),
+        channels: set.channels,
     };
     if let Err(bad) = Head::new(&setup, core.head()) {
         problems.extend(bad);
@@ -52,4 +56,32 @@ pub fn setup(core: &CoreConfig, set: &GestureSet) -> Result<GestureSetup, Vec<St
     } else {
         Err(problems)
     }
+}
+
+/// Refuses an IMU (`sensor`, giving `channels`) that lacks a channel the
+/// person's gestures were recorded with: one line naming both.
+pub fn check_channels(core: &CoreConfig, sensor: &str, channels: Channels) -> Result<(), String> {
+    let Some(setup) = core.gestures() else {
+        return Ok(());
+    };
+    if channels.covers(setup.channels) {
+        return Ok(());
+    }
+    Err(format!(
+        "{sensor}: gives {channels} but the gesture set {} was recorded with {}: a set from another sensor's channels (record the gestures again with this IMU)",
+        core.gesture_set_file()
+            .map_or_else(|| "in use".to_string(), |p| p.display().to_string()),
+        setup.channels
+    ))
+}
+
+/// The setup for `core` from the set in the file at `path` (read,
+/// parsed, checked against the library): every problem in one line
+/// naming the file.
+pub fn load(core: &CoreConfig, path: &Path) -> Result<GestureSetup, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("[gestures] set: cannot read {}: {e}", path.display()))?;
+    let set = GestureSet::from_toml(&text)
+        .map_err(|e| format!("{}: {}", path.display(), e.join("; ")))?;
+    setup(core, &set).map_err(|e| format!("{}: {}", path.display(), e.join("; ")))
 }

@@ -1,13 +1,14 @@
 //! What sensors this machine has (`sipnpuff sensors`): input devices with
-//! absolute axes or keys, IIO voltage channels and serial ports, each with
-//! the `--sensor` line that uses it. The clinician's first step.
+//! absolute axes or keys (head-worn IMUs marked), IIO voltage channels and
+//! serial ports, each with the `--sensor` line that uses it. The
+//! clinician's first step.
 
 use std::path::{Path, PathBuf};
 
 use evdev::raw_stream::RawDevice;
 use serde::Serialize;
 
-use crate::sensor::evdev::event_nodes;
+use crate::sensor::evdev::{event_nodes, is_accelerometer};
 
 /// One absolute axis of an input device.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -36,6 +37,9 @@ pub enum FoundSensor {
         axes: Vec<Axis>,
         /// Keys and buttons, by name.
         keys: Vec<String>,
+        /// A head-worn IMU (the accelerometer property): for head
+        /// gestures, not breaths.
+        imu: bool,
         /// Why it could not be opened, if it could not.
         error: Option<String>,
         /// How to use it.
@@ -109,6 +113,7 @@ fn evdev_device(path: &Path) -> Option<FoundSensor> {
                 name: String::new(),
                 axes: Vec::new(),
                 keys: Vec::new(),
+                imu: false,
                 error: Some(error),
                 use_with: Vec::new(),
             });
@@ -146,14 +151,19 @@ fn evdev_device(path: &Path) -> Option<FoundSensor> {
     } else {
         format!("evdev:name={name}")
     };
+    let imu = is_accelerometer(&device);
     let mut use_with = Vec::new();
-    if let Some(axis) = axes.first() {
+    if imu {
+        use_with.push(format!(
+            "--sensor '{target}' with [gestures] set = \"SET.toml\"   (a head-worn IMU: head gestures, docs/gestures.md)"
+        ));
+    } else if let Some(axis) = axes.first() {
         use_with.push(format!(
             "--sensor '{target}'   (pressure on an axis; [sensor.evdev] axis = \"{}\" if not ABS_X)",
             axis.name
         ));
     }
-    if keys.len() >= 2 {
+    if !imu && keys.len() >= 2 {
         use_with.push(format!(
             "--sensor '{target}' with [sensor.evdev] input = \"switches\", sip_keys = [\"{}\"], puff_keys = [\"{}\"]   (switch closures; pick the keys the device sends)",
             keys[0], keys[1]
@@ -164,6 +174,7 @@ fn evdev_device(path: &Path) -> Option<FoundSensor> {
         name,
         axes,
         keys,
+        imu,
         error: None,
         use_with,
     })
@@ -260,7 +271,7 @@ fn serial_ports() -> Vec<FoundSensor> {
             FoundSensor::Serial {
                 use_with: vec![
                     format!(
-                        "--sensor serial:{}   (one value per line, volts; [sensor.serial] format = \"counts\", \"flipmouse\" or \"lipsync\" for others)",
+                        "--sensor serial:{}   (one value per line, volts; [sensor.serial] format = \"counts\", \"flipmouse\" or \"lipsync\" for others, \"imu\" for a head-worn IMU's `ax,ay,az,gx,gy,gz` lines)",
                         path.display()
                     ),
                 ],
@@ -286,10 +297,15 @@ pub fn to_text(found: &[FoundSensor]) -> String {
                 name,
                 axes,
                 keys,
+                imu,
                 error,
                 ..
             } => {
-                out += &format!("evdev   {}  {name:?}\n", path.display());
+                out += &format!(
+                    "evdev   {}  {name:?}{}\n",
+                    path.display(),
+                    if *imu { "  (an IMU)" } else { "" }
+                );
                 if let Some(e) = error {
                     out += &format!("        cannot open it: {e}\n");
                 }

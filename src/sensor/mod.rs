@@ -31,6 +31,7 @@ pub mod evdev;
 pub mod held;
 pub mod iio;
 pub mod imu_playback;
+pub mod imu_ring;
 pub mod listing;
 pub mod rezero;
 pub mod ring;

@@ -3,29 +3,23 @@
 //! `ax,ay,az,gx,gy,gz` (m/s² with gravity, rad/s), at its own rate.
 //!
 //! The reader thread splits the stream into lines and queues each sample
-//! in a lock-free ring; the control thread takes the newest each tick
-//! (those it passes over are counted as discarded) and is told `Lost` once
-//! the port is gone (unplugged), so the core faults at once and the run
-//! ends. A port that
-//! sends no sample within `answer_timeout_ms` at start is an error saying
-//! what to check.
+//! on the IMU ring ([`imu_ring`](crate::sensor::imu_ring)); the port gone
+//! (unplugged) ends the reader, which the core sees as the IMU lost. A
+//! port that sends no sample within `answer_timeout_ms` at start is an
+//! error saying what to check.
 
 use std::io::{self, Read};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use serialport::TTYPort;
 
-use crate::control::imu::{CHANNELS, ImuInput, ImuSample};
+use crate::control::imu::{CHANNELS, ImuSample};
+use crate::sensor::imu_ring::{ImuRing, imu_ring};
 use crate::sensor::serial::{LineSplitter, open_port};
 use crate::sensor::settings::SerialSettings;
-use crate::sensor::{Producer, Reading, Samples, Sensor, SensorError, Started};
-
-/// Samples the ring holds: 2.5 s at 100 Hz, far more than the control
-/// thread ever leaves queued.
-const RING: usize = 256;
+use crate::sensor::{Producer, Sensor, SensorError, Started};
 
 /// A line's sample: six finite numbers separated by commas; `None` for
 /// anything else (a header, a boot message, a line cut short).
@@ -117,9 +111,7 @@ impl Sensor for SerialImu {
     }
 
     fn start(mut self) -> Result<Started<ImuRing>, SensorError> {
-        let (mut producer, consumer) = rtrb::RingBuffer::new(RING);
-        let lost = Arc::new(AtomicBool::new(false));
-        let gone = lost.clone();
+        let (mut feed, samples) = imu_ring();
         let thread = Producer::spawn("sensor-serial-imu", move |stop| {
             let mut buffer = [0u8; 4096];
             while !stop.load(Ordering::Relaxed) {
@@ -139,75 +131,17 @@ impl Sensor for SerialImu {
                 self.splitter
                     .feed(buffer.get(..n).unwrap_or_default(), |line| {
                         if let Some(sample) = imu_line(line) {
-                            // A full ring drops the sample: the control
-                            // thread is far behind and counts the gap.
-                            let _ = producer.push(sample);
+                            feed.push(sample);
                         }
                     });
             }
-            gone.store(true, Ordering::Release);
+            // `feed` dropped: the control thread is told the port is gone.
             Ok(())
         })?;
         Ok(Started {
-            samples: ImuRing {
-                consumer,
-                lost,
-                said_lost: false,
-            },
+            samples,
             producer: thread,
         })
-    }
-}
-
-/// The control thread's side: the newest sample queued, or `Lost` once
-/// the port is gone. RT-safe.
-pub struct ImuRing {
-    consumer: rtrb::Consumer<ImuSample>,
-    lost: Arc<AtomicBool>,
-    /// The core has been told the port is gone.
-    said_lost: bool,
-}
-
-impl ImuRing {
-    /// The newest sample queued and how many older ones were passed over.
-    fn newest(&mut self) -> (Option<ImuSample>, u64) {
-        let mut newest = None;
-        let mut passed = 0;
-        while let Ok(sample) = self.consumer.pop() {
-            passed += u64::from(newest.is_some());
-            newest = Some(sample);
-        }
-        (newest, passed)
-    }
-}
-
-impl Samples for ImuRing {
-    fn try_read(&mut self, _skipped: u64) -> Reading {
-        let (newest, discarded) = self.newest();
-        let imu = match newest {
-            Some(sample) => ImuInput::Sample(sample),
-            None if self.lost.load(Ordering::Acquire) => {
-                self.said_lost = true;
-                ImuInput::Lost
-            }
-            None => ImuInput::Missing,
-        };
-        Reading {
-            imu,
-            discarded,
-            ..Reading::default()
-        }
-    }
-
-    fn discard_backlog(&mut self, _skipped: u64) -> u64 {
-        let (newest, passed) = self.newest();
-        passed + u64::from(newest.is_some())
-    }
-
-    /// The port is gone and the core has been told (it faulted): the run
-    /// ends, as with a breath sensor unplugged.
-    fn ended(&self) -> bool {
-        self.said_lost
     }
 }
 

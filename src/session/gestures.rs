@@ -159,9 +159,5 @@ pub fn load_setup(core: &CoreConfig) -> anyhow::Result<GestureSetup> {
             "an IMU needs the person's gestures: give a --config with [gestures] set = \"FILE\" (made by `sipnpuff gestures record`) and library entries that name them"
         );
     };
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("[gestures] set: cannot read {}", path.display()))?;
-    let set = GestureSet::from_toml(&text)
-        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.join("; ")))?;
-    setup::setup(core, &set).map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.join("; ")))
+    setup::load(core, path).map_err(anyhow::Error::msg)
 }

@@ -10,12 +10,14 @@ use std::path::Path;
 use crate::arm::Arm;
 use crate::arm::ArmSpec;
 use crate::config::Config;
+use crate::control::imu::Channels;
 use crate::output::{Output, OutputSpec};
 use crate::rt::output_thread::Serves;
 use crate::rt::recorder::SessionRecorder;
 use crate::rt::report::RunReport;
 use crate::rt::telemetry_thread::{EventSink, Watchers};
 use crate::rt::threads::{self, LoopSettings, RunOptions};
+use crate::sensor::evdev::imu::EvdevImu;
 use crate::sensor::imu_playback::ImuPlayback;
 use crate::sensor::serial_imu::SerialImu;
 use crate::sensor::settings::SerialFormat;
@@ -89,6 +91,7 @@ pub fn run(
     match imu {
         Some((config, ImuSource::Recording(playback))) => return start.on(&config, playback),
         Some((config, ImuSource::Serial(port))) => return start.on(&config, port),
+        Some((config, ImuSource::Evdev(device))) => return start.on(&config, *device),
         None => {}
     }
     open_sensor(
@@ -114,56 +117,75 @@ enum ImuSource {
     Recording(Prepared<ImuPlayback>),
     /// A microcontroller's stream on a serial port.
     Serial(SerialImu),
+    /// An input device with the accelerometer property.
+    Evdev(Box<EvdevImu>),
 }
 
 /// For a person with gestures: the IMU `--sensor` names (an IMU
-/// recording, `csv:FILE`, read whole; or a serial port with
-/// `[sensor.serial] format = "imu"`, opened and answering), and the
-/// configuration with their set loaded and no breath sensor. `None` for a
-/// breath sensor; an error, before anything starts, for gestures without
-/// an IMU, an IMU without gestures, or `--record` (recordings hold no IMU
-/// samples yet).
+/// recording, `csv:FILE`, read whole; a serial port with
+/// `[sensor.serial] format = "imu"`, opened and answering; an input
+/// device with the accelerometer property), and the configuration with
+/// their set loaded and no breath sensor. `None` for a breath sensor; an
+/// error, before anything starts, for gestures without an IMU, an IMU
+/// without gestures, or an IMU lacking a channel the set was recorded
+/// with.
 fn imu_sensor(config: &Config, plan: &RunPlan) -> anyhow::Result<Option<(Config, ImuSource)>> {
     let serial = &config.sensor().serial;
+    let gestures = config.core().gesture_set_file();
     let imu = match plan.sensor {
         SensorSpec::Csv(path) if is_imu_csv(path) => true,
         SensorSpec::Serial { .. } => serial.format == SerialFormat::Imu,
+        SensorSpec::Evdev(_) => gestures.is_some(),
         _ => false,
     };
     if !imu {
-        if let Some(set) = config.core().gesture_set_file() {
+        if let Some(set) = gestures {
             anyhow::bail!(
-                "[gestures] set = {:?}: gestures need an IMU: give --sensor csv:IMU.csv (a recording played live) or serial:PORT with [sensor.serial] format = \"imu\"; IIO and evdev IMUs are not wired yet, nor a breath sensor beside an IMU. Leave [gestures] out to run on breaths",
+                "[gestures] set = {:?}: gestures need an IMU: give --sensor evdev:name=NAME (an input device with the accelerometer property: `sipnpuff sensors` marks them), csv:IMU.csv (a recording played live) or serial:PORT with [sensor.serial] format = \"imu\"; IIO IMUs are not wired yet, nor a breath sensor beside an IMU. Leave [gestures] out to run on breaths",
                 set.display()
             );
         }
         return Ok(None);
     }
-    if plan.record.is_some() {
-        anyhow::bail!(
-            "--record: a session recording holds no IMU samples yet; record the IMU's own stream instead and replay it (`sipnpuff replay IMU.csv --config …`)"
-        );
-    }
     let setup = gestures::load_setup(config.core())?;
-    let source = match plan.sensor {
-        SensorSpec::Serial { path, baud } => {
-            ImuSource::Serial(SerialImu::open(path, *baud, serial).map_err(anyhow::Error::new)?)
+    let config = config.clone().for_imu(setup);
+    let (source, channels, label) = match plan.sensor {
+        SensorSpec::Serial { path, baud } => (
+            ImuSource::Serial(SerialImu::open(path, *baud, serial).map_err(anyhow::Error::new)?),
+            Channels::ALL,
+            format!("serial:{}", path.display()),
+        ),
+        SensorSpec::Evdev(target) => {
+            let device = EvdevImu::open(target).map_err(anyhow::Error::new)?;
+            let channels = device.channels();
+            (
+                ImuSource::Evdev(Box::new(device)),
+                channels,
+                target.to_string(),
+            )
         }
         SensorSpec::Csv(path) => {
             let recording = read_imu_csv(path).map_err(|e| anyhow::anyhow!("{e}"))?;
-            ImuSource::Recording(ImuPlayback::prepared(
-                format!(
-                    "IMU recording {} ({}, {} samples)",
-                    path.display(),
-                    recording.channels,
-                    recording.samples.len()
-                ),
-                recording.samples,
-            ))
+            let channels = recording.channels;
+            (
+                ImuSource::Recording(ImuPlayback::prepared(
+                    format!(
+                        "IMU recording {} ({}, {} samples)",
+                        path.display(),
+                        recording.channels,
+                        recording.samples.len()
+                    ),
+                    recording.samples,
+                )),
+                channels,
+                format!("csv:{}", path.display()),
+            )
         }
         _ => return Ok(None),
     };
-    Ok(Some((config.clone().for_imu(setup), source)))
+    crate::gestures::setup::check_channels(config.core(), &label, channels)
+        .map_err(anyhow::Error::msg)?;
+    Ok(Some((config, source)))
 }
 
 /// The session on the sensor opened: the loop on it, the core built from

@@ -17,7 +17,9 @@ use crate::control::mode::Mode;
 use crate::fit::protocol::Protocol;
 use crate::sim::breather::{Breather, Session, practice_session, protocol_session};
 use crate::sim::head_gesture::GestureName;
-use crate::sim::imu_session::{self, ImuSession, TrueGesture, ordinary_session, use_session};
+use crate::sim::imu_session::{
+    self, Drive, ImuSession, TrueGesture, ordinary_session, use_session,
+};
 use crate::sim::imu_user::ImuUser;
 use crate::sim::script::{
     demo_script, outputs_session, parse_sequences, random_session, sequences_script,
@@ -82,6 +84,13 @@ pub enum ImuSessionKind {
     Ordinary {
         /// The session's length, min.
         minutes: u32,
+    },
+    /// Driving the arm: each gesture, then the head pitched and held.
+    Drive {
+        /// The pitch, degrees (positive: chin down).
+        tilt_deg: i32,
+        /// How long it is held, ms.
+        hold_ms: u32,
     },
 }
 
@@ -294,6 +303,17 @@ fn generate_imu(
         }
         ImuSessionKind::Use { minutes } => use_session(user, gestures, minutes, seed),
         ImuSessionKind::Ordinary { minutes } => ordinary_session(user, minutes, seed),
+        ImuSessionKind::Drive { tilt_deg, hold_ms } => {
+            let drives: Vec<Drive> = gestures
+                .iter()
+                .map(|&gesture| Drive {
+                    gesture,
+                    pitch_deg: f64::from(tilt_deg),
+                    hold_ms,
+                })
+                .collect();
+            imu_session::drive_session(user, &drives, seed).0
+        }
     };
     write_whole(out, |writer| {
         Ok(write_imu_csv(writer, session.channels, &session.samples)?)

@@ -15,6 +15,7 @@ use crate::tools::csv_replay;
 use crate::tools::imu_csv::read_imu_csv;
 use crate::tools::imu_replay;
 use crate::tools::output_file::create;
+use crate::tools::recording::GESTURES;
 use crate::tools::recording::read::Recording;
 use crate::tools::recording::recording_replay::{self, ReplayVerdict};
 use crate::tools::replay::{ReplayError, ReplaySummary};
@@ -73,6 +74,8 @@ pub fn replay_imu_csv(
     stdout: impl Write,
 ) -> anyhow::Result<CsvReplayed> {
     let recording = read_imu_csv(path).map_err(|e| anyhow::anyhow!("{e}"))?;
+    crate::gestures::setup::check_channels(config, &path.display().to_string(), recording.channels)
+        .map_err(anyhow::Error::msg)?;
     let mut opened = Opened::open(to, stdout)?;
     let started = Instant::now();
     let (out, trace) = opened.writers();
@@ -107,7 +110,7 @@ pub fn replay_recording(
     stdout: impl Write,
 ) -> anyhow::Result<RecordingReplayed> {
     let recording = Recording::open(dir)?;
-    let config = config(&recording.config)?;
+    let config = with_recorded_gestures(&recording, config(&recording.config)?)?;
     let mut opened = Opened::open(to, stdout)?;
     let started = Instant::now();
     let (out, trace) = opened.writers();
@@ -123,6 +126,23 @@ pub fn replay_recording(
         verdict,
         seconds,
     })
+}
+
+/// `config` with the person's gestures loaded, if it names a set: the
+/// recording's copy of the set the run used when `config` names the same
+/// set as the recorded configuration, else the set `config` names.
+fn with_recorded_gestures(recording: &Recording, config: Config) -> anyhow::Result<Config> {
+    let Some(path) = config.core().gesture_set_file() else {
+        return Ok(config);
+    };
+    let copy = recording.path(GESTURES);
+    let file = if recording.config.core().gesture_set_file() == Some(path) && copy.exists() {
+        copy
+    } else {
+        path.to_path_buf()
+    };
+    let setup = crate::gestures::setup::load(config.core(), &file).map_err(anyhow::Error::msg)?;
+    Ok(config.for_imu(setup))
 }
 
 /// The replay of `input` could not write its output: the `io::Error`

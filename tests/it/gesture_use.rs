@@ -612,7 +612,7 @@ fn the_control_loop_plays_an_imu_recording_and_allocates_nothing() {
 }
 
 #[test]
-fn a_run_with_gestures_needs_an_imu_recording_and_records_none() {
+fn a_run_with_gestures_needs_an_imu_and_an_imu_needs_gestures() {
     // Gestures configured, a breath sensor given.
     let stderr = crate::common::refused(&[
         "run",
@@ -622,7 +622,7 @@ fn a_run_with_gestures_needs_an_imu_recording_and_records_none() {
         "fixtures/gesture-user/config.toml",
     ]);
     assert!(
-        stderr.contains("gestures need an IMU: give --sensor csv:IMU.csv"),
+        stderr.contains("gestures need an IMU: give --sensor evdev:name=NAME (an input device with the accelerometer property"),
         "{stderr}"
     );
     // An IMU recording without gestures.
@@ -632,21 +632,38 @@ fn a_run_with_gestures_needs_an_imu_recording_and_records_none() {
         stderr.contains("an IMU needs the person's gestures"),
         "{stderr}"
     );
-    // Recorded: not yet.
+}
+
+#[test]
+fn an_imu_without_a_channel_the_set_was_recorded_with_is_refused() {
+    // The practice session with its accelerations alone: the set was
+    // recorded with all six channels.
     let dir = crate::scratch::Scratch::new();
+    let accel = dir.join("accel.csv");
+    let text: String = std::fs::read_to_string("fixtures/gesture-user/practice.csv")
+        .unwrap()
+        .lines()
+        .map(|line| line.split(',').take(4).collect::<Vec<_>>().join(",") + "\n")
+        .collect();
+    std::fs::write(&accel, text).unwrap();
+    let path = accel.to_str().unwrap();
+    let said = "gives ax,ay,az but the gesture set fixtures/gesture-user/gestures.toml was recorded with ax,ay,az,gx,gy,gz: a set from another sensor's channels";
+    let stderr = crate::common::refused(&[
+        "replay",
+        path,
+        "--config",
+        "fixtures/gesture-user/config.toml",
+    ]);
+    assert!(stderr.contains(&format!("{path}: {said}")), "{stderr}");
+    let sensor = format!("csv:{path}");
     let stderr = crate::common::refused(&[
         "run",
         "--sensor",
-        "csv:fixtures/gesture-user/practice.csv",
+        &sensor,
         "--config",
         "fixtures/gesture-user/config.toml",
-        "--record",
-        dir.join("rec").to_str().unwrap(),
     ]);
-    assert!(
-        stderr.contains("--record: a session recording holds no IMU samples yet"),
-        "{stderr}"
-    );
+    assert!(stderr.contains(&format!("{sensor}: {said}")), "{stderr}");
 }
 
 /// A head held at `pitch` and `roll` (degrees), turning at `rates`

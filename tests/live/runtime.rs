@@ -429,8 +429,10 @@ fn a_run_reads_gestures_from_an_imu_recording() {
     std::fs::write(&csv, text).unwrap();
     let sensor = format!("csv:{}", csv.display());
     let shared = crate::common::fixture("shared-machine.toml");
+    let rec = dir.join("rec");
     crate::common::real_time(|| {
         let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+        let _ = std::fs::remove_dir_all(&rec);
         let out = binary()
             .args([
                 "run",
@@ -440,6 +442,8 @@ fn a_run_reads_gestures_from_an_imu_recording() {
                 "fixtures/gesture-user/config.toml",
                 "--config",
                 shared.to_str().unwrap(),
+                "--record",
+                rec.to_str().unwrap(),
             ])
             .output()
             .unwrap();
@@ -465,5 +469,24 @@ fn a_run_reads_gestures_from_an_imu_recording() {
         ] {
             assert!(stdout.contains(said), "{said}\n{stdout}");
         }
+        // The session recording holds the IMU's samples and a copy of the
+        // set: its replay is the run, bit for bit.
+        let set = std::fs::read("fixtures/gesture-user/gestures.toml").unwrap();
+        assert_eq!(std::fs::read(rec.join("gestures.toml")).unwrap(), set);
+        let out = binary()
+            .args(["replay", rec.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{stderr}");
+        assert!(
+            stderr.contains("identical to the recording, bit for bit"),
+            "{stderr}"
+        );
+        let replayed = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            replayed.contains(r#""event":"gesture","name":"wobble""#),
+            "{replayed}"
+        );
     });
 }

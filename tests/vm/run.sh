@@ -208,6 +208,46 @@ pattern_csv "$HERE/uinput-pattern.txt" none >"$OUT/uinput.csv" || die "bad patte
 expected_from "$OUT/uinput.csv" uinput "$OUT/uinput.toml"
 echo "vm-harness: uinput: $(tr '\n' ' ' <"$EXP/uinput.txt")"
 
+# The head-worn IMU (an evdev accelerometer played by imufeed): the
+# simulated `typical` person drives the arm with their gestures
+# (fixtures/gesture-user/: a nod selects translate_x, a shake translate_y,
+# each followed by the head pitched 20° for 2.5 s). The feeder writes
+# counts (4096 per g, 1000 per °/s: the device's resolutions); the host
+# replays those counts as sipnpuff's backend reads them (count × 9.80665 /
+# 4096 m/s², count × π / 180 / 1000 rad/s).
+IMU_UNPLUG_MS=6500 # 1 s into the first hold: the arm moving along x
+"$SIPNPUFF" generate --imu-user typical --session drive --gestures nod,shake --tilt-deg 20 \
+    --hold-ms 2500 --seed 3 --out "$OUT/imu-drive.csv" 2>/dev/null || die "sipnpuff generate of the IMU session failed"
+awk -F, 'NR == 1 { next }
+    function r(x) { return x < 0 ? -int(-x + 0.5) : int(x + 0.5) }
+    { pi = atan2(0, -1); printf "%d", $1
+      for (i = 2; i <= 4; i++) printf " %d", r($i / 9.80665 * 4096)
+      for (i = 5; i <= 7; i++) printf " %d", r($i * 180 / pi * 1000)
+      printf "\n" }' "$OUT/imu-drive.csv" >"$OUT/imu-drive.counts"
+imu_csv() { # LAST_MS: the counts as the backend reads them, up to LAST_MS
+    awk -v last="$1" 'BEGIN { print "tick,ax,ay,az,gx,gy,gz"; pi = atan2(0, -1); a = 9.80665 / 4096; g = pi / 180 / 1000 }
+        $1 > last { exit }
+        { printf "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", $1, $2 * a, $3 * a, $4 * a, $5 * g, $6 * g, $7 * g }' "$OUT/imu-drive.counts"
+}
+IMU_MS=$(tail -n 1 "$OUT/imu-drive.counts" | cut -d' ' -f1)
+# The gesture user's configuration, its set where the guest has it; the
+# IMU allowed 1 s of silence (as guest.toml allows the breath sensor).
+imu_config() { # SET_PATH
+    cat "$HERE/guest.toml"
+    printf '[gestures]\nset = "%s"\nstale_ms = 1000\n' "$1"
+    sed -n '/^\[\[sequence\]\]/,$p' "$ROOT/fixtures/gesture-user/config.toml"
+}
+imu_config "$ROOT/fixtures/gesture-user/gestures.toml" >"$OUT/imu.host.toml"
+imu_config /harness/gestures.toml >"$OUT/imu.toml"
+imu_csv "$IMU_MS" >"$OUT/imu.csv"
+expected_from "$OUT/imu.csv" imu "$OUT/imu.host.toml"
+imu_csv "$IMU_UNPLUG_MS" >"$OUT/imu-to-unplug.csv"
+expected_from "$OUT/imu-to-unplug.csv" imu-to-unplug "$OUT/imu.host.toml"
+imu_csv $((IMU_UNPLUG_MS + 500)) >"$OUT/imu-unplug.csv"
+expected_from "$OUT/imu-unplug.csv" imu-unplug "$OUT/imu.host.toml"
+printf 'IMU_MS=%s\nIMU_UNPLUG_MS=%s\n' "$IMU_MS" "$IMU_UNPLUG_MS" >"$OUT/imu.env"
+echo "vm-harness: IMU: $(tr '\n' ' ' <"$EXP/imu.txt"); to the unplug: $(tr '\n' ' ' <"$EXP/imu-to-unplug.txt")"
+
 # A dialect samples the pattern every P ms; the loop holds each value until
 # the next. Which ms the samples fall on is chance: replay four phases. The
 # guest accepts any of the outcomes (usually all four agree).
@@ -244,6 +284,8 @@ cp "$BUILD"/bin/* "$RD/harness/bin/"
 cp "$kernel"/modules/* "$RD/harness/modules/"
 cp "$HERE/pattern.txt" "$HERE/pattern-unplug.txt" "$HERE/uinput-pattern.txt" "$HERE/guest.toml" "$HERE/guest/events.sed" \
     "$OUT/pattern.csv" "$OUT/uinput.csv" "$OUT/uinput.toml" "$RD/harness/"
+cp "$OUT/imu-drive.counts" "$OUT/imu.toml" "$OUT/imu.env" "$RD/harness/"
+cp "$ROOT/fixtures/gesture-user/gestures.toml" "$RD/harness/gestures.toml"
 cp "$EXP"/*.txt "$EXP"/*.jsonl "$RD/harness/expected/"
 if [ -n "${VM_TESTS:-}" ]; then
     printf "%s\n" $VM_TESTS >"$RD/harness/tests.txt" # one name a line

@@ -4,7 +4,9 @@
 /// `EV_SYN`, `EV_KEY`, `EV_ABS` and `SYN_DROPPED` from linux/input.h.
 pub(super) const EV_SYN: u16 = 0x00;
 const EV_KEY: u16 = 0x01;
-const EV_ABS: u16 = 0x03;
+pub(super) const EV_ABS: u16 = 0x03;
+/// `SYN_REPORT`: the end of a frame of events.
+pub(super) const SYN_REPORT: u16 = 0;
 pub(super) const SYN_DROPPED: u16 = 3;
 
 /// Bytes of one `struct input_event` on 64-bit Linux (timeval, type,

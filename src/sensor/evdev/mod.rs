@@ -20,6 +20,7 @@
 //! looks for it again and resumes.
 
 pub mod events;
+pub mod imu;
 
 use std::io;
 use std::os::fd::{AsRawFd, RawFd};
@@ -27,7 +28,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use evdev::raw_stream::RawDevice;
-use evdev::{AbsoluteAxisCode, KeyCode};
+use evdev::{AbsoluteAxisCode, KeyCode, PropType};
 
 use crate::sensor::device::{self, DeviceReader};
 use crate::sensor::held::{HeldSamples, Holder, Link, hold};
@@ -54,12 +55,65 @@ pub fn event_nodes() -> Vec<PathBuf> {
     nodes.into_iter().map(|(_, path)| path).collect()
 }
 
-/// Finds and opens the target device.
-fn find(target: &EvdevTarget) -> Result<(PathBuf, RawDevice), SensorError> {
+/// What kind of input device a backend reads: a sip-and-puff sensor or
+/// a head-worn IMU (the accelerometer property tells them apart).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Wanted {
+    /// Pressure on an axis or switch closures: anything but an IMU.
+    Breath,
+    /// A device with INPUT_PROP_ACCELEROMETER.
+    Imu,
+}
+
+impl Wanted {
+    /// Whether `device` is of this kind.
+    fn accepts(self, device: &RawDevice) -> bool {
+        is_accelerometer(device) == (self == Wanted::Imu)
+    }
+
+    /// Why `device` (given by its node) is not of this kind.
+    fn refusal(self) -> &'static str {
+        match self {
+            Wanted::Breath => {
+                "it is an accelerometer (a head-worn IMU), not a sip-and-puff sensor: for head gestures give a --config with [gestures] set = \"SET.toml\" (docs/gestures.md)"
+            }
+            Wanted::Imu => {
+                "it is not an IMU (it has no INPUT_PROP_ACCELEROMETER property); `sipnpuff sensors` marks the IMUs this machine has"
+            }
+        }
+    }
+
+    /// What it is called in messages.
+    fn what(self) -> &'static str {
+        match self {
+            Wanted::Breath => "input device",
+            Wanted::Imu => "IMU (input device with the accelerometer property)",
+        }
+    }
+}
+
+/// Whether the device says its axes are an accelerometer's
+/// (INPUT_PROP_ACCELEROMETER).
+pub fn is_accelerometer(device: &RawDevice) -> bool {
+    device.properties().contains(PropType::ACCELEROMETER)
+}
+
+/// Finds and opens the target device, of the kind wanted: by node it must
+/// be of that kind; by name, the first of that kind whose name matches.
+pub(super) fn find(
+    target: &EvdevTarget,
+    wanted: Wanted,
+) -> Result<(PathBuf, RawDevice), SensorError> {
     match target {
         EvdevTarget::Path(path) => {
             let device = RawDevice::open(path)
                 .map_err(|e| SensorError::opening_device(path, e, PERMISSION_FIX))?;
+            if !wanted.accepts(&device) {
+                return Err(SensorError::WrongDevice {
+                    device: format!("{} ({:?})", path.display(), device.name().unwrap_or("?")),
+                    message: wanted.refusal().to_string(),
+                });
+            }
             Ok((path.clone(), device))
         }
         EvdevTarget::Name(part) => {
@@ -69,10 +123,12 @@ fn find(target: &EvdevTarget) -> Result<(PathBuf, RawDevice), SensorError> {
                 match RawDevice::open(&path) {
                     Ok(device) => {
                         let name = device.name().unwrap_or("").to_string();
-                        if name.contains(part.as_str()) {
-                            return Ok((path, device));
+                        if wanted.accepts(&device) {
+                            if name.contains(part.as_str()) {
+                                return Ok((path, device));
+                            }
+                            names.push(format!("{name:?}"));
                         }
-                        names.push(format!("{name:?}"));
                     }
                     Err(e) if e.kind() == io::ErrorKind::PermissionDenied => {
                         denied.push(path.display().to_string());
@@ -82,7 +138,8 @@ fn find(target: &EvdevTarget) -> Result<(PathBuf, RawDevice), SensorError> {
             }
             let message = if denied.is_empty() {
                 format!(
-                    "no input device's name contains {part:?} (names: {}); is it plugged in? `sipnpuff sensors` lists what this machine has",
+                    "no {}'s name contains {part:?} (names: {}); is it plugged in? `sipnpuff sensors` lists what this machine has",
+                    wanted.what(),
                     if names.is_empty() {
                         "none".to_string()
                     } else {
@@ -91,7 +148,8 @@ fn find(target: &EvdevTarget) -> Result<(PathBuf, RawDevice), SensorError> {
                 )
             } else {
                 format!(
-                    "no readable input device's name contains {part:?}, and {} could not be opened (permission denied: {PERMISSION_FIX})",
+                    "no readable {}'s name contains {part:?}, and {} could not be opened (permission denied: {PERMISSION_FIX})",
+                    wanted.what(),
                     denied.join(", ")
                 )
             };
@@ -189,7 +247,7 @@ fn mapping_for(
 }
 
 /// `EVIOCGABS(code)`.
-fn absinfo(fd: RawFd, code: u16) -> io::Result<libc::input_absinfo> {
+pub(super) fn absinfo(fd: RawFd, code: u16) -> io::Result<libc::input_absinfo> {
     let request = ioc(2, 0x40 + u64::from(code), size_of::<libc::input_absinfo>());
     // SAFETY: all-zero bytes are a valid `input_absinfo` (plain integers).
     let mut info: libc::input_absinfo = unsafe { std::mem::zeroed() };
@@ -204,7 +262,7 @@ fn absinfo(fd: RawFd, code: u16) -> io::Result<libc::input_absinfo> {
 
 /// `EVIOCSABS(code)`: sets the axis's fuzz to 0 so that every change is
 /// delivered (hid-input's fuzz drops changes smaller than range/256).
-fn clear_fuzz(fd: RawFd, code: u16) -> io::Result<()> {
+pub(super) fn clear_fuzz(fd: RawFd, code: u16) -> io::Result<()> {
     let mut info = absinfo(fd, code)?;
     if info.fuzz == 0 {
         return Ok(());
@@ -260,7 +318,7 @@ impl EvdevSensor {
         rest_volts: f64,
         reconnect: bool,
     ) -> Result<EvdevSensor, SensorError> {
-        let (path, mut device) = find(target)?;
+        let (path, mut device) = find(target, Wanted::Breath)?;
         let mapping = mapping_for(&path, &device, settings, rest_volts)?;
         prepare(&path, &mut device, &mapping, settings.grab)?;
         Ok(EvdevSensor {
@@ -364,7 +422,7 @@ struct Reader {
 }
 
 /// How long a poll waits before checking the stop flag, ms.
-const POLL_MS: i32 = 50;
+pub(super) const POLL_MS: i32 = 50;
 
 impl DeviceReader for Reader {
     fn what(&self) -> String {

@@ -8,7 +8,8 @@
 //! |---|---|
 //! | `meta.json` | format version, sipnpuff version, sensor, arm, start time, counts, losses, complete or not ([`meta`]) |
 //! | `config.toml` | the configuration in effect, as `sipnpuff config` prints it (reads back to the identical `Config`) |
-//! | `samples.bin` | every tick's input to the core: its tick, its sample or none, the safe stop ([`mod@format`]) |
+//! | `gestures.toml` | for a person with gestures, a copy of the gesture set the run used (replay reads it, not the set's own file, which may have changed since) |
+//! | `samples.bin` | every tick's input to the core: its tick, its sample or none, the IMU's, the safe stop ([`mod@format`]) |
 //! | `commands.bin` | the 100 Hz arm commands the core produced ([`mod@format`]) |
 //! | `events.jsonl` | the events, one JSON line each, as `run` prints them |
 //! | `report.json` | the run's report, as `run --json` prints it, with the recording's summary |
@@ -30,6 +31,8 @@ pub mod writer;
 pub const META: &str = "meta.json";
 /// `config.toml`.
 pub const CONFIG: &str = "config.toml";
+/// `gestures.toml`: the gesture set the run used, copied.
+pub const GESTURES: &str = "gestures.toml";
 /// `samples.bin`.
 pub const SAMPLES: &str = "samples.bin";
 /// `commands.bin`.

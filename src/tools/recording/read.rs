@@ -138,11 +138,11 @@ impl Recording {
                 format!("format {:?}, not {FORMAT_NAME:?}", meta.format),
             ));
         }
-        if meta.format_version != FORMAT_VERSION {
+        if !(1..=FORMAT_VERSION).contains(&meta.format_version) {
             return Err(RecordingError::new(
                 meta_path,
                 format!(
-                    "format version {}, this sipnpuff ({}) reads version {FORMAT_VERSION}",
+                    "format version {}, this sipnpuff ({}) reads versions 1 to {FORMAT_VERSION}",
                     meta.format_version,
                     env!("CARGO_PKG_VERSION")
                 ),

@@ -17,7 +17,7 @@ use crate::control::tick::TickInput;
 use crate::rt::recorder::{Lost, RecordingReport, RecordingSummary, SessionRecorder};
 use crate::rt::report::RunReport;
 use crate::tools::recording::writer::{Finish, Item, RecordOptions, Writer, one, problems};
-use crate::tools::recording::{CONFIG, META};
+use crate::tools::recording::{CONFIG, GESTURES, META};
 
 /// Why a recording could not start.
 #[derive(Debug)]
@@ -82,6 +82,14 @@ impl Recorder {
         let text = config_text(config)?;
         let path = dir.join(CONFIG);
         std::fs::write(&path, text).map_err(io(format!("cannot write {}", path.display())))?;
+        if let (Some(_), Some(set)) = (config.core().gestures(), config.core().gesture_set_file()) {
+            let copy = dir.join(GESTURES);
+            std::fs::copy(set, &copy).map_err(io(format!(
+                "cannot copy the gesture set {} to {}",
+                set.display(),
+                copy.display()
+            )))?;
+        }
         let (tx, rx) = mpsc::sync_channel(options.queue.max(1));
         let progress = Arc::new(AtomicU64::new(0));
         let writer = Writer::new(dir, options, progress.clone());
@@ -269,7 +277,12 @@ fn config_text(config: &Config) -> Result<String, RecordError> {
     let text = config
         .to_toml()
         .map_err(|e| RecordError::Config(e.to_string()))?;
-    match Config::from_toml_str(&text) {
+    // A person's gestures are loaded from their set, which the file names.
+    let loaded = |back: Config| match config.core().gestures() {
+        Some(setup) => back.for_imu(setup.clone()),
+        None => back,
+    };
+    match Config::from_toml_str(&text).map(loaded) {
         Ok(back) if back == *config && format!("{back:?}") == format!("{config:?}") => Ok(text),
         Ok(_) => Err(RecordError::Config(
             "it does not read back to the same configuration".into(),

@@ -15,16 +15,18 @@
 //!   an error naming the offset, never a silent wrong replay.
 //!
 //! ```text
-//! header   "SIPNPUFF" kind ('S' or 'C') version (2; version 1 lacks the arm's ops)
+//! header   "SIPNPUFF" kind ('S' or 'C') version (3; version 1 lacks the arm's ops, 2 the IMU's)
 //! samples  0x01 bits:u64le    one tick, a new value          0x02 n   n ticks repeating the last value
 //!          0x03 n             n ticks without a sample        0x04 n   n ticks skipped before the next
 //!          0x05 t             the next tick is t (absolute)   0x06     the safe stop begins
 //!          0x07 n             n ticks lost (not recorded)      0x08 n   n ticks with the device gone
 //!          0x09 bits:u64le×7  the arm's measured start pose     0x0a bits:u64le×7  a measured pose
-//!          0x0b               the arm's link lost               (0x06, 0x09–0x0b are part of the
+//!          0x0b               the arm's link lost               0x0c bits:u64le×6  an IMU sample
+//!          0x0d               the IMU's device gone             (0x06, 0x09–0x0d are part of the
 //!                                                              next tick's input; a pose is x, y,
 //!                                                              z, then the unit quaternion i, j,
-//!                                                              k, w)
+//!                                                              k, w; an IMU sample ax, ay, az,
+//!                                                              gx, gy, gz)
 //! commands 0x00–0x7f mask Δtick [bits:u64le per set bit]       one command: the mask says which of
 //!                                                              v(3), ω(3), fingers changed
 //!          0x80 seq           the next command's number       0x81 n   n commands lost
@@ -44,8 +46,9 @@ pub mod commands;
 pub mod samples;
 
 /// The version of both streams this build writes; it reads every version
-/// up to it (a version 1 file has none of the arm's ops, 0x09–0x0b).
-pub const FORMAT_VERSION: u8 = 2;
+/// up to it (a version 1 file has none of the arm's ops, 0x09–0x0b; a
+/// version 2 file none of the IMU's, 0x0c–0x0d).
+pub const FORMAT_VERSION: u8 = 3;
 /// Every stream starts with these bytes.
 pub const MAGIC: &[u8; 8] = b"SIPNPUFF";
 /// Bytes of the header.

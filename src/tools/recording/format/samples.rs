@@ -5,6 +5,7 @@ use std::io::Read;
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 
 use crate::control::Tick;
+use crate::control::imu::{CHANNELS, ImuInput, ImuSample};
 use crate::control::sample::Sample;
 use crate::control::tick::{ArmInput, ArmPose, TickInput};
 use crate::tools::recording::format::{Bytes, FormatError, Stream, op};
@@ -20,6 +21,8 @@ const DISCONNECTED: u8 = 0x08;
 const START_POSE: u8 = 0x09;
 const MEASURED_POSE: u8 = 0x0a;
 const LINK_LOST: u8 = 0x0b;
+const IMU_SAMPLE: u8 = 0x0c;
+const IMU_LOST: u8 = 0x0d;
 
 /// A pose as the 7 `f64`s stored: x, y, z, then the quaternion i, j, k, w.
 fn pose_bits(pose: &Isometry3<f64>) -> [u64; 7] {
@@ -63,8 +66,18 @@ impl SampleEncoder {
                 op(out, AT_TICK, input.tick);
             }
         }
-        if !input.arm.is_empty() || input.stop {
+        if !input.arm.is_empty() || input.stop || input.imu != ImuInput::Missing {
             self.flush(out);
+            match input.imu {
+                ImuInput::Sample(sample) => {
+                    out.push(IMU_SAMPLE);
+                    for v in sample.values {
+                        out.extend_from_slice(&v.to_bits().to_le_bytes());
+                    }
+                }
+                ImuInput::Lost => out.push(IMU_LOST),
+                ImuInput::Missing => {}
+            }
             if let Some((kind, pose)) = &input.arm.pose {
                 out.push(match kind {
                     ArmPose::Start => START_POSE,
@@ -149,6 +162,8 @@ pub struct SampleDecoder<R: Read> {
     arm: ArmInput,
     /// The safe stop begins on the next tick.
     stop: bool,
+    /// What the IMU gave on the next tick.
+    imu: ImuInput,
     ended: bool,
 }
 
@@ -164,6 +179,7 @@ impl<R: Read> SampleDecoder<R> {
             run: None,
             arm: ArmInput::default(),
             stop: false,
+            imu: ImuInput::Missing,
             ended: false,
         })
     }
@@ -181,7 +197,7 @@ impl<R: Read> SampleDecoder<R> {
             sample,
             arm,
             stop: std::mem::take(&mut self.stop),
-            ..TickInput::default()
+            imu: std::mem::take(&mut self.imu),
         })
     }
 
@@ -244,6 +260,14 @@ impl<R: Read> SampleDecoder<R> {
                     self.arm.pose = Some((kind, pose_from_bits(bits)));
                 }
                 LINK_LOST => self.arm.link_lost = true,
+                IMU_SAMPLE => {
+                    let mut values = [0.0; CHANNELS];
+                    for v in &mut values {
+                        *v = f64::from_bits(self.bytes.u64le()?);
+                    }
+                    self.imu = ImuInput::Sample(ImuSample { values });
+                }
+                IMU_LOST => self.imu = ImuInput::Lost,
                 STOP => self.stop = true,
                 _ => {
                     let lost = self.bytes.loss_or_end(tag, LOST_TICKS)?;
@@ -283,6 +307,59 @@ mod tests {
             out.push(item);
         }
         Ok(out)
+    }
+
+    #[test]
+    fn imu_samples_and_its_loss_survive_bit_for_bit_among_runs() {
+        let imu = |v: f64| {
+            ImuInput::Sample(ImuSample {
+                values: [
+                    v,
+                    -0.0,
+                    9.81,
+                    f64::from_bits(0x7ff8_0000_0000_0001),
+                    1e-300,
+                    -v,
+                ],
+            })
+        };
+        // A person fed by the IMU alone: no breath sample on any tick, an
+        // IMU sample every 10 ticks, the device gone at the end.
+        let mut inputs: Vec<TickInput> = (0..40)
+            .map(|t| {
+                let sample = if t % 10 == 0 {
+                    imu(t as f64 / 3.0)
+                } else {
+                    ImuInput::Missing
+                };
+                TickInput::imu(t, sample)
+            })
+            .collect();
+        inputs.push(TickInput::imu(40, ImuInput::Lost));
+        inputs.push(TickInput::imu(41, ImuInput::Missing));
+        let bytes = encode_samples(&inputs);
+        // Each sample: its op and 48 bytes, then the tick's own run.
+        assert!(
+            bytes.len() < 10 + 4 * (1 + 48 + 2) + 2 + 2 + 5,
+            "{}",
+            bytes.len()
+        );
+        let items = decode_samples(&bytes).unwrap();
+        let decoded: Vec<TickInput> = items
+            .iter()
+            .map(|item| match item {
+                SampleItem::Input(input) => *input,
+                SampleItem::Lost(n) => panic!("lost {n}"),
+            })
+            .collect();
+        assert_eq!(decoded.len(), inputs.len());
+        for (d, i) in decoded.iter().zip(&inputs) {
+            // Compared by bits: NaN is in the samples.
+            assert_eq!(format!("{d:?}"), format!("{i:?}"));
+            if let (ImuInput::Sample(a), ImuInput::Sample(b)) = (d.imu, i.imu) {
+                assert_eq!(a.values.map(f64::to_bits), b.values.map(f64::to_bits));
+            }
+        }
     }
 
     #[test]
