@@ -25,6 +25,12 @@ pub struct ReplayArgs {
     signal: PathBuf,
     #[command(flatten)]
     config: ConfigArg,
+    /// With an IMU recording: the person's gesture set (made by `gestures
+    /// record`), in place of the configuration's `[gestures] set`. Each
+    /// recognised gesture is a `gesture` event line; the library's
+    /// entries that name gestures select as they would live.
+    #[arg(long, value_name = "SET.toml")]
+    gestures: Option<PathBuf>,
     /// Write events here instead of standard output.
     #[arg(long)]
     events: Option<PathBuf>,
@@ -44,7 +50,20 @@ pub fn replay(args: ReplayArgs) -> anyhow::Result<u8> {
     if args.signal.is_dir() {
         return replay_recording(&args);
     }
-    let config = with_interface(args.config.load()?, args.interface)?;
+    let mut config = with_interface(args.config.load()?, args.interface)?;
+    if let Some(set) = &args.gestures {
+        if !is_imu_csv(&args.signal) {
+            return output::invalid(Err(anyhow::anyhow!(
+                "--gestures is for an IMU recording (header `tick,ax,…`); {} is not one",
+                args.signal.display()
+            )));
+        }
+        config = output::invalid(
+            config
+                .with_gesture_set(set.clone())
+                .map_err(anyhow::Error::from),
+        )?;
+    }
     let replayed = if is_imu_csv(&args.signal) {
         let core = gestures::imu_core(&config)?;
         replay_files::replay_imu_csv(&core, &args.signal, to(&args), std::io::stdout().lock())?

@@ -33,7 +33,7 @@ pub mod print;
 mod read;
 pub mod validate;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use toml::Table;
 
@@ -204,6 +204,13 @@ impl Config {
     /// `--interface` option).
     pub fn with_interface(mut self, interface: Interface) -> Result<Config, ConfigErrors> {
         self.core.interface = InterfaceSection { kind: interface };
+        self.into_validated()
+    }
+
+    /// The same configuration with the person's gesture set at `path`
+    /// (the `--gestures` option), checked as the file's would be.
+    pub fn with_gesture_set(mut self, path: PathBuf) -> Result<Config, ConfigErrors> {
+        self.core.gesture_section.set = Some(path);
         self.into_validated()
     }
 

@@ -568,6 +568,41 @@ fn the_gesture_users_replay_is_its_golden_file_and_says_what_was_made() {
 }
 
 #[test]
+fn replay_with_a_gesture_set_alone_prints_each_gesture_with_its_movement() {
+    let out = crate::common::sipnpuff_output(&[
+        "replay",
+        "fixtures/gesture-user/practice.csv",
+        "--gestures",
+        "fixtures/gesture-user/gestures.toml",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    crate::common::assert_exit(out.status, &stderr, 0, "replay --gestures");
+    // The same gestures, at the same ticks, as the golden file read with
+    // the person's whole configuration.
+    let golden = std::fs::read_to_string("fixtures/gesture-user/practice.events.jsonl").unwrap();
+    let gestures = |text: &str| -> Vec<String> {
+        text.lines()
+            .filter(|l| l.contains(r#""event":"gesture""#))
+            .map(str::to_string)
+            .collect()
+    };
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(gestures(&stdout), gestures(&golden));
+    assert_eq!(gestures(&stdout).len(), 6);
+    // A breath recording is not read with a gesture set.
+    let stderr = crate::common::refused(&[
+        "replay",
+        "fixtures/demo.csv",
+        "--gestures",
+        "fixtures/gesture-user/gestures.toml",
+    ]);
+    assert!(
+        stderr.contains("--gestures is for an IMU recording"),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn an_imu_recording_without_a_gesture_set_is_refused_with_what_to_give() {
     let stderr = crate::common::refused(&["replay", "fixtures/gesture-user/practice.csv"]);
     assert!(
