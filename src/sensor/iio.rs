@@ -157,7 +157,7 @@ impl IioSensor {
 }
 
 /// One `pread` of the whole value.
-fn read_raw(file: &File) -> io::Result<i64> {
+pub(crate) fn read_raw(file: &File) -> io::Result<i64> {
     let mut buffer = [0u8; 32];
     let n = file.read_at(&mut buffer, 0)?;
     parse_raw(&buffer[..n]).map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e))

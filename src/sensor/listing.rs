@@ -1,6 +1,6 @@
 //! What sensors this machine has (`sipnpuff sensors`): input devices with
-//! absolute axes or keys (head-worn IMUs marked), IIO voltage channels and
-//! serial ports, each with the `--sensor` line that uses it. The
+//! absolute axes or keys (head-worn IMUs marked), IIO voltage channels
+//! and IMUs, and serial ports, each with the `--sensor` line that uses it. The
 //! clinician's first step.
 
 use std::path::{Path, PathBuf};
@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use evdev::raw_stream::RawDevice;
 use serde::Serialize;
 
+use crate::control::imu::Channels;
 use crate::sensor::evdev::{event_nodes, is_accelerometer};
 
 /// One absolute axis of an input device.
@@ -60,6 +61,19 @@ pub enum FoundSensor {
         /// How to use it.
         use_with: Vec<String>,
     },
+    /// An IIO IMU: a device with accel or anglvel channels.
+    #[serde(rename = "iio_imu")]
+    IioImu {
+        /// The device's directory.
+        path: PathBuf,
+        /// The IIO device's name.
+        device: String,
+        /// Its IMU channels (`ax,ay,az,gx,gy,gz`), or why they cannot be
+        /// read.
+        channels: Result<String, String>,
+        /// How to use it.
+        use_with: Vec<String>,
+    },
     /// A serial port with a device behind it.
     Serial {
         /// `/dev/ttyACM0`, …
@@ -77,6 +91,7 @@ impl FoundSensor {
         match self {
             FoundSensor::Evdev { use_with, .. }
             | FoundSensor::Iio { use_with, .. }
+            | FoundSensor::IioImu { use_with, .. }
             | FoundSensor::Serial { use_with, .. } => use_with,
         }
     }
@@ -199,6 +214,23 @@ pub fn iio_channels(root: &Path) -> Vec<FoundSensor> {
         let device = std::fs::read_to_string(dir.join("name"))
             .map(|s| s.trim().to_string())
             .unwrap_or_default();
+        if crate::sensor::iio_imu::is_imu(&dir) {
+            let channels = crate::sensor::iio_imu::imu_channels(&dir).map(|found| {
+                found
+                    .iter()
+                    .fold(Channels::NONE, |set, (c, _)| set.with(*c))
+                    .to_string()
+            });
+            found.push(FoundSensor::IioImu {
+                use_with: vec![format!(
+                    "--sensor iio:{} with [gestures] set = \"SET.toml\"   (a head-worn IMU: head gestures, docs/gestures.md)",
+                    dir.display()
+                )],
+                path: dir.clone(),
+                device: device.clone(),
+                channels,
+            });
+        }
         let mut channels: Vec<PathBuf> = std::fs::read_dir(&dir)
             .into_iter()
             .flatten()
@@ -350,6 +382,18 @@ pub fn to_text(found: &[FoundSensor]) -> String {
                     out += &format!("        cannot read it: {e}\n");
                 }
             }
+            FoundSensor::IioImu {
+                path,
+                device,
+                channels,
+                ..
+            } => {
+                out += &format!("iio     {}  ({device:?}, an IMU", path.display());
+                match channels {
+                    Ok(channels) => out += &format!(": {channels})\n"),
+                    Err(e) => out += &format!(")\n        cannot read it: {e}\n"),
+                }
+            }
             FoundSensor::Serial {
                 path, description, ..
             } => {
@@ -377,8 +421,15 @@ mod tests {
         std::fs::write(dev.join("in_voltage1_raw"), "bad\n").unwrap();
         std::fs::write(dev.join("in_voltage_scale"), "0.0625\n").unwrap();
         std::fs::write(dev.join("in_temp_raw"), "1\n").unwrap();
+        let imu = root.join("iio:device1");
+        std::fs::create_dir_all(&imu).unwrap();
+        std::fs::write(imu.join("name"), "mpu6050\n").unwrap();
+        for axis in ["x", "y", "z"] {
+            std::fs::write(imu.join(format!("in_anglvel_{axis}_raw")), "3\n").unwrap();
+        }
+        std::fs::write(imu.join("in_anglvel_scale"), "0.000133090\n").unwrap();
         let found = iio_channels(&root);
-        assert_eq!(found.len(), 2, "{found:?}");
+        assert_eq!(found.len(), 3, "{found:?}");
         let text = to_text(&found);
         assert!(
             text.contains("(\"ads1015\", 0.0625 mV per count, now 40000 = 2.5000 V)"),
@@ -393,6 +444,14 @@ mod tests {
         );
         assert!(
             text.contains("cannot read it: \"bad\" is not an integer"),
+            "{text}"
+        );
+        assert!(
+            text.contains(&format!(
+                "iio     {}  (\"mpu6050\", an IMU: gx,gy,gz)\n        use:  --sensor iio:{} with [gestures] set",
+                imu.display(),
+                imu.display()
+            )),
             "{text}"
         );
         std::fs::remove_dir_all(&root).ok();

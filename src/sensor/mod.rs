@@ -30,6 +30,7 @@ pub mod device;
 pub mod evdev;
 pub mod held;
 pub mod iio;
+pub mod iio_imu;
 pub mod imu_playback;
 pub mod imu_ring;
 pub mod listing;
@@ -70,7 +71,8 @@ pub enum SensorSpec {
         baud: Option<u32>,
     },
     /// `iio:/sys/bus/iio/devices/iio:deviceN/in_voltageM_raw`: an ADC
-    /// channel.
+    /// channel; `iio:/sys/bus/iio/devices/iio:deviceN`, with a gesture
+    /// set: an IMU's accel and anglvel channels.
     Iio(PathBuf),
 }
 

@@ -18,6 +18,7 @@ use crate::rt::report::RunReport;
 use crate::rt::telemetry_thread::{EventSink, Watchers};
 use crate::rt::threads::{self, LoopSettings, RunOptions};
 use crate::sensor::evdev::imu::EvdevImu;
+use crate::sensor::iio_imu::IioImu;
 use crate::sensor::imu_playback::ImuPlayback;
 use crate::sensor::serial_imu::SerialImu;
 use crate::sensor::settings::SerialFormat;
@@ -92,6 +93,7 @@ pub fn run(
         Some((config, ImuSource::Recording(playback))) => return start.on(&config, playback),
         Some((config, ImuSource::Serial(port))) => return start.on(&config, port),
         Some((config, ImuSource::Evdev(device))) => return start.on(&config, *device),
+        Some((config, ImuSource::Iio(device))) => return start.on(&config, device),
         None => {}
     }
     open_sensor(
@@ -119,12 +121,14 @@ enum ImuSource {
     Serial(SerialImu),
     /// An input device with the accelerometer property.
     Evdev(Box<EvdevImu>),
+    /// An IIO device's accel and anglvel channels.
+    Iio(IioImu),
 }
 
 /// For a person with gestures: the IMU `--sensor` names (an IMU
 /// recording, `csv:FILE`, read whole; a serial port with
 /// `[sensor.serial] format = "imu"`, opened and answering; an input
-/// device with the accelerometer property), and the configuration with
+/// device with the accelerometer property; an IIO device's directory), and the configuration with
 /// their set loaded and no breath sensor. `None` for a breath sensor; an
 /// error, before anything starts, for gestures without an IMU, an IMU
 /// without gestures, or an IMU lacking a channel the set was recorded
@@ -135,13 +139,13 @@ fn imu_sensor(config: &Config, plan: &RunPlan) -> anyhow::Result<Option<(Config,
     let imu = match plan.sensor {
         SensorSpec::Csv(path) if is_imu_csv(path) => true,
         SensorSpec::Serial { .. } => serial.format == SerialFormat::Imu,
-        SensorSpec::Evdev(_) => gestures.is_some(),
+        SensorSpec::Evdev(_) | SensorSpec::Iio(_) => gestures.is_some(),
         _ => false,
     };
     if !imu {
         if let Some(set) = gestures {
             anyhow::bail!(
-                "[gestures] set = {:?}: gestures need an IMU: give --sensor evdev:name=NAME (an input device with the accelerometer property: `sipnpuff sensors` marks them), csv:IMU.csv (a recording played live) or serial:PORT with [sensor.serial] format = \"imu\"; IIO IMUs are not wired yet, nor a breath sensor beside an IMU. Leave [gestures] out to run on breaths",
+                "[gestures] set = {:?}: gestures need an IMU: give --sensor evdev:name=NAME (an input device with the accelerometer property: `sipnpuff sensors` marks them), iio:/sys/bus/iio/devices/iio:deviceN (an IIO IMU), csv:IMU.csv (a recording played live) or serial:PORT with [sensor.serial] format = \"imu\"; a breath sensor beside an IMU is not wired yet. Leave [gestures] out to run on breaths",
                 set.display()
             );
         }
@@ -162,6 +166,15 @@ fn imu_sensor(config: &Config, plan: &RunPlan) -> anyhow::Result<Option<(Config,
                 ImuSource::Evdev(Box::new(device)),
                 channels,
                 target.to_string(),
+            )
+        }
+        SensorSpec::Iio(dir) => {
+            let device = IioImu::open(dir, &config.sensor().iio).map_err(anyhow::Error::new)?;
+            let channels = device.channels();
+            (
+                ImuSource::Iio(device),
+                channels,
+                format!("iio:{}", dir.display()),
             )
         }
         SensorSpec::Csv(path) => {

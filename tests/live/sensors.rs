@@ -356,3 +356,57 @@ fn a_serial_imu_streams_a_persons_gestures_then_a_disconnect_is_a_fault() {
         );
     });
 }
+
+#[test]
+fn an_iio_imu_is_read_through_its_sysfs_channels() {
+    // A directory laid out as sysfs lays out an IIO IMU's: a head at
+    // rest, gravity on z (±2 g: 0.000598 m/s² a count).
+    let dir = Scratch::new();
+    let device = dir.join("iio:device0");
+    std::fs::create_dir_all(&device).unwrap();
+    for (file, value) in [
+        ("name", "mpu6050"),
+        ("in_accel_x_raw", "12"),
+        ("in_accel_y_raw", "-30"),
+        ("in_accel_z_raw", "16400"),
+        ("in_accel_scale", "0.000598"),
+        ("in_anglvel_x_raw", "2"),
+        ("in_anglvel_y_raw", "-1"),
+        ("in_anglvel_z_raw", "0"),
+        ("in_anglvel_scale", "0.000133090"),
+    ] {
+        std::fs::write(device.join(file), format!("{value}\n")).unwrap();
+    }
+    let sensor = format!("iio:{}", device.display());
+    // A loaded test machine may starve the reader for a while: allowed
+    // here, as shared-machine.toml allows the breath sensor.
+    let loaded = dir.join("loaded.toml");
+    std::fs::write(&loaded, "[gestures]\nstale_ms = 1000\n").unwrap();
+    crate::common::real_time(|| {
+        // Half a second: the values never change, and a second of that
+        // would rightly be the frozen fault.
+        let out = crate::common::sipnpuff()
+            .args([
+                "run",
+                "--sensor",
+                &sensor,
+                "--config",
+                "fixtures/gesture-user/config.toml",
+                "--config",
+                loaded.to_str().unwrap(),
+                "--seconds",
+                "0.5",
+                "--no-display",
+            ])
+            .output()
+            .unwrap();
+        let (stdout, stderr) = (
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr),
+        );
+        assert_eq!(out.status.code(), Some(0), "{stderr}\n{stdout}");
+        let said = format!("sensor: {sensor} (IMU ax,ay,az,gx,gy,gz; read 1000 times a second)");
+        assert!(stdout.contains(&said), "{said}\n{stdout}");
+        assert!(!stdout.contains("\"event\":\"fault\""), "{stdout}");
+    });
+}

@@ -1,0 +1,307 @@
+//! `--sensor iio:/sys/bus/iio/devices/iio:deviceN` (the device's
+//! directory) for a head-worn IMU the kernel drives through its IIO
+//! subsystem (an MPU-6050, a BMI160, an LSM6DS3 on I2C or SPI).
+//!
+//! The channels are `in_accel_{x,y,z}_raw` and `in_anglvel_{x,y,z}_raw`;
+//! each value is (raw + `_offset`) × `_scale`, from the channel's own
+//! files or its type's shared ones (`in_accel_scale`), in the IIO ABI's
+//! units: m/s² and rad/s, the units of the IMU CSV. A reader thread reads
+//! every channel `[sensor.iio] rate_hz` times a second with `pread` on
+//! files kept open, on absolute deadlines, and queues each sample on the
+//! IMU ring ([`imu_ring`](crate::sensor::imu_ring)); a read failing (the
+//! device unbound) ends the reader: the IMU lost, a fault at once.
+//! Sysfs reads keep up to about 1 kHz for six channels (10–20 µs each);
+//! the buffered interface is not read.
+
+use std::fs::File;
+use std::io;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use crate::control::imu::{CHANNELS, Channel, Channels, ImuSample};
+use crate::sensor::iio::{PERMISSION_FIX, read_raw};
+use crate::sensor::imu_ring::{ImuRing, imu_ring};
+use crate::sensor::settings::IioSettings;
+use crate::sensor::{Producer, Sensor, SensorError, Started};
+
+/// The sysfs name of a channel's value: `in_accel_x` … `in_anglvel_z`.
+fn channel_name(channel: Channel) -> &'static str {
+    match channel {
+        Channel::Ax => "in_accel_x",
+        Channel::Ay => "in_accel_y",
+        Channel::Az => "in_accel_z",
+        Channel::Gx => "in_anglvel_x",
+        Channel::Gy => "in_anglvel_y",
+        Channel::Gz => "in_anglvel_z",
+    }
+}
+
+/// The shared attributes' prefix of a channel's type: `in_accel` or
+/// `in_anglvel`.
+fn type_name(channel: Channel) -> &'static str {
+    if channel.is_acceleration() {
+        "in_accel"
+    } else {
+        "in_anglvel"
+    }
+}
+
+/// One channel's conversion: value = (raw + offset) × scale.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChannelScale {
+    /// SI units per count (`_scale`).
+    pub scale: f64,
+    /// Counts added before scaling (`_offset`, usually 0).
+    pub offset: f64,
+}
+
+impl ChannelScale {
+    /// The value of a raw reading.
+    pub fn value(&self, raw: i64) -> f64 {
+        (raw as f64 + self.offset) * self.scale
+    }
+}
+
+/// Reads a sysfs number file.
+fn read_number(path: &Path) -> Result<f64, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    text.trim()
+        .parse()
+        .map_err(|_| format!("{}: {:?} is not a number", path.display(), text.trim()))
+}
+
+/// The IMU channels an IIO device's directory has, each with its scale
+/// and offset; an error if it has none, or a channel without a usable
+/// scale.
+pub fn imu_channels(dir: &Path) -> Result<Vec<(Channel, ChannelScale)>, String> {
+    let mut found = Vec::new();
+    for channel in Channel::ALL {
+        let name = channel_name(channel);
+        if !dir.join(format!("{name}_raw")).exists() {
+            continue;
+        }
+        let attribute = |what: &str| {
+            [
+                format!("{name}_{what}"),
+                format!("{}_{what}", type_name(channel)),
+            ]
+            .into_iter()
+            .map(|f| dir.join(f))
+            .find(|p| p.exists())
+        };
+        let scale = match attribute("scale") {
+            Some(path) => read_number(&path)?,
+            None => {
+                return Err(format!(
+                    "no {name}_scale or {}_scale: its units are unknown",
+                    type_name(channel)
+                ));
+            }
+        };
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(format!("{name}: its scale is {scale}"));
+        }
+        let offset = match attribute("offset") {
+            Some(path) => read_number(&path)?,
+            None => 0.0,
+        };
+        found.push((channel, ChannelScale { scale, offset }));
+    }
+    if found.is_empty() {
+        return Err(
+            "it has no in_accel_*_raw or in_anglvel_*_raw: not an IMU (an ADC channel is given by its in_voltageN_raw file)"
+                .to_string(),
+        );
+    }
+    Ok(found)
+}
+
+/// Whether an IIO device's directory holds IMU channels.
+pub fn is_imu(dir: &Path) -> bool {
+    Channel::ALL
+        .into_iter()
+        .any(|c| dir.join(format!("{}_raw", channel_name(c))).exists())
+}
+
+/// An opened IIO IMU: each channel's file, kept open, and its scale.
+pub struct IioImu {
+    dir: PathBuf,
+    rate_hz: u32,
+    channels: Vec<(Channel, ChannelScale, File)>,
+    first: ImuSample,
+}
+
+impl IioImu {
+    /// Opens the device's IMU channels and reads one sample.
+    pub fn open(dir: &Path, settings: &IioSettings) -> Result<IioImu, SensorError> {
+        let wrong = |message: String| SensorError::WrongDevice {
+            device: format!("iio:{}", dir.display()),
+            message,
+        };
+        if !dir.is_dir() {
+            return Err(SensorError::NotFound {
+                path: dir.to_path_buf(),
+            });
+        }
+        let mut channels = Vec::new();
+        for (channel, scale) in imu_channels(dir).map_err(wrong)? {
+            let path = dir.join(format!("{}_raw", channel_name(channel)));
+            let file = File::open(&path)
+                .map_err(|e| SensorError::opening_device(&path, e, PERMISSION_FIX))?;
+            channels.push((channel, scale, file));
+        }
+        let mut imu = IioImu {
+            dir: dir.to_path_buf(),
+            rate_hz: settings.rate_hz.max(1),
+            channels,
+            first: ImuSample::default(),
+        };
+        imu.first = imu
+            .read()
+            .map_err(|e| wrong(format!("cannot read a sample: {e}")))?;
+        Ok(imu)
+    }
+
+    /// The channels it gives.
+    pub fn channels(&self) -> Channels {
+        self.channels
+            .iter()
+            .fold(Channels::NONE, |set, (c, _, _)| set.with(*c))
+    }
+
+    /// One sample: every channel read once (a channel it lacks reads 0).
+    fn read(&self) -> io::Result<ImuSample> {
+        let mut values = [0.0; CHANNELS];
+        for (channel, scale, file) in &self.channels {
+            if let Some(v) = values.get_mut(channel.index()) {
+                *v = scale.value(read_raw(file)?);
+            }
+        }
+        Ok(ImuSample { values })
+    }
+}
+
+impl Sensor for IioImu {
+    type Samples = ImuRing;
+
+    fn describe(&self) -> String {
+        format!(
+            "iio:{} (IMU {}; read {} times a second)",
+            self.dir.display(),
+            self.channels(),
+            self.rate_hz
+        )
+    }
+
+    fn start(self) -> Result<Started<ImuRing>, SensorError> {
+        let (mut feed, samples) = imu_ring();
+        feed.push(self.first);
+        let producer = Producer::spawn("sensor-iio-imu", move |stop| {
+            let period = Duration::from_secs(1) / self.rate_hz;
+            let mut next = Instant::now() + period;
+            while !stop.load(Ordering::Relaxed) {
+                let now = Instant::now();
+                if next > now {
+                    std::thread::sleep(next - now);
+                }
+                // A read failing (the device unbound) ends the reader:
+                // `feed` dropped tells the control thread the IMU is lost.
+                let Ok(sample) = self.read() else {
+                    break;
+                };
+                feed.push(sample);
+                next += period;
+                let now = Instant::now();
+                if next < now {
+                    // Behind (a slow read): from now, no burst of catch-up
+                    // reads.
+                    next = now;
+                }
+            }
+            Ok(())
+        })?;
+        Ok(Started { samples, producer })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::control::imu::ImuInput;
+    use crate::sensor::Samples;
+
+    /// A directory laid out as sysfs lays out an MPU-6050's.
+    fn device(name: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("sipnpuff-iio-imu-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn an_iio_imu_is_read_in_si_units_with_its_scales_and_offsets() {
+        let dir = device("mpu");
+        // ±2 g: 0.000598 m/s² a count; ±250 °/s: 0.000133 rad/s a count.
+        for (file, value) in [
+            ("in_accel_x_raw", "-100\n"),
+            ("in_accel_y_raw", "0\n"),
+            ("in_accel_z_raw", "16384\n"),
+            ("in_accel_scale", "0.000598\n"),
+            ("in_anglvel_x_raw", "250\n"),
+            ("in_anglvel_y_raw", "-7\n"),
+            ("in_anglvel_z_raw", "0\n"),
+            ("in_anglvel_scale", "0.000133090\n"),
+            ("in_anglvel_z_offset", "10\n"),
+            ("in_temp_raw", "1\n"),
+        ] {
+            std::fs::write(dir.join(file), value).unwrap();
+        }
+        assert!(is_imu(&dir));
+        let imu = IioImu::open(&dir, &IioSettings::default()).unwrap();
+        assert_eq!(imu.channels(), Channels::ALL);
+        assert_eq!(
+            imu.first.values,
+            [
+                -100.0 * 0.000598,
+                0.0,
+                16384.0 * 0.000598,
+                250.0 * 0.000133090,
+                -7.0 * 0.000133090,
+                10.0 * 0.000133090
+            ]
+        );
+        assert!(
+            imu.describe()
+                .contains("IMU ax,ay,az,gx,gy,gz; read 1000 times")
+        );
+        // Started: the first sample is there at once; the reader goes on.
+        let mut started = imu.start().unwrap();
+        assert!(matches!(
+            started.samples.try_read(0).imu,
+            ImuInput::Sample(_)
+        ));
+        started.producer.stop().unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn a_device_without_imu_channels_or_units_is_refused_saying_why() {
+        let dir = device("adc");
+        std::fs::write(dir.join("in_voltage0_raw"), "1\n").unwrap();
+        assert!(!is_imu(&dir));
+        let e = IioImu::open(&dir, &IioSettings::default())
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("not an IMU"), "{e}");
+        std::fs::write(dir.join("in_accel_x_raw"), "1\n").unwrap();
+        let e = IioImu::open(&dir, &IioSettings::default())
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("no in_accel_x_scale or in_accel_scale"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
