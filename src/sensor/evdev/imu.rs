@@ -25,7 +25,7 @@ use crate::control::imu::{CHANNELS, Channel, Channels, ImuSample};
 use crate::sensor::evdev::events::{
     EV_ABS, EV_SYN, EVENT_BYTES, InputEvent, SYN_DROPPED, SYN_REPORT, parse_events,
 };
-use crate::sensor::evdev::{Wanted, absinfo, clear_fuzz, find};
+use crate::sensor::evdev::{Polled, Wanted, absinfo, clear_fuzz, find, poll_read};
 use crate::sensor::imu_ring::{ImuFeed, ImuRing, imu_ring};
 use crate::sensor::{EvdevTarget, Producer, Sensor, SensorError, Started};
 
@@ -276,43 +276,15 @@ fn read_frames(
     let fd = device.as_raw_fd();
     let mut buffer = [0u8; EVENT_BYTES * 64];
     while !stopping() {
-        let mut poll = libc::pollfd {
-            fd,
-            events: libc::POLLIN,
-            revents: 0,
-        };
-        // SAFETY: one valid pollfd, for the length given.
-        let ready = unsafe { libc::poll(&mut poll, 1, HOLD_MS) };
-        if ready < 0 {
-            let e = io::Error::last_os_error();
-            if e.kind() == io::ErrorKind::Interrupted {
+        let read = match poll_read(fd, &mut buffer, HOLD_MS)? {
+            Polled::Read(n) => buffer.get(..n).unwrap_or_default(),
+            Polled::Interrupted => continue,
+            Polled::TimedOut => {
+                // Nothing changed: the device holds its values.
+                feed.push(frames.sample());
                 continue;
             }
-            return Err(e);
-        }
-        if ready == 0 {
-            // Nothing changed: the device holds its values.
-            feed.push(frames.sample());
-            continue;
-        }
-        if poll.revents & (libc::POLLERR | libc::POLLHUP | libc::POLLNVAL) != 0
-            && poll.revents & libc::POLLIN == 0
-        {
-            return Err(io::Error::from_raw_os_error(libc::ENODEV));
-        }
-        // SAFETY: reads at most `buffer.len()` bytes into `buffer`.
-        let n = unsafe { libc::read(fd, buffer.as_mut_ptr().cast(), buffer.len()) };
-        if n < 0 {
-            let e = io::Error::last_os_error();
-            match e.kind() {
-                io::ErrorKind::Interrupted | io::ErrorKind::WouldBlock => continue,
-                _ => return Err(e),
-            }
-        }
-        if n == 0 {
-            return Err(io::Error::from_raw_os_error(libc::ENODEV));
-        }
-        let read = buffer.get(..n.unsigned_abs()).unwrap_or_default();
+        };
         let mut dropped = false;
         for event in parse_events(read) {
             if event.kind == EV_SYN && event.code == SYN_DROPPED {

@@ -416,13 +416,63 @@ impl Sensor for EvdevSensor {
     }
 }
 
+/// What one wait on a device's events gave.
+pub(super) enum Polled {
+    /// Nothing within the timeout.
+    TimedOut,
+    /// A signal (or a spurious wake-up): wait again.
+    Interrupted,
+    /// This many bytes of events read.
+    Read(usize),
+}
+
+/// Waits up to `timeout_ms` for the device's events and reads them into
+/// `buffer`; the device gone is an `ENODEV` error.
+pub(super) fn poll_read(fd: RawFd, buffer: &mut [u8], timeout_ms: i32) -> io::Result<Polled> {
+    let mut poll = libc::pollfd {
+        fd,
+        events: libc::POLLIN,
+        revents: 0,
+    };
+    // SAFETY: one valid pollfd, for the length given.
+    let ready = unsafe { libc::poll(&mut poll, 1, timeout_ms) };
+    if ready < 0 {
+        let e = io::Error::last_os_error();
+        return match e.kind() {
+            io::ErrorKind::Interrupted => Ok(Polled::Interrupted),
+            _ => Err(e),
+        };
+    }
+    if ready == 0 {
+        return Ok(Polled::TimedOut);
+    }
+    if poll.revents & (libc::POLLERR | libc::POLLHUP | libc::POLLNVAL) != 0
+        && poll.revents & libc::POLLIN == 0
+    {
+        return Err(io::Error::from_raw_os_error(libc::ENODEV));
+    }
+    // SAFETY: reads at most `buffer.len()` bytes into `buffer`.
+    let n = unsafe { libc::read(fd, buffer.as_mut_ptr().cast(), buffer.len()) };
+    if n < 0 {
+        let e = io::Error::last_os_error();
+        return match e.kind() {
+            io::ErrorKind::Interrupted | io::ErrorKind::WouldBlock => Ok(Polled::Interrupted),
+            _ => Err(e),
+        };
+    }
+    if n == 0 {
+        return Err(io::Error::from_raw_os_error(libc::ENODEV));
+    }
+    Ok(Polled::Read(n.unsigned_abs()))
+}
+
 /// The reader thread's side of the device.
 struct Reader {
     sensor: EvdevSensor,
 }
 
 /// How long a poll waits before checking the stop flag, ms.
-pub(super) const POLL_MS: i32 = 50;
+const POLL_MS: i32 = 50;
 
 impl DeviceReader for Reader {
     fn what(&self) -> String {
@@ -437,42 +487,12 @@ impl DeviceReader for Reader {
         let fd = self.sensor.device.as_raw_fd();
         let mut buffer = [0u8; EVENT_BYTES * 64];
         while !stop.load(Ordering::Relaxed) {
-            let mut poll = libc::pollfd {
-                fd,
-                events: libc::POLLIN,
-                revents: 0,
+            let n = match poll_read(fd, &mut buffer, POLL_MS)? {
+                Polled::Read(n) => n,
+                Polled::TimedOut | Polled::Interrupted => continue,
             };
-            // SAFETY: one valid pollfd, for the length given.
-            let ready = unsafe { libc::poll(&mut poll, 1, POLL_MS) };
-            if ready < 0 {
-                let e = io::Error::last_os_error();
-                if e.kind() == io::ErrorKind::Interrupted {
-                    continue;
-                }
-                return Err(e);
-            }
-            if ready == 0 {
-                continue;
-            }
-            if poll.revents & (libc::POLLERR | libc::POLLHUP | libc::POLLNVAL) != 0
-                && poll.revents & libc::POLLIN == 0
-            {
-                return Err(io::Error::from_raw_os_error(libc::ENODEV));
-            }
-            // SAFETY: reads at most `buffer.len()` bytes into `buffer`.
-            let n = unsafe { libc::read(fd, buffer.as_mut_ptr().cast(), buffer.len()) };
-            if n < 0 {
-                let e = io::Error::last_os_error();
-                match e.kind() {
-                    io::ErrorKind::Interrupted | io::ErrorKind::WouldBlock => continue,
-                    _ => return Err(e),
-                }
-            }
-            if n == 0 {
-                return Err(io::Error::from_raw_os_error(libc::ENODEV));
-            }
             let mut dropped = false;
-            for event in parse_events(&buffer[..n as usize]) {
+            for event in parse_events(buffer.get(..n).unwrap_or_default()) {
                 if event.kind == EV_SYN && event.code == SYN_DROPPED {
                     dropped = true;
                 } else if let Some(volts) = self.sensor.mapper.apply(event) {
