@@ -67,6 +67,22 @@ fn read_number(path: &Path) -> io::Result<f64> {
     })
 }
 
+/// A channel's attribute `what` (`scale`, `offset`) in the device's
+/// directory `dir`: the channel's own file (`{channel}_{what}`), else its
+/// type's shared one (`{shared}_{what}`), read; `None` when neither exists.
+pub(crate) fn channel_attribute(
+    dir: &Path,
+    channel: &str,
+    shared: &str,
+    what: &str,
+) -> Option<io::Result<f64>> {
+    [format!("{channel}_{what}"), format!("{shared}_{what}")]
+        .into_iter()
+        .map(|f| dir.join(f))
+        .find(|p| p.exists())
+        .map(|p| read_number(&p))
+}
+
 /// The channel's `_scale` and `_offset` (its own files, else the type's
 /// shared ones): `in_voltage0_raw` → `in_voltage0_scale` or
 /// `in_voltage_scale`.
@@ -79,16 +95,7 @@ fn channel_files(raw: &Path) -> Result<(f64, f64), String> {
     let dir = raw.parent().unwrap_or(Path::new("."));
     // `in_voltage0` → `in_voltage`: the shared attribute's prefix.
     let shared = name.trim_end_matches(|c: char| c.is_ascii_digit());
-    let find = |attribute: &str| -> Option<io::Result<f64>> {
-        [
-            format!("{name}_{attribute}"),
-            format!("{shared}_{attribute}"),
-        ]
-        .into_iter()
-        .map(|f| dir.join(f))
-        .find(|p| p.exists())
-        .map(|p| read_number(&p))
-    };
+    let find = |what: &str| channel_attribute(dir, name, shared, what);
     let scale = match find("scale") {
         Some(Ok(scale)) if scale.is_finite() && scale > 0.0 => scale,
         Some(Ok(scale)) => return Err(format!("its scale is {scale} mV per count")),

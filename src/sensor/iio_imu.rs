@@ -20,7 +20,7 @@ use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use crate::control::imu::{CHANNELS, Channel, Channels, ImuSample};
-use crate::sensor::iio::{PERMISSION_FIX, read_raw};
+use crate::sensor::iio::{PERMISSION_FIX, channel_attribute, read_raw};
 use crate::sensor::imu_ring::{ImuRing, imu_ring};
 use crate::sensor::settings::IioSettings;
 use crate::sensor::{Producer, Sensor, SensorError, Started};
@@ -63,15 +63,6 @@ impl ChannelScale {
     }
 }
 
-/// Reads a sysfs number file.
-fn read_number(path: &Path) -> Result<f64, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    text.trim()
-        .parse()
-        .map_err(|_| format!("{}: {:?} is not a number", path.display(), text.trim()))
-}
-
 /// The IMU channels an IIO device's directory has, each with its scale
 /// and offset; an error if it has none, or a channel without a usable
 /// scale.
@@ -83,30 +74,20 @@ pub fn imu_channels(dir: &Path) -> Result<Vec<(Channel, ChannelScale)>, String> 
             continue;
         }
         let attribute = |what: &str| {
-            [
-                format!("{name}_{what}"),
-                format!("{}_{what}", type_name(channel)),
-            ]
-            .into_iter()
-            .map(|f| dir.join(f))
-            .find(|p| p.exists())
+            channel_attribute(dir, name, type_name(channel), what)
+                .transpose()
+                .map_err(|e| format!("{name}: cannot read its {what}: {e}"))
         };
-        let scale = match attribute("scale") {
-            Some(path) => read_number(&path)?,
-            None => {
-                return Err(format!(
-                    "no {name}_scale or {}_scale: its units are unknown",
-                    type_name(channel)
-                ));
-            }
+        let Some(scale) = attribute("scale")? else {
+            return Err(format!(
+                "no {name}_scale or {}_scale: its units are unknown",
+                type_name(channel)
+            ));
         };
         if !(scale.is_finite() && scale > 0.0) {
             return Err(format!("{name}: its scale is {scale}"));
         }
-        let offset = match attribute("offset") {
-            Some(path) => read_number(&path)?,
-            None => 0.0,
-        };
+        let offset = attribute("offset")?.unwrap_or(0.0);
         found.push((channel, ChannelScale { scale, offset }));
     }
     if found.is_empty() {
