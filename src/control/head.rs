@@ -199,6 +199,8 @@ pub struct Head {
     /// In a command mode: the gravity at rest when it began.
     reference: Option<[f64; 3]>,
     tilted: Option<Breath>,
+    /// The last tick was in a command mode.
+    commanding: bool,
 }
 
 impl Head {
@@ -221,6 +223,7 @@ impl Head {
             smoothed: None,
             reference: None,
             tilted: None,
+            commanding: false,
         })
     }
 
@@ -239,6 +242,14 @@ impl Head {
             out.faulted = true;
             return out;
         }
+        if self.commanding && !commanding {
+            // Driving tilted and turned the head for as long as it took:
+            // what the front end made of it is no gesture, and the rest
+            // it tracked may be a held tilt. Selection starts afresh from
+            // the head's posture as it is (the gyro's bias is kept).
+            self.recognizer.restart();
+        }
+        self.commanding = commanding;
         let verdict = self.recognizer.step(now, sample.as_ref());
         out.in_motion = self.recognizer.in_motion();
         if let Some((_, held)) = self.last {
@@ -425,6 +436,83 @@ mod tests {
             out = h.step(t, pitched(degrees, t), true);
         }
         out
+    }
+
+    /// The head pitched along a smooth move from `from` to `to` degrees
+    /// over `ms` ticks starting at `start`, at tick `t`: gravity and the
+    /// pitch rate as a worn IMU reads them.
+    fn pitching(from: f64, to: f64, start: Tick, ms: u64, t: Tick) -> ImuInput {
+        let tau = ((t.saturating_sub(start)) as f64 / ms as f64).clamp(0.0, 1.0);
+        let shape = 0.5 - 0.5 * (std::f64::consts::PI * tau).cos();
+        let degrees = from + (to - from) * shape;
+        let rate = (to - from).to_radians()
+            * 0.5
+            * std::f64::consts::PI
+            * (std::f64::consts::PI * tau).sin()
+            / (ms as f64 / 1000.0);
+        let ImuInput::Sample(mut s) = pitched(degrees, t) else {
+            unreachable!()
+        };
+        s.values[4] = rate;
+        ImuInput::Sample(s)
+    }
+
+    /// A person drives with their chin down for 6 s, brings the head back
+    /// and rests until the mode ends; the front end then reads the next
+    /// movement from the head's rest as it is, as when the session began:
+    /// nothing under way when selection begins, and a nod made at once is
+    /// a movement of its own length, not one too long.
+    #[test]
+    fn selection_after_driving_reads_movements_from_the_head_at_rest() {
+        let mut t = 3000;
+        let mut h = head();
+        for t0 in 0..3000 {
+            h.step(t0, pitched(0.0, t0), false);
+        }
+        for (from, to, ms) in [
+            (0.0, 20.0, 400),
+            (20.0, 20.0, 6000),
+            (20.0, 0.0, 400),
+            (0.0, 0.0, 2000),
+        ] {
+            let start = t;
+            for _ in 0..ms {
+                h.step(t, pitching(from, to, start, ms, t), true);
+                t += 1;
+            }
+        }
+        let out = h.step(t, pitched(0.0, t), false);
+        assert!(!out.in_motion, "under way when selection begins, at {t}");
+        // A nod at once: down 15° and back in 600 ms.
+        let start = t + 1;
+        let mut ended = None;
+        for now in start..start + 2000 {
+            let input = if now < start + 300 {
+                pitching(0.0, 15.0, start, 300, now)
+            } else {
+                pitching(15.0, 0.0, start + 300, 300, now)
+            };
+            if let Some(g) = h.step(now, input, false).gesture {
+                ended = Some((now, g));
+                break;
+            }
+        }
+        let (now, gesture) = ended.expect("the nod never ended");
+        assert!(
+            !matches!(
+                gesture,
+                HeadGesture::Rejected {
+                    why: RejectReason::TooLong,
+                    ..
+                }
+            ),
+            "{gesture:?}"
+        );
+        assert!(
+            now - start < 1200,
+            "ended {} ms after it began",
+            now - start
+        );
     }
 
     #[test]

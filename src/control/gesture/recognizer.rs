@@ -280,4 +280,10 @@ impl Recognizer {
     pub fn reset(&mut self) {
         self.segmenter.reset();
     }
+
+    /// Back to rest from the next sample's posture, keeping the gyro's
+    /// bias. RT-safe.
+    pub fn restart(&mut self) {
+        self.segmenter.restart();
+    }
 }

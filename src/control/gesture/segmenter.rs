@@ -145,6 +145,15 @@ impl Segmenter {
         *self = Segmenter::new(&self.config);
     }
 
+    /// Back to rest with no sample, keeping the gyro's bias (the
+    /// sensor's, whatever the head did): the next frame's gravity is the
+    /// rest, as a new posture.
+    pub fn restart(&mut self) {
+        let bias = self.rest.bias;
+        self.reset();
+        self.rest.bias = bias;
+    }
+
     /// One frame beginning at `start` with mean sample `mean`.
     fn frame(&mut self, start: Tick, mean: &ImuSample) -> Option<SegmentEnd> {
         if !self.rest.started() {
