@@ -8,6 +8,7 @@ use crate::cli::args::ConfigArg;
 use crate::cli::output;
 use crate::sim::study::atypical::{self, AtypicalOptions};
 use crate::sim::study::fit_paper::{self, FitPlan, Targets};
+use crate::sim::study::head::{self, HeadStudyOptions};
 use crate::sim::study::{
     StudyOptions, StudyReport, SweepParam, plot, run_study, study_text, sweep, sweep_text,
 };
@@ -43,6 +44,12 @@ pub struct StudyArgs {
     /// fitted study beside the paper.
     #[arg(long, conflicts_with_all = ["sweep", "plot", "atypical"])]
     fit_paper: bool,
+    /// Instead, the six simulated head-gesture people: each records their
+    /// gestures by the protocol, then does the three tasks selecting with
+    /// gestures and driving with head tilts, beside the breath study's
+    /// ASP and BSP in the same run.
+    #[arg(long, conflicts_with_all = ["sweep", "plot", "atypical", "fit_paper", "users", "config"])]
+    head: bool,
 }
 
 /// Runs the study (or a sweep) and prints it.
@@ -57,6 +64,23 @@ pub fn study(args: StudyArgs) -> anyhow::Result<()> {
             output::stdout_line(&serde_json::to_string(&results)?)
         } else {
             output::stdout(&atypical::text(&results))
+        }
+        .context("stdout");
+    }
+    if args.head {
+        let options = HeadStudyOptions {
+            seed: args.seed,
+            ..HeadStudyOptions::default()
+        };
+        let report = head::run(&options, |done, total| {
+            progress!("\r{done}/{total} head runs");
+        })
+        .map_err(|e| anyhow::anyhow!(e))?;
+        note!();
+        return if args.json {
+            output::stdout_line(&serde_json::to_string(&report)?)
+        } else {
+            output::stdout(&head::text(&report))
         }
         .context("stdout");
     }

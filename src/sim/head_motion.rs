@@ -282,9 +282,11 @@ pub struct HeadState {
 
 /// Walks a [`HeadMotion`] forward in time, keeping only what is active:
 /// a finished step is folded into a constant, a finished wave dropped.
+/// Moves may be added as it goes ([`MotionCursor::add`]): a person in
+/// closed loop decides their next move from what they see.
 #[derive(Debug)]
-pub struct MotionCursor<'a> {
-    motion: &'a HeadMotion,
+pub struct MotionCursor {
+    motion: HeadMotion,
     next_step: usize,
     active_steps: Vec<Step>,
     settled: [f64; 3],
@@ -305,7 +307,7 @@ impl HeadMotion {
     }
 
     /// A cursor to evaluate it at increasing times (after [`HeadMotion::finish`]).
-    pub fn cursor(&self) -> MotionCursor<'_> {
+    pub fn into_cursor(self) -> MotionCursor {
         MotionCursor {
             motion: self,
             next_step: 0,
@@ -319,10 +321,15 @@ impl HeadMotion {
     }
 }
 
-impl MotionCursor<'_> {
+impl MotionCursor {
+    /// Adds a move (starting no earlier than the last evaluated time).
+    pub fn add(&mut self, step: Step) {
+        self.active_steps.push(step);
+    }
+
     /// The state at `t` s, no earlier than the last call's.
     pub fn at(&mut self, t: f64) -> HeadState {
-        let m = self.motion;
+        let m = &self.motion;
         while let Some(step) = m.steps.get(self.next_step).filter(|s| s.start <= t) {
             self.active_steps.push(*step);
             self.next_step += 1;

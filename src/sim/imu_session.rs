@@ -7,20 +7,18 @@
 //! to the nearest tick. Outside it the head makes no move of that
 //! gesture; the tremor, the noise and the vibration go on throughout.
 
-use std::f64::consts::PI;
-
 use rand::seq::SliceRandom;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
 use serde::Serialize;
 
 use crate::control::Tick;
 use crate::control::imu::{Channels, ImuSample};
 use crate::sim::head_gesture::{GestureName, gesture_example};
-use crate::sim::head_motion::{Axis, Envelope, HeadMotion, Step, Wave, ideal_reading};
+use crate::sim::head_motion::{Axis, HeadMotion, Step};
 use crate::sim::imu_user::ImuUser;
-use crate::sim::ordinary_movement::{Gaze, ordinary_movement, vibration};
+use crate::sim::ordinary_movement::{Gaze, ordinary_movement};
+use crate::sim::worn_imu::{WornImu, add_body};
 
 /// Examples of each gesture in the protocol.
 pub const EXAMPLES: u32 = 5;
@@ -141,45 +139,10 @@ impl Plan {
     /// Samples the plan, `user`'s sensor and body added.
     fn sample(mut self, user: &ImuUser, rng: &mut ChaCha8Rng) -> ImuSession {
         let length = self.now;
-        let posture = [
-            (Axis::Pitch, user.posture_pitch_deg),
-            (Axis::Roll, user.posture_roll_deg),
-        ];
-        for (axis, degrees) in posture {
-            self.motion.steps.push(Step {
-                axis,
-                start: -2.0,
-                duration: 1.0,
-                amount: degrees.to_radians(),
-            });
-        }
-        if user.tremor_deg > 0.0 {
-            // Mostly pitch and yaw, a little roll; one modulation.
-            let envelope = Envelope::Modulated {
-                depth: user.tremor_modulation,
-                hz: ImuUser::TREMOR_MODULATION_HZ,
-                phase: rng.random_range(0.0..2.0 * PI),
-            };
-            for (axis, share) in [(Axis::Pitch, 1.0), (Axis::Yaw, 0.7), (Axis::Roll, 0.3)] {
-                self.motion.waves.push(Wave {
-                    axis,
-                    amplitude: share * user.tremor_deg.to_radians(),
-                    hz: user.tremor_hz,
-                    phase: rng.random_range(0.0..2.0 * PI),
-                    envelope,
-                });
-            }
-        }
-        if user.wheelchair > 0.0 {
-            let jolts = vibration(user.wheelchair, (0.0, f64::INFINITY), rng);
-            self.motion.jolts.extend(jolts);
-        }
+        add_body(user, &mut self.motion, rng);
         self.motion.finish();
-        let bias: [f64; 3] = std::array::from_fn(|_| user.gyro_bias * rng.random_range(-1.0..=1.0));
-        let drift_phase: [f64; 3] = std::array::from_fn(|_| rng.random_range(0.0..2.0 * PI));
-        let accel_noise = Normal::new(0.0, user.accel_noise).ok();
-        let gyro_noise = Normal::new(0.0, user.gyro_noise).ok();
-        let mut cursor = self.motion.cursor();
+        let sensor = WornImu::new(user, rng);
+        let mut cursor = self.motion.into_cursor();
         let rate = u64::from(user.rate_hz.clamp(1, 1000));
         let mut samples = Vec::new();
         for i in 0.. {
@@ -188,23 +151,14 @@ impl Plan {
                 break;
             }
             let t = tick as f64 / 1000.0;
-            let (accel, gyro) = ideal_reading(&cursor.at(t));
-            let mut values = [0.0; 6];
-            for k in 0..3 {
-                let drift =
-                    user.gyro_drift * (2.0 * PI * t / user.drift_period_s + drift_phase[k]).sin();
-                values[k] = accel[k] + accel_noise.map_or(0.0, |n| n.sample(rng));
-                values[k + 3] =
-                    gyro[k] + bias[k] + drift + gyro_noise.map_or(0.0, |n| n.sample(rng));
-            }
-            samples.push((tick, ImuSample { values }));
+            samples.push((tick, sensor.read(t, &cursor.at(t), rng)));
         }
         ImuSession {
             channels: Channels::ALL,
             samples,
             truth: self.truth,
             ordinary: self.ordinary,
-            gyro_bias: bias,
+            gyro_bias: sensor.bias,
         }
     }
 }
@@ -376,7 +330,7 @@ pub fn ordinary_session(user: &ImuUser, minutes: u32, seed: u64) -> ImuSession {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::head_motion::GRAVITY;
+    use crate::sim::head_motion::{GRAVITY, ideal_reading};
 
     fn typical() -> ImuUser {
         ImuUser::builtin("typical").unwrap()
@@ -385,7 +339,7 @@ mod tests {
     /// Samples `motion` noise-free at 1 kHz for `seconds`.
     fn ideal(mut motion: HeadMotion, seconds: f64) -> Vec<([f64; 3], [f64; 3])> {
         motion.finish();
-        let mut cursor = motion.cursor();
+        let mut cursor = motion.into_cursor();
         (0..=(seconds * 1000.0) as u64)
             .map(|ms| ideal_reading(&cursor.at(ms as f64 / 1000.0)))
             .collect()

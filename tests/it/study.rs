@@ -334,3 +334,41 @@ fn the_fit_report_has_its_keys_and_is_deterministic_for_a_seed() {
     }
     assert_eq!(json, run());
 }
+
+/// A person who moves rather than breathes does the paper's first task
+/// through the production core: their own set, recorded by the protocol,
+/// reads their gestures; each selects its mode, and tilting the head
+/// drives the arm. They finish, enter every mode the task needs and no
+/// other, and move at the tilt's share of full speed, so for longer than
+/// a breath at full speed would.
+#[test]
+fn a_head_gesture_user_does_the_first_task_with_their_own_set() {
+    use sipnpuff::sim::head_user::{HeadParticipant, run_head_task};
+    use sipnpuff::sim::imu_user::ImuUser;
+    use sipnpuff::sim::study::head::head_config;
+    use sipnpuff::sim::study::tasks::TASKS;
+    use sipnpuff::sim::user::UserModel;
+
+    let user = ImuUser::builtin("typical").unwrap();
+    let (config, (right, examples)) = head_config(&user, 1).unwrap();
+    assert_eq!((right, examples), (30, 30));
+    let person = HeadParticipant {
+        user,
+        reaction_ms: UserModel::POPULATION.reaction_ms,
+    };
+    let task = &TASKS[0];
+    let run = run_head_task(&config, task.steps, &person, 7);
+    assert!(!run.timed_out, "{run:?}");
+    assert_eq!(run.wrong_selections, 0, "{run:?}");
+    assert_eq!(
+        run.selections as usize,
+        task.mode_changes().count(),
+        "{run:?}"
+    );
+    assert!(
+        run.moving_s > f64::from(task.moving_ms()) / 1000.0,
+        "{run:?}"
+    );
+    // The same seed, the same run.
+    assert_eq!(run_head_task(&config, task.steps, &person, 7), run);
+}

@@ -7,6 +7,7 @@
 
 pub mod atypical;
 pub mod fit_paper;
+pub mod head;
 pub mod libraries;
 pub mod plot;
 pub mod stats;
