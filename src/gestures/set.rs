@@ -40,6 +40,12 @@ pub struct Gesture {
     pub examples: Vec<Example>,
 }
 
+/// The version of the frames' features a set's examples hold (the
+/// `features` key): a set whose frames another front end computed would
+/// be compared feature for feature with frames that mean something else,
+/// so it is refused and recorded again.
+pub const FEATURES_VERSION: u32 = 2;
+
 /// A person's gesture set.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GestureSet {
@@ -101,6 +107,7 @@ impl GestureSet {
         if !header.is_empty() {
             out.push('\n');
         }
+        let _ = writeln!(out, "features = {FEATURES_VERSION}");
         let _ = writeln!(out, "channels = \"{}\"", self.channels);
         if let Some(recording) = &self.recording {
             let _ = writeln!(out, "recording = {}", toml_string(recording));
@@ -151,6 +158,20 @@ impl GestureSet {
         let mut problem = |span: Range<usize>, message: String| {
             problems.push(format!("line {}: {message}", line_of(text, span.start)));
         };
+        let version = file.features.as_ref().map(|v| *v.get_ref());
+        if version != Some(FEATURES_VERSION) {
+            let span = file.features.as_ref().map_or(0..0, Spanned::span);
+            problem(
+                span,
+                format!(
+                    "features: the examples' frames were computed by {} front end (this one is version {FEATURES_VERSION}): record the gestures again with `sipnpuff gestures record`",
+                    version.map_or_else(
+                        || "an earlier".to_string(),
+                        |v| format!("version {v} of the")
+                    )
+                ),
+            );
+        }
         let mut channels = Channels::NONE;
         for name in file.channels.get_ref().split(',').map(str::trim) {
             match Channel::from_name(name) {
@@ -296,6 +317,7 @@ fn line_of(text: &str, offset: usize) -> usize {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SetFile {
+    features: Option<Spanned<u32>>,
     channels: Spanned<String>,
     recording: Option<String>,
     front_end: Spanned<FrontEnd>,
@@ -387,9 +409,9 @@ mod tests {
         assert_eq!(
             problems,
             [
-                "line 1: channels: `volts` is not a channel (known: ax, ay, az, gx, gy, gz)",
-                "line 19: gesture #1.threshold: -1 is not a distance > 0",
-                "line 74: gesture #2.name: `nod` is named twice",
+                "line 2: channels: `volts` is not a channel (known: ax, ay, az, gx, gy, gz)",
+                "line 20: gesture #1.threshold: -1 is not a distance > 0",
+                "line 75: gesture #2.name: `nod` is named twice",
             ]
         );
     }
@@ -402,8 +424,27 @@ mod tests {
         let problems = GestureSet::from_toml(&text).unwrap_err();
         assert_eq!(problems.len(), 1);
         assert!(
-            problems[0].starts_with("line 19: unknown field `treshold`"),
+            problems[0].starts_with("line 20: unknown field `treshold`"),
             "{problems:?}"
+        );
+    }
+
+    #[test]
+    fn a_set_from_an_earlier_front_end_is_refused_with_what_to_do() {
+        let text = a_set().to_toml(&[]);
+        let earlier = text.replace(&format!("features = {FEATURES_VERSION}\n"), "");
+        assert_eq!(
+            GestureSet::from_toml(&earlier).unwrap_err(),
+            [
+                "line 1: features: the examples' frames were computed by an earlier front end (this one is version 2): record the gestures again with `sipnpuff gestures record`"
+            ]
+        );
+        let other = text.replace("features = 2", "features = 1");
+        assert_eq!(
+            GestureSet::from_toml(&other).unwrap_err(),
+            [
+                "line 1: features: the examples' frames were computed by version 1 of the front end (this one is version 2): record the gestures again with `sipnpuff gestures record`"
+            ]
         );
     }
 }

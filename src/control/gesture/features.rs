@@ -11,11 +11,13 @@
 //!   divided by g (for small angles, the tilt away from rest in radians).
 //!   Rates show the movement itself (a nod, a shake); the gravity
 //!   deviation shows where the head points, so a held tilt or look stays
-//!   visible after the rates have died down. The rates enter as their
-//!   signed square roots ([`rate_feature`]), so a fast small movement
-//!   does not outweigh the angle a larger one reaches. Bias and gravity
-//!   are tracked
-//!   (exponential average) only while the head is at rest.
+//!   visible after the rates have died down. The rates enter linearly
+//!   when small and as square roots when large ([`rate_feature`]), so a
+//!   fast small movement does not outweigh the angle a larger one
+//!   reaches. Bias and gravity are tracked
+//!   (exponential average) only while the head is at rest. The segmenter
+//!   smooths the gravity deviation over [`SMOOTHING_FRAMES`] frames
+//!   before it enters a frame (see the segmenter).
 //!
 //! Frames are `f32`: the features carry far less than seven significant
 //! digits of meaning, and half the size halves the templates' memory and
@@ -209,32 +211,67 @@ impl MovingAverage {
             *slot = rate;
         }
         self.next = (self.next + 1) % SMOOTHING_FRAMES;
+        self.mean().iter().map(|m| m.powi(2)).sum::<f64>().sqrt()
+    }
+
+    /// The mean of the last [`SMOOTHING_FRAMES`] vectors (zeros before
+    /// the first).
+    pub fn mean(&self) -> [f64; 3] {
         let mut sum = [0.0; 3];
         for r in &self.recent {
             for (s, v) in sum.iter_mut().zip(r) {
                 *s += v;
             }
         }
-        sum.iter()
-            .map(|s| (s / SMOOTHING_FRAMES as f64).powi(2))
-            .sum::<f64>()
-            .sqrt()
+        sum.map(|s| s / SMOOTHING_FRAMES as f64)
     }
 }
 
-/// How much the rates weigh against the tilt in a frame (1: a rate of
-/// 1 rad/s weighs as a tilt of 1 rad; 0.3 and 2 gave more false
-/// activations on the synthetic users' ordinary movement).
-pub const RATE_WEIGHT: f64 = 1.0;
+/// How much the rates weigh against the tilt in a frame (0.7: a rate of
+/// 1 rad/s weighs as a tilt of 0.29 rad through [`rate_feature`]'s
+/// knee; the tilt, smoothed, is the steadier measure of how far the
+/// head went).
+pub const RATE_WEIGHT: f64 = 0.7;
 
-/// A rate's feature: its signed square root (rad/s), times
-/// [`RATE_WEIGHT`]. The root compresses speed: talk's small fast nods
-/// (2–5 Hz, 0.5–8°) reach rates near a deliberate nod's, and plain
-/// rates let that speed outweigh the amplitude the gravity deviation
-/// shows; with the root, false activations of nod and double nod on the
-/// typical user's hour of ordinary movement fell from 35/h to 20/h.
+/// Where [`rate_feature`] turns from about linear to a square root,
+/// rad/s (1: a deliberate nod peaks at 1.5–3 rad/s; an off-axis drift
+/// of a few per cent of it, or a tremor's ±0.5 rad/s, stays near the
+/// linear part).
+pub const RATE_KNEE: f64 = 1.0;
+
+/// A rate's feature, rad/s in, times [`RATE_WEIGHT`]:
+/// `sign(r)·(√(|r| + k) − √k)` with `k` = [`RATE_KNEE`]. Above the knee
+/// it grows as a square root, which compresses speed: talk's small fast
+/// nods (2–5 Hz) reach rates near a deliberate nod's, and plain rates
+/// let that speed outweigh the amplitude the tilt shows. Below the knee
+/// it is about linear (slope `1/(2√k)`): a plain square root's infinite
+/// slope at zero made the few per cent of a gesture that go off its
+/// axis, and a tremor's swings, weigh as much as the movement itself.
 pub fn rate_feature(rate: f64) -> f64 {
-    RATE_WEIGHT * rate.signum() * rate.abs().sqrt()
+    RATE_WEIGHT * rate.signum() * ((rate.abs() + RATE_KNEE).sqrt() - RATE_KNEE.sqrt())
+}
+
+/// The rate, rad/s, whose [`rate_feature`] is `feature` (its inverse).
+pub fn feature_rate(feature: f64) -> f64 {
+    let root = feature.abs() / RATE_WEIGHT + RATE_KNEE.sqrt();
+    feature.signum() * (root * root - RATE_KNEE)
+}
+
+/// How far `frames` (of `frame_ms` each) turn the head from where it was
+/// at their start, at most, rad: their rates integrated, the largest
+/// angle reached. A gesture's size, whatever its speed; a tremor's or
+/// a vibration's swings integrate to little. RT-safe.
+pub fn excursion(frames: &[Frame], frame_ms: u32) -> f64 {
+    let frame_s = f64::from(frame_ms) / 1000.0;
+    let mut turned = [0.0f64; 3];
+    let mut most = 0.0f64;
+    for frame in frames {
+        for (a, &f) in turned.iter_mut().zip(frame.iter()) {
+            *a += feature_rate(f64::from(f)) * frame_s;
+        }
+        most = most.max(turned.iter().map(|a| a * a).sum::<f64>());
+    }
+    most.sqrt()
 }
 
 /// The magnitude of a frame's rate features.
@@ -308,8 +345,38 @@ mod tests {
         rest.bias = [0.1, 0.0, 0.0];
         let tilted = sample([0.0, GRAVITY * 0.5, GRAVITY, 1.1, 0.0, 0.0]);
         let frame = rest.features(&tilted);
-        assert_eq!(frame, [1.0, 0.0, 0.0, 0.0, 0.5, 0.0]);
+        let one = rate_feature(1.0) as f32;
+        assert_eq!(frame, [one, 0.0, 0.0, 0.0, 0.5, 0.0]);
         assert!((tilt_magnitude(&frame) - 0.5).abs() < 1e-9);
-        assert!((rate_magnitude(&frame) - 1.0).abs() < 1e-9);
+        assert!((rate_magnitude(&frame) - f64::from(one)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_rate_feature_is_linear_when_small_and_a_root_when_large() {
+        let slope = RATE_WEIGHT / (2.0 * RATE_KNEE.sqrt());
+        assert!((rate_feature(0.01) / 0.01 - slope).abs() < 0.01 * slope);
+        assert_eq!(rate_feature(0.0), 0.0);
+        assert_eq!(rate_feature(-2.0), -rate_feature(2.0));
+        // Four times the rate, about twice the feature, far above the knee.
+        let r = 10_000.0 * RATE_KNEE;
+        assert!((rate_feature(4.0 * r) / rate_feature(r) - 2.0).abs() < 0.1);
+        for rate in [-3.0, -0.2, 0.0, 0.05, 1.0, 2.5] {
+            assert!(
+                (feature_rate(rate_feature(rate)) - rate).abs() < 1e-12,
+                "{rate}"
+            );
+        }
+    }
+
+    #[test]
+    fn excursion_is_the_largest_angle_turned() {
+        // 0.5 rad/s for 10 frames of 60 ms, then back: 0.3 rad at most.
+        let out = [rate_feature(0.5) as f32, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let back = [rate_feature(-0.5) as f32, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let frames: Vec<Frame> = std::iter::repeat_n(out, 10)
+            .chain(std::iter::repeat_n(back, 10))
+            .collect();
+        assert!((excursion(&frames, 60) - 0.3).abs() < 1e-6);
+        assert_eq!(excursion(&[], 60), 0.0);
     }
 }

@@ -28,9 +28,9 @@ pub mod templates;
 
 pub use config::GestureConfig;
 pub use dtw::{Envelope, dtw_distance, lb_keogh};
-pub use features::{FEATURES, Frame, FrameBuilder, MAX_FRAMES};
+pub use features::{FEATURES, Frame, FrameBuilder, MAX_FRAMES, excursion};
 pub use recognizer::{
-    Classification, GestureEvent, Recognizer, RejectReason, Verdict, comparable_lengths,
+    Classification, GestureEvent, MIN_SIZE, Recognizer, RejectReason, Verdict, comparable_lengths,
 };
 pub use segmenter::{Segment, SegmentEnd, Segmenter, segments};
 pub use templates::{GestureId, GestureTemplates, MAX_GESTURES, MAX_TEMPLATES, TemplateError};

@@ -25,6 +25,9 @@
 //!   the next starts only after `rest_ms` of quiet (any orientation: the
 //!   person may have settled in a new posture, which becomes the rest).
 //! * The gyro bias and the gravity are tracked only at rest.
+//! * A frame's gravity deviation (its last three features) is the
+//!   smoothed one the hold test sees ([`MovingAverage`]), so a tremor's
+//!   or vibration's linear acceleration does not enter the distance.
 
 use crate::control::Tick;
 use crate::control::gesture::config::GestureConfig;
@@ -161,7 +164,7 @@ impl Segmenter {
             self.rest.track(mean, self.config.rest_alpha());
             return None;
         }
-        let frame = self.rest.features(mean);
+        let mut frame = self.rest.features(mean);
         let frame_ms = u64::from(self.config.frame_ms.max(1));
         let frame_s = frame_ms as f64 / 1000.0;
         let mut rate = self.rest.rate(mean);
@@ -180,6 +183,12 @@ impl Segmenter {
         }
         let quiet = smoothed < self.config.motion_off_rad_s;
         let away = self.tilt_smoother.push(tilt).max(self.yaw().abs());
+        // The frame's tilt is the smoothed one: a tremor's or vibration's
+        // linear acceleration swings the gravity by up to ±0.15 g at
+        // 4–9 Hz, as much as a gesture's tilt, and averages out.
+        for (f, t) in frame.iter_mut().skip(3).zip(self.tilt_smoother.mean()) {
+            *f = t as f32;
+        }
         let near_rest = away < self.config.hold_tilt_rad;
         let rest_ms = u64::from(self.config.rest_ms);
         match self.state {
