@@ -60,12 +60,7 @@ pub fn study(args: StudyArgs) -> anyhow::Result<()> {
             ..AtypicalOptions::default()
         };
         let results = atypical::run(&options);
-        return if args.json {
-            output::stdout_line(&serde_json::to_string(&results)?)
-        } else {
-            output::stdout(&atypical::text(&results))
-        }
-        .context("stdout");
+        return print(args.json, &results[..], atypical::text);
     }
     if args.head {
         let options = HeadStudyOptions {
@@ -77,12 +72,7 @@ pub fn study(args: StudyArgs) -> anyhow::Result<()> {
         })
         .map_err(|e| anyhow::anyhow!(e))?;
         note!();
-        return if args.json {
-            output::stdout_line(&serde_json::to_string(&report)?)
-        } else {
-            output::stdout(&head::text(&report))
-        }
-        .context("stdout");
+        return print(args.json, &report, head::text);
     }
     let config = args.config.load()?;
     let options = StudyOptions {
@@ -102,12 +92,7 @@ pub fn study(args: StudyArgs) -> anyhow::Result<()> {
             .map_err(anyhow::Error::from),
         )?;
         note!();
-        return if args.json {
-            output::stdout_line(&serde_json::to_string(&report)?)
-        } else {
-            output::stdout(&fit_paper::fit_text(&report))
-        }
-        .context("stdout");
+        return print(args.json, &report, fit_paper::fit_text);
     }
     if let Some(param) = args.sweep {
         let rows = sweep(&config, &options, param, |label, done, total| {
@@ -143,4 +128,18 @@ pub fn study(args: StudyArgs) -> anyhow::Result<()> {
         note!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// `report` as one JSON line, or as `text` words it.
+fn print<T: serde::Serialize + ?Sized>(
+    json: bool,
+    report: &T,
+    text: impl FnOnce(&T) -> String,
+) -> anyhow::Result<()> {
+    if json {
+        output::stdout_line(&serde_json::to_string(report)?)
+    } else {
+        output::stdout(&text(report))
+    }
+    .context("stdout")
 }

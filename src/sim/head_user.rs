@@ -8,7 +8,6 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, LogNormal};
 
 use crate::arm::sim::SimulatedJaco;
 use crate::config::Config;
@@ -24,7 +23,7 @@ use crate::sim::head_gesture::{GestureName, gesture_example};
 use crate::sim::head_motion::{Axis, HeadMotion, MotionCursor, Step};
 use crate::sim::imu_user::ImuUser;
 use crate::sim::study::tasks::TaskStep;
-use crate::sim::user::TaskRun;
+use crate::sim::user::{TaskRun, reaction_ms};
 use crate::sim::worn_imu::{WornImu, add_body};
 
 /// Longest a task may take in simulation before it is abandoned, ticks.
@@ -157,13 +156,7 @@ struct Agent<'a> {
 
 impl Agent<'_> {
     fn reaction(&mut self) -> Tick {
-        let (mean, sd) = self.person.reaction_ms;
-        let sigma2 = (1.0 + (sd / mean).powi(2)).ln();
-        let mu = mean.ln() - sigma2 / 2.0;
-        let ms = LogNormal::new(mu, sigma2.sqrt())
-            .map(|d| d.sample(&mut self.rng))
-            .unwrap_or(mean);
-        ms.clamp(100.0, 5000.0) as Tick
+        Tick::from(reaction_ms(self.person.reaction_ms, &mut self.rng))
     }
 
     fn tilt_ms(&self) -> f64 {

@@ -93,6 +93,17 @@ impl UserModel {
     }
 }
 
+/// A reaction time drawn from a log-normal of `(mean, sd)` ms, kept
+/// within 100–5000 ms.
+pub fn reaction_ms((mean, sd): (f64, f64), rng: &mut ChaCha8Rng) -> u32 {
+    let sigma2 = (1.0 + (sd / mean).powi(2)).ln();
+    let mu = mean.ln() - sigma2 / 2.0;
+    let ms = LogNormal::new(mu, sigma2.sqrt())
+        .map(|d| d.sample(rng))
+        .unwrap_or(mean);
+    ms.clamp(100.0, 5000.0) as u32
+}
+
 /// How one run of a task went.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct TaskRun {
@@ -178,14 +189,7 @@ impl Agent<'_> {
     }
 
     fn reaction(&mut self) -> u32 {
-        let (mean, sd) = self.user.reaction_ms;
-        // Log-normal with this mean and SD.
-        let sigma2 = (1.0 + (sd / mean).powi(2)).ln();
-        let mu = mean.ln() - sigma2 / 2.0;
-        let ms = LogNormal::new(mu, sigma2.sqrt())
-            .map(|d| d.sample(&mut self.rng))
-            .unwrap_or(mean);
-        ms.clamp(100.0, 5000.0) as u32
+        reaction_ms(self.user.reaction_ms, &mut self.rng)
     }
 
     fn burst_ms(&mut self, long: bool) -> u32 {
