@@ -372,3 +372,54 @@ fn a_head_gesture_user_does_the_first_task_with_their_own_set() {
     // The same seed, the same run.
     assert_eq!(run_head_task(&config, task.steps, &person, 7), run);
 }
+
+/// `study --head`'s report: the breath study's ASP and BSP of the same
+/// seed beside the head's, for each task; each of the six people with
+/// their set, and runs that all finish with no wrong mode entered.
+#[test]
+fn the_head_study_sets_every_person_beside_the_breath_study() {
+    use sipnpuff::sim::study::head::{self, HeadStudyOptions};
+
+    let options = HeadStudyOptions { seed: 1, runs: 1 };
+    let report = head::run(&options, |_, _| {}).unwrap();
+    let breath = run_study(&Config::default(), &study_options(8, 1), |_, _| {}).unwrap();
+    assert_eq!(report.tasks.len(), 3);
+    for (row, task) in report.tasks.iter().zip(&breath) {
+        let s = task.summary();
+        assert_eq!(
+            (row.task, row.asp_mean_s, row.bsp_mean_s),
+            (s.task, s.asp_mean_s, s.bsp_mean_s)
+        );
+        assert_eq!(row.head_unfinished, 0, "{row:?}");
+        assert!(row.head_mean_s > 0.0, "{row:?}");
+    }
+    let names: Vec<&str> = report.people.iter().map(|p| p.name).collect();
+    assert_eq!(
+        names,
+        [
+            "typical",
+            "slow_small",
+            "fast_large",
+            "tremor",
+            "wheelchair",
+            "drifting"
+        ]
+    );
+    for person in &report.people {
+        assert_eq!(person.tasks.len(), 3);
+        for run in person.tasks.iter().flatten() {
+            assert_eq!(run.wrong_selections, 0, "{}: {run:?}", person.name);
+        }
+    }
+    let text = head::text(&report);
+    assert!(
+        text.starts_with("| task | ASP s (breath) | BSP s (breath) | head s |"),
+        "{text}"
+    );
+    assert_eq!(
+        text.lines()
+            .filter(|l| l.starts_with("| typical |"))
+            .count(),
+        1
+    );
+}
