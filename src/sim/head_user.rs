@@ -12,8 +12,8 @@ use rand_chacha::ChaCha8Rng;
 use crate::arm::sim::SimulatedJaco;
 use crate::config::Config;
 use crate::control::Tick;
-use crate::control::action::Breath;
 use crate::control::event::Event;
+use crate::control::gesture::features::norm3;
 use crate::control::imu::ImuInput;
 use crate::control::mode::{Direction, Mode, ModeState};
 use crate::control::pipeline::Pipeline;
@@ -262,10 +262,9 @@ impl Agent<'_> {
     /// gone (a millisecond at full speed adds 1).
     fn speed_share(&self, out: &TickOutput) -> f64 {
         let limits = self.config.core().motion();
-        let norm = |v: [f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
         let m = &out.motion;
-        (norm(m.linear) / limits.linear_speed_mps)
-            .max(norm(m.angular) / limits.angular_speed_radps)
+        (norm3(m.linear) / limits.linear_speed_mps)
+            .max(norm3(m.angular) / limits.angular_speed_radps)
             .max(m.fingers_velocity.abs() / limits.finger_speed)
     }
 
@@ -317,10 +316,7 @@ impl Agent<'_> {
         match state {
             ModeState::Command(mode) if mode == step.mode => {
                 let start = now + self.reaction();
-                let sign = match step.breath {
-                    Breath::Puff => 1.0,
-                    Breath::Sip => -1.0,
-                };
+                let sign = Direction::of(step.breath).sign();
                 self.pitch(head, start, sign * self.person.drive_deg());
                 self.busy_until = start;
                 self.phase = Phase::Driving {
