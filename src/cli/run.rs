@@ -38,6 +38,14 @@ pub struct RunArgs {
     /// lists what this machine has).
     #[arg(long, default_value = "synthetic", value_parser = SensorSpec::parse)]
     sensor: SensorSpec,
+    /// A head-worn IMU read beside the breath sensor, so the library may
+    /// mix breaths and gestures (`[gestures] set` in the config):
+    /// `evdev:name=SUBSTRING` or `evdev:/dev/input/eventN` (an input
+    /// device with the accelerometer property), `iio:/sys/bus/iio/devices/iio:deviceN`,
+    /// `serial:PATH[,baud=N]` (lines `ax,ay,az,gx,gy,gz`) or `csv:IMU.csv`
+    /// (a recording played live). For the IMU alone, give it as --sensor.
+    #[arg(long, value_name = "SENSOR", value_parser = SensorSpec::parse)]
+    imu: Option<SensorSpec>,
     /// The arm: `sim` (the simulated JACO2), `ros2:TOPIC` (MoveIt Servo,
     /// ros2_kortex's twist controller, a JACO2 ROS 2 port), `ros1:NAMESPACE`
     /// (kinova-ros's driver, e.g. `ros1:/j2n6s300_driver`; the master from
@@ -98,6 +106,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     let settings = args.rt.loop_settings(args.seconds)?;
     let plan = RunPlan {
         sensor: &args.sensor,
+        imu: args.imu.as_ref(),
         arm: &args.arm,
         outputs: &args.outputs,
         settings: &settings,

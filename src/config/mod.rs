@@ -144,6 +144,13 @@ impl Config {
         self
     }
 
+    /// The same configuration for a run on a breath sensor with an IMU
+    /// beside it: the person's gestures loaded, the breath sensor kept.
+    pub fn for_breath_and_imu(mut self, gestures: GestureSetup) -> Config {
+        self.core = self.core.with_gestures(gestures);
+        self
+    }
+
     /// The core's settings: what the pipeline and the runtime are built
     /// from.
     pub fn core(&self) -> &CoreConfig {

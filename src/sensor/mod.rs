@@ -23,7 +23,9 @@
 //! microcontroller's stream, the FLipMouse and LipSync dialects) and
 //! [`iio`] (an ADC through the kernel's IIO subsystem). A device's neutral
 //! is measured before anything can move ([`rezero`]); [`listing`] finds
-//! what this machine has (`sipnpuff sensors`).
+//! what this machine has (`sipnpuff sensors`). A head-worn IMU is read
+//! by the same seam ([`imu_sensor`]: evdev, IIO, serial or a recording),
+//! alone or beside a breath sensor ([`with_imu`]).
 
 pub mod csv;
 pub mod device;
@@ -33,12 +35,14 @@ pub mod iio;
 pub mod iio_imu;
 pub mod imu_playback;
 pub mod imu_ring;
+pub mod imu_sensor;
 pub mod listing;
 pub mod rezero;
 pub mod ring;
 pub mod serial;
 pub mod serial_imu;
 pub mod settings;
+pub mod with_imu;
 
 use std::fmt;
 use std::path::PathBuf;
@@ -243,6 +247,8 @@ pub struct Started<S> {
 pub struct Producer {
     thread: Option<JoinHandle<Result<(), SensorError>>>,
     stop: Arc<AtomicBool>,
+    /// A second sensor's producer, stopped with this one.
+    also: Option<Box<Producer>>,
 }
 
 impl Producer {
@@ -251,7 +257,18 @@ impl Producer {
         Producer {
             thread: None,
             stop: Arc::new(AtomicBool::new(false)),
+            also: None,
         }
+    }
+
+    /// This producer and `other` as one: both are stopped together (a
+    /// breath sensor's and an IMU's, read side by side).
+    pub fn and(mut self, other: Producer) -> Producer {
+        self.also = Some(Box::new(match self.also.take() {
+            None => other,
+            Some(also) => also.and(other),
+        }));
+        self
     }
 
     /// Spawns a producer thread named `name`; `body` gets the flag that
@@ -272,19 +289,23 @@ impl Producer {
         Ok(Producer {
             thread: Some(thread),
             stop,
+            also: None,
         })
     }
 
-    /// Asks the thread to end, waits for it, and returns what it met.
+    /// Asks the thread (and any joined with it) to end, waits for it, and
+    /// returns what it met: the first error, if both met one.
     pub fn stop(mut self) -> Result<(), SensorError> {
         self.stop.store(true, Ordering::Relaxed);
-        match self.thread.take() {
+        let also = self.also.take().map(|also| also.stop());
+        let own = match self.thread.take() {
             None => Ok(()),
             Some(thread) => thread.join().unwrap_or(Err(SensorError::Disconnected {
                 what: "the sensor thread".into(),
                 detail: "it stopped unexpectedly (panicked)".into(),
             })),
-        }
+        };
+        own.and(also.unwrap_or(Ok(())))
     }
 }
 

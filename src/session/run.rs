@@ -1,5 +1,6 @@
 //! `run`'s session: the display's address taken, the arm and the outputs
-//! opened, the sensor opened (a device re-zeroed), then the loop run on
+//! opened, the sensor opened (a device re-zeroed; an IMU alone or beside
+//! a breath sensor), then the loop run on
 //! them, its events to the sink given, watched by the display and
 //! recorded if asked. The recording ends before the report is returned,
 //! its summary in the report (and its `report.json`); the terminal view
@@ -10,7 +11,6 @@ use std::path::Path;
 use crate::arm::Arm;
 use crate::arm::ArmSpec;
 use crate::config::Config;
-use crate::control::imu::Channels;
 use crate::output::{Output, OutputSpec};
 use crate::rt::output_thread::Serves;
 use crate::rt::recorder::SessionRecorder;
@@ -20,14 +20,16 @@ use crate::rt::threads::{self, LoopSettings, RunOptions};
 use crate::sensor::evdev::imu::EvdevImu;
 use crate::sensor::iio_imu::IioImu;
 use crate::sensor::imu_playback::ImuPlayback;
+use crate::sensor::imu_sensor::ImuSensor;
 use crate::sensor::serial_imu::SerialImu;
 use crate::sensor::settings::SerialFormat;
-use crate::sensor::{Prepared, Sensor, SensorSpec};
+use crate::sensor::with_imu::WithImu;
+use crate::sensor::{Sensor, SensorSpec};
 use crate::session::Console;
 use crate::session::gestures;
 use crate::session::showing::{Display, DisplayChoice};
 use crate::sim::synthetic_sensor::SyntheticSensor;
-use crate::tools::imu_csv::{is_imu_csv, read_imu_csv};
+use crate::tools::imu_csv::{FULL_HEADER, is_imu_csv, read_imu_csv};
 use crate::tools::recording::recorder::Recorder;
 use crate::tools::recording::writer::RecordOptions;
 use crate::wiring::arm::open_arm;
@@ -40,6 +42,8 @@ use crate::wiring::sensor::{OnSensor, open_sensor};
 pub struct RunPlan<'a> {
     /// `--sensor`.
     pub sensor: &'a SensorSpec,
+    /// `--imu`: a head-worn IMU beside the breath sensor, if given.
+    pub imu: Option<&'a SensorSpec>,
     /// `--arm`.
     pub arm: &'a ArmSpec,
     /// `--output`, each.
@@ -89,63 +93,65 @@ pub fn run(
         display: &display,
         max_hold_set_in: plan.max_hold_set_in,
     };
+    let synthetic = |config: &Config, name: Option<&str>| match name {
+        None => Ok((config.clone(), SyntheticSensor::built_in_user(config))),
+        Some(name) => {
+            let (config, breather) =
+                SyntheticSensor::breather_named(config, name).map_err(anyhow::Error::msg)?;
+            let user = SyntheticSensor::breather_user(&config, &breather);
+            Ok((config, user))
+        }
+    };
     match imu {
-        Some((config, ImuSource::Recording(playback))) => return start.on(&config, playback),
-        Some((config, ImuSource::Serial(port))) => return start.on(&config, port),
-        Some((config, ImuSource::Evdev(device))) => return start.on(&config, *device),
-        Some((config, ImuSource::Iio(device))) => return start.on(&config, device),
-        None => {}
+        Some((config, imu, Beside::Nothing)) => start.on(&config, imu),
+        Some((config, imu, Beside::Breath)) => {
+            let start = WithImuStart { imu, start };
+            open_sensor(plan.sensor, &config, synthetic, start, &say)
+        }
+        None => open_sensor(plan.sensor, config, synthetic, start, &say),
     }
-    open_sensor(
-        plan.sensor,
-        config,
-        |config, name| match name {
-            None => Ok((config.clone(), SyntheticSensor::built_in_user(config))),
-            Some(name) => {
-                let (config, breather) =
-                    SyntheticSensor::breather_named(config, name).map_err(anyhow::Error::msg)?;
-                let user = SyntheticSensor::breather_user(&config, &breather);
-                Ok((config, user))
-            }
-        },
-        start,
-        &say,
-    )
 }
 
-/// A head-worn IMU's samples.
-enum ImuSource {
-    /// A recording played live.
-    Recording(Prepared<ImuPlayback>),
-    /// A microcontroller's stream on a serial port.
-    Serial(SerialImu),
-    /// An input device with the accelerometer property.
-    Evdev(Box<EvdevImu>),
-    /// An IIO device's accel and anglvel channels.
-    Iio(IioImu),
-}
-
-/// For a person with gestures: the IMU `--sensor` names (an IMU
-/// recording, `csv:FILE`, read whole; a serial port with
-/// `[sensor.serial] format = "imu"`, opened and answering; an input
-/// device with the accelerometer property; an IIO device's directory), and the configuration with
-/// their set loaded and no breath sensor. `None` for a breath sensor; an
-/// error, before anything starts, for gestures without an IMU, an IMU
-/// without gestures, or an IMU lacking a channel the set was recorded
-/// with.
-fn imu_sensor(config: &Config, plan: &RunPlan) -> anyhow::Result<Option<(Config, ImuSource)>> {
+/// For a person with gestures, which sensors `plan` reads and the
+/// configuration for them (their set loaded): the IMU alone, when
+/// `--sensor` is one (an IMU recording `csv:FILE`; a serial port with
+/// `[sensor.serial] format = "imu"`; an input device or IIO device, with
+/// a set); or a breath sensor with `--imu` beside it. `None` for breaths
+/// alone. An error, before anything starts, for gestures without an
+/// IMU, an IMU without gestures, `--imu` beside an IMU, or an IMU lacking
+/// a channel the set was recorded with.
+fn imu_sensor(
+    config: &Config,
+    plan: &RunPlan,
+) -> anyhow::Result<Option<(Config, ImuSensor, Beside)>> {
     let serial = &config.sensor().serial;
     let gestures = config.core().gesture_set_file();
-    let imu = match plan.sensor {
-        SensorSpec::Csv(path) if is_imu_csv(path) => true,
+    let imu_csv = |spec: &SensorSpec| matches!(spec, SensorSpec::Csv(path) if is_imu_csv(path));
+    if let Some(imu) = plan.imu {
+        if imu_csv(plan.sensor)
+            || matches!(plan.sensor, SensorSpec::Serial { .. } if serial.format == SerialFormat::Imu)
+        {
+            anyhow::bail!(
+                "--sensor {}: with --imu, --sensor is the breath sensor (a sip-and-puff device, a breath recording or `synthetic`); give the IMU once, with --imu",
+                spec_text(plan.sensor)
+            );
+        }
+        let setup = gestures::load_setup(config.core())
+            .map_err(|e| anyhow::anyhow!("--imu {}: {e}", spec_text(imu)))?;
+        let config = config.clone().for_breath_and_imu(setup);
+        let sensor = open_imu(imu, &config)?;
+        return Ok(Some((config, sensor, Beside::Breath)));
+    }
+    let alone = match plan.sensor {
+        SensorSpec::Csv(_) => imu_csv(plan.sensor),
         SensorSpec::Serial { .. } => serial.format == SerialFormat::Imu,
         SensorSpec::Evdev(_) | SensorSpec::Iio(_) => gestures.is_some(),
-        _ => false,
+        SensorSpec::Synthetic(_) => false,
     };
-    if !imu {
+    if !alone {
         if let Some(set) = gestures {
             anyhow::bail!(
-                "[gestures] set = {:?}: gestures need an IMU: give --sensor evdev:name=NAME (an input device with the accelerometer property: `sipnpuff sensors` marks them), iio:/sys/bus/iio/devices/iio:deviceN (an IIO IMU), csv:IMU.csv (a recording played live) or serial:PORT with [sensor.serial] format = \"imu\"; a breath sensor beside an IMU is not wired yet. Leave [gestures] out to run on breaths",
+                "[gestures] set = {:?}: gestures need an IMU: give --sensor evdev:name=NAME (an input device with the accelerometer property: `sipnpuff sensors` marks them), iio:/sys/bus/iio/devices/iio:deviceN (an IIO IMU), csv:IMU.csv (a recording played live) or serial:PORT with [sensor.serial] format = \"imu\"; to read breaths too, give the breath sensor with --sensor and the IMU with --imu. Leave [gestures] out to run on breaths",
                 set.display()
             );
         }
@@ -153,35 +159,54 @@ fn imu_sensor(config: &Config, plan: &RunPlan) -> anyhow::Result<Option<(Config,
     }
     let setup = gestures::load_setup(config.core())?;
     let config = config.clone().for_imu(setup);
-    let (source, channels, label) = match plan.sensor {
-        SensorSpec::Serial { path, baud } => (
-            ImuSource::Serial(SerialImu::open(path, *baud, serial).map_err(anyhow::Error::new)?),
-            Channels::ALL,
-            format!("serial:{}", path.display()),
+    let sensor = open_imu(plan.sensor, &config)?;
+    Ok(Some((config, sensor, Beside::Nothing)))
+}
+
+/// Whether an IMU is read alone or beside a breath sensor.
+enum Beside {
+    /// The IMU is the run's only sensor.
+    Nothing,
+    /// The breath sensor `--sensor` names is read too.
+    Breath,
+}
+
+/// `spec` as it was given.
+fn spec_text(spec: &SensorSpec) -> String {
+    match spec {
+        SensorSpec::Synthetic(None) => "synthetic".into(),
+        SensorSpec::Synthetic(Some(name)) => format!("synthetic:{name}"),
+        SensorSpec::Csv(path) => format!("csv:{}", path.display()),
+        SensorSpec::Evdev(target) => target.to_string(),
+        SensorSpec::Serial { path, .. } => format!("serial:{}", path.display()),
+        SensorSpec::Iio(path) => format!("iio:{}", path.display()),
+    }
+}
+
+/// Opens the IMU `spec` names (a recording read whole; a serial port
+/// opened and answering) and checks it gives every channel `config`'s
+/// set was recorded with.
+fn open_imu(spec: &SensorSpec, config: &Config) -> anyhow::Result<ImuSensor> {
+    let sensor = match spec {
+        SensorSpec::Serial { path, baud } => ImuSensor::Serial(
+            SerialImu::open(path, *baud, &config.sensor().serial).map_err(anyhow::Error::new)?,
         ),
-        SensorSpec::Evdev(target) => {
-            let device = EvdevImu::open(target).map_err(anyhow::Error::new)?;
-            let channels = device.channels();
-            (
-                ImuSource::Evdev(Box::new(device)),
-                channels,
-                target.to_string(),
-            )
-        }
+        SensorSpec::Evdev(target) => ImuSensor::Evdev(Box::new(
+            EvdevImu::open(target).map_err(anyhow::Error::new)?,
+        )),
         SensorSpec::Iio(dir) => {
-            let device = IioImu::open(dir, &config.sensor().iio).map_err(anyhow::Error::new)?;
-            let channels = device.channels();
-            (
-                ImuSource::Iio(device),
-                channels,
-                format!("iio:{}", dir.display()),
-            )
+            ImuSensor::Iio(IioImu::open(dir, &config.sensor().iio).map_err(anyhow::Error::new)?)
         }
         SensorSpec::Csv(path) => {
+            if !is_imu_csv(path) {
+                anyhow::bail!(
+                    "--imu csv:{}: not an IMU recording (its header must be `tick` and IMU channels, e.g. `{FULL_HEADER}`)",
+                    path.display()
+                );
+            }
             let recording = read_imu_csv(path).map_err(|e| anyhow::anyhow!("{e}"))?;
-            let channels = recording.channels;
-            (
-                ImuSource::Recording(ImuPlayback::prepared(
+            ImuSensor::Playback {
+                playback: ImuPlayback::prepared(
                     format!(
                         "IMU recording {} ({}, {} samples)",
                         path.display(),
@@ -189,16 +214,32 @@ fn imu_sensor(config: &Config, plan: &RunPlan) -> anyhow::Result<Option<(Config,
                         recording.samples.len()
                     ),
                     recording.samples,
-                )),
-                channels,
-                format!("csv:{}", path.display()),
-            )
+                ),
+                channels: recording.channels,
+            }
         }
-        _ => return Ok(None),
+        SensorSpec::Synthetic(_) => anyhow::bail!(
+            "--imu {}: not an IMU: give evdev:name=NAME, iio:/sys/bus/iio/devices/iio:deviceN, serial:PORT or csv:IMU.csv",
+            spec_text(spec)
+        ),
     };
-    crate::gestures::setup::check_channels(config.core(), &label, channels)
+    crate::gestures::setup::check_channels(config.core(), &spec_text(spec), sensor.channels())
         .map_err(anyhow::Error::msg)?;
-    Ok(Some((config, source)))
+    Ok(sensor)
+}
+
+/// The breath sensor opened, the IMU beside it: the session on both.
+struct WithImuStart<'a> {
+    imu: ImuSensor,
+    start: Start<'a>,
+}
+
+impl OnSensor for WithImuStart<'_> {
+    type Output = RunReport;
+
+    fn on<S: Sensor>(self, config: &Config, sensor: S) -> anyhow::Result<RunReport> {
+        self.start.on(config, WithImu::new(sensor, self.imu))
+    }
 }
 
 /// The session on the sensor opened: the loop on it, the core built from

@@ -130,7 +130,8 @@ pub fn replay_recording(
 
 /// `config` with the person's gestures loaded, if it names a set: the
 /// recording's copy of the set the run used when `config` names the same
-/// set as the recorded configuration, else the set `config` names.
+/// set as the recorded configuration, else the set `config` names; the
+/// breath sensor kept when the run read one beside the IMU.
 fn with_recorded_gestures(recording: &Recording, config: Config) -> anyhow::Result<Config> {
     let Some(path) = config.core().gesture_set_file() else {
         return Ok(config);
@@ -142,7 +143,11 @@ fn with_recorded_gestures(recording: &Recording, config: Config) -> anyhow::Resu
         path.to_path_buf()
     };
     let setup = crate::gestures::setup::load(config.core(), &file).map_err(anyhow::Error::msg)?;
-    Ok(config.for_imu(setup))
+    Ok(if recording.meta.breath_and_imu {
+        config.for_breath_and_imu(setup)
+    } else {
+        config.for_imu(setup)
+    })
 }
 
 /// The replay of `input` could not write its output: the `io::Error`

@@ -660,6 +660,12 @@ fn a_run_with_gestures_needs_an_imu_and_an_imu_needs_gestures() {
         stderr.contains("gestures need an IMU: give --sensor evdev:name=NAME (an input device with the accelerometer property"),
         "{stderr}"
     );
+    assert!(
+        stderr.contains(
+            "to read breaths too, give the breath sensor with --sensor and the IMU with --imu"
+        ),
+        "{stderr}"
+    );
     // An IMU recording without gestures.
     let stderr =
         crate::common::refused(&["run", "--sensor", "csv:fixtures/gesture-user/practice.csv"]);
@@ -667,6 +673,35 @@ fn a_run_with_gestures_needs_an_imu_and_an_imu_needs_gestures() {
         stderr.contains("an IMU needs the person's gestures"),
         "{stderr}"
     );
+}
+
+#[test]
+fn an_imu_beside_a_breath_sensor_is_refused_when_either_is_not_what_it_should_be() {
+    let practice = "csv:fixtures/gesture-user/practice.csv";
+    let person = "fixtures/gesture-user/config.toml";
+    for (args, says) in [
+        (
+            vec!["--imu", practice],
+            "--imu csv:fixtures/gesture-user/practice.csv: an IMU needs the person's gestures",
+        ),
+        (
+            vec!["--sensor", practice, "--imu", practice, "--config", person],
+            "--sensor csv:fixtures/gesture-user/practice.csv: with --imu, --sensor is the breath sensor",
+        ),
+        (
+            vec!["--imu", "csv:fixtures/demo.csv", "--config", person],
+            "--imu csv:fixtures/demo.csv: not an IMU recording (its header must be `tick` and IMU channels, e.g. `tick,ax,ay,az,gx,gy,gz`)",
+        ),
+        (
+            vec!["--imu", "synthetic", "--config", person],
+            "--imu synthetic: not an IMU: give evdev:name=NAME",
+        ),
+    ] {
+        let mut run = vec!["run", "--seconds", "1"];
+        run.extend(args);
+        let stderr = crate::common::refused(&run);
+        assert!(stderr.contains(says), "{run:?}: {stderr}");
+    }
 }
 
 #[test]

@@ -490,3 +490,126 @@ fn a_run_reads_gestures_from_an_imu_recording() {
         );
     });
 }
+
+/// A person who breathes and moves: a breath recording with an IMU
+/// recording beside it (`--imu`). A nod then a short puff is one
+/// sequence; the recording keeps both sensors and replays bit for bit.
+#[test]
+fn a_run_reads_a_breath_sensor_and_an_imu_side_by_side() {
+    use sipnpuff::config::Config;
+    use sipnpuff::control::action::Breath;
+    use sipnpuff::control::imu::Channels;
+    use sipnpuff::sim::head_gesture::GestureName;
+    use sipnpuff::sim::imu_session::practice_session;
+    use sipnpuff::sim::imu_user::ImuUser;
+    use sipnpuff::sim::sensor_model::{SignalGenerator, SignalParams, Step};
+    use sipnpuff::tools::imu_csv::write_imu_csv;
+
+    let dir = crate::scratch::Scratch::new();
+    let user = ImuUser::builtin("typical").unwrap();
+    let session = practice_session(&user, &[GestureName::Nod], 1, 3);
+    let imu = dir.join("imu.csv");
+    let mut text = Vec::new();
+    write_imu_csv(&mut text, Channels::ALL, &session.samples).unwrap();
+    std::fs::write(&imu, text).unwrap();
+    let set = crate::common::fixture("gesture-user/gestures.toml");
+    let config = dir.join("both.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "[gestures]\nset = {:?}\n\n[[sequence]]\nactions = [\"nod\"]\nmode = \"translate_x\"\n\n[[sequence]]\nactions = [\"nod\", -1]\nmode = \"translate_y\"\n",
+            set.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    // Where the nod is read: the IMU recording replayed alone.
+    let out = binary()
+        .args(["replay", imu.to_str().unwrap(), "--config"])
+        .arg(&config)
+        .output()
+        .unwrap();
+    let events = String::from_utf8_lossy(&out.stdout);
+    let nod_read: u64 = events
+        .lines()
+        .find(|l| l.contains(r#""event":"gesture","name":"nod""#))
+        .and_then(|l| {
+            l.strip_prefix(r#"{"tick":"#)?
+                .split(',')
+                .next()?
+                .parse()
+                .ok()
+        })
+        .unwrap_or_else(|| panic!("no nod in the IMU's replay:\n{events}"));
+    let nod_at = nod_read - session.samples[0].0;
+    // The breath recording: at rest, a short puff 300 ms after the nod is
+    // read, at rest again past the IMU recording's end.
+    let detector = Config::default().core().detector().clone();
+    let script = [
+        Step::Rest {
+            ms: nod_at as u32 + 300,
+        },
+        Step::Breath {
+            breath: Breath::Puff,
+            ms: 150,
+        },
+        Step::Rest { ms: 5_000 },
+    ];
+    let volts = SignalGenerator::new(SignalParams::clean(&detector, 9), &script);
+    let length = nod_at as usize + 5_450;
+    let breath = dir.join("breath.csv");
+    let mut text = String::from("tick,volts\n");
+    for (tick, v) in volts.take(length).enumerate() {
+        text += &format!("{tick},{v:.4}\n");
+    }
+    std::fs::write(&breath, text).unwrap();
+    let shared = crate::common::fixture("shared-machine.toml");
+    let rec = dir.join("rec");
+    crate::common::real_time(|| {
+        let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+        let _ = std::fs::remove_dir_all(&rec);
+        let out = binary()
+            .args(["run", "--sensor"])
+            .arg(format!("csv:{}", breath.display()))
+            .arg("--imu")
+            .arg(format!("csv:{}", imu.display()))
+            .arg("--config")
+            .arg(&config)
+            .arg("--config")
+            .arg(&shared)
+            .arg("--record")
+            .arg(&rec)
+            .output()
+            .unwrap();
+        let (stdout, stderr) = (
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr),
+        );
+        assert_eq!(out.status.code(), Some(0), "{stderr}\n{stdout}");
+        for said in [
+            r#""event":"gesture","name":"nod""#,
+            r#""event":"burst","action":-1"#,
+            r#""event":"match","sequence":["nod",-1],"mode":"translate_y""#,
+            "beside it the IMU IMU recording",
+            "stopped by: sensor ended",
+            crate::common::STOPPED_AT_REST,
+            crate::common::NO_ALLOCATIONS,
+        ] {
+            assert!(stdout.contains(said), "{said}\n{stdout}");
+        }
+        assert!(!stdout.contains(r#""event":"fault""#), "{stdout}");
+        // The recording says both sensors were read: its replay's core
+        // reads both, and gives the run bit for bit.
+        let meta = std::fs::read_to_string(rec.join("meta.json")).unwrap();
+        assert!(meta.contains(r#""breath_and_imu": true"#), "{meta}");
+        let out = binary()
+            .args(["replay", rec.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{stderr}");
+        assert!(
+            stderr.contains("identical to the recording, bit for bit"),
+            "{stderr}"
+        );
+    });
+}

@@ -30,6 +30,11 @@ pub struct Meta {
     pub sensor: String,
     /// The arm, as it describes itself.
     pub arm: String,
+    /// A breath sensor and a head-worn IMU were read side by side (`run
+    /// --imu`): a replay's core reads both. (Without it, a configuration
+    /// naming a gesture set was run on the IMU alone.)
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub breath_and_imu: bool,
     /// The first tick recorded.
     pub first_tick: Option<Tick>,
     /// The last tick recorded.
@@ -50,6 +55,7 @@ impl Meta {
             start_time: utc_now(),
             sensor: sensor.into(),
             arm: arm.into(),
+            breath_and_imu: false,
             first_tick: None,
             last_tick: None,
             summary: RecordingSummary {

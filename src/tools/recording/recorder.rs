@@ -92,7 +92,8 @@ impl Recorder {
         }
         let (tx, rx) = mpsc::sync_channel(options.queue.max(1));
         let progress = Arc::new(AtomicU64::new(0));
-        let writer = Writer::new(dir, options, progress.clone());
+        let both = config.core().has_breath_sensor() && config.core().gestures().is_some();
+        let writer = Writer::new(dir, options, progress.clone(), both);
         let thread = thread::Builder::new()
             .name("recorder".into())
             .spawn(move || writer.run(&rx))
@@ -279,6 +280,7 @@ fn config_text(config: &Config) -> Result<String, RecordError> {
         .map_err(|e| RecordError::Config(e.to_string()))?;
     // A person's gestures are loaded from their set, which the file names.
     let loaded = |back: Config| match config.core().gestures() {
+        Some(setup) if config.core().has_breath_sensor() => back.for_breath_and_imu(setup.clone()),
         Some(setup) => back.for_imu(setup.clone()),
         None => back,
     };

@@ -176,12 +176,20 @@ pub(super) struct Writer {
 }
 
 impl Writer {
-    pub(super) fn new(dir: &Path, options: RecordOptions, progress: Arc<AtomicU64>) -> Writer {
+    pub(super) fn new(
+        dir: &Path,
+        options: RecordOptions,
+        progress: Arc<AtomicU64>,
+        breath_and_imu: bool,
+    ) -> Writer {
         Writer {
             dir: dir.to_path_buf(),
             options,
             progress,
-            meta: Meta::starting("", "", options.max_bytes),
+            meta: Meta {
+                breath_and_imu,
+                ..Meta::starting("", "", options.max_bytes)
+            },
             samples: None,
             commands: None,
             events: None,
