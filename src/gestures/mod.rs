@@ -9,6 +9,7 @@
 pub mod check;
 pub mod distances;
 pub mod front_end;
+pub mod guided;
 pub mod protocol;
 pub mod record;
 pub mod report;

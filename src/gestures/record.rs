@@ -79,6 +79,77 @@ pub fn record(
     config: GestureConfig,
     recording: Option<String>,
 ) -> Result<Recorded, String> {
+    let fit = fitted(samples, channels, names, config)?;
+    let cut = cut_protocol(&fit.0, names, samples)?;
+    build(samples, channels, names, fit, recording, cut)
+}
+
+/// The set for `names` from a guided live session's `samples`, each
+/// gesture's examples where the guide saw them (`examples`, as
+/// [`guided::Guided`](super::guided::Guided) labelled them) rather than
+/// where the protocol's timing would put them; the ordinary movement is
+/// everything after the last example. Otherwise made as [`record`]
+/// makes it.
+pub fn record_guided(
+    samples: &[(Tick, ImuSample)],
+    channels: Channels,
+    names: &[String],
+    config: GestureConfig,
+    recording: Option<String>,
+    examples: &[Vec<Span>],
+) -> Result<Recorded, String> {
+    let fit = fitted(samples, channels, names, config)?;
+    let segments = segments(&fit.0, samples.iter().copied());
+    let mut cut = Vec::with_capacity(names.len());
+    let mut last_end = samples.first().map_or(0, |(t, _)| *t);
+    for (name, spans) in names.iter().zip(examples) {
+        let mut indices = [0usize; EXAMPLES];
+        if spans.len() != EXAMPLES {
+            return Err(format!(
+                "gesture '{name}': {} examples seen, {EXAMPLES} needed",
+                spans.len()
+            ));
+        }
+        for (slot, span) in indices.iter_mut().zip(spans) {
+            *slot = segments
+                .iter()
+                .position(|s| s.start == span.start && s.end == span.end)
+                .ok_or_else(|| {
+                    format!(
+                        "gesture '{name}': the movement from tick {} to {} is not one the front end cuts from the recording",
+                        span.start, span.end
+                    )
+                })?;
+            last_end = last_end.max(span.end);
+        }
+        cut.push(indices);
+    }
+    if cut.len() != names.len() {
+        return Err(format!(
+            "examples of {} gestures seen, {} named",
+            cut.len(),
+            names.len()
+        ));
+    }
+    let last = samples.last().map_or(last_end, |(t, _)| *t);
+    let cut = ProtocolCut {
+        examples: cut,
+        ordinary: Span {
+            start: last_end,
+            end: last,
+        },
+    };
+    build(samples, channels, names, fit, recording, (segments, cut))
+}
+
+/// The names checked, the channels the front end needs present, and
+/// `config` fitted to the recording's opening rest (with the rest).
+fn fitted(
+    samples: &[(Tick, ImuSample)],
+    channels: Channels,
+    names: &[String],
+    config: GestureConfig,
+) -> Result<(GestureConfig, Option<Rest>), String> {
     check_names(names)?;
     let missing: Vec<&str> = NEEDED
         .iter()
@@ -91,13 +162,27 @@ pub fn record(
             missing.join(", ")
         ));
     }
-    let Some(&(first, _)) = samples.first() else {
+    if samples.is_empty() {
         return Err("the recording has no sample".into());
-    };
+    }
     // The front end fitted to the person's rest before anything is cut.
     let rest = front_end::rest(&config, samples);
     let config = rest.map_or(config, |rest| front_end::fit(&config, &rest));
-    let (segments, cut) = cut_protocol(&config, names, samples)?;
+    Ok((config, rest))
+}
+
+/// The set from the front end as fitted (`config` and the rest it was
+/// fitted to), the movements cut and which is which: every example a
+/// template, each threshold from the examples and the ordinary movement.
+fn build(
+    samples: &[(Tick, ImuSample)],
+    channels: Channels,
+    names: &[String],
+    (config, rest): (GestureConfig, Option<Rest>),
+    recording: Option<String>,
+    (segments, cut): (Vec<Segment>, ProtocolCut),
+) -> Result<Recorded, String> {
+    let first = samples.first().map_or(0, |(t, _)| *t);
     let mut gestures = Vec::with_capacity(names.len());
     for (name, indices) in names.iter().zip(&cut.examples) {
         let mut examples = Vec::with_capacity(EXAMPLES);

@@ -122,10 +122,20 @@ pub fn check_set(set_path: &Path, recordings: &[PathBuf]) -> anyhow::Result<Chec
         let path = Path::new(source);
         if path.exists() {
             let recording = read(path)?;
-            let names: Vec<String> = set.gestures.iter().map(|g| g.name.clone()).collect();
-            let (_, cut) = record::cut_protocol(&set.config, &names, &recording.samples)
-                .map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
-            let ordinary = within(&recording.samples, cut.ordinary).to_vec();
+            // The ordinary stretch: everything after the last example (as
+            // the protocol's cut and a guided session's labels place it).
+            let last_example = set
+                .gestures
+                .iter()
+                .flat_map(|g| g.examples.iter().map(|e| e.end))
+                .max()
+                .unwrap_or(0);
+            let last = recording.samples.last().map_or(last_example, |(t, _)| *t);
+            let span = Span {
+                start: last_example,
+                end: last,
+            };
+            let ordinary = within(&recording.samples, span).to_vec();
             let samples = ImuRecording {
                 channels: recording.channels,
                 samples: ordinary,

@@ -7,8 +7,10 @@
 
 pub mod calibration;
 pub mod fitting;
+pub mod gesture_session;
 pub mod gestures;
 pub mod guide;
+pub mod imu;
 pub mod run;
 pub mod showing;
 

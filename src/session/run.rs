@@ -17,19 +17,16 @@ use crate::rt::recorder::SessionRecorder;
 use crate::rt::report::RunReport;
 use crate::rt::telemetry_thread::{EventSink, Watchers};
 use crate::rt::threads::{self, LoopSettings, RunOptions};
-use crate::sensor::evdev::imu::EvdevImu;
-use crate::sensor::iio_imu::IioImu;
-use crate::sensor::imu_playback::ImuPlayback;
 use crate::sensor::imu_sensor::ImuSensor;
-use crate::sensor::serial_imu::SerialImu;
 use crate::sensor::settings::SerialFormat;
 use crate::sensor::with_imu::WithImu;
 use crate::sensor::{Sensor, SensorSpec};
 use crate::session::Console;
 use crate::session::gestures;
+use crate::session::imu::{open_imu_for_set, spec_text};
 use crate::session::showing::{Display, DisplayChoice};
 use crate::sim::synthetic_sensor::SyntheticSensor;
-use crate::tools::imu_csv::{FULL_HEADER, is_imu_csv, read_imu_csv};
+use crate::tools::imu_csv::is_imu_csv;
 use crate::tools::recording::recorder::Recorder;
 use crate::tools::recording::writer::RecordOptions;
 use crate::wiring::arm::open_arm;
@@ -139,7 +136,7 @@ fn imu_sensor(
         let setup = gestures::load_setup(config.core())
             .map_err(|e| anyhow::anyhow!("--imu {}: {e}", spec_text(imu)))?;
         let config = config.clone().for_breath_and_imu(setup);
-        let sensor = open_imu(imu, &config)?;
+        let sensor = open_imu_for_set(imu, &config).map_err(|e| anyhow::anyhow!("--imu {e}"))?;
         return Ok(Some((config, sensor, Beside::Breath)));
     }
     let alone = match plan.sensor {
@@ -159,7 +156,7 @@ fn imu_sensor(
     }
     let setup = gestures::load_setup(config.core())?;
     let config = config.clone().for_imu(setup);
-    let sensor = open_imu(plan.sensor, &config)?;
+    let sensor = open_imu_for_set(plan.sensor, &config)?;
     Ok(Some((config, sensor, Beside::Nothing)))
 }
 
@@ -169,63 +166,6 @@ enum Beside {
     Nothing,
     /// The breath sensor `--sensor` names is read too.
     Breath,
-}
-
-/// `spec` as it was given.
-fn spec_text(spec: &SensorSpec) -> String {
-    match spec {
-        SensorSpec::Synthetic(None) => "synthetic".into(),
-        SensorSpec::Synthetic(Some(name)) => format!("synthetic:{name}"),
-        SensorSpec::Csv(path) => format!("csv:{}", path.display()),
-        SensorSpec::Evdev(target) => target.to_string(),
-        SensorSpec::Serial { path, .. } => format!("serial:{}", path.display()),
-        SensorSpec::Iio(path) => format!("iio:{}", path.display()),
-    }
-}
-
-/// Opens the IMU `spec` names (a recording read whole; a serial port
-/// opened and answering) and checks it gives every channel `config`'s
-/// set was recorded with.
-fn open_imu(spec: &SensorSpec, config: &Config) -> anyhow::Result<ImuSensor> {
-    let sensor = match spec {
-        SensorSpec::Serial { path, baud } => ImuSensor::Serial(
-            SerialImu::open(path, *baud, &config.sensor().serial).map_err(anyhow::Error::new)?,
-        ),
-        SensorSpec::Evdev(target) => ImuSensor::Evdev(Box::new(
-            EvdevImu::open(target).map_err(anyhow::Error::new)?,
-        )),
-        SensorSpec::Iio(dir) => {
-            ImuSensor::Iio(IioImu::open(dir, &config.sensor().iio).map_err(anyhow::Error::new)?)
-        }
-        SensorSpec::Csv(path) => {
-            if !is_imu_csv(path) {
-                anyhow::bail!(
-                    "--imu csv:{}: not an IMU recording (its header must be `tick` and IMU channels, e.g. `{FULL_HEADER}`)",
-                    path.display()
-                );
-            }
-            let recording = read_imu_csv(path).map_err(|e| anyhow::anyhow!("{e}"))?;
-            ImuSensor::Playback {
-                playback: ImuPlayback::prepared(
-                    format!(
-                        "IMU recording {} ({}, {} samples)",
-                        path.display(),
-                        recording.channels,
-                        recording.samples.len()
-                    ),
-                    recording.samples,
-                ),
-                channels: recording.channels,
-            }
-        }
-        SensorSpec::Synthetic(_) => anyhow::bail!(
-            "--imu {}: not an IMU: give evdev:name=NAME, iio:/sys/bus/iio/devices/iio:deviceN, serial:PORT or csv:IMU.csv",
-            spec_text(spec)
-        ),
-    };
-    crate::gestures::setup::check_channels(config.core(), &spec_text(spec), sensor.channels())
-        .map_err(anyhow::Error::msg)?;
-    Ok(sensor)
 }
 
 /// The breath sensor opened, the IMU beside it: the session on both.

@@ -327,6 +327,14 @@ impl MotionCursor {
         self.active_steps.push(step);
     }
 
+    /// Adds `motion`'s moves, oscillations and jolts (none starting
+    /// before the last evaluated time).
+    pub fn add_motion(&mut self, motion: HeadMotion) {
+        self.active_steps.extend(motion.steps);
+        self.active_waves.extend(motion.waves);
+        self.active_jolts.extend(motion.jolts);
+    }
+
     /// The state at `t` s, no earlier than the last call's.
     pub fn at(&mut self, t: f64) -> HeadState {
         let m = &self.motion;

@@ -14,17 +14,16 @@ use crate::config::Config;
 use crate::control::Tick;
 use crate::control::event::Event;
 use crate::control::gesture::features::norm3;
-use crate::control::imu::ImuInput;
 use crate::control::mode::{Direction, Mode, ModeState};
 use crate::control::pipeline::Pipeline;
 use crate::control::tick::{TickInput, TickOutput};
 use crate::control::token::Token;
 use crate::sim::head_gesture::{GestureName, gesture_example};
-use crate::sim::head_motion::{Axis, HeadMotion, MotionCursor, Step};
+use crate::sim::head_motion::{Axis, Step};
 use crate::sim::imu_user::ImuUser;
+use crate::sim::live_head::LiveHead;
 use crate::sim::study::tasks::TaskStep;
 use crate::sim::user::{TaskRun, reaction_ms};
-use crate::sim::worn_imu::{WornImu, add_body};
 
 /// Longest a task may take in simulation before it is abandoned, ticks.
 const MAX_TASK_TICKS: u64 = 30 * 60 * 1000;
@@ -88,56 +87,6 @@ enum Phase {
     AwaitDetection,
     /// The last move is made.
     Done,
-}
-
-/// The person's head in closed loop: the moves they decide are added to
-/// it as they go.
-struct LiveHead {
-    cursor: MotionCursor,
-    sensor: WornImu,
-    rng: ChaCha8Rng,
-    rate_hz: u64,
-    next_sample: u64,
-}
-
-impl LiveHead {
-    fn new(user: &ImuUser, seed: u64) -> LiveHead {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let mut motion = HeadMotion::default();
-        add_body(user, &mut motion, &mut rng);
-        motion.finish();
-        let sensor = WornImu::new(user, &mut rng);
-        LiveHead {
-            cursor: motion.into_cursor(),
-            sensor,
-            rng,
-            rate_hz: u64::from(user.rate_hz.clamp(1, 1000)),
-            next_sample: 0,
-        }
-    }
-
-    /// The IMU's input on `tick`: a sample on the sensor's own ticks.
-    fn input(&mut self, tick: Tick) -> ImuInput {
-        let due = (self.next_sample * 1000 + self.rate_hz / 2) / self.rate_hz;
-        if tick < due {
-            return ImuInput::Missing;
-        }
-        self.next_sample += 1;
-        let t = tick as f64 / 1000.0;
-        let state = self.cursor.at(t);
-        ImuInput::Sample(self.sensor.read(t, &state, &mut self.rng))
-    }
-
-    /// Moves the head by `steps` (times from 0), starting at `at` ms.
-    fn add(&mut self, at: Tick, steps: &[Step]) {
-        let start = at as f64 / 1000.0;
-        for step in steps {
-            self.cursor.add(Step {
-                start: step.start + start,
-                ..*step
-            });
-        }
-    }
 }
 
 struct Agent<'a> {

@@ -7,12 +7,14 @@
 //! the core nor the runtime imports it.
 
 pub mod breather;
+pub mod guided_imu_user;
 pub mod head;
 pub mod head_gesture;
 pub mod head_motion;
 pub mod head_user;
 pub mod imu_session;
 pub mod imu_user;
+pub mod live_head;
 pub mod ordinary_movement;
 pub mod script;
 pub mod sensor_model;

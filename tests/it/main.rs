@@ -45,6 +45,7 @@ mod gesture;
 mod gesture_sets;
 mod gesture_use;
 mod golden;
+mod guided_recording;
 mod motion;
 mod motion_safety;
 mod outputs;

@@ -410,3 +410,128 @@ fn an_iio_imu_is_read_through_its_sysfs_channels() {
         assert!(!stdout.contains("\"event\":\"fault\""), "{stdout}");
     });
 }
+
+/// `gestures record --sensor serial:PTY`: a live session guided in the
+/// terminal, with a simulated person at the other end of the kernel's
+/// tty who hears each prompt (read from the command's stderr) and nods
+/// when asked, then moves as they ordinarily do for the minute asked.
+/// The recording is kept, and the set made from it says the session's
+/// five nods are each read as a nod.
+#[test]
+fn a_live_gesture_recording_is_guided_through_a_serial_imu() {
+    use std::io::BufRead;
+    use std::sync::mpsc;
+
+    use sipnpuff::control::imu::ImuInput;
+    use sipnpuff::gestures::guided::ORDINARY_ASKED_MS;
+    use sipnpuff::gestures::guided::Say;
+    use sipnpuff::sim::guided_imu_user::GuidedImuUser;
+    use sipnpuff::sim::head_gesture::GestureName;
+    use sipnpuff::sim::imu_user::ImuUser;
+
+    let dir = Scratch::new();
+    let config = dir.join("imu.toml");
+    std::fs::write(&config, "[sensor.serial]\nformat = \"imu\"\n").unwrap();
+    let (set, recording) = (dir.join("sam.toml"), dir.join("sam.csv"));
+    crate::common::real_time(|| {
+        let _ = std::fs::remove_file(&set);
+        let _ = std::fs::remove_file(&recording);
+        let pty = Pty::open();
+        let port = format!("serial:{}", pty.path);
+        let user = ImuUser::builtin("typical").unwrap();
+        let mut person = GuidedImuUser::new(user, &[GestureName::Nod], 5);
+        let (tell, hear) = mpsc::channel::<Say>();
+        // The person: a sample every 10 ms from before the port is opened
+        // (it must answer at once) until the command has ended.
+        let feeder = std::thread::spawn(move || {
+            let start = Instant::now();
+            let mut tick = 0u64;
+            loop {
+                match hear.try_recv() {
+                    Ok(say) => person.hear(tick, &say),
+                    Err(mpsc::TryRecvError::Disconnected) => return,
+                    Err(mpsc::TryRecvError::Empty) => {}
+                }
+                let now = start.elapsed().as_millis() as u64;
+                while tick <= now {
+                    if let ImuInput::Sample(s) = person.input(tick) {
+                        let v = s.values;
+                        let line =
+                            format!("{},{},{},{},{},{}\r\n", v[0], v[1], v[2], v[3], v[4], v[5]);
+                        if !write_all(&pty.master, line.as_bytes()) {
+                            return;
+                        }
+                    }
+                    tick += 1;
+                }
+                std::thread::sleep(Duration::from_millis(2));
+            }
+        });
+        let mut command = crate::common::sipnpuff();
+        command
+            .args(["gestures", "record", "--gestures", "nod", "--sensor", &port])
+            .arg("--config")
+            .arg(&config)
+            .arg("--out")
+            .arg(&set)
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped());
+        let mut child = crate::watchdog::spawn(&mut command);
+        // The prompts the person hears, as a person reads them.
+        let mut said = Vec::new();
+        for line in std::io::BufReader::new(child.stderr.take().unwrap()).lines() {
+            let line = line.unwrap();
+            if line.starts_with("sipnpuff: nod — now (") {
+                let example = line["sipnpuff: nod — now (".len()..]
+                    .split(' ')
+                    .next()
+                    .and_then(|k| k.parse().ok())
+                    .unwrap();
+                let _ = tell.send(Say::Make {
+                    gesture: 0,
+                    example,
+                    again: line.contains("no movement seen"),
+                });
+            } else if line.starts_with("sipnpuff: now move as you ordinarily do") {
+                let _ = tell.send(Say::Ordinary {
+                    ms: ORDINARY_ASKED_MS,
+                });
+            }
+            said.push(line);
+        }
+        let status = crate::watchdog::wait(&mut child);
+        let mut report = String::new();
+        std::io::Read::read_to_string(&mut child.stdout.take().unwrap(), &mut report).unwrap();
+        drop(tell);
+        feeder.join().unwrap();
+        let said = said.join("\n");
+        assert_eq!(status.code(), Some(0), "{said}\n{report}");
+        for step in [
+            "sipnpuff: hold your head still, as you rest, for 3.5 s",
+            "sipnpuff: nod — now (1 of 5)",
+            "sipnpuff: nod — now (5 of 5)",
+            "sipnpuff: now move as you ordinarily do for 61.0 s",
+            "sipnpuff: done: the recording is over",
+            "wrote the gesture set to",
+        ] {
+            assert!(said.contains(step), "{step}\n{said}");
+        }
+        assert_eq!(said.matches("  seen (").count(), 5, "{said}");
+        assert!(
+            report.contains("leave-one-out: 5/5 examples recognised as themselves"),
+            "{report}"
+        );
+        // The set names the session's recording, which is kept.
+        let text = std::fs::read_to_string(&set).unwrap();
+        assert!(
+            text.contains(&format!(
+                "recording = {:?}",
+                recording.display().to_string()
+            )),
+            "{text}"
+        );
+        let header = std::fs::read_to_string(&recording).unwrap();
+        assert!(header.starts_with("tick,ax,ay,az,gx,gy,gz\n"));
+    });
+}
