@@ -176,6 +176,24 @@ pub struct HeadOutput {
     pub event: Option<HeadEvent>,
 }
 
+/// The head as the display shows it: how far it is pitched and rolled
+/// from its rest, and whether a movement is under way. `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct HeadView {
+    /// Chin down (+) or up (−), degrees from the rest: in a command mode
+    /// the rest it began at (what the tilt that moves is measured from),
+    /// else the rest the front end tracks.
+    pub pitch_deg: f64,
+    /// Left ear down (+) or right ear down (−), degrees, likewise.
+    pub roll_deg: f64,
+    /// A movement is under way (a gesture being made; never in a command
+    /// mode, where the head's tilt moves the arm).
+    pub moving: bool,
+    /// In a command mode, the head is tilted past the dead zone: it moves
+    /// the arm, and the mode stays.
+    pub tilted: bool,
+}
+
 /// Ticks of the tilt's smoothing (an exponential average's time constant).
 const TILT_SMOOTHING_TICKS: f64 = 80.0;
 /// A tilt is let go inside this fraction of the dead zone.
@@ -230,6 +248,31 @@ impl Head {
     /// The IMU is in fault.
     pub fn is_faulted(&self) -> bool {
         self.faulted
+    }
+
+    /// The head as the display shows it; none in fault or before a
+    /// sample. RT-safe.
+    pub fn view(&self) -> Option<HeadView> {
+        if self.faulted {
+            return None;
+        }
+        let reference = self.reference.unwrap_or(self.recognizer.rest().gravity);
+        let now = self.smoothed?;
+        let g = norm3(reference);
+        if g <= 0.0 {
+            return None;
+        }
+        // Chin down turns gravity towards -x; the left ear down towards -y.
+        let angle = |i: usize| {
+            let d = now.get(i).copied().unwrap_or(0.0) - reference.get(i).copied().unwrap_or(0.0);
+            (-d / g).clamp(-1.0, 1.0).asin().to_degrees()
+        };
+        Some(HeadView {
+            pitch_deg: angle(0),
+            roll_deg: angle(1),
+            moving: self.recognizer.in_motion() && !self.commanding,
+            tilted: self.commanding && self.tilted.is_some(),
+        })
     }
 
     /// Tick `now` with the IMU's input; `commanding`: the interface is in a

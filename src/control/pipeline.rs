@@ -159,6 +159,7 @@ impl Pipeline {
             returns_at: self.modes.returns_at(),
             saved_point: self.motion.saved().is_some(),
             arm_faulted: self.arm_fault.is_some(),
+            head: self.head.as_ref().and_then(Head::view),
         }
     }
 

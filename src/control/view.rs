@@ -7,6 +7,7 @@
 
 use crate::control::Tick;
 use crate::control::action::Breath;
+use crate::control::head::HeadView;
 use crate::control::mode::{Direction, Mode, ModeState};
 use crate::control::sequence::Sequence;
 use crate::control::target::Target;
@@ -44,6 +45,9 @@ pub struct CoreView {
     /// The arm has faulted (link lost, pose silent or off the path): the
     /// interface stays in detection mode for good.
     pub arm_faulted: bool,
+    /// For a person with gestures, the head (none before the IMU's first
+    /// sample, or in its fault).
+    pub head: Option<HeadView>,
 }
 
 impl CoreView {

@@ -106,6 +106,38 @@ pub struct Setup {
     pub first_dwell_ms: u32,
     /// The arm, in words (`simulated JACO`, `ROS 1 at /j2n6s300_driver`).
     pub arm: String,
+    /// A breath sensor feeds the core: the pressure bar is shown.
+    pub breath: bool,
+    /// A head-worn IMU feeds the core: its trace is shown.
+    pub head: Option<HeadSetup>,
+    /// How a sequence is made, in words: `breathe`, `make` (gestures
+    /// alone) or `breathe or move`.
+    pub sequence_verb: &'static str,
+    /// What moves in a command mode, in words: `puff and sip move`,
+    /// `tilting your head moves` or `puff, sip or a head tilt move`.
+    pub movers: &'static str,
+}
+
+/// How the head moves the arm in a command mode (`[gestures]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct HeadSetup {
+    /// `pitch`, `roll` or `off`: the tilt that moves.
+    pub tilt: &'static str,
+    /// Tilts within this angle of the rest move nothing, degrees.
+    pub dead_zone_deg: f64,
+    /// At this angle the arm moves at full speed, degrees.
+    pub full_scale_deg: f64,
+}
+
+/// The head now, for its trace.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Head {
+    /// Chin down (+) or up (−) from the rest, degrees (0.1°).
+    pub pitch_deg: f64,
+    /// Left ear down (+) or right ear down (−), degrees (0.1°).
+    pub roll_deg: f64,
+    /// A movement is under way.
+    pub moving: bool,
 }
 
 /// A sequence of the library.
@@ -154,7 +186,8 @@ pub struct Command {
     pub arrow: &'static str,
     /// Time before the return to selection, ms.
     pub returns_in_ms: u64,
-    /// A breath is held: the countdown waits.
+    /// A breath is held, or the head tilted past its dead zone: the
+    /// countdown waits.
     pub countdown_paused: bool,
 }
 
@@ -203,6 +236,10 @@ pub struct Frame {
     pub command: Option<Command>,
     /// The pressure bar.
     pub pressure: Pressure,
+    /// The head (a person with gestures; none before the IMU's first
+    /// sample or in its fault).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub head: Option<Head>,
     /// Faults, limits and other news, most important first.
     pub notices: Vec<Notice>,
     /// The saved point: `none`, `set` or `reached`.

@@ -21,10 +21,12 @@ use crate::fit::prompter::{Say, View};
 use crate::rt::telemetry::TickRecord;
 
 use crate::display::frame::{
-    Calibration, Command, Cue, Frame, Highlight, LibrarySequence, ModeEntry, Notice, Pressure,
-    Setup, Symbol, Waiting, symbols,
+    Calibration, Command, Cue, Frame, Head, HeadSetup, Highlight, LibrarySequence, ModeEntry,
+    Notice, Pressure, Setup, Symbol, Waiting, symbols,
 };
-use crate::display::words::{fired_words, limit_words, motion_shown, target_id, target_label};
+use crate::display::words::{
+    fired_words, limit_words, motion_shown, movers, sequence_verb, target_id, target_label,
+};
 
 /// The screen's state: fed records and events, gives frames and cues.
 #[derive(Debug, Clone)]
@@ -115,6 +117,17 @@ impl Screen {
             dwell_ms: scanning.dwell_ms,
             first_dwell_ms: scanning.first_dwell_ms,
             arm: arm.to_string(),
+            breath: config.has_breath_sensor(),
+            sequence_verb: sequence_verb(config),
+            movers: movers(config),
+            head: config.gestures().map(|_| {
+                let head = config.head();
+                HeadSetup {
+                    tilt: head.tilt.name(),
+                    dead_zone_deg: head.dead_zone_deg,
+                    full_scale_deg: head.full_scale_deg,
+                }
+            }),
         };
         Screen {
             library: if interface == Interface::Asp {
@@ -359,7 +372,7 @@ impl Screen {
                     moving,
                     arrow,
                     returns_in_ms: view.returns_at.map_or(0, |at| at.saturating_sub(now)),
-                    countdown_paused: view.held.is_some(),
+                    countdown_paused: view.held.is_some() || view.head.is_some_and(|h| h.tilted),
                 })
             }
             ModeState::Detection => None,
@@ -416,6 +429,14 @@ impl Screen {
                 held: view.held.map(|(b, _)| b.word()),
                 held_ms,
             },
+            head: view.head.map(|h| {
+                let tenth = |deg: f64| (deg * 10.0).round() / 10.0;
+                Head {
+                    pitch_deg: tenth(h.pitch_deg),
+                    roll_deg: tenth(h.roll_deg),
+                    moving: h.moving,
+                }
+            }),
             notices,
             saved_point: self.saved,
             arm: if view.arm_faulted {

@@ -81,9 +81,11 @@ pub fn draw(out: &mut ratatui::Frame<'_>, setup: &Setup, frame: &Frame) {
             } else {
                 "the arm"
             };
-            format!("{} — puff and sip move {moved}", label(setup, c.mode))
+            format!("{} — {} {moved}", label(setup, c.mode), setup.movers)
         }
-        _ if setup.interface == "asp" => "Choose a mode: breathe its sequence".into(),
+        _ if setup.interface == "asp" => {
+            format!("Choose a mode: {} its sequence", setup.sequence_verb)
+        }
         _ => "Choose a mode: puff when it is lit".into(),
     };
     let banner_style = match frame.state {
@@ -211,12 +213,21 @@ fn draw_status(out: &mut ratatui::Frame<'_>, area: Rect, setup: &Setup, frame: &
             Style::default().add_modifier(Modifier::BOLD),
         ));
         lines.push(Line::raw(if c.countdown_paused {
-            "breath held — staying in this mode".to_string()
+            if frame.pressure.held.is_some() {
+                "breath held — staying in this mode".to_string()
+            } else {
+                "head tilted — staying in this mode".to_string()
+            }
         } else {
             format!("back to choosing a mode in {}", seconds(c.returns_in_ms))
         }));
     } else if setup.interface == "asp" {
-        let mut spans = vec![Span::raw("You breathed: ")];
+        let title = if setup.head.is_some() {
+            "Your sequence: "
+        } else {
+            "You breathed: "
+        };
+        let mut spans = vec![Span::raw(title)];
         if frame.sequence.is_empty() {
             spans.push(Span::raw("nothing yet"));
         } else {
@@ -241,31 +252,11 @@ fn draw_status(out: &mut ratatui::Frame<'_>, area: Rect, setup: &Setup, frame: &
         middle,
     );
 
-    let p = &frame.pressure;
-    let volts = p.volts.unwrap_or(p.neutral_volts);
-    let held = match p.held {
-        Some(breath) => format!(
-            "; {breath} held {} ({})",
-            seconds(p.held_ms),
-            if p.held_ms >= u64::from(setup.long_ms) {
-                "long"
-            } else {
-                "short"
-            }
-        ),
-        None => String::new(),
-    };
-    out.render_widget(
-        Gauge::default()
-            .block(Block::default().borders(Borders::ALL).title(format!(
-                " Pressure: puff above {:.2} V, sip below {:.2} V ",
-                p.neutral_volts + setup.puff_offset_volts,
-                p.neutral_volts + setup.sip_offset_volts
-            )))
-            .ratio((volts / 5.0).clamp(0.0, 1.0))
-            .label(format!("{volts:.2} V{held}")),
-        pressure,
-    );
+    if !setup.breath {
+        draw_head(out, pressure, setup, frame);
+    } else {
+        draw_pressure(out, pressure, setup, frame);
+    }
 
     let saved = match frame.saved_point {
         "set" => "set",
@@ -290,6 +281,64 @@ fn draw_status(out: &mut ratatui::Frame<'_>, area: Rect, setup: &Setup, frame: &
         ])
         .block(Block::default().borders(Borders::ALL)),
         status,
+    );
+}
+
+/// The pressure bar: the sample against the thresholds, a breath held.
+fn draw_pressure(out: &mut ratatui::Frame<'_>, area: Rect, setup: &Setup, frame: &Frame) {
+    let p = &frame.pressure;
+    let volts = p.volts.unwrap_or(p.neutral_volts);
+    let held = match p.held {
+        Some(breath) => format!(
+            "; {breath} held {} ({})",
+            seconds(p.held_ms),
+            if p.held_ms >= u64::from(setup.long_ms) {
+                "long"
+            } else {
+                "short"
+            }
+        ),
+        None => String::new(),
+    };
+    out.render_widget(
+        Gauge::default()
+            .block(Block::default().borders(Borders::ALL).title(format!(
+                " Pressure: puff above {:.2} V, sip below {:.2} V ",
+                p.neutral_volts + setup.puff_offset_volts,
+                p.neutral_volts + setup.sip_offset_volts
+            )))
+            .ratio((volts / 5.0).clamp(0.0, 1.0))
+            .label(format!("{volts:.2} V{held}")),
+        area,
+    );
+}
+
+/// The head in place of the pressure bar: its pitch (or roll) against
+/// ±45°, with the dead zone in the title.
+fn draw_head(out: &mut ratatui::Frame<'_>, area: Rect, setup: &Setup, frame: &Frame) {
+    let (title, ratio, label) = match (setup.head, frame.head) {
+        (Some(s), Some(h)) => {
+            let roll = s.tilt == "roll";
+            let deg = if roll { h.roll_deg } else { h.pitch_deg };
+            (
+                format!(" Head: {} past ±{}° moves ", s.tilt, s.dead_zone_deg),
+                ((deg + 45.0) / 90.0).clamp(0.0, 1.0),
+                format!(
+                    "pitch {:+.0}° · roll {:+.0}°{}",
+                    h.pitch_deg,
+                    h.roll_deg,
+                    if h.moving { " — moving" } else { "" }
+                ),
+            )
+        }
+        _ => (" Head ".to_string(), 0.5, "no sample".to_string()),
+    };
+    out.render_widget(
+        Gauge::default()
+            .block(Block::default().borders(Borders::ALL).title(title))
+            .ratio(ratio)
+            .label(label),
+        area,
     );
 }
 

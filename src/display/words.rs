@@ -1,7 +1,10 @@
 //! The words the display uses for what the core does: a library entry's
 //! id and label, a mode's name, the news of a fired action, the motion
-//! and its arrow, a workspace limit.
+//! and its arrow, a workspace limit, and how the person's sensors make a
+//! sequence and move.
 
+use crate::control::core_config::CoreConfig;
+use crate::control::head::TiltAxis;
 use crate::control::mode::{Direction, Mode};
 use crate::control::motion::workspace::Boundary;
 use crate::control::target::Target;
@@ -116,5 +119,27 @@ pub(super) fn limit_words(boundary: Boundary) -> &'static str {
         Boundary::FingersClosed => "fingers fully closed",
         Boundary::Tilt => "tilt limit reached",
         Boundary::Twist => "twist limit reached",
+    }
+}
+
+/// How a sequence is made with `config`'s sensors: `breathe`, `make`
+/// (gestures alone) or `breathe or move`.
+pub fn sequence_verb(config: &CoreConfig) -> &'static str {
+    match (config.has_breath_sensor(), config.gestures().is_some()) {
+        (true, true) => "breathe or move",
+        (false, true) => "make",
+        _ => "breathe",
+    }
+}
+
+/// What moves in a command mode with `config`'s sensors: a breath, the
+/// head's tilt (unless `[gestures] tilt = "off"`), or either.
+pub fn movers(config: &CoreConfig) -> &'static str {
+    let head = config.gestures().is_some() && config.head().tilt != TiltAxis::Off;
+    match (config.has_breath_sensor(), head) {
+        (true, true) => "puff, sip or a head tilt move",
+        (false, true) => "tilting your head moves",
+        (false, false) if config.gestures().is_some() => "the head's tilt is off: nothing moves",
+        _ => "puff and sip move",
     }
 }

@@ -246,22 +246,23 @@ fn a_sensor_fault_is_said_in_plain_words_until_it_clears() {
 
 /// The terminal view draws the same frames: rendered with ratatui's test
 /// backend at the paper's moments (a 100 × 30 terminal).
+/// What a terminal view drew, row by row.
+fn screen_text(terminal: &ratatui::Terminal<ratatui::backend::TestBackend>) -> String {
+    let buffer = terminal.backend().buffer();
+    let width = buffer.area.width as usize;
+    let cells: Vec<&str> = buffer.content().iter().map(|c| c.symbol()).collect();
+    cells
+        .chunks(width)
+        .map(|row| row.concat())
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 #[test]
 fn the_terminal_view_shows_the_sequence_the_wait_and_the_motion() {
     use ratatui::Terminal;
     use ratatui::backend::TestBackend;
     use sipnpuff::display::tui::render;
-
-    fn screen_text(terminal: &Terminal<TestBackend>) -> String {
-        let buffer = terminal.backend().buffer();
-        let width = buffer.area.width as usize;
-        let cells: Vec<&str> = buffer.content().iter().map(|c| c.symbol()).collect();
-        cells
-            .chunks(width)
-            .map(|row| row.concat())
-            .collect::<Vec<_>>()
-            .join("\n")
-    }
 
     let config = common::paper_config();
     let mut s = Session::new(&config, &PAPER_SESSION);
@@ -424,4 +425,97 @@ fn entries_show_as_what_they_do() {
             ("event:call_for_help", "Call for help"),
         ]
     );
+}
+
+/// A person who moves rather than breathes (the fixture's set and
+/// library, the IMU alone): the setup says so (no pressure bar, the
+/// head's dead zone and full scale), and each frame carries the head as
+/// its trace draws it: near 0° at rest, moving while a gesture is made,
+/// and in the mode the nod selects, pitched as far as the person holds
+/// it, the arm going forward.
+#[test]
+fn a_head_users_frames_carry_the_head_for_its_trace() {
+    use sipnpuff::control::imu::ImuInput;
+    use sipnpuff::display::frame::HeadSetup;
+    use sipnpuff::sim::head_gesture::GestureName;
+    use sipnpuff::sim::imu_session::{Drive, drive_session};
+    use sipnpuff::sim::imu_user::ImuUser;
+
+    let config =
+        Config::from_file(std::path::Path::new("fixtures/gesture-user/config.toml")).unwrap();
+    let core = sipnpuff::session::gestures::imu_core(&config).unwrap();
+    let person = ImuUser::builtin("typical").unwrap();
+    let drive = Drive {
+        gesture: GestureName::Nod,
+        pitch_deg: 20.0,
+        hold_ms: 1500,
+    };
+    let (session, holds) = drive_session(&person, &[drive], 4);
+    let mut pipeline = Pipeline::new(&core);
+    let mut screen = Screen::new(&core, "simulated JACO");
+    assert!(!screen.setup().breath);
+    assert_eq!(
+        screen.setup().head,
+        Some(HeadSetup {
+            tilt: "pitch",
+            dead_zone_deg: 12.0,
+            full_scale_deg: 30.0
+        })
+    );
+    let mut samples = session.samples.iter().peekable();
+    let mut out = sipnpuff::control::tick::TickOutput::default();
+    let (hold_start, hold_end) = holds[0];
+    let mut at_rest = Vec::new();
+    let mut moved = false;
+    let mut held = Vec::new();
+    for tick in 0..hold_end {
+        let mut imu = ImuInput::Missing;
+        while let Some((_, s)) = samples.next_if(|(t, _)| *t <= tick) {
+            imu = ImuInput::Sample(*s);
+        }
+        let input = TickInput::imu(tick, imu);
+        pipeline.step(&input, &mut out);
+        screen.observe(&TickRecord {
+            tick,
+            input,
+            view: pipeline.view(),
+            ..TickRecord::default()
+        });
+        for event in out.events.iter() {
+            screen.event(&TimedEvent {
+                tick,
+                event: *event,
+            });
+        }
+        let frame = screen.frame();
+        assert_eq!(frame.pressure.volts, None);
+        let Some(head) = frame.head else { continue };
+        if (1000..2500).contains(&tick) {
+            at_rest.push(head.pitch_deg.abs().max(head.roll_deg.abs()));
+        }
+        moved |= head.moving && frame.state == "selecting";
+        if tick >= hold_start + 500 {
+            assert_eq!(frame.state, "command", "tick {tick}");
+            assert_eq!(frame.command.unwrap().moving, "forward", "tick {tick}");
+            held.push(head.pitch_deg);
+        }
+    }
+    // The terminal view draws the head in place of the pressure bar.
+    let mut terminal = ratatui::Terminal::new(ratatui::backend::TestBackend::new(100, 30)).unwrap();
+    let frame = screen.frame();
+    sipnpuff::display::tui::render(&mut terminal, screen.setup(), &frame).unwrap();
+    let text = screen_text(&terminal);
+    for said in [
+        "Forward / back — tilting your head moves the arm",
+        "Head: pitch past ±12° moves",
+        "head tilted — staying in this mode",
+    ] {
+        assert!(text.contains(said), "{said}\n{text}");
+    }
+    assert!(!text.contains("Pressure"), "{text}");
+    let most = |v: &[f64]| v.iter().copied().fold(f64::MIN, f64::max);
+    assert!(most(&at_rest) < 2.0, "at rest: {}", most(&at_rest));
+    assert!(moved, "the nod showed as a movement under way");
+    let mean = held.iter().sum::<f64>() / held.len() as f64;
+    assert!((mean - 20.0).abs() < 3.0, "held at {mean:.1}°");
 }

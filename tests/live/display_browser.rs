@@ -172,7 +172,14 @@ impl Browser {
         }
     }
 
+    /// Keeps a screenshot of the page as `name`.png, and fails unless the
+    /// page fits the 7-inch kiosk's 1024 × 600 without scrolling.
     pub(crate) fn screenshot(&self, name: &str) -> PathBuf {
+        let size = self.eval(
+            "const d = document.documentElement; \
+             return { width: d.scrollWidth, height: d.scrollHeight, \
+                      window_width: window.innerWidth, window_height: window.innerHeight };",
+        );
         let reply: Value = ureq::get(self.url("screenshot"))
             .call()
             .expect("a screenshot")
@@ -187,6 +194,15 @@ impl Browser {
         let path = screenshots().join(format!("{name}.png"));
         std::fs::write(&path, png).unwrap();
         eprintln!("screenshot: {}", path.display());
+        assert_eq!(
+            (&size["window_width"], &size["window_height"]),
+            (&json!(1024), &json!(600)),
+            "{name}: {size}"
+        );
+        assert!(
+            size["height"].as_u64().unwrap() <= 600 && size["width"].as_u64().unwrap() <= 1024,
+            "{name}: the page scrolls at 1024 × 600: {size}"
+        );
         path
     }
 }
@@ -645,4 +661,160 @@ pub fn wait_for_page(port: u16) {
         }),
         "no page served"
     );
+}
+
+/// What the head panel shows.
+const HEAD_SHOWN: &str = r##"
+const f = window.sipnpuff.state.frame;
+return {
+  state: document.body.dataset.state,
+  breath: document.body.dataset.breath,
+  head: document.body.dataset.head,
+  pressure_shown: getComputedStyle(document.getElementById("pressure-panel")).display !== "none",
+  head_shown: getComputedStyle(document.getElementById("head-panel")).display !== "none",
+  head_text: document.getElementById("head-text").textContent,
+  pitch: f && f.head ? f.head.pitch_deg : null,
+  entered_title: document.getElementById("entered-title").textContent,
+  glyphs: Array.from(document.querySelectorAll("#modes .sym.gesture")).map((e) => e.textContent),
+  direction: document.getElementById("direction-text").textContent,
+  countdown: document.getElementById("countdown-text").textContent,
+};
+"##;
+
+/// `sipnpuff run` with the display on `port`, its sensors and config.
+fn run_with(args: &[&str], port: u16) -> Running {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
+    command
+        .args(["run", "--json"])
+        .args(args)
+        .args(["--display", &format!("127.0.0.1:{port}")])
+        .env_remove("SIPNPUFF_NO_DISPLAY");
+    Running::start(command)
+}
+
+/// Waits (10 s at most) until `check` holds for what the head panel
+/// shows; returns it.
+fn until_head(browser: &Browser, what: &str, check: impl Fn(&Value) -> bool) -> Value {
+    let started = Instant::now();
+    loop {
+        let shown = browser.eval(HEAD_SHOWN);
+        if check(&shown) {
+            return shown;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(10),
+            "the page never showed {what}; it showed {shown:#}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// A person who moves rather than breathes, in a real browser: the head's
+/// trace in place of the pressure bar, the gestures listed as words with
+/// their glyphs, and in the mode a nod selects, the head pitched past the
+/// dead zone moving the arm forward. A person who does both sees both.
+/// Each page fits the 7-inch 1024 × 600 kiosk without scrolling (each
+/// screenshot checks it).
+#[test]
+fn a_head_users_page_traces_the_head_and_fits_the_kiosk() {
+    use sipnpuff::control::imu::Channels;
+    use sipnpuff::sim::head_gesture::GestureName;
+    use sipnpuff::sim::imu_session::{Drive, drive_session};
+    use sipnpuff::sim::imu_user::ImuUser;
+    use sipnpuff::tools::imu_csv::write_imu_csv;
+
+    let dir = Scratch::new();
+    let person = ImuUser::builtin("typical").unwrap();
+    let drive = Drive {
+        gesture: GestureName::Nod,
+        pitch_deg: 22.0,
+        hold_ms: 4000,
+    };
+    let (session, _) = drive_session(&person, &[drive], 4);
+    let imu = dir.join("imu.csv");
+    let mut text = Vec::new();
+    write_imu_csv(&mut text, Channels::ALL, &session.samples).unwrap();
+    std::fs::write(&imu, text).unwrap();
+    let imu_sensor = format!("csv:{}", imu.display());
+    // A breath recording at rest beside it, as long.
+    let config = Config::default();
+    let params = SignalParams::clean(config.core().detector(), 7);
+    let breath = dir.join("breath.csv");
+    let ms = session.samples.last().unwrap().0 as u32 + 2000;
+    let mut out = std::io::BufWriter::new(std::fs::File::create(&breath).unwrap());
+    write_csv(&mut out, SignalGenerator::new(params, &[rest(ms)])).unwrap();
+    out.flush().unwrap();
+    let breath_sensor = format!("csv:{}", breath.display());
+    browser_test(|| {
+        let browser = Browser::start();
+        // The head alone.
+        let port = free_port();
+        let run = run_with(
+            &[
+                "--sensor",
+                &imu_sensor,
+                "--config",
+                "fixtures/gesture-user/config.toml",
+            ],
+            port,
+        );
+        wait_for_page(port);
+        browser.open(&format!("http://127.0.0.1:{port}/"));
+        let shown = until_head(&browser, "the head panel", |s| {
+            s["head_shown"] == true && s["pitch"].is_number()
+        });
+        assert_eq!(shown["pressure_shown"], false, "{shown}");
+        assert_eq!(shown["entered_title"], "Your sequence");
+        assert!(
+            strings(&shown["glyphs"]).contains(&"↕nod".to_string()),
+            "{shown}"
+        );
+        assert!(
+            strings(&shown["glyphs"]).contains(&"↷tilt right".to_string()),
+            "{shown}"
+        );
+        browser.screenshot("head-selecting");
+        let shown = until_head(&browser, "the head pitched past the dead zone", |s| {
+            s["state"] == "command" && s["pitch"].as_f64().is_some_and(|p| p > 15.0)
+        });
+        assert_eq!(shown["direction"], "forward", "{shown}");
+        assert_eq!(
+            shown["countdown"], "head tilted — staying in this mode",
+            "{shown}"
+        );
+        assert!(
+            shown["head_text"].as_str().unwrap().starts_with("pitch +"),
+            "{shown}"
+        );
+        assert_eq!(
+            browser.eval("return document.getElementById('head-title').textContent;"),
+            "Head — pitch past ±12° moves"
+        );
+        browser.screenshot("head-command");
+        let (status, _, stderr) = run.finish();
+        assert_eq!(status.code(), Some(0), "{stderr}");
+
+        // Breath and head: both panels.
+        let port = free_port();
+        let run = run_with(
+            &[
+                "--sensor",
+                &breath_sensor,
+                "--imu",
+                &imu_sensor,
+                "--config",
+                "fixtures/gesture-user/config.toml",
+            ],
+            port,
+        );
+        wait_for_page(port);
+        browser.open(&format!("http://127.0.0.1:{port}/"));
+        let shown = until_head(&browser, "both panels", |s| {
+            s["head_shown"] == true && s["pressure_shown"] == true && s["pitch"].is_number()
+        });
+        assert_eq!(shown["breath"], "yes");
+        browser.screenshot("head-and-breath");
+        let (status, _, stderr) = run.finish();
+        assert_eq!(status.code(), Some(0), "{stderr}");
+    });
 }
