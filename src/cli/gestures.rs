@@ -9,6 +9,7 @@
 use std::path::PathBuf;
 
 use crate::cli::args::ConfigArg;
+use crate::cli::display::DisplayArgs;
 use crate::cli::output::{self, Terminal, invalid};
 use crate::gestures::report;
 use crate::sensor::SensorSpec;
@@ -53,6 +54,8 @@ pub struct RecordArgs {
     recording: Option<PathBuf>,
     #[command(flatten)]
     config: ConfigArg,
+    #[command(flatten)]
+    display: DisplayArgs,
     /// The gestures, in the order recorded: `nod,shake,tilt_left`.
     #[arg(long, value_delimiter = ',', required = true)]
     gestures: Vec<String>,
@@ -84,6 +87,11 @@ pub fn gestures(command: GesturesCommand) -> anyhow::Result<u8> {
             let recorded = match (&args.from, &args.sensor) {
                 (Some(from), _) => invalid(record_from(from, &args.gestures, &args.out))?,
                 (None, Some(sensor)) => {
+                    if args.display.tui {
+                        return invalid(Err(anyhow::anyhow!(
+                            "gestures record has no terminal view (--tui): its prompts are printed, and shown on the page"
+                        )));
+                    }
                     let config = args.config.load()?;
                     let recording = args
                         .recording
@@ -95,6 +103,7 @@ pub fn gestures(command: GesturesCommand) -> anyhow::Result<u8> {
                         out: &args.out,
                         recording: &recording,
                         config: &config,
+                        display: args.display.choice(),
                     };
                     record_live(&live, &Terminal)?
                 }

@@ -195,7 +195,23 @@ pub struct HeadView {
 }
 
 /// Ticks of the tilt's smoothing (an exponential average's time constant).
-const TILT_SMOOTHING_TICKS: f64 = 80.0;
+pub const TILT_SMOOTHING_TICKS: f64 = 80.0;
+
+/// The head's pitch (chin down +) and roll (left ear down +), degrees,
+/// from the gravity `reference` at rest to the acceleration `now` (each
+/// m/s², sensor axes); none without a reference.
+pub fn pitch_and_roll(reference: [f64; 3], now: [f64; 3]) -> Option<(f64, f64)> {
+    let g = norm3(reference);
+    if g <= 0.0 {
+        return None;
+    }
+    // Chin down turns gravity towards -x; the left ear down towards -y.
+    let angle = |i: usize| {
+        let d = now.get(i).copied().unwrap_or(0.0) - reference.get(i).copied().unwrap_or(0.0);
+        (-d / g).clamp(-1.0, 1.0).asin().to_degrees()
+    };
+    Some((angle(0), angle(1)))
+}
 /// A tilt is let go inside this fraction of the dead zone.
 const RELEASE_FRACTION: f64 = 0.75;
 
@@ -257,19 +273,10 @@ impl Head {
             return None;
         }
         let reference = self.reference.unwrap_or(self.recognizer.rest().gravity);
-        let now = self.smoothed?;
-        let g = norm3(reference);
-        if g <= 0.0 {
-            return None;
-        }
-        // Chin down turns gravity towards -x; the left ear down towards -y.
-        let angle = |i: usize| {
-            let d = now.get(i).copied().unwrap_or(0.0) - reference.get(i).copied().unwrap_or(0.0);
-            (-d / g).clamp(-1.0, 1.0).asin().to_degrees()
-        };
+        let (pitch_deg, roll_deg) = pitch_and_roll(reference, self.smoothed?)?;
         Some(HeadView {
-            pitch_deg: angle(0),
-            roll_deg: angle(1),
+            pitch_deg,
+            roll_deg,
             moving: self.recognizer.in_motion() && !self.commanding,
             tilted: self.commanding && self.tilted.is_some(),
         })

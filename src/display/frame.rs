@@ -249,6 +249,40 @@ pub struct Frame {
     /// A live calibration's prompts (`sipnpuff fit` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub calibration: Option<Calibration>,
+    /// A live gesture recording's prompts (`sipnpuff gestures record`
+    /// only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub recording: Option<GestureRecording>,
+}
+
+/// What a live gesture recording (`gestures record --sensor`) shows: the
+/// prompt, large; the example's count and the gesture's place; a line of
+/// news; the ordinary minute's time left; at the end, what was made. Words
+/// from the session's guide ([`crate::gestures::guided`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GestureRecording {
+    /// `rest` (holding still at the start), `prompt`, `between` (resting
+    /// before the next prompt), `ordinary`, `finished`, `stopped`, or
+    /// `summary` (the set is written, or nothing was).
+    pub phase: &'static str,
+    /// The large words: "nod — now", "rest".
+    pub headline: String,
+    /// "2 of 5" (empty without a prompt).
+    pub count: String,
+    /// "gesture 1 of 2: nod" (empty before the first prompt).
+    pub gesture: String,
+    /// The latest news: "seen (0.8 s)", "no movement seen yet".
+    pub message: String,
+    /// How the news is drawn: `info`, `again` or `fault`.
+    pub message_level: &'static str,
+    /// Examples seen so far.
+    pub seen: usize,
+    /// Examples the session asks for.
+    pub total: usize,
+    /// The ordinary minute's time left, ms.
+    pub ordinary_ms_left: Option<u64>,
+    /// At the end: the set written and its check, or why nothing was.
+    pub summary: Option<String>,
 }
 
 /// What a live calibration (`sipnpuff fit`) shows: the prompt, large;

@@ -16,10 +16,12 @@ use tokio::sync::{broadcast, watch};
 use crate::control::Tick;
 use crate::control::core_config::CoreConfig;
 use crate::control::event::TimedEvent;
+use crate::control::imu::ImuInput;
 use crate::display::frame::{Cue, Frame};
 use crate::display::screen::Screen;
 use crate::fit::outcome::Outcome;
 use crate::fit::prompter::{Say, View};
+use crate::gestures::guided::Say as GuideSay;
 use crate::rt::report::{DisplayCounts, DisplaySummary};
 use crate::rt::telemetry::{TelemetryObserver, TickRecord};
 
@@ -186,6 +188,12 @@ impl DisplayHub {
         DisplayHub::showing(Screen::new(config, arm).fitting())
     }
 
+    /// The hub for a live gesture recording (`sipnpuff gestures record`)
+    /// of `names`: the page shows the prompts and the head.
+    pub fn for_gestures(config: &CoreConfig, names: &[String]) -> DisplayHub {
+        DisplayHub::showing(Screen::new(config, "none").recording_gestures(names))
+    }
+
     fn showing(screen: Screen) -> DisplayHub {
         let setup = screen.setup().clone();
         let setup_json = serde_json::to_string(&setup).unwrap_or_else(|_| "{}".into());
@@ -238,6 +246,37 @@ impl DisplayHub {
             let _ = self.feed.cues.send(CueMessage { cue, tick });
         }
         self.event_pending = true;
+    }
+
+    /// A live gesture recording's IMU input on `tick`: a frame goes out
+    /// every [`FRAME_PERIOD_MS`].
+    pub fn observe_imu(&mut self, tick: Tick, input: ImuInput) {
+        self.screen.observe_imu(tick, input);
+        let due = self
+            .last_publish
+            .is_none_or(|at| at.elapsed().as_millis() as u64 >= FRAME_PERIOD_MS);
+        if due {
+            self.publish_frame();
+        }
+    }
+
+    /// What a live gesture recording's guide said on `tick` (`seen`
+    /// examples in; `max_ms` the longest gesture): published at once,
+    /// with its sound.
+    pub fn guide_gestures(&mut self, tick: Tick, said: &GuideSay, seen: usize, max_ms: u32) {
+        if let Some(cue) = self.screen.guide_gestures(tick, said, seen, max_ms) {
+            let _ = self.feed.cues.send(CueMessage { cue, tick });
+        }
+        self.publish_frame();
+    }
+
+    /// Publishes a live gesture recording's end (`summary`; `written`:
+    /// the set was) as the session's last frame; then
+    /// [`Feed::wait_last_sent`] tells when the pages have it.
+    pub fn conclude_gestures(&mut self, summary: String, written: bool) {
+        self.screen.conclude_gestures(summary, written);
+        self.last = true;
+        self.publish_frame();
     }
 
     /// Publishes a live calibration's summary as the session's last

@@ -20,13 +20,17 @@ use crate::fit::outcome::Outcome;
 use crate::fit::prompter::{Say, View};
 use crate::rt::telemetry::TickRecord;
 
+use crate::control::head::{TILT_SMOOTHING_TICKS, pitch_and_roll};
+use crate::control::imu::ImuInput;
 use crate::display::frame::{
-    Calibration, Command, Cue, Frame, Head, HeadSetup, Highlight, LibrarySequence, ModeEntry,
-    Notice, Pressure, Setup, Symbol, Waiting, symbols,
+    Calibration, Command, Cue, Frame, GestureRecording, Head, HeadSetup, Highlight,
+    LibrarySequence, ModeEntry, Notice, Pressure, Setup, Symbol, Waiting, symbols,
 };
 use crate::display::words::{
     fired_words, limit_words, motion_shown, movers, sequence_verb, target_id, target_label,
 };
+use crate::gestures::guided::{self, Say as GuideSay};
+use crate::gestures::protocol::EXAMPLES;
 
 /// The screen's state: fed records and events, gives frames and cues.
 #[derive(Debug, Clone)]
@@ -46,6 +50,25 @@ pub struct Screen {
     news: Option<(String, Tick)>,
     stopping: bool,
     calibration: Option<Calibration>,
+    /// A live gesture recording: what it shows, and the head read
+    /// straight from the IMU (there is no core).
+    recording: Option<Recording>,
+}
+
+/// A live gesture recording's state on the screen.
+#[derive(Debug, Clone)]
+struct Recording {
+    view: GestureRecording,
+    names: Vec<String>,
+    /// The ordinary minute ends at this tick.
+    ordinary_until: Option<Tick>,
+    /// The acceleration, smoothed as the core smooths it.
+    smoothed: Option<[f64; 3]>,
+    /// The rest it is measured from (set when the rest is asked for and
+    /// again at the first prompt).
+    reference: Option<[f64; 3]>,
+    /// Take the next smoothed value as the rest.
+    anchor: bool,
 }
 
 /// How long a piece of news (`point saved`, `nothing saved yet`) stays up, ms.
@@ -152,6 +175,134 @@ impl Screen {
             news: None,
             stopping: false,
             calibration: None,
+            recording: None,
+        }
+    }
+
+    /// The screen of a live gesture recording (`sipnpuff gestures record`)
+    /// of `names`: its prompts and the head, instead of the modes.
+    pub fn recording_gestures(mut self, names: &[String]) -> Screen {
+        self.setup.view = "gestures";
+        self.setup.breath = false;
+        self.recording = Some(Recording {
+            view: GestureRecording {
+                phase: "rest",
+                headline: "hold your head still".into(),
+                count: String::new(),
+                gesture: String::new(),
+                message: String::new(),
+                message_level: "info",
+                seen: 0,
+                total: names.len() * EXAMPLES,
+                ordinary_ms_left: None,
+                summary: None,
+            },
+            names: names.to_vec(),
+            ordinary_until: None,
+            smoothed: None,
+            reference: None,
+            anchor: true,
+        });
+        self
+    }
+
+    /// A live gesture recording's IMU input on `tick`.
+    pub fn observe_imu(&mut self, tick: Tick, input: ImuInput) {
+        self.tick = tick;
+        let Some(r) = self.recording.as_mut() else {
+            return;
+        };
+        if let ImuInput::Sample(sample) = input
+            && sample.is_finite()
+        {
+            let a = sample.acceleration();
+            let alpha = 1.0 - (-1.0 / TILT_SMOOTHING_TICKS).exp();
+            let s = r.smoothed.get_or_insert(a);
+            for (s, a) in s.iter_mut().zip(a) {
+                *s += alpha * (a - *s);
+            }
+            if r.anchor {
+                r.reference = r.smoothed;
+                r.anchor = false;
+            }
+        }
+    }
+
+    /// What a live gesture recording's guide said on `tick`, `seen`
+    /// examples in; `max_ms` is the front end's longest gesture. Returns
+    /// the sound for it.
+    pub fn guide_gestures(
+        &mut self,
+        tick: Tick,
+        said: &GuideSay,
+        seen: usize,
+        max_ms: u32,
+    ) -> Option<Cue> {
+        self.tick = tick;
+        let r = self.recording.as_mut()?;
+        let (headline, message, level) = guided::page_words(said, &r.names, max_ms);
+        let v = &mut r.view;
+        v.headline = headline;
+        v.message = message;
+        v.message_level = level;
+        v.seen = seen;
+        let (phase, cue) = match *said {
+            GuideSay::HoldStill { again } => {
+                r.anchor = true;
+                ("rest", again.then_some(Cue::Again))
+            }
+            GuideSay::Make {
+                gesture,
+                example,
+                again,
+            } => {
+                if v.gesture.is_empty() {
+                    r.anchor = true;
+                }
+                v.count = format!("{example} of {EXAMPLES}");
+                v.gesture = format!(
+                    "gesture {} of {}: {}",
+                    gesture + 1,
+                    r.names.len(),
+                    r.names
+                        .get(gesture)
+                        .map_or("?", String::as_str)
+                        .replace('_', " ")
+                );
+                ("prompt", Some(if again { Cue::Again } else { Cue::Prompt }))
+            }
+            GuideSay::Seen { .. } => ("between", None),
+            GuideSay::OutOfTurn | GuideSay::TooLong { .. } => ("between", Some(Cue::Again)),
+            GuideSay::Ordinary { ms } => {
+                r.ordinary_until = Some(tick + ms);
+                v.count = String::new();
+                v.gesture = String::new();
+                ("ordinary", Some(Cue::Prompt))
+            }
+            GuideSay::Done => {
+                r.ordinary_until = None;
+                ("finished", Some(Cue::Done))
+            }
+            GuideSay::Stopped(_) => {
+                r.ordinary_until = None;
+                ("stopped", Some(Cue::Fault))
+            }
+        };
+        v.phase = phase;
+        cue
+    }
+
+    /// A live gesture recording is over: what was written, or why not.
+    pub fn conclude_gestures(&mut self, summary: String, written: bool) {
+        if let Some(r) = self.recording.as_mut() {
+            r.view.phase = "summary";
+            r.view.headline = if written {
+                "Gesture set written".into()
+            } else {
+                "No gesture set written".into()
+            };
+            r.view.summary = Some(summary);
+            r.ordinary_until = None;
         }
     }
 
@@ -429,14 +580,7 @@ impl Screen {
                 held: view.held.map(|(b, _)| b.word()),
                 held_ms,
             },
-            head: view.head.map(|h| {
-                let tenth = |deg: f64| (deg * 10.0).round() / 10.0;
-                Head {
-                    pitch_deg: tenth(h.pitch_deg),
-                    roll_deg: tenth(h.roll_deg),
-                    moving: h.moving,
-                }
-            }),
+            head: self.head(),
             notices,
             saved_point: self.saved,
             arm: if view.arm_faulted {
@@ -445,7 +589,32 @@ impl Screen {
                 "connected"
             },
             calibration: self.calibration.clone(),
+            recording: self.recording.as_ref().map(|r| GestureRecording {
+                ordinary_ms_left: r.ordinary_until.map(|until| until.saturating_sub(now)),
+                ..r.view.clone()
+            }),
         }
+    }
+
+    /// The head for its trace: from the core, or in a live gesture
+    /// recording straight from the IMU.
+    fn head(&self) -> Option<Head> {
+        let tenth = |deg: f64| (deg * 10.0).round() / 10.0;
+        let (pitch, roll, moving) = match &self.recording {
+            Some(r) => {
+                let (pitch, roll) = pitch_and_roll(r.reference?, r.smoothed?)?;
+                (pitch, roll, false)
+            }
+            None => {
+                let h = self.view.head?;
+                (h.pitch_deg, h.roll_deg, h.moving)
+            }
+        };
+        Some(Head {
+            pitch_deg: tenth(pitch),
+            roll_deg: tenth(roll),
+            moving,
+        })
     }
 }
 

@@ -456,3 +456,56 @@ pub fn words(say: &Say, names: &[String], max_ms: u32) -> String {
         Say::Stopped(Stop::Lost) => "the IMU went away: the session stops".into(),
     }
 }
+
+/// What the page shows for `say`: a large headline and a line of news,
+/// with how the news is drawn (`info`, `again`: asked again or not
+/// counted, `fault`: the session stopped). Words as [`words`]'s.
+pub fn page_words(say: &Say, names: &[String], max_ms: u32) -> (String, String, &'static str) {
+    let name = |g: usize| names.get(g).map_or("?", String::as_str).replace('_', " ");
+    match *say {
+        Say::HoldStill { again } => (
+            "hold your head still".into(),
+            if again {
+                "the head moved: the rest starts again".into()
+            } else {
+                String::new()
+            },
+            if again { "again" } else { "info" },
+        ),
+        Say::Make { gesture, again, .. } => (
+            format!("{} — now", name(gesture)),
+            if again {
+                "no movement seen yet".into()
+            } else {
+                String::new()
+            },
+            if again { "again" } else { "info" },
+        ),
+        Say::Seen { span, .. } => (
+            "rest".into(),
+            format!("seen ({:.1} s)", (span.end - span.start) as f64 / 1000.0),
+            "info",
+        ),
+        Say::OutOfTurn => (
+            "rest — wait for the prompt".into(),
+            "a movement before the prompt: not counted".into(),
+            "again",
+        ),
+        Say::TooLong { gesture, .. } => (
+            "rest".into(),
+            format!(
+                "longer than a gesture may last ({:.1} s): {} again, quicker",
+                f64::from(max_ms) / 1000.0,
+                name(gesture)
+            ),
+            "again",
+        ),
+        Say::Ordinary { .. } => (
+            "move as you ordinarily do".into(),
+            "look around, talk — make none of the gestures".into(),
+            "info",
+        ),
+        Say::Done => ("done".into(), "the recording is over".into(), "info"),
+        Say::Stopped(_) => ("stopped".into(), words(say, names, max_ms), "fault"),
+    }
+}

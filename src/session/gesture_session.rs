@@ -1,6 +1,6 @@
 //! A live gesture recording (`gestures record --sensor IMU`): the IMU
 //! read at 1 kHz on this thread, the guide's prompts said in the
-//! terminal as they come, the session written as an IMU recording (kept
+//! terminal and on the page as they come (with the head's trace), the session written as an IMU recording (kept
 //! whatever happens), and, once the guide is done, the set made from the
 //! movements it labelled and checked on the session's ordinary minute.
 //! `--sensor synthetic:NAME` is a simulated person who follows the
@@ -26,6 +26,7 @@ use crate::sensor::{Producer, Samples, Sensor, SensorSpec};
 use crate::session::Console;
 use crate::session::gestures::RecordedSet;
 use crate::session::imu::{open_imu, spec_text};
+use crate::session::showing::{Display, DisplayChoice, Showing};
 use crate::sim::guided_imu_user::GuidedImuUser;
 use crate::sim::head_gesture::GestureName;
 use crate::sim::imu_user::ImuUser;
@@ -44,7 +45,12 @@ pub struct LiveRecord<'a> {
     pub recording: &'a Path,
     /// `[sensor]` settings for the device.
     pub config: &'a Config,
+    /// The page (the terminal view is not offered).
+    pub display: DisplayChoice,
 }
+
+/// How long the page's last frame may take to reach the open pages.
+const SUMMARY_WAIT: Duration = Duration::from_secs(3);
 
 /// The head the session reads.
 enum Head {
@@ -113,10 +119,10 @@ fn open(live: &LiveRecord) -> anyhow::Result<(Head, Channels, String)> {
     ))
 }
 
-/// Runs the guided session and makes the set: the prompts to `console`,
-/// the recording written whatever happens. An error if the session
-/// stopped before its end (the recording so far kept) or the set cannot
-/// be made.
+/// Runs the guided session and makes the set: the prompts to `console`
+/// and the page, the recording written whatever happens. An error if the
+/// session stopped before its end (the recording so far kept) or the set
+/// cannot be made; the page says so too.
 pub fn record_live(live: &LiveRecord, console: &dyn Console) -> anyhow::Result<RecordedSet> {
     record::check_names(live.names).map_err(|e| anyhow::anyhow!(e))?;
     if live.recording.exists() {
@@ -125,7 +131,38 @@ pub fn record_live(live: &LiveRecord, console: &dyn Console) -> anyhow::Result<R
             live.recording.display()
         );
     }
-    let (mut head, channels, described) = open(live)?;
+    // The page's address is taken before the IMU is opened.
+    let display = Display::open(&live.display, console)?;
+    let (head, channels, described) = open(live)?;
+    let mut showing = display.start_gestures(live.config.core(), live.names)?;
+    let result = session(live, console, head, channels, &described, &mut showing);
+    let (summary, written) = match &result {
+        Ok(made) => (
+            format!(
+                "written to {}: leave-one-out {}/{} right; ordinary movement: {} activations; the session is kept in {}",
+                live.out.display(),
+                made.check.right,
+                made.check.examples,
+                made.check.activations.len(),
+                live.recording.display()
+            ),
+            true,
+        ),
+        Err(e) => (format!("{e:#}"), false),
+    };
+    showing.conclude_gestures(summary, written, SUMMARY_WAIT);
+    result
+}
+
+/// The session on the IMU opened, shown on `showing`.
+fn session(
+    live: &LiveRecord,
+    console: &dyn Console,
+    mut head: Head,
+    channels: Channels,
+    described: &str,
+    showing: &mut Showing,
+) -> anyhow::Result<RecordedSet> {
     let stop = signals::stop_request()?;
     console.note(&format!(
         "sipnpuff: recording {} gestures ({}) from {described}: {} examples of each, then a minute of ordinary movement; the session is kept in {}",
@@ -148,12 +185,15 @@ pub fn record_live(live: &LiveRecord, console: &dyn Console) -> anyhow::Result<R
         let skipped = now.saturating_sub(tick);
         tick = tick.max(now);
         let input = head.read(tick, skipped);
+        showing.observe_imu(tick, input);
         if let Some(say) = guide.step(tick, input) {
             let max_ms = guide.fitted().map_or(base.max_ms, |c| c.max_ms);
             console.note(&format!(
                 "sipnpuff: {}",
                 guided::words(&say, live.names, max_ms)
             ));
+            let seen = guide.examples().iter().map(Vec::len).sum();
+            showing.guide_gestures(tick, &say, seen, max_ms);
             head.hear(tick, &say);
             last = Some(say);
         }

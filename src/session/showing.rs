@@ -8,8 +8,10 @@ use std::net::SocketAddr;
 
 use crate::control::Tick;
 use crate::control::core_config::CoreConfig;
+use crate::control::imu::ImuInput;
 use crate::fit::outcome::Outcome;
 use crate::fit::prompter::{Say, View};
+use crate::gestures::guided::Say as GuideSay;
 use crate::rt::report::RunReport;
 use crate::rt::telemetry::TelemetryObserver;
 use crate::session::Console;
@@ -64,6 +66,16 @@ mod wired {
             self.start_hub(|| DisplayHub::for_fit(config, arm))
         }
 
+        /// Starts the page of a live gesture recording of `names`: its
+        /// prompts and the head.
+        pub fn start_gestures(
+            &self,
+            config: &CoreConfig,
+            names: &[String],
+        ) -> anyhow::Result<Showing> {
+            self.start_hub(|| DisplayHub::for_gestures(config, names))
+        }
+
         fn start_hub(&self, hub: impl FnOnce() -> DisplayHub) -> anyhow::Result<Showing> {
             if self.listener.is_none() && !self.tui {
                 return Ok(Showing::default());
@@ -111,6 +123,38 @@ mod wired {
         pub fn calibrate(&mut self, tick: Tick, view: &View, said: Option<&Say>) {
             if let Some(hub) = self.hub.as_mut() {
                 hub.calibrate(tick, view, said);
+            }
+        }
+
+        /// A live gesture recording's IMU input on `tick`.
+        pub fn observe_imu(&mut self, tick: Tick, input: ImuInput) {
+            if let Some(hub) = self.hub.as_mut() {
+                hub.observe_imu(tick, input);
+            }
+        }
+
+        /// What a live gesture recording's guide said on `tick`, `seen`
+        /// examples in (`max_ms`: the longest gesture).
+        pub fn guide_gestures(&mut self, tick: Tick, said: &GuideSay, seen: usize, max_ms: u32) {
+            if let Some(hub) = self.hub.as_mut() {
+                hub.guide_gestures(tick, said, seen, max_ms);
+            }
+        }
+
+        /// A live gesture recording's end, the session's last frame:
+        /// waits (at most `limit`) until every open page has it.
+        pub fn conclude_gestures(
+            &mut self,
+            summary: String,
+            written: bool,
+            limit: std::time::Duration,
+        ) {
+            let Some(hub) = self.hub.as_mut() else {
+                return;
+            };
+            hub.conclude_gestures(summary, written);
+            if self.server.is_some() && hub.feed().wait_last_sent(limit) {
+                std::thread::sleep(std::time::Duration::from_millis(100));
             }
         }
 
@@ -170,6 +214,15 @@ mod wired {
         pub fn start_fit(&self, _config: &CoreConfig, _arm: &str) -> anyhow::Result<Showing> {
             Ok(Showing)
         }
+
+        /// Nothing to start.
+        pub fn start_gestures(
+            &self,
+            _config: &CoreConfig,
+            _names: &[String],
+        ) -> anyhow::Result<Showing> {
+            Ok(Showing)
+        }
     }
 
     /// No display.
@@ -186,6 +239,28 @@ mod wired {
 
         /// Nothing to show.
         pub fn conclude(&mut self, _outcome: &Outcome, _limit: std::time::Duration) {}
+
+        /// Nothing to show.
+        pub fn observe_imu(&mut self, _tick: Tick, _input: ImuInput) {}
+
+        /// Nothing to show.
+        pub fn guide_gestures(
+            &mut self,
+            _tick: Tick,
+            _said: &GuideSay,
+            _seen: usize,
+            _max_ms: u32,
+        ) {
+        }
+
+        /// Nothing to show.
+        pub fn conclude_gestures(
+            &mut self,
+            _summary: String,
+            _written: bool,
+            _limit: std::time::Duration,
+        ) {
+        }
 
         /// Nothing to end.
         pub fn finish(&mut self, _report: Option<&mut RunReport>) {}

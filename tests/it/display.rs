@@ -519,3 +519,75 @@ fn a_head_users_frames_carry_the_head_for_its_trace() {
     let mean = held.iter().sum::<f64>() / held.len() as f64;
     assert!((mean - 20.0).abs() < 3.0, "held at {mean:.1}°");
 }
+
+/// A live gesture recording's screen (`gestures record`), fed by the
+/// guide and a simulated person on simulated ticks: the phases in order,
+/// a sound per prompt, the head from the IMU itself, the ordinary minute
+/// counting down, and the end; a run's frames carry none of it.
+#[test]
+fn a_gesture_recordings_frames_follow_the_guide() {
+    use sipnpuff::control::gesture::GestureConfig;
+    use sipnpuff::gestures::guided::Guided;
+    use sipnpuff::sim::guided_imu_user::GuidedImuUser;
+    use sipnpuff::sim::head_gesture::GestureName;
+    use sipnpuff::sim::imu_user::ImuUser;
+
+    let config = Config::default();
+    let run = Screen::new(config.core(), "simulated JACO");
+    assert!(
+        !serde_json::to_string(&run.frame())
+            .unwrap()
+            .contains("recording")
+    );
+
+    let names = vec!["nod".to_string()];
+    let mut screen = Screen::new(config.core(), "none").recording_gestures(&names);
+    assert_eq!(screen.setup().view, "gestures");
+    let first = screen.frame().recording.unwrap();
+    assert_eq!((first.phase, first.total), ("rest", 5));
+    let user = ImuUser::builtin("typical").unwrap();
+    let mut person = GuidedImuUser::new(user, &[GestureName::Nod], 2);
+    let mut guide = Guided::new(1, GestureConfig::default());
+    let (mut phases, mut cues, mut left) = (Vec::new(), Vec::new(), Vec::new());
+    let mut tick = 0;
+    while !guide.is_over() {
+        let input = person.input(tick);
+        screen.observe_imu(tick, input);
+        if let Some(say) = guide.step(tick, input) {
+            person.hear(tick, &say);
+            let seen = guide.examples().iter().map(Vec::len).sum();
+            cues.extend(screen.guide_gestures(tick, &say, seen, 3360));
+            let frame = screen.frame().recording.unwrap();
+            if phases.last() != Some(&frame.phase) {
+                phases.push(frame.phase);
+            }
+        }
+        let frame = screen.frame();
+        if let Some(ms) = frame.recording.unwrap().ordinary_ms_left {
+            left.push(ms);
+        }
+        if tick == 2000 {
+            let head = frame.head.expect("the head from the IMU");
+            assert!(head.pitch_deg.abs() < 2.0, "{head:?}");
+        }
+        tick += 1;
+    }
+    assert_eq!(
+        phases,
+        [
+            "rest", "prompt", "between", "prompt", "between", "prompt", "between", "prompt",
+            "between", "prompt", "between", "ordinary", "finished"
+        ]
+    );
+    assert_eq!(cues.iter().filter(|c| **c == Cue::Prompt).count(), 6);
+    assert_eq!(cues.last(), Some(&Cue::Done));
+    assert_eq!(left.first(), Some(&61_000));
+    assert!(left.windows(2).all(|w| w[1] <= w[0]));
+    screen.conclude_gestures("written".into(), true);
+    let end = screen.frame().recording.unwrap();
+    assert_eq!(
+        (end.phase, end.headline.as_str()),
+        ("summary", "Gesture set written")
+    );
+    assert_eq!(end.seen, 5);
+}

@@ -818,3 +818,114 @@ fn a_head_users_page_traces_the_head_and_fits_the_kiosk() {
         assert_eq!(status.code(), Some(0), "{stderr}");
     });
 }
+
+/// What a live gesture recording's page shows.
+const RECORDING_SHOWN: &str = r##"
+const text = (id) => document.getElementById(id).textContent;
+const f = window.sipnpuff.state.frame;
+return {
+  view: document.body.dataset.view,
+  phase: document.body.dataset.gestPhase,
+  headline: text("gest-headline"),
+  gesture: text("gest-gesture"),
+  count: text("gest-count"),
+  message: text("gest-message"),
+  progress: text("gest-progress-text"),
+  summary: text("gest-summary"),
+  head_shown: getComputedStyle(document.getElementById("head-panel")).display !== "none",
+  pitch: f && f.head ? f.head.pitch_deg : null,
+  ended: !!window.sipnpuff.ended,
+  cues: window.sipnpuff.cues.map((c) => c.cue),
+};
+"##;
+
+/// `gestures record --sensor synthetic:typical` on the page, in a real
+/// browser: the prompt large with its gesture and count, the head's
+/// trace, the news of each example seen, the ordinary minute counting
+/// down, and at the end the set written — the page keeping it after the
+/// command has exited. Every screenshot fits 1024 × 600.
+#[test]
+fn a_live_gesture_recording_is_guided_on_the_page() {
+    browser_test(|| {
+        let dir = Scratch::new();
+        let set = dir.join("sam.toml");
+        let browser = Browser::start();
+        let port = free_port();
+        let mut command = Command::new(env!("CARGO_BIN_EXE_sipnpuff"));
+        command
+            .args([
+                "gestures",
+                "record",
+                "--sensor",
+                "synthetic:typical",
+                "--gestures",
+                "nod",
+                "--display",
+                &format!("127.0.0.1:{port}"),
+            ])
+            .arg("--out")
+            .arg(&set)
+            .env_remove("SIPNPUFF_NO_DISPLAY");
+        let run = Running::start(command);
+        wait_for_page(port);
+        browser.open(&format!("http://127.0.0.1:{port}/"));
+        let until = |what: &str, limit: u64, check: &dyn Fn(&Value) -> bool| {
+            let started = Instant::now();
+            loop {
+                let shown = browser.eval(RECORDING_SHOWN);
+                if check(&shown) {
+                    return shown;
+                }
+                assert!(
+                    started.elapsed() < Duration::from_secs(limit),
+                    "the page never showed {what}; it showed {shown:#}"
+                );
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        };
+        let shown = until("the first prompt", 15, &|s| s["headline"] == "nod — now");
+        assert_eq!(shown["view"], "gestures");
+        assert_eq!(shown["gesture"], "gesture 1 of 1: nod");
+        assert_eq!(shown["count"], "1 of 5");
+        assert_eq!(shown["head_shown"], true);
+        browser.screenshot("gestures-1-prompt");
+        let shown = until("an example seen", 10, &|s| {
+            s["message"]
+                .as_str()
+                .unwrap_or_default()
+                .starts_with("seen (")
+        });
+        assert_eq!(shown["headline"], "rest");
+        assert!(shown["pitch"].is_number(), "{shown}");
+        let shown = until("the ordinary minute", 40, &|s| s["phase"] == "ordinary");
+        assert_eq!(shown["progress"], "5 of 5 examples");
+        assert!(
+            shown["count"].as_str().unwrap().ends_with(" s left"),
+            "{shown}"
+        );
+        browser.screenshot("gestures-2-ordinary");
+        let shown = until("the summary", 75, &|s| {
+            s["phase"] == "summary" && s["ended"] == true
+        });
+        assert_eq!(shown["headline"], "");
+        let summary = shown["summary"].as_str().unwrap();
+        assert!(
+            summary.starts_with(&format!(
+                "written to {}: leave-one-out 5/5 right",
+                set.display()
+            )),
+            "{shown}"
+        );
+        let cues = strings(&shown["cues"]);
+        assert_eq!(
+            cues.iter().filter(|c| *c == "prompt").count(),
+            6,
+            "{cues:?}"
+        );
+        assert_eq!(cues.last().map(String::as_str), Some("done"), "{cues:?}");
+        browser.screenshot("gestures-3-summary");
+        let (status, _, stderr) = run.finish();
+        assert_eq!(status.code(), Some(0), "{stderr}");
+        assert!(set.exists());
+    });
+}
