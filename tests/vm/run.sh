@@ -248,6 +248,30 @@ expected_from "$OUT/imu-unplug.csv" imu-unplug "$OUT/imu.host.toml"
 printf 'IMU_MS=%s\nIMU_UNPLUG_MS=%s\n' "$IMU_MS" "$IMU_UNPLUG_MS" >"$OUT/imu.env"
 echo "vm-harness: IMU: $(tr '\n' ' ' <"$EXP/imu.txt"); to the unplug: $(tr '\n' ' ' <"$EXP/imu-to-unplug.txt")"
 
+# Both sensors at once (`run --sensor HID --imu IMU`): the IMU plays the
+# same drive while the HID gadget rests; once the drive is over and the
+# head rests (the feeder holds its last counts: `frozen_ms` allows it), a
+# long sip and a short puff on the gadget select save_point. What the
+# guest must see is the IMU's events, then the breaths' as the host's
+# replay of them alone reads them.
+BOTH_REST_MS=$((IMU_MS + 1500))
+printf '2.5 %s\n1.4 830\n2.5 370\n3.6 160\n2.5 2500\n' "$BOTH_REST_MS" >"$OUT/both-pattern.txt"
+BOTH_MS=$((BOTH_REST_MS + 830 + 370 + 160 + 2000))
+both_config() { # SET_PATH
+    cat "$HERE/guest.toml"
+    printf '[gestures]\nset = "%s"\nstale_ms = 1000\nfrozen_ms = 60000\n' "$1"
+    sed -n '/^\[\[sequence\]\]/,$p' "$ROOT/fixtures/gesture-user/config.toml"
+    printf '\n[[sequence]]\nactions = [2, -1]\nmode = "save_point"\n'
+}
+both_config /harness/gestures.toml >"$OUT/both.toml"
+{ cat "$HERE/guest.toml"; printf '\n[[sequence]]\nactions = [2, -1]\nmode = "save_point"\n'; } >"$OUT/both-breath.toml"
+printf '2.5 3500\n1.4 830\n2.5 370\n3.6 160\n2.5 2500\n' >"$OUT/both-breath-pattern.txt"
+pattern_csv "$OUT/both-breath-pattern.txt" none >"$OUT/both-breath.csv" || die "bad pattern"
+expected_from "$OUT/both-breath.csv" both-breath "$OUT/both-breath.toml"
+cat "$EXP/imu.txt" "$EXP/both-breath.txt" >"$EXP/both.txt"
+printf 'BOTH_MS=%s\n' "$BOTH_MS" >>"$OUT/imu.env"
+echo "vm-harness: breath and IMU: $(tr '\n' ' ' <"$EXP/both.txt")"
+
 # A dialect samples the pattern every P ms; the loop holds each value until
 # the next. Which ms the samples fall on is chance: replay four phases. The
 # guest accepts any of the outcomes (usually all four agree).
@@ -284,7 +308,7 @@ cp "$BUILD"/bin/* "$RD/harness/bin/"
 cp "$kernel"/modules/* "$RD/harness/modules/"
 cp "$HERE/pattern.txt" "$HERE/pattern-unplug.txt" "$HERE/uinput-pattern.txt" "$HERE/guest.toml" "$HERE/guest/events.sed" \
     "$OUT/pattern.csv" "$OUT/uinput.csv" "$OUT/uinput.toml" "$RD/harness/"
-cp "$OUT/imu-drive.counts" "$OUT/imu.toml" "$OUT/imu.env" "$RD/harness/"
+cp "$OUT/imu-drive.counts" "$OUT/imu.toml" "$OUT/imu.env" "$OUT/both.toml" "$OUT/both-pattern.txt" "$RD/harness/"
 cp "$ROOT/fixtures/gesture-user/gestures.toml" "$RD/harness/gestures.toml"
 cp "$EXP"/*.txt "$EXP"/*.jsonl "$RD/harness/expected/"
 if [ -n "${VM_TESTS:-}" ]; then
