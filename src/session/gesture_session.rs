@@ -6,7 +6,6 @@
 //! `--sensor synthetic:NAME` is a simulated person who follows the
 //! prompts, in real time.
 
-use std::io::Write;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -19,12 +18,11 @@ use crate::control::imu::{Channels, ImuInput};
 use crate::gestures::check::{self, Ordinary};
 use crate::gestures::guided::{self, Guided, Say};
 use crate::gestures::record::{self, record_guided};
-use crate::gestures::report;
 use crate::rt::signals;
 use crate::sensor::imu_sensor::ImuSamples;
 use crate::sensor::{Producer, Samples, Sensor, SensorSpec};
 use crate::session::Console;
-use crate::session::gestures::RecordedSet;
+use crate::session::gestures::{RecordedSet, write_set};
 use crate::session::imu::{open_imu, spec_text};
 use crate::session::showing::{Display, DisplayChoice, Showing};
 use crate::sim::guided_imu_user::GuidedImuUser;
@@ -231,21 +229,7 @@ fn session(
         samples: samples.get(from..).unwrap_or_default(),
     };
     let check = check::check(&recorded.set, &[ordinary]);
-    let mut header = vec![
-        format!(
-            "sipnpuff gesture set: {} gestures × 5 examples from a guided session recorded in {recording} ({channels})",
-            live.names.len(),
-        ),
-        format!(
-            "leave-one-out {}/{} right; ordinary movement {:.0} s: {} activations",
-            check.right,
-            check.examples,
-            check.ordinary_hours * 3600.0,
-            check.activations.len()
-        ),
-    ];
-    header.extend(report::choices(live.names, &recorded.choices));
-    let text = recorded.set.to_toml(&header);
-    write_whole(live.out, |w| Ok(w.write_all(text.as_bytes())?))?;
+    let made_from = format!("a guided session recorded in {recording} ({channels})");
+    write_set(live.out, live.names, &recorded, &check, &made_from)?;
     Ok(RecordedSet { recorded, check })
 }

@@ -63,12 +63,25 @@ pub fn record_from(from: &Path, names: &[String], out: &Path) -> anyhow::Result<
         samples: within(&recording.samples, recorded.cut.ordinary),
     };
     let check = check::check(&recorded.set, &[ordinary]);
+    let made_from = format!("{} ({})", from.display(), recording.channels);
+    write_set(out, names, &recorded, &check, &made_from)?;
+    Ok(RecordedSet { recorded, check })
+}
+
+/// Writes `recorded`'s set for `names` to `out` (whole or not at all),
+/// its header saying what it was made from (`made_from`), what `check`
+/// found and how each threshold was chosen.
+pub fn write_set(
+    out: &Path,
+    names: &[String],
+    recorded: &Recorded,
+    check: &Check,
+    made_from: &str,
+) -> anyhow::Result<()> {
     let mut header = vec![
         format!(
-            "sipnpuff gesture set: {} gestures × 5 examples from {} ({})",
-            names.len(),
-            from.display(),
-            recording.channels
+            "sipnpuff gesture set: {} gestures × 5 examples from {made_from}",
+            names.len()
         ),
         format!(
             "leave-one-out {}/{} right; ordinary movement {:.0} s: {} activations",
@@ -80,8 +93,7 @@ pub fn record_from(from: &Path, names: &[String], out: &Path) -> anyhow::Result<
     ];
     header.extend(report::choices(names, &recorded.choices));
     let text = recorded.set.to_toml(&header);
-    write_whole(out, |w| Ok(w.write_all(text.as_bytes())?))?;
-    Ok(RecordedSet { recorded, check })
+    write_whole(out, |w| Ok(w.write_all(text.as_bytes())?))
 }
 
 /// Reads the set at `path`: every problem at once, each with its line.

@@ -20,7 +20,8 @@ fn names(gestures: &[GestureName]) -> Vec<String> {
     gestures.iter().map(|g| g.name().to_string()).collect()
 }
 
-fn made(session: &ImuSession) -> Vec<Made> {
+/// What `session`'s person truly made, for scoring.
+pub(crate) fn made(session: &ImuSession) -> Vec<Made> {
     session
         .truth
         .iter()
@@ -32,7 +33,8 @@ fn made(session: &ImuSession) -> Vec<Made> {
         .collect()
 }
 
-fn ordinary_ms(session: &ImuSession) -> u64 {
+/// How long `session`'s person moved ordinarily, ms.
+pub(crate) fn ordinary_ms(session: &ImuSession) -> u64 {
     session.ordinary.iter().map(|(a, b)| b - a).sum()
 }
 

@@ -20,7 +20,9 @@ use sipnpuff::sim::head_gesture::{GestureName, gesture_example};
 use sipnpuff::sim::imu_session::{practice_session, protocol_session};
 use sipnpuff::sim::imu_user::ImuUser;
 use sipnpuff::sim::live_head::LiveHead;
-use sipnpuff::tools::gesture_accuracy::{Made, score};
+use sipnpuff::tools::gesture_accuracy::score;
+
+use crate::gesture_sets::{made, ordinary_ms};
 
 /// Longest a simulated session may run, ticks.
 const LIMIT: Tick = 10 * 60 * 1000;
@@ -93,16 +95,7 @@ fn set_of(session: &Session, gestures: &[GestureName]) -> Recorded {
 /// session (10 of each, seed 2), in the set's order.
 fn held_out(user: &ImuUser, gestures: &[GestureName], set: &GestureSet) -> Vec<usize> {
     let session = practice_session(user, gestures, 10, 2);
-    let made: Vec<Made> = session
-        .truth
-        .iter()
-        .map(|t| Made {
-            name: t.name.name().to_string(),
-            start: t.start,
-            end: t.end,
-        })
-        .collect();
-    let ordinary = session.ordinary.iter().map(|(a, b)| b - a).sum();
+    let (made, ordinary) = (made(&session), ordinary_ms(&session));
     let scored = score(set, &session.samples, &made, ordinary).unwrap();
     scored.gestures.iter().map(|g| g.right).collect()
 }

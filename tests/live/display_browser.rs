@@ -23,15 +23,21 @@ use crate::scratch::Scratch;
 const CHROMIUM: &str = "/usr/bin/chromium";
 const CHROMEDRIVER: &str = "/usr/bin/chromedriver";
 
+/// One browser at a time: on 2 cores, two Chromiums rendering beside
+/// real-time runs starve the runs' sensor threads.
+static ONE_BROWSER: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// Runs a real-time test (see [`common::real_time`]) if Chromium and
-/// ChromeDriver are installed (tests/peers/browser/install.sh); says why
-/// not otherwise (or fails, when peers are required).
+/// ChromeDriver are installed (tests/peers/browser/install.sh), one
+/// browser test at a time; says why not otherwise (or fails, when peers
+/// are required).
 pub(crate) fn browser_test(test: impl Fn()) {
     let missing = [CHROMIUM, CHROMEDRIVER]
         .iter()
         .find(|p| !Path::new(p).exists())
         .map(|p| format!("{p} is missing (bash tests/peers/browser/install.sh)"));
     if common::have_peer(missing) {
+        let _one = ONE_BROWSER.lock().unwrap_or_else(|e| e.into_inner());
         common::real_time(test);
     }
 }
