@@ -1,8 +1,8 @@
-//! `sipnpuff design`: the sequence library for the person. With
-//! `--check`, a library analysed for a user and a usage mix; without, the
-//! search for the library that costs them least, written as a
-//! configuration and tried in the study against the library it replaces
-//! ([`crate::design::designing`]).
+//! `sipnpuff design`: the sequence library for the person, their breaths
+//! and their gestures. With `--check`, a library analysed for a user and a
+//! usage mix; without, the search for the library that costs them least,
+//! written as a configuration and tried in the study against the library
+//! it replaces ([`crate::design::designing`]).
 
 use std::path::PathBuf;
 
@@ -10,11 +10,10 @@ use anyhow::Context;
 
 use crate::cli::args::ConfigArg;
 use crate::cli::output::{self, invalid};
-use crate::control::action::Action;
 use crate::design::analysis;
 use crate::design::designing;
 use crate::design::report;
-use crate::design::request::Request;
+use crate::design::request::{Request, Without};
 use crate::design::usage::Mix;
 
 /// `design`'s options.
@@ -30,6 +29,12 @@ pub struct DesignArgs {
     /// its settings). Default: the study's simulated user.
     #[arg(long)]
     user: Option<PathBuf>,
+    /// The person's gesture set (made by `gestures record`), in place of
+    /// the settings' `[gestures] set` (default: that one, or LIBRARY's):
+    /// each gesture priced from its examples' lengths and the set's
+    /// leave-one-out check, and placed by the search beside the bursts.
+    #[arg(long, value_name = "SET.toml")]
+    gestures: Option<PathBuf>,
     /// The settings in use, as often as needed (a profile, then a
     /// library…; default: the profile's, or the built-in ones): their
     /// library is the one placed unless LIBRARY is given.
@@ -54,17 +59,23 @@ pub struct DesignArgs {
     /// measure it (default 0).
     #[arg(long, default_value_t = 0.0)]
     swap_rate: f64,
-    /// Most bursts in a designed sequence.
+    /// Most bursts (and gestures) in a designed sequence.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(1..=4))]
     max_breaths: u8,
-    /// Fewest bursts in a designed sequence (2: a cough or sigh alone
-    /// never changes mode, as in the built-in library).
+    /// Fewest bursts in a designed sequence of bursts alone (2: a cough or
+    /// sigh alone never changes mode, as in the built-in library); one
+    /// gesture alone may select.
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=4))]
     min_breaths: u8,
-    /// Bursts the person cannot breathe reliably: `short_sip`, `long_sip`,
-    /// `short_puff`, `long_puff`.
-    #[arg(long, value_enum, num_args = 1..)]
-    without: Vec<BurstArg>,
+    /// Bursts and gestures the person cannot make reliably: `short_sip`,
+    /// `long_sip`, `short_puff`, `long_puff`, `breaths` (all four), or a
+    /// gesture of their set (`shake`).
+    #[arg(long, num_args = 1.., value_name = "BURST|GESTURE", value_parser = Without::parse)]
+    without: Vec<Without>,
+    /// With a gesture set and a library of gestures alone: place breaths
+    /// too (by default not: the person may have no breath sensor).
+    #[arg(long)]
+    with_breaths: bool,
     /// Entries that keep their sequence, by what they select
     /// (`translate_x`, `ctrl+c`, `lights_toggle`, …).
     #[arg(long, num_args = 1..)]
@@ -107,27 +118,6 @@ struct CheckReport<'a> {
     analysis: &'a analysis::Analysis,
 }
 
-/// A burst kind on the command line.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-#[clap(rename_all = "snake_case")]
-enum BurstArg {
-    ShortSip,
-    LongSip,
-    ShortPuff,
-    LongPuff,
-}
-
-impl From<BurstArg> for Action {
-    fn from(b: BurstArg) -> Action {
-        match b {
-            BurstArg::ShortSip => Action::ShortSip,
-            BurstArg::LongSip => Action::LongSip,
-            BurstArg::ShortPuff => Action::ShortPuff,
-            BurstArg::LongPuff => Action::LongPuff,
-        }
-    }
-}
-
 /// Runs `design`.
 pub fn design(args: DesignArgs) -> anyhow::Result<()> {
     if args
@@ -154,6 +144,7 @@ pub fn design(args: DesignArgs) -> anyhow::Result<()> {
     let request = Request {
         library: args.library,
         user: args.user,
+        gestures: args.gestures,
         config: args.config.config,
         usage: args.usage,
         mix: args.mix,
@@ -161,7 +152,8 @@ pub fn design(args: DesignArgs) -> anyhow::Result<()> {
         swap_rate: args.swap_rate,
         min_breaths: args.min_breaths,
         max_breaths: args.max_breaths,
-        without: args.without.into_iter().map(Action::from).collect(),
+        without: args.without,
+        with_breaths: args.with_breaths,
         keep: args.keep,
         time_limit_s: args.time_limit_s,
         out: args.out,

@@ -65,9 +65,10 @@ enum Command {
     /// three tasks with both interfaces (ASP and BSP) through the
     /// production core; completion times compared with the paper's.
     Study(study::StudyArgs),
-    /// Designs the sequence library for a person: `--check` analyses one
-    /// (time and errors per entry), without it the search for the
-    /// library that costs them least, tried in the study.
+    /// Designs the sequence library for a person, their breaths and their
+    /// gestures: `--check` analyses one (time and errors per entry),
+    /// without it the search for the library that costs them least, tried
+    /// in the study.
     Design(design::DesignArgs),
     /// Write a synthetic recording of a scripted user (seeded, repeatable).
     Generate(generate::GenerateArgs),

@@ -15,11 +15,15 @@
 use serde::Serialize;
 
 use crate::config::Config;
-use crate::control::action::{Action, ActionSeq};
+use crate::control::action::Action;
 use crate::control::selection::SequenceEntry;
+use crate::control::sequence::Sequence;
 use crate::control::target::Target;
+use crate::control::token::Token;
 use crate::design::breathing::{Breathing, RatesFrom};
+use crate::design::gesturing::Gesturing;
 use crate::design::reading::{Decision, Deviation, SequenceReading, outcome, readings};
+use crate::design::symbol::{Symbol, SymbolSeq};
 use crate::design::usage::Usage;
 
 /// The times an attempt is made of, ms.
@@ -33,7 +37,8 @@ pub struct AttemptTiming {
     pub edge_ms: f64,
     /// `matcher.sequence_timeout_ms`: the wait on a prefix.
     pub timeout_ms: f64,
-    /// From a burst's end to the detector reading it.
+    /// From a burst's end to the detector reading it (a gesture's wait
+    /// for rest is in its time).
     pub latency_ms: f64,
     /// A wrong selection's cost beyond the attempt: the time to notice
     /// and undo it.
@@ -61,8 +66,8 @@ impl AttemptTiming {
 /// One entry, analysed.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct EntryAnalysis {
-    /// The bursts, as the paper codes them.
-    pub actions: Vec<i8>,
+    /// The bursts, as the paper codes them, and the gestures, by name.
+    pub actions: Sequence,
     /// What it selects or fires (`"mode": "translate_x"`, `"key": …`).
     #[serde(flatten)]
     pub target: Target,
@@ -95,14 +100,15 @@ pub struct Misselection {
     pub label: String,
     /// Chance per attempt.
     pub p: f64,
-    /// The misreading, in words ("the 2nd burst at the other length").
+    /// The misreading, in words ("its 2nd burst (short puff) read as
+    /// long puff").
     pub how: String,
 }
 
 /// A library analysed.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Analysis {
-    /// Whose breathing.
+    /// Whose breathing (and gestures).
     pub user: String,
     /// Which usage mix.
     pub usage: String,
@@ -118,6 +124,10 @@ pub struct Analysis {
     pub rates: Vec<Rate>,
     /// What stands out, in plain words.
     pub findings: Vec<String>,
+    /// The person's gestures, when they use a set: each one's time and
+    /// how it is read.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gestures: Option<Gesturing>,
 }
 
 /// One rate the analysis uses and where it comes from: measured by the
@@ -134,8 +144,23 @@ pub struct Rate {
     pub source: String,
 }
 
-/// The rates `who` brings, measured apart from assumed.
-pub fn rates(who: &Breathing) -> Vec<Rate> {
+/// The rates `who` brings, measured apart from assumed: their breaths'
+/// unless `breathes` is false (a library of gestures alone for a person
+/// with gestures), then their gestures'.
+pub fn rates(who: &Breathing, breathes: bool) -> Vec<Rate> {
+    let mut out = if breathes {
+        breath_rates(who)
+    } else {
+        Vec::new()
+    };
+    if let Some(g) = &who.gestures {
+        out.extend(gesture_rates(g));
+    }
+    out
+}
+
+/// The rates of `who`'s breaths.
+fn breath_rates(who: &Breathing) -> Vec<Rate> {
     let detector = who.rates_from.label();
     let rate = |what: String, value: f64, unit: &'static str, source: &str| Rate {
         what,
@@ -182,6 +207,58 @@ pub fn rates(who: &Breathing) -> Vec<Rate> {
     out
 }
 
+/// The rates a person's gestures bring: each one rejected and read as
+/// another, from the set's leave-one-out check; what the set does not
+/// measure, assumed.
+fn gesture_rates(g: &Gesturing) -> Vec<Rate> {
+    let measured = format!("measured (leave-one-out of {})", g.source);
+    let rate = |what: String, value: f64, unit: &'static str, source: &str| Rate {
+        what,
+        value,
+        unit,
+        source: source.to_string(),
+    };
+    let mut out = Vec::new();
+    for gesture in &g.gestures {
+        out.push(rate(
+            format!("{} rejected", gesture.name),
+            gesture.rejected,
+            "fraction",
+            &measured,
+        ));
+        if gesture.taken_for.is_empty() {
+            out.push(rate(
+                format!("{} read as another gesture", gesture.name),
+                0.0,
+                "fraction",
+                &measured,
+            ));
+        }
+        for taken in &gesture.taken_for {
+            out.push(rate(
+                format!("{} read as {}", gesture.name, taken.gesture),
+                taken.p,
+                "fraction",
+                &measured,
+            ));
+        }
+    }
+    let assumed = "assumed (the set's examples do not measure them)";
+    out.push(rate(
+        "gestures made wrong by the person".into(),
+        0.0,
+        "fraction",
+        assumed,
+    ));
+    out.push(rate(
+        "ordinary movement taken for a gesture".into(),
+        0.0,
+        "per_hour",
+        assumed,
+    ));
+    out
+}
+
 /// The rates in lines, one per source.
 fn rates_text(rates: &[Rate]) -> String {
     let mut sources: Vec<&str> = Vec::new();
@@ -220,20 +297,55 @@ pub struct EntryCost {
     pub waits: bool,
 }
 
-/// Time from the decision to the end of the first `k` bursts of `read`:
-/// the last one's fall is still to come, half its edge.
-fn breathed_ms(read: &[Action], k: usize, who: &Breathing, t: &AttemptTiming) -> f64 {
+/// Time from the decision to the end of the first `k` items of `read`
+/// (a gesture's end: the front end reading it): each burst's rise and
+/// fall beyond its length, but a last burst's fall is still to come, half
+/// its edge.
+#[inline]
+fn breathed_ms(read: &[Symbol], k: usize, who: &Breathing, t: &AttemptTiming) -> f64 {
+    let made = &read[..k];
+    let bursts = made.iter().filter(|s| s.is_burst()).count() as f64;
+    let edges = match made.last() {
+        Some(s) if s.is_burst() => bursts - 0.5,
+        _ => bursts,
+    };
     t.reaction_ms
-        + read[..k].iter().map(|a| who.burst(*a).mean_ms).sum::<f64>()
+        + made.iter().map(|s| who.time_ms(*s)).sum::<f64>()
         + k.saturating_sub(1) as f64 * t.gap_ms
-        + (k as f64 - 0.5).max(0.0) * t.edge_ms
+        + edges.max(0.0) * t.edge_ms
 }
 
-/// The cost of entry `meant` of `library` (each entry's bursts), and
+/// From the end of the first `k` items of `read` to the matcher seeing
+/// the last: the detector's latency after a burst; nothing after a
+/// gesture (its wait for rest is in its time).
+fn latency_ms(read: &[Symbol], k: usize, t: &AttemptTiming) -> f64 {
+    match k.checked_sub(1).and_then(|last| read.get(last)) {
+        Some(s) if s.action().is_none() => 0.0,
+        _ => t.latency_ms,
+    }
+}
+
+/// When the matcher decides on reading `r`, ms: `latency` and `wait`
+/// after its `k`th item is made (at `made_ms`). A gesture taken for
+/// another is read when it ends, so it is timed as made; a rejected one
+/// holds the timeout while the head moves, so the matcher decides when
+/// it ends if that is later.
+fn decided_ms(r: &SequenceReading, made_ms: f64, k: usize, latency: f64, wait: f64) -> f64 {
+    let unseen = r.unseen_by(k);
+    if unseen == 0.0 {
+        made_ms + latency + wait
+    } else if matches!(r.deviation, Deviation::Taken(..)) {
+        made_ms + unseen + latency + wait
+    } else {
+        (made_ms + latency + wait).max(made_ms + unseen)
+    }
+}
+
+/// The cost of entry `meant` of `library` (each entry's items), and
 /// where its wrong attempts land (`landed(entry, p, deviation)`).
 pub fn entry_cost<'a>(
     meant: usize,
-    library: &'a [&'a [Action]],
+    library: &'a [&'a [Symbol]],
     who: &Breathing,
     t: &AttemptTiming,
     landed: impl FnMut(usize, f64, Deviation),
@@ -252,7 +364,7 @@ pub fn entry_cost<'a>(
 pub fn entry_cost_of<'a>(
     readings: &[SequenceReading],
     meant: usize,
-    library: &'a [&'a [Action]],
+    library: &'a [&'a [Symbol]],
     who: &Breathing,
     t: &AttemptTiming,
     mut landed: impl FnMut(usize, f64, Deviation),
@@ -263,27 +375,35 @@ pub fn entry_cost_of<'a>(
     let mut waits = false;
     for r in readings {
         let read = r.read.as_slice();
-        let all = breathed_ms(read, read.len(), who, t);
-        let ms = match outcome(read, lookup) {
+        let decision = outcome(read, lookup);
+        // When the matcher decides: after the `k`th item read, its
+        // latency and any wait on a prefix.
+        let (k, latency, waited) = match decision {
             Decision::Match { entry, at, waited } if entry == meant => {
+                (at, latency_ms(read, at, t), waited)
+            }
+            Decision::Match { waited, .. } => (read.len(), 0.0, waited),
+            Decision::Nothing { waited } => (read.len(), latency_ms(read, read.len(), t), waited),
+        };
+        let wait = if waited { t.timeout_ms } else { 0.0 };
+        let ms = decided_ms(r, breathed_ms(read, k, who, t), k, latency, wait);
+        let ms = match decision {
+            Decision::Match { entry, .. } if entry == meant => {
                 p_ok += r.p;
-                let ms = breathed_ms(read, at, who, t)
-                    + t.latency_ms
-                    + if waited { t.timeout_ms } else { 0.0 };
                 if r.deviation == Deviation::None {
                     attempt_ms = ms;
                     waits = waited;
                 }
                 ms
             }
-            Decision::Match { entry, waited, .. } => {
+            Decision::Match { entry, .. } => {
                 p_wrong += r.p;
                 landed(entry, r.p, r.deviation);
-                all + if waited { t.timeout_ms } else { 0.0 } + t.wrong_cost_ms
+                ms + t.wrong_cost_ms
             }
-            Decision::Nothing { waited } => {
+            Decision::Nothing { .. } => {
                 p_retry += r.p;
-                all + t.latency_ms + if waited { t.timeout_ms } else { 0.0 }
+                ms
             }
         };
         mean_attempt += r.p * ms;
@@ -308,8 +428,8 @@ pub fn analyse(
     usage: &Usage,
     timing: &AttemptTiming,
 ) -> Analysis {
-    let breaths: Vec<ActionSeq> = library.iter().map(breaths_of).collect();
-    let sequences: Vec<&[Action]> = breaths.iter().map(ActionSeq::as_slice).collect();
+    let symbols: Vec<SymbolSeq> = library.iter().map(|e| symbols_of(e, who)).collect();
+    let sequences: Vec<&[Symbol]> = symbols.iter().map(SymbolSeq::as_slice).collect();
     let n = library.len();
     // landed_in[j][i]: chance an attempt at i lands in j.
     let mut landed_in = vec![vec![0.0; n]; n];
@@ -318,7 +438,7 @@ pub fn analyse(
         let mut confusions: Vec<Misselection> = Vec::new();
         let cost = entry_cost(i, &sequences, who, timing, |j, p, deviation| {
             landed_in[j][i] += p;
-            let how = how(deviation, sequences[i]);
+            let how = how(deviation, sequences[i], who);
             match confusions.iter_mut().find(|c| c.entry == j && c.how == how) {
                 Some(c) => c.p += p,
                 None => confusions.push(Misselection {
@@ -331,7 +451,7 @@ pub fn analyse(
         });
         confusions.sort_by(|a, b| b.p.total_cmp(&a.p));
         entries.push(EntryAnalysis {
-            actions: breaths_of(entry).codes().collect(),
+            actions: entry.actions,
             target: entry.target,
             usage: usage.shares.get(i).copied().unwrap_or(0.0),
             expected_ms: cost.expected_ms,
@@ -353,38 +473,57 @@ pub fn analyse(
     let weighted =
         |f: fn(&EntryAnalysis) -> f64| -> f64 { entries.iter().map(|e| e.usage * f(e)).sum() };
     let mut analysis = Analysis {
-        user: who.source.clone(),
+        user: who.described(),
         usage: usage.source.clone(),
         timing: *timing,
         expected_ms_per_selection: weighted(|e| e.expected_ms),
         p_wrong_per_selection: weighted(|e| e.p_wrong),
         entries,
-        rates: rates(who),
+        rates: rates(who, breathes(library, who)),
         findings: Vec::new(),
+        gestures: who.gestures.clone(),
     };
     analysis.findings = findings(&analysis, library, who);
     analysis
 }
 
-/// "the 2nd burst at the other length".
-fn how(deviation: Deviation, meant: &[Action]) -> String {
-    let nth = |i: usize| ordinal(i + 1);
+/// Whether `who`'s breaths matter to `library`: any entry has a burst,
+/// or the person has no gestures.
+fn breathes(library: &[SequenceEntry], who: &Breathing) -> bool {
+    who.gestures.is_none()
+        || library
+            .iter()
+            .any(|e| e.actions.as_slice().iter().any(|t| t.action().is_some()))
+}
+
+/// "its 2nd burst (short puff) read as long puff": the item by its place
+/// in the sequence, what it is, and what became of it.
+fn how(deviation: Deviation, meant: &[Symbol], who: &Breathing) -> String {
+    let item = |i: usize| {
+        let kind = match meant.get(i) {
+            Some(s) if s.action().is_none() => "gesture",
+            _ => "burst",
+        };
+        format!("its {} {kind}", ordinal(i + 1))
+    };
+    let word = |i: usize| meant.get(i).map_or_else(String::new, |s| who.word(*s));
+    let burst = |i: usize| meant.get(i).and_then(|s| s.action());
+    let read_as = |i: usize, other: Option<Action>| {
+        format!(
+            "{} ({}) read as {}",
+            item(i),
+            word(i),
+            other.map_or_else(String::new, |a| a.to_string())
+        )
+    };
     match deviation {
         Deviation::None => "read as breathed".into(),
-        Deviation::Length(i) => format!(
-            "its {} burst ({}) read as {}",
-            nth(i),
-            meant[i],
-            crate::design::reading::other_length(meant[i])
-        ),
-        Deviation::Swapped(i) => format!(
-            "its {} burst ({}) read as {}",
-            nth(i),
-            meant[i],
-            crate::design::reading::other_breath(meant[i])
-        ),
-        Deviation::Missed(i) => format!("its {} burst ({}) missed", nth(i), meant[i]),
-        Deviation::Extra(i) => format!("a false burst before its {} burst", nth(i)),
+        Deviation::Length(i) => read_as(i, burst(i).map(crate::design::reading::other_length)),
+        Deviation::Swapped(i) => read_as(i, burst(i).map(crate::design::reading::other_breath)),
+        Deviation::Missed(i) if burst(i).is_none() => format!("{} ({}) rejected", item(i), word(i)),
+        Deviation::Missed(i) => format!("{} ({}) missed", item(i), word(i)),
+        Deviation::Extra(i) => format!("a false burst before {}", item(i)),
+        Deviation::Taken(i, h) => format!("{} ({}) read as {}", item(i), word(i), who.word(h)),
     }
 }
 
@@ -448,7 +587,7 @@ fn findings(a: &Analysis, library: &[SequenceEntry], who: &Breathing) -> Vec<Str
             ));
         }
     }
-    for a in Action::ALL {
+    for a in Action::ALL.into_iter().filter(|_| breathes(library, who)) {
         let b = who.burst(a);
         if b.other_length >= 0.02 {
             out.push(format!(
@@ -464,6 +603,29 @@ fn findings(a: &Analysis, library: &[SequenceEntry], who: &Breathing) -> Vec<Str
                 pct(b.missed),
                 who.rates_from.label()
             ));
+        }
+    }
+    if let Some(g) = &who.gestures {
+        for gesture in &g.gestures {
+            for taken in gesture.taken_for.iter().filter(|t| t.p >= 0.02) {
+                out.push(format!(
+                    "this person's `{}` is read as `{}` {} of the time (leave-one-out of {}): record one of them again more distinctly, or leave one out (`design --without {}`)",
+                    gesture.name,
+                    taken.gesture,
+                    pct(taken.p),
+                    g.source,
+                    gesture.name
+                ));
+            }
+            if gesture.rejected >= 0.02 {
+                out.push(format!(
+                    "this person's `{}` is rejected {} of the time (leave-one-out of {}): record it again, or leave it out (`design --without {}`)",
+                    gesture.name,
+                    pct(gesture.rejected),
+                    g.source,
+                    gesture.name
+                ));
+            }
         }
     }
     if let Some(top) = a
@@ -487,14 +649,19 @@ pub fn text(a: &Analysis) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let _ = writeln!(out, "user: {}\nusage: {}", a.user, a.usage);
-    let _ = writeln!(out, "{}", rates_text(&a.rates));
+    let _ = write!(out, "{}", rates_text(&a.rates));
+    if let Some(g) = &a.gestures {
+        let _ = writeln!(out, "{}", gesture_times(g));
+    }
+    let _ = writeln!(out);
+    let gestures = a.entries.iter().any(|e| e.actions.has_gesture());
     let _ = writeln!(
         out,
-        "| entry | bursts | used | expected s | wait s | wrong % | retry % | lands in |"
+        "| entry | {} | used | expected s | wait s | wrong % | retry % | lands in |",
+        if gestures { "sequence" } else { "bursts" }
     );
     let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
     for e in &a.entries {
-        let bursts: Vec<String> = e.actions.iter().map(i8::to_string).collect();
         let lands = e
             .confusions
             .iter()
@@ -506,7 +673,7 @@ pub fn text(a: &Analysis) -> String {
             out,
             "| {} | {} | {:.0} % | {:.2} | {:.1} | {:.2} | {:.2} | {} |",
             e.target.label(),
-            bursts.join(" "),
+            written(&e.actions),
             100.0 * e.usage,
             e.expected_ms / 1000.0,
             e.wait_ms / 1000.0,
@@ -531,10 +698,40 @@ pub fn text(a: &Analysis) -> String {
     out
 }
 
-/// An entry's breaths (a library with gestures is refused before any
-/// design: [`crate::design::designing`]).
-pub(crate) fn breaths_of(entry: &SequenceEntry) -> ActionSeq {
-    entry.breaths().unwrap_or(ActionSeq::EMPTY)
+/// Each gesture's time in words: "gestures timed from their examples
+/// (SET): nod 0.84 s, …; each read 0.30 s after it ends (rest_ms)".
+fn gesture_times(g: &Gesturing) -> String {
+    let times: Vec<String> = g
+        .gestures
+        .iter()
+        .map(|gesture| format!("{} {:.2} s", gesture.name, gesture.mean_ms / 1000.0))
+        .collect();
+    format!(
+        "gestures timed from their examples ({}): {}; each read {:.2} s after it ends (the front end's rest_ms)",
+        g.source,
+        times.join(", "),
+        g.read_ms / 1000.0
+    )
+}
+
+/// A sequence as the tables write it: bursts by their codes, gestures
+/// by name (`nod -1`).
+pub fn written(sequence: &Sequence) -> String {
+    sequence
+        .as_slice()
+        .iter()
+        .map(|t| match t {
+            Token::Breath(a) => a.code().to_string(),
+            Token::Gesture(name) => name.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// An entry's symbols for `who` (a gesture not in their set is refused
+/// before any analysis: [`crate::design::inputs`]).
+pub(crate) fn symbols_of(entry: &SequenceEntry, who: &Breathing) -> SymbolSeq {
+    who.symbols(&entry.actions).unwrap_or_default()
 }
 
 #[cfg(test)]
@@ -610,6 +807,127 @@ mod tests {
             a.findings
                 .iter()
                 .any(|f| f.contains("waits the 1000 ms timeout"))
+        );
+    }
+
+    /// The study's user with two gestures: a nod of 800 ms, taken for a
+    /// shake `taken` of the time and rejected `rejected`; a shake of
+    /// 1000 ms, always read right; each read 300 ms after it ends.
+    fn with_gestures(taken: f64, rejected: f64) -> Breathing {
+        use crate::control::gesture::name::GestureName;
+        use crate::design::gesturing::{GestureStats, TakenFor};
+        let name = |n: &str| GestureName::new(n).unwrap();
+        let gesture = |n: &str, mean_ms: f64| GestureStats {
+            name: name(n),
+            mean_ms,
+            examples: 5,
+            rejected: 0.0,
+            taken_for: Vec::new(),
+        };
+        let nod = GestureStats {
+            rejected,
+            taken_for: vec![TakenFor {
+                gesture: name("shake"),
+                index: 1,
+                p: taken,
+            }],
+            ..gesture("nod", 800.0)
+        };
+        Breathing {
+            gestures: Some(Gesturing {
+                source: "sam.toml".into(),
+                read_ms: 300.0,
+                gestures: vec![nod, gesture("shake", 1000.0)],
+            }),
+            ..study_user()
+        }
+    }
+
+    /// A library of a nod, a shake and a short puff then a nod.
+    fn gesture_library() -> Config {
+        Config::from_toml_str(
+            r#"
+[gestures]
+set = "sam.toml"
+
+[[sequence]]
+actions = ["nod"]
+mode = "translate_x"
+
+[[sequence]]
+actions = ["shake"]
+mode = "translate_y"
+
+[[sequence]]
+actions = [-1, "nod"]
+mode = "translate_z"
+"#,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_gesture_always_read_right_costs_its_time_alone() {
+        let config = gesture_library();
+        let library = config.core().sequences();
+        let who = with_gestures(0.0, 0.0);
+        let t = AttemptTiming::of(&who, &config, None);
+        let a = analyse(library, &who, &Usage::uniform(library), &t);
+        // The reaction, the nod's 800 ms and the front end's 300 ms of
+        // rest: no latency, no retry, no wrong entry.
+        let nod = &a.entries[0];
+        assert_eq!(nod.attempt_ms, t.reaction_ms + 800.0 + 300.0);
+        assert_eq!(nod.expected_ms, nod.attempt_ms);
+        assert_eq!((nod.p_wrong, nod.p_retry, nod.wait_ms), (0.0, 0.0, 0.0));
+        // A short puff (150 ms) with its rise and fall, the gap, then the
+        // nod as above; no latency after it.
+        let mixed = &a.entries[2];
+        assert!(
+            (mixed.attempt_ms - (t.reaction_ms + 150.0 + t.edge_ms + 300.0 + 1100.0)).abs() < 1e-9,
+            "{mixed:?}"
+        );
+        assert_eq!(written(&mixed.actions), "-1 nod");
+        // Its puff breathed long (the person's 5 % mistakes) resets, and
+        // the nod after it selects translate_x.
+        assert_eq!(mixed.confusions[0].label, "translate_x");
+        assert!((mixed.p_wrong - 0.05).abs() < 0.001, "{mixed:?}");
+        assert!(a.rates.iter().any(
+            |r| r.what == "nod rejected" && r.source == "measured (leave-one-out of sam.toml)"
+        ));
+    }
+
+    #[test]
+    fn a_gesture_taken_for_another_lands_in_its_entry() {
+        let config = gesture_library();
+        let library = config.core().sequences();
+        let who = with_gestures(0.2, 0.1);
+        let t = AttemptTiming::of(&who, &config, None);
+        let a = analyse(library, &who, &Usage::uniform(library), &t);
+        let nod = &a.entries[0];
+        assert_eq!((nod.p_wrong, nod.p_retry), (0.2, 0.1));
+        assert_eq!(nod.confusions[0].label, "translate_y");
+        assert_eq!(nod.confusions[0].how, "its 1st gesture (nod) read as shake");
+        // Every attempt takes the nod's time; a wrong one the 2 s to
+        // return to selection besides; 70 % succeed.
+        let attempt = t.reaction_ms + 1100.0;
+        assert!(
+            (nod.expected_ms - (attempt + 0.2 * 2000.0) / 0.7).abs() < 1e-9,
+            "{nod:?}"
+        );
+        // The shake is read right: selected by mistake a fifth of the
+        // nods, a third of the selections.
+        let shake = &a.entries[1];
+        assert_eq!(shake.p_wrong, 0.0);
+        assert!((shake.p_selected_by_mistake - 0.2 / 3.0).abs() < 1e-12);
+        // A puff then a nod read as a shake is no entry: tried again.
+        let mixed = &a.entries[2];
+        assert!(mixed.confusions.iter().all(|c| c.label != "translate_y"));
+        assert!(
+            a.findings
+                .iter()
+                .any(|f| f.starts_with("this person's `nod` is read as `shake` 20.0 % of the time")),
+            "{:?}",
+            a.findings
         );
     }
 }

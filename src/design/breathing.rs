@@ -2,13 +2,18 @@
 //! four bursts takes them, how long they rest between bursts and react,
 //! and how often the detector reads each burst as another (missed, or the
 //! other length). From the study's simulated user or from the statistics
-//! a fitted profile carries.
+//! a fitted profile carries; with their gestures beside, when they use a
+//! set ([`Gesturing`]), the alphabet their sequences are made of.
 
 use serde::Serialize;
 
 use crate::config::Config;
 use crate::control::action::{Action, Breath};
 use crate::control::detector::DetectorConfig;
+use crate::control::sequence::Sequence;
+use crate::control::token::Token;
+use crate::design::gesturing::{GestureStats, Gesturing};
+use crate::design::symbol::{Symbol, SymbolSeq};
 use crate::fit::profile::Measured;
 use crate::fit::stats::normal_cdf;
 use crate::sim::sensor_model::DEFAULT_RAMP_MS;
@@ -57,6 +62,9 @@ pub struct Breathing {
     /// `false_per_hour`) come from, so a report can set them apart from
     /// the assumed `error_rate` and `swap_rate`.
     pub rates_from: RatesFrom,
+    /// The person's gestures, when they use a set (`[gestures] set`):
+    /// how long each takes them and how it is read. `None`: breaths only.
+    pub gestures: Option<Gesturing>,
 }
 
 /// Where a person's misreading rates come from.
@@ -113,6 +121,7 @@ impl Breathing {
                 .is_finite()
                 .then_some(user.hold_capacity_ms),
             rates_from: RatesFrom::Model,
+            gestures: None,
         }
     }
 
@@ -155,6 +164,90 @@ impl Breathing {
     /// The burst `a` as this person breathes it.
     pub fn burst(&self, a: Action) -> &BurstStats {
         &self.bursts[a.index()]
+    }
+
+    /// Who this is, in words: the breathing's source, and the gesture
+    /// set's when there is one.
+    pub fn described(&self) -> String {
+        match &self.gestures {
+            Some(g) => format!("{}, with the gestures of {}", self.source, g.source),
+            None => self.source.clone(),
+        }
+    }
+
+    /// The gesture `s` is, as this person makes it (`None`: a burst, or
+    /// no such gesture).
+    pub fn gesture(&self, s: Symbol) -> Option<&GestureStats> {
+        self.gestures.as_ref()?.gestures.get(s.gesture_index()?)
+    }
+
+    /// How long `s` takes from its start to being read, gaps apart: a
+    /// burst's mean length (its edges and the detector's latency are the
+    /// attempt's), a gesture's mean length and the front end's wait for
+    /// rest.
+    #[inline]
+    pub fn time_ms(&self, s: Symbol) -> f64 {
+        match self.bursts.get(s.index()) {
+            Some(burst) => burst.mean_ms,
+            None => self.gesture_time_ms(s),
+        }
+    }
+
+    /// [`Breathing::time_ms`] of a gesture (infinite: no such gesture).
+    #[cold]
+    fn gesture_time_ms(&self, s: Symbol) -> f64 {
+        match (&self.gestures, s.gesture_index()) {
+            (Some(g), Some(k)) => g.time_ms(k),
+            _ => f64::INFINITY,
+        }
+    }
+
+    /// Every symbol this person has: the four bursts, then their gestures.
+    pub fn alphabet(&self) -> Vec<Symbol> {
+        let gestures = self.gestures.as_ref().map_or(0, |g| g.gestures.len());
+        Action::ALL
+            .into_iter()
+            .map(Symbol::burst)
+            .chain((0..gestures).filter_map(Symbol::gesture))
+            .collect()
+    }
+
+    /// The symbol of `token` (`None`: a gesture not in the person's set).
+    pub fn symbol(&self, token: Token) -> Option<Symbol> {
+        match token {
+            Token::Breath(a) => Some(Symbol::burst(a)),
+            Token::Gesture(name) => Symbol::gesture(self.gestures.as_ref()?.index(&name)?),
+        }
+    }
+
+    /// The token of `s` (a gesture the person lacks: a short sip, never
+    /// met: symbols come from [`Breathing::alphabet`] or [`Breathing::symbol`]).
+    pub fn token(&self, s: Symbol) -> Token {
+        match (s.action(), self.gesture(s)) {
+            (Some(a), _) => Token::Breath(a),
+            (None, Some(g)) => Token::Gesture(g.name),
+            (None, None) => Token::Breath(Action::ShortSip),
+        }
+    }
+
+    /// A library sequence's symbols (`None`: it names a gesture not in
+    /// the person's set).
+    pub fn symbols(&self, sequence: &Sequence) -> Option<SymbolSeq> {
+        let mut out = SymbolSeq::EMPTY;
+        for token in sequence.as_slice() {
+            out.try_push(self.symbol(*token)?).ok()?;
+        }
+        Some(out)
+    }
+
+    /// Symbols as a library sequence.
+    pub fn tokens(&self, symbols: &SymbolSeq) -> Sequence {
+        Sequence::from_tokens(symbols.as_slice().iter().map(|s| self.token(*s))).unwrap_or_default()
+    }
+
+    /// `s` in words: "short puff", "nod".
+    pub fn word(&self, s: Symbol) -> String {
+        self.token(s).to_string()
     }
 
     /// A study participant who breathes like this: sips and puffs share

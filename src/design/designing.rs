@@ -9,12 +9,12 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 use crate::config::invalid::invalid;
-use crate::control::action::Action;
 use crate::control::selection::{Interface, SequenceEntry};
+use crate::control::token::Token;
 use crate::design::analysis::{Analysis, analyse};
 use crate::design::inputs::Inputs;
-use crate::design::problem::problem;
-use crate::design::request::Request;
+use crate::design::problem::{alphabet, problem};
+use crate::design::request::{Request, Without};
 use crate::design::search::{self, SearchResult};
 use crate::design::study_check::{StudyCheck, study_check};
 use crate::design::usage::UsageKind;
@@ -81,17 +81,36 @@ pub fn design(request: &Request, say: &dyn Fn(&str)) -> anyhow::Result<Designed>
     let library = inputs.config.core().sequences();
     let before = analyse(library, &inputs.who, &inputs.usage, &inputs.timing);
     let problem = problem(request, &inputs)?;
-    say(&format!(
-        "placing {} entries on {} sequences…",
-        library.len(),
-        problem.candidates.len()
-    ));
+    if inputs.who.gestures.is_some() {
+        let alphabet = alphabet(request, &inputs)?;
+        let words: Vec<String> = alphabet
+            .allowed
+            .iter()
+            .map(|s| inputs.who.word(*s))
+            .collect();
+        say(&format!(
+            "placing {} entries on {} sequences of {}{}…",
+            library.len(),
+            problem.candidates.len(),
+            words.join(", "),
+            alphabet
+                .no_breaths_why
+                .map(|why| format!(" (no breaths: {why})"))
+                .unwrap_or_default()
+        ));
+    } else {
+        say(&format!(
+            "placing {} entries on {} sequences…",
+            library.len(),
+            problem.candidates.len()
+        ));
+    }
     let found = search::search(&problem);
     let designed_library: Vec<SequenceEntry> = library
         .iter()
         .zip(&found.sequences)
         .map(|(e, s)| SequenceEntry {
-            actions: (*s).into(),
+            actions: inputs.who.tokens(s),
             target: e.target,
         })
         .collect();
@@ -109,7 +128,16 @@ pub fn design(request: &Request, say: &dyn Fn(&str)) -> anyhow::Result<Designed>
         &inputs.timing,
     );
     let missing = missing_modes(&inputs.config, Interface::Asp);
+    let gestures = library
+        .iter()
+        .chain(&designed_library)
+        .any(|e| e.actions.has_gesture());
     let study = if request.no_study {
+        None
+    } else if gestures {
+        say(
+            "no study: its simulated participants breathe and make no gestures (`study --head` runs head-gesture users on the paper's tasks)",
+        );
         None
     } else if !missing.is_empty() {
         let names: Vec<&str> = missing.iter().map(|m| m.name()).collect();
@@ -127,13 +155,17 @@ pub fn design(request: &Request, say: &dyn Fn(&str)) -> anyhow::Result<Designed>
         )?)
     };
     let study_usage = inputs.usage.kind == UsageKind::Tasks;
-    let unbreathable: Vec<Action> = Action::ALL
+    let unbreathable: Vec<Token> = inputs
+        .who
+        .alphabet()
         .into_iter()
-        .filter(|a| {
-            request.without.contains(a)
-                && library
-                    .iter()
-                    .any(|e| e.breaths().is_some_and(|b| b.as_slice().contains(a)))
+        .map(|s| inputs.who.token(s))
+        .filter(|t| {
+            let left_out = match t {
+                Token::Breath(a) => request.without.iter().any(|w| w.covers(*a)),
+                Token::Gesture(name) => request.without.contains(&Without::Gesture(*name)),
+            };
+            left_out && library.iter().any(|e| e.actions.as_slice().contains(t))
         })
         .collect();
     let verdict = verdict::verdict(&Evidence {

@@ -1,20 +1,23 @@
 //! The person, their settings, the library and its usage, read from what
 //! the request names: a profile's measured breaths (or the study's
-//! simulated user), a library file, recordings' `match` events (or a
-//! mix).
+//! simulated user), their gesture set if they have one, a library file,
+//! recordings' `match` events (or a mix).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
 use crate::config::Config;
 use crate::config::invalid::invalid;
 use crate::config::layers::Layered;
+use crate::control::core_config::CoreConfig;
 use crate::control::selection::Interface;
 use crate::design::analysis::AttemptTiming;
 use crate::design::breathing::Breathing;
+use crate::design::gesturing::Gesturing;
 use crate::design::request::Request;
 use crate::design::usage::{Mix, Usage};
+use crate::gestures::set::GestureSet;
 use crate::sim::study::missing_modes;
 use crate::tools::recording::matches::read_matches;
 
@@ -39,9 +42,11 @@ pub struct Inputs {
 
 impl Inputs {
     /// Reads what `request` names; a file that is not a valid
-    /// configuration is an invalid start. The settings are the `--config`
-    /// files' when given (the profile then gives only the breaths), else
-    /// the profile's.
+    /// configuration, or a gesture set that does not load or lacks a
+    /// gesture the library names, is an invalid start. The settings are
+    /// the `--config` files' when given (the profile then gives only the
+    /// breaths), else the profile's. The gestures are `--gestures`' set,
+    /// else the settings' `[gestures] set`, else the library file's.
     pub fn read(request: &Request) -> anyhow::Result<Inputs> {
         let load = |path: &PathBuf| invalid(Config::from_file(path).map_err(anyhow::Error::from));
         let mut profile_text = None;
@@ -80,9 +85,25 @@ impl Inputs {
             let setup = invalid(Layered::read(&request.config).map_err(anyhow::Error::from))?;
             (setup.config().clone(), Some(setup))
         };
+        let config = match &request.gestures {
+            Some(path) => invalid(
+                config
+                    .with_gesture_set(path.clone())
+                    .map_err(anyhow::Error::from),
+            )?,
+            None => config,
+        };
         let (config, library_name) = match &request.library {
             Some(path) => {
                 let library = load(path)?;
+                let config = match library.core().gesture_set_file() {
+                    Some(set) if config.core().gesture_set_file().is_none() => invalid(
+                        config
+                            .with_gesture_set(set.to_path_buf())
+                            .map_err(anyhow::Error::from),
+                    )?,
+                    _ => config,
+                };
                 (
                     invalid(
                         config
@@ -138,8 +159,13 @@ impl Inputs {
                 "the person's recorded use (--usage)".into(),
             )
         };
+        let gestures = match config.core().gesture_set_file() {
+            Some(path) => Some(invalid(gesturing(config.core(), path))?),
+            None => None,
+        };
         let who = Breathing {
             swap_rate: request.swap_rate,
+            gestures,
             ..who
         };
         let timing = AttemptTiming::of(&who, &config, request.wrong_cost_ms);
@@ -158,6 +184,23 @@ impl Inputs {
     pub fn usage_line(&self) -> String {
         format!("{} ({})", self.usage.source, self.usage_why)
     }
+}
+
+/// The person's gestures from the set at `path`: read, parsed, checked
+/// against `core`'s library and head settings as `run` checks them, then
+/// priced ([`Gesturing::of_set`]); every problem in one error naming the
+/// file.
+fn gesturing(core: &CoreConfig, path: &Path) -> anyhow::Result<Gesturing> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        anyhow::anyhow!(
+            "the gesture set {}: cannot read it: {e} (make it with `sipnpuff gestures record`)",
+            path.display()
+        )
+    })?;
+    let problems = |e: Vec<String>| anyhow::anyhow!("{}: {}", path.display(), e.join("; "));
+    let set = GestureSet::from_toml(&text).map_err(problems)?;
+    crate::gestures::setup::setup(core, &set).map_err(problems)?;
+    Gesturing::of_set(&set, &path.display().to_string()).map_err(|e| problems(vec![e]))
 }
 
 /// Whether a configuration's text holds a library (`[[sequence]]`).

@@ -9,7 +9,7 @@ use std::fmt::Write;
 use crate::config::Config;
 use crate::config::print::entry_toml;
 use crate::control::selection::SequenceEntry;
-use crate::design::analysis::{Analysis, breaths_of};
+use crate::design::analysis::Analysis;
 use crate::design::search::SearchResult;
 use crate::fit::profile::{same, values};
 
@@ -99,12 +99,6 @@ pub fn text(d: &Designed) -> Result<String, toml::ser::Error> {
             .iter()
             .map(ToString::to_string)
             .collect();
-        let codes = |s: &[crate::control::action::Action]| {
-            s.iter()
-                .map(|a| a.code().to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
         let _ = writeln!(
             out,
             "\n# {:.0} % of selections; {} ({}): {:.2} s{}, {:.2} % of attempts land elsewhere",
@@ -113,7 +107,7 @@ pub fn text(d: &Designed) -> Result<String, toml::ser::Error> {
             if was.actions == entry.actions {
                 "kept".to_string()
             } else {
-                format!("was [{}]", codes(breaths_of(was).as_slice()))
+                format!("was {:?}", was.actions)
             },
             e.expected_ms / 1000.0,
             if e.wait_ms > 0.0 {

@@ -4,10 +4,12 @@
 //! their usage ([`search`]).
 //!
 //! One sample's path: a [`Breathing`](breathing::Breathing) says how the
-//! person breathes; [`reading`] lists what the detector may read instead
-//! of a meant sequence and what the matcher then does; [`analysis`] sums
-//! it per entry, weighted by the [`usage`] mix; [`search`] places the
-//! entries on sequences to minimise that sum.
+//! person breathes and, with their gesture set ([`gesturing`]), makes
+//! their gestures; sequences are of [`symbol`]s, bursts and gestures;
+//! [`reading`] lists what the detector and the recognizer may read
+//! instead of a meant sequence and what the matcher then does;
+//! [`analysis`] sums it per entry, weighted by the [`usage`] mix;
+//! [`search`] places the entries on sequences to minimise that sum.
 //!
 //! The whole job ([`designing`]): a [`request`] names the person, the
 //! library and its usage ([`inputs`]); the search's [`problem`] is made
@@ -18,6 +20,7 @@
 pub mod analysis;
 pub mod breathing;
 pub mod designing;
+pub mod gesturing;
 pub mod inputs;
 pub mod library_file;
 pub mod plot;
@@ -27,5 +30,6 @@ pub mod report;
 pub mod request;
 pub mod search;
 pub mod study_check;
+pub mod symbol;
 pub mod usage;
 pub mod verdict;

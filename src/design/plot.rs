@@ -4,7 +4,7 @@
 
 use std::fmt::Write;
 
-use crate::design::analysis::Analysis;
+use crate::design::analysis::{Analysis, written};
 
 /// The analysis as an SVG document.
 pub fn analysis_svg(a: &Analysis, title: &str) -> String {
@@ -37,7 +37,6 @@ pub fn analysis_svg(a: &Analysis, title: &str) -> String {
     );
     for (k, e) in rows.iter().enumerate() {
         let y = top + row_h * k as f64 + 4.0;
-        let codes: Vec<String> = e.actions.iter().map(i8::to_string).collect();
         let time_w = (bar_w - 10.0) * (e.expected_ms.min(max_ms) / max_ms);
         let p_w = (bar_w - 10.0) * (e.p_wrong / max_p);
         let _ = writeln!(
@@ -49,7 +48,7 @@ pub fn analysis_svg(a: &Analysis, title: &str) -> String {
 <text x="{:.1}" y="{:.1}">{:.2}</text>"##,
             y + 13.0,
             escape(&e.target.label()),
-            codes.join(" "),
+            written(&e.actions),
             100.0 * e.usage,
             row_h - 6.0,
             label_w + time_w + 4.0,

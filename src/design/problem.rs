@@ -1,31 +1,86 @@
 //! The search's problem from the request: the bursts the person can
-//! breathe, the entries that keep their sequence, the sequences' lengths,
-//! the time allowed.
+//! breathe and the gestures they can make, the entries that keep their
+//! sequence, the sequences' lengths, the time allowed.
 
 use std::time::Duration;
 
 use anyhow::bail;
 
 use crate::config::invalid::invalid;
-use crate::control::action::{Action, ActionSeq};
 use crate::control::selection::SequenceEntry;
-use crate::design::analysis::breaths_of;
+use crate::control::token::Token;
+use crate::design::analysis::symbols_of;
 use crate::design::inputs::Inputs;
-use crate::design::request::Request;
+use crate::design::request::{Request, Without};
 use crate::design::search::{Problem, candidates};
+use crate::design::symbol::{Symbol, SymbolSeq};
 
-/// The search's problem; naming no burst or an entry the library lacks
-/// is an invalid start.
+/// What the search places entries on: the person's bursts and gestures
+/// less `--without`'s, and why, in words when the person has gestures.
+pub struct Alphabet {
+    /// The symbols allowed.
+    pub allowed: Vec<Symbol>,
+    /// Why breaths are left out when the library has none and
+    /// `--with-breaths` is not given.
+    pub no_breaths_why: Option<&'static str>,
+}
+
+/// The symbols the search may place entries on; a `--without` gesture
+/// the person's set lacks is an invalid start.
+pub fn alphabet(request: &Request, inputs: &Inputs) -> anyhow::Result<Alphabet> {
+    let who = &inputs.who;
+    for w in &request.without {
+        if let Without::Gesture(name) = w
+            && who.symbol(Token::Gesture(*name)).is_none()
+        {
+            let has = who.gestures.as_ref().map(|g| {
+                let names: Vec<String> = g.gestures.iter().map(|g| g.name.to_string()).collect();
+                format!("the gesture set {} has {}", g.source, names.join(", "))
+            });
+            return invalid(Err(anyhow::anyhow!(
+                "--without {name}: not a burst (short_sip, long_sip, short_puff, long_puff, breaths) and {}",
+                has.unwrap_or_else(|| {
+                    "no gesture set is given (--gestures, or [gestures] set in a --config)".into()
+                })
+            )));
+        }
+    }
+    let library = inputs.config.core().sequences();
+    let library_breathes = library
+        .iter()
+        .any(|e| e.actions.as_slice().iter().any(|t| t.action().is_some()));
+    let no_breaths_why = (who.gestures.is_some() && !library_breathes && !request.with_breaths)
+        .then_some("the library has none, so the person may have no breath sensor: --with-breaths places them too");
+    let allowed = who
+        .alphabet()
+        .into_iter()
+        .filter(|s| match (s.action(), who.token(*s)) {
+            (Some(a), _) => {
+                no_breaths_why.is_none() && !request.without.iter().any(|w| w.covers(a))
+            }
+            (None, Token::Gesture(name)) => !request.without.contains(&Without::Gesture(name)),
+            (None, Token::Breath(_)) => false,
+        })
+        .collect();
+    Ok(Alphabet {
+        allowed,
+        no_breaths_why,
+    })
+}
+
+/// The search's problem; leaving nothing to place entries on, or naming
+/// an entry the library lacks, is an invalid start.
 pub fn problem(request: &Request, inputs: &Inputs) -> anyhow::Result<Problem> {
     let library = inputs.config.core().sequences();
-    let allowed: Vec<Action> = Action::ALL
-        .into_iter()
-        .filter(|a| !request.without.contains(a))
-        .collect();
+    let allowed = alphabet(request, inputs)?.allowed;
     if allowed.is_empty() {
-        return invalid(Err(anyhow::anyhow!("--without leaves no burst to breathe")));
+        return invalid(Err(anyhow::anyhow!(if inputs.who.gestures.is_some() {
+            "--without leaves no burst or gesture to make"
+        } else {
+            "--without leaves no burst to breathe"
+        })));
     }
-    let mut fixed: Vec<Option<ActionSeq>> = vec![None; library.len()];
+    let mut fixed: Vec<Option<SymbolSeq>> = vec![None; library.len()];
     for name in &request.keep {
         let Some(i) = library
             .iter()
@@ -37,7 +92,7 @@ pub fn problem(request: &Request, inputs: &Inputs) -> anyhow::Result<Problem> {
                 all.join(", ")
             )));
         };
-        fixed[i] = Some(breaths_of(&library[i]));
+        fixed[i] = Some(symbols_of(&library[i], &inputs.who));
     }
     let candidates = candidates(
         &allowed,
@@ -50,15 +105,17 @@ pub fn problem(request: &Request, inputs: &Inputs) -> anyhow::Result<Problem> {
         .count();
     let places = fixed.iter().filter(|f| f.is_none()).count();
     if free < places {
+        let words: Vec<String> = allowed.iter().map(|s| inputs.who.word(*s)).collect();
+        let (min, max) = (request.min_breaths, request.max_breaths);
+        if inputs.who.gestures.is_some() {
+            bail!(
+                "{places} entries to place but only {free} sequences of up to {max} of {} ({min} or more of bursts alone): allow longer sequences (--max-breaths) or more bursts and gestures",
+                words.join(", ")
+            );
+        }
         bail!(
-            "{places} entries to place but only {free} sequences of {}–{} bursts of {}: allow longer sequences (--max-breaths) or more bursts",
-            request.min_breaths,
-            request.max_breaths,
-            allowed
-                .iter()
-                .map(ToString::to_string)
-                .collect::<Vec<_>>()
-                .join(", ")
+            "{places} entries to place but only {free} sequences of {min}–{max} bursts of {}: allow longer sequences (--max-breaths) or more bursts",
+            words.join(", ")
         );
     }
     Ok(Problem {
@@ -96,12 +153,14 @@ mod tests {
             user: None,
             config: Vec::new(),
             usage: Vec::new(),
+            gestures: None,
             mix: None,
             wrong_cost_ms: None,
             swap_rate: 0.0,
             min_breaths: 2,
             max_breaths: 2,
             without: Vec::new(),
+            with_breaths: false,
             keep: Vec::new(),
             time_limit_s: 600.0,
             out: None,

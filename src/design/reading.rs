@@ -1,36 +1,40 @@
 //! What the interface may read when a sequence is meant, and what the
 //! matcher then does with it.
 //!
-//! A meant sequence is read as breathed, or with one thing wrong: one
-//! burst at the other length (the detector's misreading or the person's
-//! own mistake), one burst as the other breath, one burst missed, or one
-//! burst nobody breathed (noise).
+//! A meant sequence is read as made, or with one thing wrong: one burst
+//! at the other length (the detector's misreading or the person's own
+//! mistake), one burst as the other breath, one burst missed, one burst
+//! nobody breathed (noise), or one gesture taken for another or rejected
+//! (the set's leave-one-out rates).
 //! Two things wrong at once is left out: at the rates measured here
-//! (under 1 % per burst) it is a hundredth of the one-burst cases.
+//! (under 1 % per burst) it is a hundredth of the one-item cases.
 //!
 //! The matcher's rules are the production matcher's, applied to whole
-//! sequences: after each burst, a library sequence nothing longer starts
+//! sequences: after each item, a library sequence nothing longer starts
 //! with matches at once; one a longer sequence starts with matches at the
 //! timeout; a proper prefix waits and resets at the timeout; anything
-//! else resets at once and the next burst starts afresh. The first match
-//! ends the selection: later bursts are breathed in the matched mode.
+//! else resets at once and the next item starts afresh. The first match
+//! ends the selection: later items are made in the matched mode.
 
-use crate::control::action::{Action, ActionSeq, Breath};
+use crate::control::action::{Action, Breath};
 use crate::design::breathing::Breathing;
+use crate::design::symbol::{Symbol, SymbolSeq};
 
 /// How a meant sequence was read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Deviation {
-    /// Read as breathed.
+    /// Read as made.
     None,
     /// Burst `i` read (or breathed) at the other length.
     Length(usize),
     /// Burst `i` read as the other breath (a sip as a puff).
     Swapped(usize),
-    /// Burst `i` not read.
+    /// Item `i` not read: a burst missed, a gesture rejected.
     Missed(usize),
-    /// A burst nobody breathed, read before burst `i` (or after the last).
+    /// A burst nobody breathed, read before item `i` (or after the last).
     Extra(usize),
+    /// Gesture `i` taken for the gesture given.
+    Taken(usize, Symbol),
 }
 
 /// One way of reading a meant sequence: what was read and its chance.
@@ -38,21 +42,40 @@ pub enum Deviation {
 pub struct SequenceReading {
     /// What went wrong.
     pub deviation: Deviation,
-    /// The bursts the matcher receives.
-    pub read: ActionSeq,
+    /// The bursts and gestures the matcher receives.
+    pub read: SymbolSeq,
     /// Chance of this reading.
     pub p: f64,
+    /// The time the person spent on a gesture the reading does not show
+    /// as made, ms: a rejected gesture's (and the gap after it), or a
+    /// gesture taken for another's less the other's (which may be less
+    /// than 0). 0 for bursts: the reading's items are timed as read.
+    pub unseen_ms: f64,
+    /// The unseen time counts once the matcher has read this many items
+    /// (the person made the gesture before the next item).
+    pub unseen_at: usize,
+}
+
+impl SequenceReading {
+    /// The unseen time spent by the time the matcher has read `k` items.
+    pub fn unseen_by(&self, k: usize) -> f64 {
+        if k >= self.unseen_at {
+            self.unseen_ms
+        } else {
+            0.0
+        }
+    }
 }
 
 /// What the matcher does with a reading.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Decision {
-    /// Library entry `i` is selected after burst `at` (counted in the
+    /// Library entry `i` is selected after item `at` (counted in the
     /// reading), at once or after the timeout.
     Match {
         /// The entry.
         entry: usize,
-        /// The last burst it took.
+        /// The last item it took.
         at: usize,
         /// The matcher waited the timeout (a longer sequence starts with it).
         waited: bool,
@@ -80,43 +103,80 @@ pub fn other_breath(a: Action) -> Action {
 
 /// Every reading of `meant` with one thing wrong at most, with its chance,
 /// for this person. The chances sum to 1.
-pub fn readings(meant: &[Action], who: &Breathing) -> Vec<SequenceReading> {
+pub fn readings(meant: &[Symbol], who: &Breathing) -> Vec<SequenceReading> {
     let n = meant.len();
+    let bursts = meant.iter().filter(|s| s.action().is_some()).count();
     let mut out = Vec::with_capacity(3 * n + 2);
-    // The person's own mistake: one burst, chosen evenly, at the other length.
-    let mistake = if n == 0 {
+    // The person's own mistake: one burst, chosen evenly, at the other
+    // length (a sequence of gestures alone has none).
+    let mistake = if bursts == 0 {
         0.0
     } else {
-        who.error_rate / n as f64
+        who.error_rate / bursts as f64
     };
-    // Noise: a false burst while the sequence is breathed, split evenly
-    // over where it lands and which breath it is.
-    let breathing_ms: f64 = meant.iter().map(|a| who.burst(*a).mean_ms).sum::<f64>()
+    // Noise: a false burst while the sequence is made, split evenly over
+    // where it lands and which breath it is.
+    let breathing_ms: f64 = meant.iter().map(|s| who.time_ms(*s)).sum::<f64>()
         + n.saturating_sub(1) as f64 * who.gap_ms;
     let extra = (who.false_per_hour * breathing_ms / 3_600_000.0).min(0.5);
     let mut rest = 1.0;
-    for (i, a) in meant.iter().enumerate() {
-        let burst = who.burst(*a);
-        let p = mistake + burst.other_length;
+    let with = |i: usize, s: Symbol| {
         let mut read = meant.to_vec();
-        read[i] = other_length(*a);
-        out.push(reading(Deviation::Length(i), &read, p));
-        if who.swap_rate > 0.0 {
-            let mut read = meant.to_vec();
-            read[i] = other_breath(*a);
-            out.push(reading(Deviation::Swapped(i), &read, who.swap_rate));
-            rest -= who.swap_rate;
-        }
+        read[i] = s;
+        read
+    };
+    let without = |i: usize| {
         let mut read = meant.to_vec();
         read.remove(i);
-        out.push(reading(Deviation::Missed(i), &read, burst.missed));
+        read
+    };
+    for (i, s) in meant.iter().enumerate() {
+        let Some(a) = s.action() else {
+            let Some(gesture) = who.gesture(*s) else {
+                continue;
+            };
+            for taken in &gesture.taken_for {
+                if let Some(h) = Symbol::gesture(taken.index) {
+                    out.push(SequenceReading {
+                        unseen_ms: who.time_ms(*s) - who.time_ms(h),
+                        unseen_at: i + 1,
+                        ..reading(Deviation::Taken(i, h), &with(i, h), taken.p)
+                    });
+                    rest -= taken.p;
+                }
+            }
+            let gap = if n > 1 { who.gap_ms } else { 0.0 };
+            out.push(SequenceReading {
+                unseen_ms: who.time_ms(*s) + gap,
+                unseen_at: i,
+                ..reading(Deviation::Missed(i), &without(i), gesture.rejected)
+            });
+            rest -= gesture.rejected;
+            continue;
+        };
+        let burst = who.burst(a);
+        let p = mistake + burst.other_length;
+        out.push(reading(
+            Deviation::Length(i),
+            &with(i, other_length(a).into()),
+            p,
+        ));
+        if who.swap_rate > 0.0 {
+            out.push(reading(
+                Deviation::Swapped(i),
+                &with(i, other_breath(a).into()),
+                who.swap_rate,
+            ));
+            rest -= who.swap_rate;
+        }
+        out.push(reading(Deviation::Missed(i), &without(i), burst.missed));
         rest -= p + burst.missed;
     }
     if extra > 0.0 {
         for i in 0..=n {
             for breath in [Breath::Sip, Breath::Puff] {
                 let mut read = meant.to_vec();
-                read.insert(i, Action::new(breath, false));
+                read.insert(i, Action::new(breath, false).into());
                 let p = extra / (2 * (n + 1)) as f64;
                 out.push(reading(Deviation::Extra(i), &read, p));
                 rest -= p;
@@ -128,17 +188,22 @@ pub fn readings(meant: &[Action], who: &Breathing) -> Vec<SequenceReading> {
     out
 }
 
-fn reading(deviation: Deviation, read: &[Action], p: f64) -> SequenceReading {
+fn reading(deviation: Deviation, read: &[Symbol], p: f64) -> SequenceReading {
     SequenceReading {
         deviation,
-        // A burst more than the longest sequence reads as nothing.
-        read: ActionSeq::from_slice(read).unwrap_or(ActionSeq::EMPTY),
+        // An item more than the longest sequence reads as nothing.
+        read: SymbolSeq::from_slice(read).unwrap_or(SymbolSeq::EMPTY),
         p,
+        unseen_ms: 0.0,
+        unseen_at: 0,
     }
 }
 
-/// What the matcher makes of `read` with `library` (each entry's bursts).
-pub fn outcome<'a>(read: &[Action], library: impl Fn(usize) -> Option<&'a [Action]>) -> Decision {
+/// What the matcher makes of `read` with `library` (each entry's items).
+pub fn outcome<'a, T: PartialEq + 'a>(
+    read: &[T],
+    library: impl Fn(usize) -> Option<&'a [T]>,
+) -> Decision {
     let entries = || (0..).map_while(&library).enumerate();
     let mut start = 0;
     for end in 1..=read.len() {
@@ -175,6 +240,7 @@ pub fn outcome<'a>(read: &[Action], library: impl Fn(usize) -> Option<&'a [Actio
 mod tests {
     use super::*;
     use crate::control::action::Action::{LongPuff, LongSip, ShortPuff, ShortSip};
+    use crate::control::action::ActionSeq;
     use crate::control::detector::Burst;
     use crate::control::mode::Mode;
     use crate::control::selection::SequenceEntry;
@@ -231,7 +297,7 @@ mod tests {
             &crate::control::detector::DetectorConfig::default(),
             "x",
         );
-        let r = readings(&[LongPuff, ShortSip], &who);
+        let r = readings(&[LongPuff.into(), ShortSip.into()], &who);
         let total: f64 = r.iter().map(|r| r.p).sum();
         assert!((total - 1.0).abs() < 1e-12);
         let flipped_first = r
@@ -240,7 +306,10 @@ mod tests {
             .unwrap();
         // Half the 5 % mistakes, plus Φ(−2.5) of long puffs read short.
         assert!((flipped_first.p - (0.025 + 0.00621)).abs() < 1e-4);
-        assert_eq!(flipped_first.read.as_slice(), [ShortPuff, ShortSip]);
+        assert_eq!(
+            flipped_first.read.as_slice(),
+            [Symbol::from(ShortPuff), ShortSip.into()]
+        );
     }
 
     fn action() -> impl Strategy<Value = Action> {

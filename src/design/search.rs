@@ -18,10 +18,10 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
-use crate::control::action::{Action, ActionSeq};
 use crate::design::analysis::{AttemptTiming, entry_cost, entry_cost_of};
 use crate::design::breathing::Breathing;
 use crate::design::reading::SequenceReading;
+use crate::design::symbol::{Symbol, SymbolSeq};
 
 /// What to place and under which rules.
 #[derive(Debug, Clone)]
@@ -29,9 +29,9 @@ pub struct Problem {
     /// Each entry's share of selections.
     pub usage: Vec<f64>,
     /// Entries that keep their sequence, by index.
-    pub fixed: Vec<Option<ActionSeq>>,
+    pub fixed: Vec<Option<SymbolSeq>>,
     /// The sequences an entry may take.
-    pub candidates: Vec<ActionSeq>,
+    pub candidates: Vec<SymbolSeq>,
     /// Whose breathing.
     pub who: Breathing,
     /// The times of an attempt.
@@ -40,10 +40,13 @@ pub struct Problem {
     pub time_limit: Duration,
 }
 
-/// Every sequence of `min..=max` bursts of the allowed kinds.
-pub fn candidates(allowed: &[Action], min: usize, max: usize) -> Vec<ActionSeq> {
+/// Every sequence of up to `max` of the allowed bursts and gestures, at
+/// least `min` long if it is bursts alone: a cough or sigh is a burst,
+/// while a gesture is a deliberate movement the recognizer checks, so
+/// one gesture alone may select.
+pub fn candidates(allowed: &[Symbol], min: usize, max: usize) -> Vec<SymbolSeq> {
     let mut out = Vec::new();
-    let mut layer: Vec<Vec<Action>> = vec![Vec::new()];
+    let mut layer: Vec<Vec<Symbol>> = vec![Vec::new()];
     for len in 1..=max {
         layer = layer
             .iter()
@@ -55,9 +58,12 @@ pub fn candidates(allowed: &[Action], min: usize, max: usize) -> Vec<ActionSeq> 
                 })
             })
             .collect();
-        if len >= min {
-            out.extend(layer.iter().filter_map(|s| ActionSeq::from_slice(s)));
-        }
+        out.extend(
+            layer
+                .iter()
+                .filter(|s| len >= min || s.iter().any(|x| x.action().is_none()))
+                .filter_map(|s| SymbolSeq::from_slice(s)),
+        );
     }
     out
 }
@@ -67,7 +73,7 @@ pub fn candidates(allowed: &[Action], min: usize, max: usize) -> Vec<ActionSeq> 
 pub struct SearchResult {
     /// Each entry's sequence, in the problem's order.
     #[serde(skip)]
-    pub sequences: Vec<ActionSeq>,
+    pub sequences: Vec<SymbolSeq>,
     /// Its cost: usage-weighted expected ms per selection.
     pub cost_ms: f64,
     /// No library costs less than this, ms.
@@ -94,8 +100,8 @@ impl SearchResult {
 }
 
 /// The library's cost: usage-weighted expected ms per selection.
-pub fn cost(p: &Problem, sequences: &[ActionSeq]) -> f64 {
-    let library: Vec<&[Action]> = sequences.iter().map(ActionSeq::as_slice).collect();
+pub fn cost(p: &Problem, sequences: &[SymbolSeq]) -> f64 {
+    let library: Vec<&[Symbol]> = sequences.iter().map(SymbolSeq::as_slice).collect();
     (0..library.len())
         .map(|i| p.usage[i] * entry_cost(i, &library, &p.who, &p.timing, |_, _, _| {}).expected_ms)
         .sum()
@@ -108,7 +114,7 @@ const THREADS: usize = 2;
 struct Space<'a> {
     p: &'a Problem,
     /// The free candidates, then each fixed entry's sequence.
-    sequences: Vec<ActionSeq>,
+    sequences: Vec<SymbolSeq>,
     readings: Vec<Vec<SequenceReading>>,
     /// How many of `sequences` are free candidates.
     free: usize,
@@ -129,7 +135,7 @@ impl Space<'_> {
             .enumerate()
             .filter_map(|(i, s)| s.map(|s| (i, s)))
             .collect();
-        let mut library: Vec<&[Action]> = entries
+        let mut library: Vec<&[Symbol]> = entries
             .iter()
             .map(|(_, s)| self.sequences[*s].as_slice())
             .collect();
@@ -178,13 +184,13 @@ pub fn search(p: &Problem) -> SearchResult {
 /// Whether library `a` of cost `a_cost` comes before `b`: cheaper, or as
 /// cheap and its sequences first, entry by entry, burst by burst (a total
 /// order, so the library kept does not depend on which is found first).
-fn before(a_cost: f64, a: &[ActionSeq], b_cost: f64, b: &[ActionSeq]) -> bool {
+fn before(a_cost: f64, a: &[SymbolSeq], b_cost: f64, b: &[SymbolSeq]) -> bool {
     a_cost
         .total_cmp(&b_cost)
         .then_with(|| {
             a.iter()
-                .map(ActionSeq::as_slice)
-                .cmp(b.iter().map(ActionSeq::as_slice))
+                .map(SymbolSeq::as_slice)
+                .cmp(b.iter().map(SymbolSeq::as_slice))
         })
         .is_lt()
 }
@@ -201,7 +207,7 @@ pub(crate) fn search_on(p: &Problem, threads: usize) -> SearchResult {
     let n = p.usage.len();
     let mut order: Vec<usize> = (0..n).filter(|i| p.fixed[*i].is_none()).collect();
     order.sort_by(|a, b| p.usage[*b].total_cmp(&p.usage[*a]).then(a.cmp(b)));
-    let mut sequences: Vec<ActionSeq> = p
+    let mut sequences: Vec<SymbolSeq> = p
         .candidates
         .iter()
         .filter(|c| !p.fixed.iter().any(|f| f.as_ref() == Some(c)))
@@ -286,7 +292,7 @@ pub(crate) fn search_on(p: &Problem, threads: usize) -> SearchResult {
 struct Shared {
     /// Its cost's bits (positive costs order as their bits do).
     cost: AtomicU64,
-    library: Mutex<Vec<ActionSeq>>,
+    library: Mutex<Vec<SymbolSeq>>,
 }
 
 struct Branch<'a> {
@@ -328,9 +334,9 @@ impl Branch<'_> {
         self.nodes += 1;
         let space = self.space;
         if depth == space.order.len() {
-            let sequences: Vec<ActionSeq> = placed
+            let sequences: Vec<SymbolSeq> = placed
                 .iter()
-                .map(|s| s.map_or_else(ActionSeq::default, |s| space.sequences[s]))
+                .map(|s| s.map_or_else(SymbolSeq::default, |s| space.sequences[s]))
                 .collect();
             let c = cost(space.p, &sequences);
             if c <= self.best_cost() {
@@ -396,11 +402,11 @@ impl Branch<'_> {
 /// A greedy library (most used entry on the cheapest sequence left),
 /// then swaps of two entries and moves to unused sequences while any
 /// lowers the cost.
-fn local_search(p: &Problem, order: &[usize], free: &[ActionSeq]) -> Vec<ActionSeq> {
-    let mut sequences: Vec<ActionSeq> = p.fixed.iter().map(|f| f.unwrap_or_default()).collect();
+fn local_search(p: &Problem, order: &[usize], free: &[SymbolSeq]) -> Vec<SymbolSeq> {
+    let mut sequences: Vec<SymbolSeq> = p.fixed.iter().map(|f| f.unwrap_or_default()).collect();
     let mut taken = vec![false; free.len()];
     for &entry in order {
-        let mut placed: Vec<&[Action]> = (0..sequences.len())
+        let mut placed: Vec<&[Symbol]> = (0..sequences.len())
             .filter(|i| {
                 p.fixed[*i].is_some() || order.iter().take_while(|o| **o != entry).any(|o| o == i)
             })
@@ -465,6 +471,7 @@ fn local_search(p: &Problem, order: &[usize], free: &[ActionSeq]) -> Vec<ActionS
 mod tests {
     use super::*;
     use crate::config::Config;
+    use crate::control::action::Action;
     use crate::control::detector::DetectorConfig;
     use crate::control::selection::SequenceEntry;
     use crate::sim::user::UserModel;
@@ -476,7 +483,14 @@ mod tests {
         Problem {
             fixed: vec![None; usage.len()],
             usage,
-            candidates: candidates(allowed, min, max),
+            candidates: candidates(
+                &allowed
+                    .iter()
+                    .map(|a| Symbol::burst(*a))
+                    .collect::<Vec<_>>(),
+                min,
+                max,
+            ),
             who,
             timing,
             time_limit: Duration::from_secs(600),
@@ -485,8 +499,8 @@ mod tests {
 
     /// The least cost over every assignment, by trying them all, and of
     /// the libraries that cost it the first in order.
-    fn exhaustive(p: &Problem) -> (f64, Vec<ActionSeq>) {
-        fn place(p: &Problem, chosen: &mut Vec<ActionSeq>, best: &mut (f64, Vec<ActionSeq>)) {
+    fn exhaustive(p: &Problem) -> (f64, Vec<SymbolSeq>) {
+        fn place(p: &Problem, chosen: &mut Vec<SymbolSeq>, best: &mut (f64, Vec<SymbolSeq>)) {
             if chosen.len() == p.usage.len() {
                 let c = cost(p, chosen);
                 if before(c, chosen, best.0, &best.1) {
@@ -547,9 +561,21 @@ mod tests {
     }
 
     #[test]
+    fn one_gesture_alone_is_a_sequence_one_burst_alone_is_not() {
+        let nod = Symbol::gesture(0).unwrap();
+        let allowed = [Action::ShortSip.into(), Action::ShortPuff.into(), nod];
+        let found = candidates(&allowed, 2, 2);
+        // The nod alone; then of two items, all nine (the four of bursts
+        // alone among them).
+        assert_eq!(found.len(), 1 + 9);
+        assert_eq!(found[0].as_slice(), [nod]);
+        assert!(found.iter().all(|s| s.len() == 2 || s.as_slice() == [nod]));
+    }
+
+    #[test]
     fn of_equally_cheap_libraries_the_first_in_order_is_kept() {
         use Action::{LongPuff, ShortPuff, ShortSip};
-        let seq = |a: &[Action]| ActionSeq::from_slice(a).unwrap();
+        let seq = |a: &[Action]| SymbolSeq::from_slice(a).unwrap();
         let a = [seq(&[ShortSip, ShortPuff]), seq(&[ShortPuff, ShortSip])];
         let b = [seq(&[ShortSip, LongPuff]), seq(&[ShortPuff, ShortSip])];
         assert_eq!(ShortSip.cmp(&ShortPuff), std::cmp::Ordering::Less);
@@ -573,24 +599,25 @@ mod tests {
             let library = config.core().sequences();
             let mut p = problem(vec![1.0 / 9.0; 9], &allowed, 2, max);
             p.time_limit = Duration::from_millis(200);
+            let first = library[0].breaths().and_then(|b| SymbolSeq::from_slice(b.as_slice()));
             if keep_first {
-                p.fixed[0] = library[0].breaths();
+                p.fixed[0] = first;
             }
             prop_assume!(p.candidates.len() >= 9);
             let found = search(&p);
             let designed: Vec<SequenceEntry> = library
                 .iter()
                 .zip(&found.sequences)
-                .map(|(e, s)| SequenceEntry { actions: (*s).into(), target: e.target })
+                .map(|(e, s)| SequenceEntry { actions: p.who.tokens(s), target: e.target })
                 .collect();
             prop_assert!(config.clone().with_sequences(designed).is_ok());
             for (i, s) in found.sequences.iter().enumerate() {
                 prop_assert!(found.sequences[..i].iter().all(|t| t != s));
                 if keep_first && i == 0 {
-                    prop_assert_eq!(Some(*s), library[0].breaths());
+                    prop_assert_eq!(Some(*s), first);
                 } else {
                     prop_assert!((2..=max).contains(&s.len()));
-                    prop_assert!(s.as_slice().iter().all(|a| allowed.contains(a)));
+                    prop_assert!(s.as_slice().iter().all(|a| a.action().is_some_and(|a| allowed.contains(&a))));
                 }
             }
             prop_assert!(found.bound_ms <= found.cost_ms);

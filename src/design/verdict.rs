@@ -7,7 +7,7 @@
 
 use serde::Serialize;
 
-use crate::control::action::Action;
+use crate::control::token::Token;
 
 /// The model's figures for both libraries on the usage designed for.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,9 +46,9 @@ pub struct Evidence<'a> {
     pub usage: &'a str,
     /// The model on that usage.
     pub model: ModelFigures,
-    /// Bursts the replaced library uses that the person cannot breathe
-    /// (`--without`).
-    pub unbreathable: Vec<Action>,
+    /// Bursts and gestures the replaced library uses that the person
+    /// cannot make (`--without`).
+    pub unbreathable: Vec<Token>,
     /// The study, unless skipped.
     pub study: Option<StudyFigures>,
     /// `--force` with `--out`: the designed library is written whatever
@@ -155,12 +155,26 @@ pub fn faster_words(faster: f64) -> String {
 pub fn verdict(e: &Evidence) -> Verdict {
     let m = e.model;
     let faster = 1.0 - m.designed_ms / m.before_ms;
-    let fewer_wrong = 1.0 - m.designed_wrong / m.before_wrong.max(1e-12);
+    // Neither library ever wrong (a person whose gestures the set reads
+    // without a slip): no fewer, no more.
+    let never_wrong = m.before_wrong <= 0.0 && m.designed_wrong <= 0.0;
+    let fewer_wrong = if never_wrong {
+        0.0
+    } else {
+        1.0 - m.designed_wrong / m.before_wrong.max(1e-12)
+    };
     let name = e.name;
     let model = format!(
         "the model expects the designed library {} and {} for {} ({:.2} → {:.2} s per selection)",
         faster_words(faster),
-        if fewer_wrong >= 0.0 {
+        if never_wrong {
+            "never wrong (nor is the other)".to_string()
+        } else if m.before_wrong <= 0.0 {
+            format!(
+                "wrong in {:.2} % of attempts (the other never is)",
+                100.0 * m.designed_wrong
+            )
+        } else if fewer_wrong >= 0.0 {
             format!("{:.0} % less often wrong", 100.0 * fewer_wrong)
         } else {
             format!("{:.0} % more often wrong", -100.0 * fewer_wrong)
@@ -188,12 +202,21 @@ pub fn verdict(e: &Evidence) -> Verdict {
         "not written without --force"
     };
     if !e.unbreathable.is_empty() {
-        let bursts: Vec<String> = e.unbreathable.iter().map(|a| format!("{a}s")).collect();
+        let items: Vec<String> = e
+            .unbreathable
+            .iter()
+            .map(|t| match t {
+                Token::Breath(a) => format!("{a}s"),
+                Token::Gesture(name) => format!("`{name}`"),
+            })
+            .collect();
+        let breaths_only = e.unbreathable.iter().all(|t| t.action().is_some());
         return verdict(
             Decision::Switch,
             format!(
-                "use the designed library: {name} needs {}, which this person cannot breathe (--without); {model}{}",
-                bursts.join(" and "),
+                "use the designed library: {name} needs {}, which this person cannot {} (--without); {model}{}",
+                items.join(" and "),
+                if breaths_only { "breathe" } else { "make" },
                 same_study
                     .map(|s| format!("; the study: {}", study_words(s)))
                     .unwrap_or(other_study)
@@ -303,7 +326,7 @@ mod tests {
     #[test]
     fn a_library_the_person_cannot_breathe_is_never_kept() {
         let e = Evidence {
-            unbreathable: vec![Action::LongSip],
+            unbreathable: vec![Token::Breath(crate::control::action::Action::LongSip)],
             ..evidence(model(1000.0, 1010.0, 0.03, 0.03), None)
         };
         let v = verdict(&e);
@@ -315,6 +338,43 @@ mod tests {
             v.text
         );
         assert!(v.text.contains("1.0 % slower"), "{}", v.text);
+    }
+
+    #[test]
+    fn a_gesture_the_person_cannot_make_is_named() {
+        let shake = crate::control::gesture::name::GestureName::new("shake").unwrap();
+        let e = Evidence {
+            unbreathable: vec![Token::Gesture(shake)],
+            ..evidence(model(2000.0, 2100.0, 0.0, 0.0), None)
+        };
+        let v = verdict(&e);
+        assert_eq!(v.decision, Decision::Switch);
+        assert!(
+            v.text.starts_with("use the designed library: the built-in library needs `shake`, which this person cannot make (--without); the model expects the designed library 5.0 % slower and never wrong (nor is the other) for "),
+            "{}",
+            v.text
+        );
+    }
+
+    #[test]
+    fn libraries_never_wrong_are_compared_on_time_alone() {
+        // Both 0 % wrong: not "100 % less often wrong", and 1 % faster
+        // is near-optimal.
+        let v = verdict(&evidence(model(2000.0, 1980.0, 0.0, 0.0), None));
+        assert_eq!(v.decision, Decision::Keep, "{}", v.text);
+        assert!(
+            v.text
+                .contains("1.0 % faster and never wrong (nor is the other)"),
+            "{}",
+            v.text
+        );
+        let v = verdict(&evidence(model(2000.0, 1980.0, 0.0, 0.02), None));
+        assert!(
+            v.text
+                .contains("wrong in 2.00 % of attempts (the other never is)"),
+            "{}",
+            v.text
+        );
     }
 
     #[test]

@@ -189,11 +189,32 @@ struct OrdinarySegments {
     segments: Vec<Segment>,
 }
 
+/// The leave-one-out confusion matrix of `set`: rows the gesture made,
+/// columns the gesture recognised, then "rejected" (as [`check`] gives
+/// it, without the ordinary movement).
+pub fn confusion(set: &GestureSet) -> Vec<Vec<usize>> {
+    confusion_of(set.gestures.len(), &leave_one_out(set, 1.0))
+}
+
+/// The confusion matrix of `n` gestures' leave-one-out verdicts.
+fn confusion_of(n: usize, loo: &[Vec<Verdict>]) -> Vec<Vec<usize>> {
+    let mut confusion = vec![vec![0usize; n + 1]; n];
+    for (row, verdicts) in confusion.iter_mut().zip(loo) {
+        for v in verdicts {
+            let column = recognised(v).map_or(n, |id| usize::from(id.0));
+            if let Some(cell) = row.get_mut(column) {
+                *cell += 1;
+            }
+        }
+    }
+    confusion
+}
+
 /// Checks `set` by leave-one-out and on `ordinary` movement.
 pub fn check(set: &GestureSet, ordinary: &[Ordinary<'_>]) -> Check {
     let n = set.gestures.len();
     let loo = leave_one_out(set, 1.0);
-    let mut confusion = vec![vec![0usize; n + 1]; n];
+    let confusion = confusion_of(n, &loo);
     let mut gestures = Vec::with_capacity(n);
     for (g, (gesture, verdicts)) in set.gestures.iter().zip(&loo).enumerate() {
         let mut result = GestureResult {
@@ -206,10 +227,6 @@ pub fn check(set: &GestureSet, ordinary: &[Ordinary<'_>]) -> Check {
             ordinary_activations: 0,
         };
         for v in verdicts {
-            let column = recognised(v).map_or(n, |id| usize::from(id.0));
-            if let Some(cell) = confusion.get_mut(g).and_then(|row| row.get_mut(column)) {
-                *cell += 1;
-            }
             match recognised(v) {
                 Some(id) if usize::from(id.0) == g => result.right += 1,
                 Some(id) => {

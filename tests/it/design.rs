@@ -10,6 +10,7 @@ use sipnpuff::config::Config;
 use sipnpuff::design::analysis::{AttemptTiming, analyse};
 use sipnpuff::design::breathing::Breathing;
 use sipnpuff::design::usage::Usage;
+use sipnpuff::gestures::set::GestureSet;
 use sipnpuff::sim::study::libraries::{compare, mean_over_task_selections};
 use sipnpuff::sim::user::UserModel;
 
@@ -442,4 +443,345 @@ fn a_designed_file_keeps_the_profiles_reasons_and_the_sequences_replaced() {
         "{text}"
     );
     assert!(Config::from_file(&out).is_ok());
+}
+
+/// The simulated `typical` person's gesture set and a library of their
+/// gestures (fixtures/gesture-user).
+const GESTURE_USER: &str = "fixtures/gesture-user/config.toml";
+const GESTURE_SET: &str = "fixtures/gesture-user/gestures.toml";
+
+fn gesture_set() -> GestureSet {
+    GestureSet::from_toml(&std::fs::read_to_string(GESTURE_SET).unwrap()).unwrap()
+}
+
+/// Each gesture's time in the set: its examples' mean length and the
+/// front end's 300 ms of rest before it is read, ms.
+fn gesture_ms(set: &GestureSet, name: &str) -> f64 {
+    let g = set.gestures.iter().find(|g| g.name == name).unwrap();
+    let total: u64 = g.examples.iter().map(|e| e.end - e.start).sum();
+    total as f64 / g.examples.len() as f64 + f64::from(set.config.rest_ms)
+}
+
+/// The entry of `a` that selects `mode`.
+fn entry<'a>(a: &'a Value, mode: &str) -> &'a Value {
+    a["entries"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e["mode"] == mode)
+        .unwrap()
+}
+
+fn ms(v: &Value) -> f64 {
+    v.as_f64().unwrap()
+}
+
+#[test]
+fn a_gesture_set_is_the_person_and_each_gesture_costs_its_examples_time() {
+    let set = gesture_set();
+    let a = json(&["design", "--check", "--config", GESTURE_USER, "--json"]);
+    assert_eq!(
+        a["user"],
+        "the study's simulated user, with the gestures of fixtures/gesture-user/gestures.toml"
+    );
+    let reaction = ms(&a["timing"]["reaction_ms"]);
+    let gap = ms(&a["timing"]["gap_ms"]);
+    // 5/5 in leave-one-out, each gesture: never rejected, never taken for
+    // another, so each entry costs one attempt: the reaction, then each
+    // gesture and the rest that ends it, a gap between.
+    for (mode, gestures) in [
+        ("translate_x", &["nod"][..]),
+        ("translate_z", &["double_nod"]),
+        ("translate_y", &["shake"]),
+        ("fingers", &["tilt_left"]),
+        ("rotate_z", &["tilt_right", "nod"]),
+    ] {
+        let e = entry(&a, mode);
+        let made: f64 = gestures.iter().map(|g| gesture_ms(&set, g)).sum();
+        let attempt = reaction + made + gap * (gestures.len() - 1) as f64;
+        assert_eq!(ms(&e["attempt_ms"]), attempt, "{mode}");
+        assert_eq!(ms(&e["expected_ms"]), attempt, "{mode}");
+        assert_eq!((ms(&e["p_wrong"]), ms(&e["p_retry"])), (0.0, 0.0), "{mode}");
+    }
+    // The nod: 768 ms on average and 300 ms of rest, after the 459 ms
+    // reaction.
+    assert_eq!(gesture_ms(&set, "nod"), 1068.0);
+    assert_eq!(
+        entry(&a, "translate_x")["actions"],
+        serde_json::json!(["nod"])
+    );
+    let rates = a["rates"].as_array().unwrap();
+    let nod_rejected = rates.iter().find(|r| r["what"] == "nod rejected").unwrap();
+    assert_eq!(
+        nod_rejected["source"],
+        "measured (leave-one-out of fixtures/gesture-user/gestures.toml)"
+    );
+    // A library of gestures alone: no breath's rates.
+    assert!(
+        rates
+            .iter()
+            .all(|r| !r["what"].as_str().unwrap().contains("sip"))
+    );
+    let text = sipnpuff(&["design", "--check", "--config", GESTURE_USER]);
+    let text = String::from_utf8(text.stdout).unwrap();
+    for line in [
+        "gestures timed from their examples (fixtures/gesture-user/gestures.toml): nod 0.77 s, double_nod 1.24 s, shake 1.21 s, tilt_left 1.56 s, tilt_right 1.87 s, wobble 1.01 s; each read 0.30 s after it ends (the front end's rest_ms)",
+        "| entry | sequence | used | expected s | wait s | wrong % | retry % | lands in |",
+        "| rotate_z | tilt_right nod | 17 % | 4.00 | 0.0 | 0.00 | 0.00 | — |",
+        "per selection: 2.26 s expected, 0.00 % of attempts select a wrong entry",
+    ] {
+        assert!(text.lines().any(|l| l == line), "{line}\n{text}");
+    }
+    // The same file as the library: its set with it.
+    let same = json(&["design", "--check", GESTURE_USER, "--json"]);
+    assert_eq!(
+        same["expected_ms_per_selection"],
+        a["expected_ms_per_selection"]
+    );
+}
+
+#[test]
+fn a_library_mixing_breaths_and_gestures_is_priced_item_by_item() {
+    let dir = Scratch::new();
+    let person = dir.join("person.toml");
+    std::fs::write(
+        &person,
+        format!(
+            "[gestures]\nset = \"{GESTURE_SET}\"\n\n\
+             [[sequence]]\nactions = [-1, -1]\nmode = \"translate_x\"\n\n\
+             [[sequence]]\nactions = [\"nod\", -1]\nmode = \"translate_y\"\n\n\
+             [[sequence]]\nactions = [\"shake\"]\nmode = \"translate_z\"\n"
+        ),
+    )
+    .unwrap();
+    let a = json(&[
+        "design",
+        "--check",
+        "--config",
+        person.to_str().unwrap(),
+        "--json",
+    ]);
+    let t = &a["timing"];
+    let (reaction, gap, edge, latency) = (
+        ms(&t["reaction_ms"]),
+        ms(&t["gap_ms"]),
+        ms(&t["edge_ms"]),
+        ms(&t["latency_ms"]),
+    );
+    let set = gesture_set();
+    // A nod (read when it has ended), the gap, a short puff of the study's
+    // user (150 ms) with its rise, half its edges, and the detector's
+    // latency.
+    let mixed = entry(&a, "translate_y");
+    assert_eq!(mixed["actions"], serde_json::json!(["nod", -1]));
+    let attempt = reaction + gesture_ms(&set, "nod") + gap + 150.0 + 0.5 * edge + latency;
+    assert!((ms(&mixed["attempt_ms"]) - attempt).abs() < 1e-9, "{mixed}");
+    // Two short puffs as the breath library prices them.
+    let puffs = entry(&a, "translate_x");
+    let attempt = reaction + 150.0 + gap + 150.0 + 1.5 * edge + latency;
+    assert!((ms(&puffs["attempt_ms"]) - attempt).abs() < 1e-9, "{puffs}");
+    // The breaths' rates and the gestures' side by side.
+    let sources: Vec<&str> = a["rates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["source"].as_str().unwrap())
+        .collect();
+    assert!(sources.contains(&"modelled (the study's simulated user)"));
+    assert!(sources.contains(&"measured (leave-one-out of fixtures/gesture-user/gestures.toml)"));
+}
+
+#[test]
+fn a_confused_pair_shows_where_each_lands() {
+    // The person made the wrong gesture once each when prompted: the 5th
+    // nod is recorded as a shake, the 5th shake as a nod.
+    let dir = Scratch::new();
+    let mut set = gesture_set();
+    let nod = set.gestures[0].examples[4].clone();
+    set.gestures[0].examples[4] = std::mem::replace(&mut set.gestures[2].examples[4], nod);
+    let swapped = dir.join("swapped.toml");
+    std::fs::write(&swapped, set.to_toml(&[])).unwrap();
+    let swapped = swapped.to_str().unwrap();
+    let check = json(&["gestures", "check", swapped, "--json"]);
+    assert_eq!(
+        check["confusion"][0],
+        serde_json::json!([3, 0, 1, 0, 0, 0, 1])
+    );
+    assert_eq!(
+        check["confusion"][2],
+        serde_json::json!([2, 0, 3, 0, 0, 0, 0])
+    );
+    let a = json(&[
+        "design",
+        "--check",
+        "--config",
+        GESTURE_USER,
+        "--gestures",
+        swapped,
+        "--json",
+    ]);
+    let wrong_cost = ms(&a["timing"]["wrong_cost_ms"]);
+    let attempt = |g: &str| ms(&a["timing"]["reaction_ms"]) + gesture_ms(&set, g);
+    // The nod: read as a shake 1 in 5 (translate_y, then 2 s back to
+    // selection), rejected 1 in 5 (made again), right 3 in 5.
+    let nod = entry(&a, "translate_x");
+    assert_eq!((ms(&nod["p_wrong"]), ms(&nod["p_retry"])), (0.2, 0.2));
+    assert_eq!(nod["confusions"][0]["label"], "translate_y");
+    assert_eq!(
+        nod["confusions"][0]["how"],
+        "its 1st gesture (nod) read as shake"
+    );
+    let expected = (attempt("nod") + 0.2 * wrong_cost) / 0.6;
+    assert!((ms(&nod["expected_ms"]) - expected).abs() < 1e-9, "{nod}");
+    // The shake: read as a nod 2 in 5.
+    let shake = entry(&a, "translate_y");
+    assert_eq!((ms(&shake["p_wrong"]), ms(&shake["p_retry"])), (0.4, 0.0));
+    assert_eq!(shake["confusions"][0]["label"], "translate_x");
+    let expected = (attempt("shake") + 0.4 * wrong_cost) / 0.6;
+    assert!(
+        (ms(&shake["expected_ms"]) - expected).abs() < 1e-9,
+        "{shake}"
+    );
+    // A tilt then a nod: a nod read as a shake or rejected lands nowhere,
+    // and the head's motion holds the timeout until it ends: each failed
+    // attempt takes as long as a good one.
+    let both = entry(&a, "rotate_z");
+    assert_eq!((ms(&both["p_wrong"]), ms(&both["p_retry"])), (0.0, 0.4));
+    assert!((ms(&both["expected_ms"]) - ms(&both["attempt_ms"]) / 0.6).abs() < 1e-9);
+    let findings: Vec<&str> = a["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_str().unwrap())
+        .collect();
+    assert!(
+        findings.contains(&"`translate_y` lands in `translate_x` when its 1st gesture (shake) read as nod: 40.0 % of `translate_y` attempts for this user"),
+        "{findings:?}"
+    );
+    assert!(findings.iter().any(|f| f.starts_with(
+        "this person's `shake` is read as `nod` 40.0 % of the time (leave-one-out of "
+    ) && f.ends_with("(`design --without shake`)")));
+}
+
+#[test]
+fn design_places_entries_on_the_persons_gestures() {
+    let dir = Scratch::new();
+    let out = dir.join("designed.toml");
+    let out = out.to_str().unwrap();
+    let run = sipnpuff(&["design", "--config", GESTURE_USER, "--out", out, "--json"]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    // A library of gestures alone: the person may have no breath sensor.
+    assert!(
+        stderr.contains("placing 6 entries on 258 sequences of nod, double_nod, shake, tilt_left, tilt_right, wobble (no breaths: the library has none, so the person may have no breath sensor: --with-breaths places them too)…"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("no study: "), "{stderr}");
+    let report: Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(report["search"]["complete"], true);
+    // rotate_z's tilt then nod becomes the tilt alone, which no entry
+    // starts with: 1.37 s sooner, so 10.1 % faster over the six entries.
+    assert_eq!(
+        entry(&report["designed"], "rotate_z")["actions"],
+        serde_json::json!(["tilt_right"])
+    );
+    for e in report["designed"]["entries"].as_array().unwrap() {
+        let items = e["actions"].as_array().unwrap();
+        assert!(items.iter().all(Value::is_string), "{e}");
+    }
+    assert_eq!(report["verdict"]["decision"], "switch");
+    assert!(
+        report["verdict"]["text"]
+            .as_str()
+            .unwrap()
+            .contains("10.1 % faster and never wrong (nor is the other)"),
+        "{}",
+        report["verdict"]["text"]
+    );
+    // The file names the set, and `design --check` prices it as the search did.
+    let written = Config::from_file(Path::new(out)).unwrap();
+    assert_eq!(
+        written.core().gesture_set_file(),
+        Some(Path::new(GESTURE_SET))
+    );
+    let check = json(&["design", "--check", out, "--json"]);
+    assert_eq!(
+        check["expected_ms_per_selection"],
+        report["designed"]["expected_ms_per_selection"]
+    );
+    // With breaths too, the four most used place on two short bursts.
+    let both = json(&[
+        "design",
+        "--config",
+        GESTURE_USER,
+        "--with-breaths",
+        "--no-study",
+        "--json",
+    ]);
+    let breaths = both["designed"]["entries"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e["actions"].as_array().unwrap().iter().all(Value::is_i64))
+        .count();
+    assert_eq!(breaths, 4);
+}
+
+#[test]
+fn a_gesture_set_that_cannot_be_used_is_refused_with_what_is_wrong() {
+    let dir = Scratch::new();
+    let e = refused(&[
+        "design",
+        "--check",
+        "--config",
+        GESTURE_USER,
+        "--gestures",
+        "no-such-set.toml",
+    ]);
+    assert!(
+        e.contains("the gesture set no-such-set.toml: cannot read it: ")
+            && e.contains("(make it with `sipnpuff gestures record`)"),
+        "{e}"
+    );
+    let broken = dir.join("broken.toml");
+    std::fs::write(&broken, "features = 2\n").unwrap();
+    let e = refused(&[
+        "design",
+        "--check",
+        "--config",
+        GESTURE_USER,
+        "--gestures",
+        broken.to_str().unwrap(),
+    ]);
+    assert!(
+        e.contains("broken.toml: line 1: missing field `channels`"),
+        "{e}"
+    );
+    // A set without the wobble the library names.
+    let mut set = gesture_set();
+    set.gestures.retain(|g| g.name != "wobble");
+    let five = dir.join("five.toml");
+    std::fs::write(&five, set.to_toml(&[])).unwrap();
+    let e = refused(&[
+        "design",
+        "--config",
+        GESTURE_USER,
+        "--gestures",
+        five.to_str().unwrap(),
+    ]);
+    assert!(
+        e.contains("five.toml: sequence #6.actions: `wobble` not in the gesture set (it has nod, double_nod, shake, tilt_left, tilt_right)"),
+        "{e}"
+    );
+    let e = refused(&["design", "--config", GESTURE_USER, "--without", "frown"]);
+    assert!(
+        e.contains("--without frown: not a burst (short_sip, long_sip, short_puff, long_puff, breaths) and the gesture set fixtures/gesture-user/gestures.toml has nod, double_nod, shake, tilt_left, tilt_right, wobble"),
+        "{e}"
+    );
+    let e = refused(&["design", "--without", "frown"]);
+    assert!(e.contains("no gesture set is given (--gestures"), "{e}");
 }
