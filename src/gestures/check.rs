@@ -251,13 +251,14 @@ pub fn check(set: &GestureSet, ordinary: &[Ordinary<'_>]) -> Check {
             segments: segments(&set.config, o.samples.iter().copied()),
         })
         .collect();
+    // Folded from +0.0: an empty sum of f64 is -0.0, printed "-0.00 h".
     let ordinary_hours: f64 = ordinary
         .iter()
         .map(|o| match (o.samples.first(), o.samples.last()) {
             (Some((a, _)), Some((b, _))) => (b - a) as f64 / 3_600_000.0,
             _ => 0.0,
         })
-        .sum();
+        .fold(0.0, |sum, h| sum + h);
     let activations_at = |scale: f64| -> Vec<Activation> {
         let Some(r) = recognizer(set, None, scale) else {
             return Vec::new();
