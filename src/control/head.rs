@@ -195,7 +195,18 @@ pub struct HeadView {
 }
 
 /// Ticks of the tilt's smoothing (an exponential average's time constant).
-pub const TILT_SMOOTHING_TICKS: f64 = 80.0;
+const TILT_SMOOTHING_TICKS: f64 = 80.0;
+
+/// One tick of the tilt's smoothing: `smoothed` moves towards the
+/// acceleration `a` (m/s²) with [`TILT_SMOOTHING_TICKS`]' time constant,
+/// starting at `a`.
+pub fn smooth_tilt(smoothed: &mut Option<[f64; 3]>, a: [f64; 3]) {
+    let alpha = 1.0 - (-1.0 / TILT_SMOOTHING_TICKS).exp();
+    let s = smoothed.get_or_insert(a);
+    for (s, a) in s.iter_mut().zip(a) {
+        *s += alpha * (a - *s);
+    }
+}
 
 /// The head's pitch (chin down +) and roll (left ear down +), degrees,
 /// from the gravity `reference` at rest to the acceleration `now` (each
@@ -303,12 +314,7 @@ impl Head {
         let verdict = self.recognizer.step(now, sample.as_ref());
         out.in_motion = self.recognizer.in_motion();
         if let Some((_, held)) = self.last {
-            let alpha = 1.0 - (-1.0 / TILT_SMOOTHING_TICKS).exp();
-            let a = held.acceleration();
-            let s = self.smoothed.get_or_insert(a);
-            for (s, a) in s.iter_mut().zip(a) {
-                *s += alpha * (a - *s);
-            }
+            smooth_tilt(&mut self.smoothed, held.acceleration());
         }
         if commanding {
             (out.tilt, out.speed_fraction) = self.tilt();

@@ -20,7 +20,7 @@ use crate::fit::outcome::Outcome;
 use crate::fit::prompter::{Say, View};
 use crate::rt::telemetry::TickRecord;
 
-use crate::control::head::{TILT_SMOOTHING_TICKS, pitch_and_roll};
+use crate::control::head::{pitch_and_roll, smooth_tilt};
 use crate::control::imu::ImuInput;
 use crate::display::frame::{
     Calibration, Command, Cue, Frame, GestureRecording, Head, HeadSetup, Highlight,
@@ -215,12 +215,7 @@ impl Screen {
         if let ImuInput::Sample(sample) = input
             && sample.is_finite()
         {
-            let a = sample.acceleration();
-            let alpha = 1.0 - (-1.0 / TILT_SMOOTHING_TICKS).exp();
-            let s = r.smoothed.get_or_insert(a);
-            for (s, a) in s.iter_mut().zip(a) {
-                *s += alpha * (a - *s);
-            }
+            smooth_tilt(&mut r.smoothed, sample.acceleration());
             if r.anchor {
                 r.reference = r.smoothed;
                 r.anchor = false;

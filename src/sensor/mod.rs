@@ -152,6 +152,20 @@ impl SensorSpec {
     }
 }
 
+/// A `--sensor` as it is written (a serial port without its baud).
+impl fmt::Display for SensorSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SensorSpec::Synthetic(None) => write!(f, "synthetic"),
+            SensorSpec::Synthetic(Some(name)) => write!(f, "synthetic:{name}"),
+            SensorSpec::Csv(path) => write!(f, "csv:{}", path.display()),
+            SensorSpec::Evdev(target) => write!(f, "{target}"),
+            SensorSpec::Serial { path, .. } => write!(f, "serial:{}", path.display()),
+            SensorSpec::Iio(path) => write!(f, "iio:{}", path.display()),
+        }
+    }
+}
+
 /// Which input device: by node or by name.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum EvdevTarget {

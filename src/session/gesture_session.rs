@@ -23,7 +23,7 @@ use crate::sensor::imu_sensor::ImuSamples;
 use crate::sensor::{Producer, Samples, Sensor, SensorSpec};
 use crate::session::Console;
 use crate::session::gestures::{RecordedSet, write_set};
-use crate::session::imu::{open_imu, spec_text};
+use crate::session::imu::open_imu;
 use crate::session::showing::{Display, DisplayChoice, Showing};
 use crate::sim::guided_imu_user::GuidedImuUser;
 use crate::sim::head_gesture::GestureName;
@@ -87,7 +87,7 @@ impl Head {
 fn open(live: &LiveRecord) -> anyhow::Result<(Head, Channels, String)> {
     if let SensorSpec::Synthetic(name) = live.sensor {
         let user = ImuUser::builtin(name.as_deref().unwrap_or("typical"))
-            .map_err(|e| anyhow::anyhow!("--sensor {}: {e}", spec_text(live.sensor)))?;
+            .map_err(|e| anyhow::anyhow!("--sensor {}: {e}", live.sensor))?;
         let gestures = live
             .names
             .iter()
@@ -96,7 +96,7 @@ fn open(live: &LiveRecord) -> anyhow::Result<(Head, Channels, String)> {
             .map_err(|e| {
                 anyhow::anyhow!(
                     "--sensor {}: the simulated person makes only the built-in gestures: {e}",
-                    spec_text(live.sensor)
+                    live.sensor
                 )
             })?;
         let person = GuidedImuUser::new(user, &gestures, 1);

@@ -10,23 +10,11 @@ use crate::sensor::imu_sensor::ImuSensor;
 use crate::sensor::serial_imu::SerialImu;
 use crate::tools::imu_csv::{FULL_HEADER, is_imu_csv, read_imu_csv};
 
-/// `spec` as it was given.
-pub fn spec_text(spec: &SensorSpec) -> String {
-    match spec {
-        SensorSpec::Synthetic(None) => "synthetic".into(),
-        SensorSpec::Synthetic(Some(name)) => format!("synthetic:{name}"),
-        SensorSpec::Csv(path) => format!("csv:{}", path.display()),
-        SensorSpec::Evdev(target) => target.to_string(),
-        SensorSpec::Serial { path, .. } => format!("serial:{}", path.display()),
-        SensorSpec::Iio(path) => format!("iio:{}", path.display()),
-    }
-}
-
 /// Opens the IMU `spec` names and checks it gives every channel
 /// `config`'s set was recorded with.
 pub fn open_imu_for_set(spec: &SensorSpec, config: &Config) -> anyhow::Result<ImuSensor> {
     let sensor = open_imu(spec, config)?;
-    crate::gestures::setup::check_channels(config.core(), &spec_text(spec), sensor.channels())
+    crate::gestures::setup::check_channels(config.core(), &spec.to_string(), sensor.channels())
         .map_err(anyhow::Error::msg)?;
     Ok(sensor)
 }
@@ -69,7 +57,7 @@ pub fn open_imu(spec: &SensorSpec, config: &Config) -> anyhow::Result<ImuSensor>
         }
         SensorSpec::Synthetic(_) => anyhow::bail!(
             "{}: not an IMU: give evdev:name=NAME, iio:/sys/bus/iio/devices/iio:deviceN, serial:PORT or csv:IMU.csv",
-            spec_text(spec)
+            spec
         ),
     };
     Ok(sensor)

@@ -23,7 +23,7 @@ use crate::sensor::with_imu::WithImu;
 use crate::sensor::{Sensor, SensorSpec};
 use crate::session::Console;
 use crate::session::gestures;
-use crate::session::imu::{open_imu_for_set, spec_text};
+use crate::session::imu::open_imu_for_set;
 use crate::session::showing::{Display, DisplayChoice};
 use crate::sim::synthetic_sensor::SyntheticSensor;
 use crate::tools::imu_csv::is_imu_csv;
@@ -130,11 +130,11 @@ fn imu_sensor(
         {
             anyhow::bail!(
                 "--sensor {}: with --imu, --sensor is the breath sensor (a sip-and-puff device, a breath recording or `synthetic`); give the IMU once, with --imu",
-                spec_text(plan.sensor)
+                plan.sensor
             );
         }
         let setup = gestures::load_setup(config.core())
-            .map_err(|e| anyhow::anyhow!("--imu {}: {e}", spec_text(imu)))?;
+            .map_err(|e| anyhow::anyhow!("--imu {}: {e}", imu))?;
         let config = config.clone().for_breath_and_imu(setup);
         let sensor = open_imu_for_set(imu, &config).map_err(|e| anyhow::anyhow!("--imu {e}"))?;
         return Ok(Some((config, sensor, Beside::Breath)));
