@@ -507,3 +507,19 @@ fn the_defaults_pass_validation() {
     let c = Config::default();
     assert_eq!(c.clone().with_sequence_timeout_ms(1000), Ok(c));
 }
+
+#[test]
+fn an_iio_trigger_without_the_buffer_is_refused_naming_its_line() {
+    let found = errors("[sensor.iio]\nrate_hz = 200\ntrigger = \"bmi160-dev0\"\n");
+    let keys: Vec<(String, Option<usize>)> =
+        found.iter().map(|e| (e.key.clone(), e.line)).collect();
+    assert_eq!(keys, [("sensor.iio.trigger".to_string(), Some(3))]);
+    assert!(
+        found[0].message.contains("only with buffered = true"),
+        "{}",
+        found[0].message
+    );
+    assert!(
+        Config::from_toml_str("[sensor.iio]\nbuffered = true\ntrigger = \"bmi160-dev0\"\n").is_ok()
+    );
+}

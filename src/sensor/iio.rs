@@ -131,6 +131,12 @@ impl IioSensor {
         settings: &IioSettings,
         reconnect: bool,
     ) -> Result<IioSensor, SensorError> {
+        if settings.buffered {
+            return Err(SensorError::WrongDevice {
+                device: path.display().to_string(),
+                message: "[sensor.iio] buffered is for an IMU; a pressure channel is read through sysfs (its ADC converts at most a few hundred times a second): set buffered = false".to_string(),
+            });
+        }
         let file =
             File::open(path).map_err(|e| SensorError::opening_device(path, e, PERMISSION_FIX))?;
         let (scale_mv, raw_offset) =
@@ -300,6 +306,16 @@ mod tests {
             .map(|e| e.to_string())
             .unwrap_or_default();
         assert!(e.contains("no in_current1_scale"), "{e}");
+        // Its buffer is for an IMU: asked for it, the channel says so.
+        let buffered = IioSettings {
+            buffered: true,
+            ..IioSettings::default()
+        };
+        let e = IioSensor::open(&dir.join("in_voltage0_raw"), &buffered, false)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("buffered is for an IMU"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
     }
 }

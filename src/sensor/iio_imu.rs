@@ -5,13 +5,21 @@
 //! The channels are `in_accel_{x,y,z}_raw` and `in_anglvel_{x,y,z}_raw`;
 //! each value is (raw + `_offset`) × `_scale`, from the channel's own
 //! files or its type's shared ones (`in_accel_scale`), in the IIO ABI's
-//! units: m/s² and rad/s, the units of the IMU CSV. A reader thread reads
-//! every channel `[sensor.iio] rate_hz` times a second with `pread` on
-//! files kept open, on absolute deadlines, and queues each sample on the
-//! IMU ring ([`imu_ring`](crate::sensor::imu_ring)); a read failing (the
-//! device unbound) ends the reader: the IMU lost, a fault at once.
-//! Sysfs reads keep up to about 1 kHz for six channels (10–20 µs each);
-//! the buffered interface is not read.
+//! units: m/s² and rad/s, the units of the IMU CSV. A reader thread
+//! queues each sample on the IMU ring
+//! ([`imu_ring`](crate::sensor::imu_ring)), read one of two ways:
+//!
+//! - sysfs (the default): every channel `[sensor.iio] rate_hz` times a
+//!   second with `pread` on files kept open, on absolute deadlines. Each
+//!   read is a bus transfer: six of them keep about 1 kHz on a fast bus,
+//!   a few hundred a second on a 100 kHz I2C one.
+//! - `buffered = true`: the device's buffer
+//!   ([`iio_buffer`](crate::sensor::iio_buffer)), which the kernel fills
+//!   at each firing of its trigger (its data-ready interrupt), at the
+//!   device's own rate.
+//!
+//! A read failing (the device unbound) ends the reader: the IMU lost, a
+//! fault at once.
 
 use std::fs::File;
 use std::io;
@@ -21,6 +29,7 @@ use std::time::{Duration, Instant};
 
 use crate::control::imu::{CHANNELS, Channel, Channels, ImuSample};
 use crate::sensor::iio::{PERMISSION_FIX, channel_attribute, read_raw};
+use crate::sensor::iio_buffer::IioBuffer;
 use crate::sensor::imu_ring::{ImuRing, imu_ring};
 use crate::sensor::settings::IioSettings;
 use crate::sensor::{Producer, Sensor, SensorError, Started};
@@ -106,12 +115,29 @@ pub fn is_imu(dir: &Path) -> bool {
         .any(|c| dir.join(format!("{}_raw", channel_name(c))).exists())
 }
 
-/// An opened IIO IMU: each channel's file, kept open, and its scale.
+/// An opened IIO IMU: each channel's file, kept open, and its scale;
+/// its buffer set up and enabled when it is read buffered.
 pub struct IioImu {
     dir: PathBuf,
     rate_hz: u32,
     channels: Vec<(Channel, ChannelScale, File)>,
+    buffer: Option<IioBuffer>,
     first: ImuSample,
+}
+
+/// How long the first scan of a buffer may take: a trigger that has not
+/// fired by then is not firing.
+const FIRST_SCAN_MS: i32 = 1000;
+
+/// The sample of one scan's raw values, in the order of `scales`.
+fn scan_sample(scales: &[(Channel, ChannelScale)], raws: &[i64]) -> ImuSample {
+    let mut values = [0.0; CHANNELS];
+    for ((channel, scale), raw) in scales.iter().zip(raws) {
+        if let Some(v) = values.get_mut(channel.index()) {
+            *v = scale.value(*raw);
+        }
+    }
+    ImuSample { values }
 }
 
 impl IioImu {
@@ -137,12 +163,46 @@ impl IioImu {
             dir: dir.to_path_buf(),
             rate_hz: settings.rate_hz.max(1),
             channels,
+            buffer: None,
             first: ImuSample::default(),
         };
-        imu.first = imu
-            .read()
-            .map_err(|e| wrong(format!("cannot read a sample: {e}")))?;
+        if settings.buffered {
+            let node = Path::new("/dev").join(dir.file_name().unwrap_or_default());
+            let names: Vec<&str> = imu
+                .channels
+                .iter()
+                .map(|(c, _, _)| channel_name(*c))
+                .collect();
+            let mut buffer =
+                IioBuffer::open(dir, &node, &names, &settings.trigger).map_err(wrong)?;
+            let scales = imu.scales();
+            let mut first = None;
+            let mut waited = 0;
+            while first.is_none() && waited < FIRST_SCAN_MS {
+                buffer
+                    .read(50, |raws| first = Some(scan_sample(&scales, raws)))
+                    .map_err(|e| wrong(format!("cannot read its buffer: {e}")))?;
+                waited += 50;
+            }
+            imu.first = first.ok_or_else(|| {
+                wrong(format!(
+                    "its buffer gave no sample in {} s: is its trigger ({}) firing?",
+                    FIRST_SCAN_MS / 1000,
+                    buffer.trigger().unwrap_or("none")
+                ))
+            })?;
+            imu.buffer = Some(buffer);
+        } else {
+            imu.first = imu
+                .read()
+                .map_err(|e| wrong(format!("cannot read a sample: {e}")))?;
+        }
         Ok(imu)
+    }
+
+    /// Each channel it gives and its scale.
+    fn scales(&self) -> Vec<(Channel, ChannelScale)> {
+        self.channels.iter().map(|(c, s, _)| (*c, *s)).collect()
     }
 
     /// The channels it gives.
@@ -168,17 +228,44 @@ impl Sensor for IioImu {
     type Samples = ImuRing;
 
     fn describe(&self) -> String {
-        format!(
-            "iio:{} (IMU {}; read {} times a second)",
-            self.dir.display(),
-            self.channels(),
-            self.rate_hz
-        )
+        match &self.buffer {
+            Some(buffer) => format!(
+                "iio:{} (IMU {}; its buffer, {}-byte scans, trigger {})",
+                self.dir.display(),
+                self.channels(),
+                buffer.scan_bytes(),
+                buffer.trigger().unwrap_or("none: its own FIFO")
+            ),
+            None => format!(
+                "iio:{} (IMU {}; read {} times a second)",
+                self.dir.display(),
+                self.channels(),
+                self.rate_hz
+            ),
+        }
     }
 
-    fn start(self) -> Result<Started<ImuRing>, SensorError> {
+    fn start(mut self) -> Result<Started<ImuRing>, SensorError> {
         let (mut feed, samples) = imu_ring();
         feed.push(self.first);
+        if let Some(mut buffer) = self.buffer.take() {
+            let scales = self.scales();
+            let producer = Producer::spawn("sensor-iio-imu", move |stop| {
+                while !stop.load(Ordering::Relaxed) {
+                    // A read failing (the device unbound) ends the reader:
+                    // `feed` dropped tells the control thread the IMU is
+                    // lost; `buffer` dropped disables the buffer.
+                    if buffer
+                        .read(100, |raws| feed.push(scan_sample(&scales, raws)))
+                        .is_err()
+                    {
+                        break;
+                    }
+                }
+                Ok(())
+            })?;
+            return Ok(Started { samples, producer });
+        }
         let producer = Producer::spawn("sensor-iio-imu", move |stop| {
             let period = Duration::from_secs(1) / self.rate_hz;
             let mut next = Instant::now() + period;

@@ -221,11 +221,26 @@ pub fn iio_channels(root: &Path) -> Vec<FoundSensor> {
                     .fold(Channels::NONE, |set, (c, _)| set.with(*c))
                     .to_string()
             });
+            let mut use_with = vec![format!(
+                "--sensor iio:{} with [gestures] set = \"SET.toml\"   (a head-worn IMU: head gestures, docs/gestures.md)",
+                dir.display()
+            )];
+            if dir.join("buffer/enable").exists() {
+                let trigger = std::fs::read_to_string(dir.join("trigger/current_trigger"))
+                    .map(|t| t.trim().to_string())
+                    .unwrap_or_default();
+                use_with.push(format!(
+                    "and [sensor.iio] buffered = true to read its buffer at its own rate ({})",
+                    if trigger.is_empty() {
+                        "no trigger set: name its data-ready trigger as [sensor.iio] trigger"
+                            .to_string()
+                    } else {
+                        format!("trigger {trigger}")
+                    }
+                ));
+            }
             found.push(FoundSensor::IioImu {
-                use_with: vec![format!(
-                    "--sensor iio:{} with [gestures] set = \"SET.toml\"   (a head-worn IMU: head gestures, docs/gestures.md)",
-                    dir.display()
-                )],
+                use_with,
                 path: dir.clone(),
                 device: device.clone(),
                 channels,
@@ -428,6 +443,8 @@ mod tests {
             std::fs::write(imu.join(format!("in_anglvel_{axis}_raw")), "3\n").unwrap();
         }
         std::fs::write(imu.join("in_anglvel_scale"), "0.000133090\n").unwrap();
+        std::fs::create_dir_all(imu.join("buffer")).unwrap();
+        std::fs::write(imu.join("buffer/enable"), "0\n").unwrap();
         let found = iio_channels(&root);
         assert_eq!(found.len(), 3, "{found:?}");
         let text = to_text(&found);
@@ -452,6 +469,12 @@ mod tests {
                 imu.display(),
                 imu.display()
             )),
+            "{text}"
+        );
+        assert!(
+            text.contains(
+                "use:  and [sensor.iio] buffered = true to read its buffer at its own rate (no trigger set: name its data-ready trigger"
+            ),
             "{text}"
         );
         std::fs::remove_dir_all(&root).ok();

@@ -32,6 +32,7 @@ pub mod device;
 pub mod evdev;
 pub mod held;
 pub mod iio;
+pub mod iio_buffer;
 pub mod iio_imu;
 pub mod imu_playback;
 pub mod imu_ring;

@@ -201,6 +201,14 @@ pub struct IioSettings {
     /// Reads per second of the sysfs value (the ADC's own rate may be
     /// lower: the ADS1115 converts at most 860 times a second).
     pub rate_hz: u32,
+    /// An IMU: read its buffer (`/dev/iio:deviceN`), filled at each firing
+    /// of its trigger, instead of sysfs at `rate_hz`: for a device on a
+    /// bus too slow for six sysfs reads a sample.
+    pub buffered: bool,
+    /// With `buffered`: the trigger to capture on (a name from
+    /// `/sys/bus/iio/devices/trigger*/name`, usually the device's own
+    /// data-ready trigger); empty keeps the one the device has.
+    pub trigger: String,
 }
 
 impl Default for IioSettings {
@@ -209,6 +217,8 @@ impl Default for IioSettings {
             gain: 1.0,
             offset_volts: 0.0,
             rate_hz: 1000,
+            buffered: false,
+            trigger: String::new(),
         }
     }
 }

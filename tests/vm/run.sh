@@ -42,7 +42,7 @@ die() {
 
 # The modules the guest loads (their dependencies are added in order).
 MODULES=(uinput evdev dummy_hcd usb_f_hid usb_f_acm usbhid hid-generic cdc-acm
-    i2c-stub i2c-dev ti-ads1015)
+    i2c-stub i2c-dev ti-ads1015 bmi160_i2c)
 # Sample periods (ms) of the serial dialects: FLipMouse 50, LipSync 100.
 DIALECTS=(flipmouse:50 lipsync:100)
 
@@ -58,6 +58,7 @@ command -v cpio >/dev/null || missing+=(cpio)
 command -v depmod >/dev/null && command -v modprobe >/dev/null || missing+=(kmod)
 command -v cyclictest >/dev/null || missing+=(rt-tests)
 command -v gcc >/dev/null || missing+=(gcc)
+command -v make >/dev/null || missing+=(make)
 [ -f /usr/lib/x86_64-linux-gnu/libc.a ] || missing+=(libc6-dev)
 [ -f /usr/include/linux/i2c-dev.h ] || missing+=(linux-libc-dev)
 apt_updated=0
@@ -126,6 +127,31 @@ if [ -z "$kernel" ]; then
     echo "$wanted" >"$kernel/complete"
 fi
 step "kernel: $(basename "$kernel") ($(cat "$kernel/version")), $(wc -l <"$kernel/modules/order") modules"
+
+# The BMI160 emulated on i2c-stub has no interrupt line, and Debian's
+# kernel builds no software IIO trigger: tests/vm/kmod/ is an hrtimer
+# trigger standing in for its data-ready interrupt, built against the
+# kernel's headers (linux-headers-KVER, installed once) and cached beside
+# the kernel until its source changes.
+kver=$(cat "$kernel/version")
+TRIGGER_KO=$kernel/extra/sipnpuff_tick_trigger.ko
+trigger_sum=$(cat "$HERE"/kmod/* | md5sum | cut -d' ' -f1)
+if [ "$(cat "$kernel/extra/sum" 2>/dev/null)" != "$trigger_sum" ]; then
+    if ! [ -d "/usr/src/linux-headers-$kver" ]; then
+        [ "$(id -u)" = 0 ] || die "missing linux-headers-$kver: run as root (apt-get install) or install it"
+        step "installing linux-headers-$kver"
+        apt_update
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "linux-headers-$kver" >/dev/null
+    fi
+    step "kernel: building tests/vm/kmod against linux-headers-$kver"
+    rm -rf "$kernel/extra"
+    mkdir -p "$kernel/extra/src"
+    cp "$HERE"/kmod/* "$kernel/extra/src/"
+    make -s -C "/usr/src/linux-headers-$kver" M="$kernel/extra/src" modules 2>&1 | grep -v "Skipping BTF" || true
+    [ -f "$kernel/extra/src/sipnpuff_tick_trigger.ko" ] || die "tests/vm/kmod did not build against linux-headers-$kver"
+    cp "$kernel/extra/src/sipnpuff_tick_trigger.ko" "$TRIGGER_KO"
+    echo "$trigger_sum" >"$kernel/extra/sum"
+fi
 
 # ------------------------------------------------------------ build
 step "build: cargo build --release"
@@ -248,6 +274,31 @@ expected_from "$OUT/imu-unplug.csv" imu-unplug "$OUT/imu.host.toml"
 printf 'IMU_MS=%s\nIMU_UNPLUG_MS=%s\n' "$IMU_MS" "$IMU_UNPLUG_MS" >"$OUT/imu.env"
 echo "vm-harness: IMU: $(tr '\n' ' ' <"$EXP/imu.txt"); to the unplug: $(tr '\n' ' ' <"$EXP/imu-to-unplug.txt")"
 
+# The same drive as an IIO IMU (a BMI160 on i2c-stub, the tests iio-imu
+# and iio-imu-buffered): counts at the ranges imufeed --prime sets (±4 g,
+# ±500 °/s), read back at the scales its driver gives (in_accel_scale
+# 0.001197 m/s², in_anglvel_scale 0.000266 rad/s a count).
+BMI_A=0.001197
+BMI_G=0.000266
+awk -F, -v a=$BMI_A -v g=$BMI_G 'NR == 1 { next }
+    function r(x) { return x < 0 ? -int(-x + 0.5) : int(x + 0.5) }
+    { printf "%d %d %d %d %d %d %d\n", $1, r($2 / a), r($3 / a), r($4 / a), r($5 / g), r($6 / g), r($7 / g) }' \
+    "$OUT/imu-drive.csv" >"$OUT/imu-drive.bmi160"
+awk '{ for (i = 2; i <= 7; i++) if ($i > 32767 || $i < -32768) { print "the drive overflows the BMI160 at tick " $1; exit 1 } }' \
+    "$OUT/imu-drive.bmi160" || die "the IMU drive does not fit the BMI160's ranges"
+bmi160_csv() { # LAST_MS: the BMI160's counts as the backend reads them
+    awk -v last="$1" -v a=$BMI_A -v g=$BMI_G 'BEGIN { print "tick,ax,ay,az,gx,gy,gz" }
+        $1 > last { exit }
+        { printf "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", $1, $2 * a, $3 * a, $4 * a, $5 * g, $6 * g, $7 * g }' "$OUT/imu-drive.bmi160"
+}
+bmi160_csv "$IMU_MS" >"$OUT/bmi160.csv"
+expected_from "$OUT/bmi160.csv" bmi160 "$OUT/imu.host.toml"
+bmi160_csv "$IMU_UNPLUG_MS" >"$OUT/bmi160-to-unplug.csv"
+expected_from "$OUT/bmi160-to-unplug.csv" bmi160-to-unplug "$OUT/imu.host.toml"
+bmi160_csv $((IMU_UNPLUG_MS + 500)) >"$OUT/bmi160-unplug.csv"
+expected_from "$OUT/bmi160-unplug.csv" bmi160-unplug "$OUT/imu.host.toml"
+echo "vm-harness: BMI160: $(tr '\n' ' ' <"$EXP/bmi160.txt"); to the unplug: $(tr '\n' ' ' <"$EXP/bmi160-to-unplug.txt")"
+
 # Both sensors at once (`run --sensor HID --imu IMU`): the IMU plays the
 # same drive while the HID gadget rests; once the drive is over and the
 # head rests (the feeder holds its last counts: `frozen_ms` allows it), a
@@ -305,10 +356,11 @@ cp /bin/busybox "$RD/bin/busybox"
 cp "$HERE/guest/init" "$RD/init"
 chmod 755 "$RD/init"
 cp "$BUILD"/bin/* "$RD/harness/bin/"
-cp "$kernel"/modules/* "$RD/harness/modules/"
+cp "$kernel"/modules/* "$TRIGGER_KO" "$RD/harness/modules/"
+echo sipnpuff_tick_trigger >>"$RD/harness/modules/order"
 cp "$HERE/pattern.txt" "$HERE/pattern-unplug.txt" "$HERE/uinput-pattern.txt" "$HERE/guest.toml" "$HERE/guest/events.sed" \
     "$OUT/pattern.csv" "$OUT/uinput.csv" "$OUT/uinput.toml" "$RD/harness/"
-cp "$OUT/imu-drive.counts" "$OUT/imu.toml" "$OUT/imu.env" "$OUT/both.toml" "$OUT/both-pattern.txt" "$RD/harness/"
+cp "$OUT/imu-drive.counts" "$OUT/imu-drive.bmi160" "$OUT/imu.toml" "$OUT/imu.env" "$OUT/both.toml" "$OUT/both-pattern.txt" "$RD/harness/"
 cp "$ROOT/fixtures/gesture-user/gestures.toml" "$RD/harness/gestures.toml"
 cp "$EXP"/*.txt "$EXP"/*.jsonl "$RD/harness/expected/"
 if [ -n "${VM_TESTS:-}" ]; then

@@ -124,4 +124,13 @@ pub(super) fn sensor(p: &mut Problems, c: &SensorSettings) {
             ),
         );
     }
+    if !i.buffered && !i.trigger.is_empty() {
+        p.add(
+            "sensor.iio.trigger",
+            format!(
+                "{:?} is used only with buffered = true: set it, or leave trigger out to read through sysfs",
+                i.trigger
+            ),
+        );
+    }
 }
