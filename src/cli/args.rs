@@ -7,13 +7,16 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::ValueEnum;
 
+use crate::arm::ArmSpec;
 use crate::cli::output::invalid;
 use crate::config::Config;
 use crate::config::layers::Layered;
 use crate::control::selection::Interface;
+use crate::output::OutputSpec;
 use crate::rt::setup::RtOptions;
 use crate::rt::signals;
 use crate::rt::threads::LoopSettings;
+use crate::sensor::SensorSpec;
 use crate::tools::recording::recorder::check_dir;
 
 /// `--config FILE`, as often as needed: a person's setup from several
@@ -44,6 +47,51 @@ impl ConfigArg {
     pub fn given(&self) -> bool {
         !self.config.is_empty()
     }
+}
+
+/// The backends a run reads and drives: `--sensor`, `--imu`, `--arm`,
+/// `--output`. Each may also come from the environment
+/// (`SIPNPUFF_SENSOR`, `SIPNPUFF_IMU`, `SIPNPUFF_ARM`, `SIPNPUFF_OUTPUTS`
+/// as a comma-separated list): the service's `/etc/default/sipnpuff`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct BackendArgs {
+    /// Where samples come from: `synthetic` (the built-in scripted user),
+    /// `synthetic:NAME` (a built-in breather, e.g. `tremor_4hz`, in two
+    /// minutes of ordinary use of the library; `sipnpuff generate --help`
+    /// lists them), `csv:PATH` (a recording played in real time), or a
+    /// device:
+    /// `evdev:/dev/input/eventN` or `evdev:name=SUBSTRING` (a USB HID
+    /// sip-and-puff device: an analog axis or switches), `serial:PATH[,baud=N]`
+    /// (a microcontroller's stream, FLipMouse or LipSync), or
+    /// `iio:/sys/bus/iio/devices/iio:deviceN/in_voltageM_raw` (an ADC).
+    /// Device settings: `[sensor]` in the config (`sipnpuff sensors`
+    /// lists what this machine has).
+    #[arg(long, default_value = "synthetic", env = "SIPNPUFF_SENSOR", value_parser = SensorSpec::parse)]
+    pub sensor: SensorSpec,
+    /// A head-worn IMU read beside the breath sensor, so the library may
+    /// mix breaths and gestures (`[gestures] set` in the config):
+    /// `evdev:name=SUBSTRING` or `evdev:/dev/input/eventN` (an input
+    /// device with the accelerometer property), `iio:/sys/bus/iio/devices/iio:deviceN`,
+    /// `serial:PATH[,baud=N]` (lines `ax,ay,az,gx,gy,gz`) or `csv:IMU.csv`
+    /// (a recording played live). For the IMU alone, give it as --sensor.
+    #[arg(long, value_name = "SENSOR", env = "SIPNPUFF_IMU", value_parser = SensorSpec::parse)]
+    pub imu: Option<SensorSpec>,
+    /// The arm: `sim` (the simulated JACO2), `ros2:TOPIC` (MoveIt Servo,
+    /// ros2_kortex's twist controller, a JACO2 ROS 2 port), `ros1:NAMESPACE`
+    /// (kinova-ros's driver, e.g. `ros1:/j2n6s300_driver`; the master from
+    /// `ROS_MASTER_URI`) or `kinova-sdk:usb|eth` (Kinova's own library).
+    /// Settings: `[arm]` in the config (docs/arms.md).
+    #[arg(long, default_value = "sim", env = "SIPNPUFF_ARM", value_parser = ArmSpec::parse)]
+    pub arm: ArmSpec,
+    /// Also drive the computer or the home (repeatable): `uinput` (a
+    /// virtual keyboard and pointer through /dev/uinput: the library's
+    /// `key`, `click`, pointer modes and `drag`; settings in
+    /// `[output.uinput]`) or `mqtt` / `mqtt:HOST:PORT` (Home Assistant
+    /// over MQTT: the library's `event`s; settings in `[output.mqtt]`).
+    /// Set-up for each, the udev rule and a Home Assistant automation:
+    /// docs/outputs.md.
+    #[arg(long = "output", value_name = "OUTPUT", env = "SIPNPUFF_OUTPUTS", value_delimiter = ',', value_parser = OutputSpec::parse)]
+    pub outputs: Vec<OutputSpec>,
 }
 
 /// `--interface asp|bsp`.
@@ -120,7 +168,7 @@ pub struct RtArgs {
 
 impl RtArgs {
     /// The settings to ask for; an error if the CPU does not exist.
-    fn options(&self) -> anyhow::Result<RtOptions> {
+    pub fn options(&self) -> anyhow::Result<RtOptions> {
         let defaults = RtOptions::default();
         if let Some(cpu) = self.cpu {
             let ids: Vec<usize> = core_affinity::get_core_ids()

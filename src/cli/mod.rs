@@ -26,6 +26,7 @@ pub mod bench;
 pub mod config;
 pub mod design;
 pub mod display;
+pub mod doctor;
 pub mod fit;
 pub mod generate;
 pub mod gestures;
@@ -101,6 +102,12 @@ enum Command {
     /// `--config` reads back (with the sequence table as comments); with
     /// `--diff FILE`, only what FILE changes from the defaults, as a table.
     Config(config::ConfigArgs),
+    /// Before the first start: what `run` with these options would get
+    /// here and be denied (SCHED_FIFO, locked memory, the pinned CPU,
+    /// each device, /dev/uinput, the broker, the page's address), each
+    /// denial with its fix. Run it as the service's user; exit status 1
+    /// when something needed is missing.
+    Doctor(doctor::DoctorArgs),
 }
 
 /// Parses the arguments and runs the command; errors are printed. The
@@ -124,6 +131,7 @@ pub fn main() -> ExitCode {
         Command::Bench { what } => bench::bench(what),
         Command::Config(args) => config::config(args).map(|()| output::COMPLETED),
         Command::Sensors(args) => sensors::sensors(args).map(|()| output::COMPLETED),
+        Command::Doctor(args) => doctor::doctor(args),
     };
     ExitCode::from(result.unwrap_or_else(|e| {
         let (status, say) = output::status_of(&e);

@@ -4,15 +4,13 @@
 
 use std::path::PathBuf;
 
-use crate::arm::ArmSpec;
 use crate::cli::args::{
-    ConfigArg, InterfaceArg, RtArgs, parse_seconds, record_dir, with_interface, writable_dir,
+    BackendArgs, ConfigArg, InterfaceArg, RtArgs, parse_seconds, record_dir, with_interface,
+    writable_dir,
 };
 use crate::cli::display::DisplayArgs;
 use crate::cli::output::{StdoutEvents, Terminal};
 use crate::cli::run_report;
-use crate::output::OutputSpec;
-use crate::sensor::SensorSpec;
 use crate::session::run::{self as session, Record, RunPlan};
 use crate::tools::recording::writer::{MIN_BYTES, RecordOptions};
 
@@ -25,43 +23,8 @@ pub struct RunArgs {
     /// or the recording runs out, or a device is lost for good).
     #[arg(long, value_parser = parse_seconds)]
     seconds: Option<f64>,
-    /// Where samples come from: `synthetic` (the built-in scripted user),
-    /// `synthetic:NAME` (a built-in breather, e.g. `tremor_4hz`, in two
-    /// minutes of ordinary use of the library; `sipnpuff generate --help`
-    /// lists them), `csv:PATH` (a recording played in real time), or a
-    /// device:
-    /// `evdev:/dev/input/eventN` or `evdev:name=SUBSTRING` (a USB HID
-    /// sip-and-puff device: an analog axis or switches), `serial:PATH[,baud=N]`
-    /// (a microcontroller's stream, FLipMouse or LipSync), or
-    /// `iio:/sys/bus/iio/devices/iio:deviceN/in_voltageM_raw` (an ADC).
-    /// Device settings: `[sensor]` in the config (`sipnpuff sensors`
-    /// lists what this machine has).
-    #[arg(long, default_value = "synthetic", value_parser = SensorSpec::parse)]
-    sensor: SensorSpec,
-    /// A head-worn IMU read beside the breath sensor, so the library may
-    /// mix breaths and gestures (`[gestures] set` in the config):
-    /// `evdev:name=SUBSTRING` or `evdev:/dev/input/eventN` (an input
-    /// device with the accelerometer property), `iio:/sys/bus/iio/devices/iio:deviceN`,
-    /// `serial:PATH[,baud=N]` (lines `ax,ay,az,gx,gy,gz`) or `csv:IMU.csv`
-    /// (a recording played live). For the IMU alone, give it as --sensor.
-    #[arg(long, value_name = "SENSOR", value_parser = SensorSpec::parse)]
-    imu: Option<SensorSpec>,
-    /// The arm: `sim` (the simulated JACO2), `ros2:TOPIC` (MoveIt Servo,
-    /// ros2_kortex's twist controller, a JACO2 ROS 2 port), `ros1:NAMESPACE`
-    /// (kinova-ros's driver, e.g. `ros1:/j2n6s300_driver`; the master from
-    /// `ROS_MASTER_URI`) or `kinova-sdk:usb|eth` (Kinova's own library).
-    /// Settings: `[arm]` in the config (docs/arms.md).
-    #[arg(long, default_value = "sim", value_parser = ArmSpec::parse)]
-    arm: ArmSpec,
-    /// Also drive the computer or the home (repeatable): `uinput` (a
-    /// virtual keyboard and pointer through /dev/uinput: the library's
-    /// `key`, `click`, pointer modes and `drag`; settings in
-    /// `[output.uinput]`) or `mqtt` / `mqtt:HOST:PORT` (Home Assistant
-    /// over MQTT: the library's `event`s; settings in `[output.mqtt]`).
-    /// Set-up for each, the udev rule and a Home Assistant automation:
-    /// docs/outputs.md.
-    #[arg(long = "output", value_name = "OUTPUT", value_parser = OutputSpec::parse)]
-    outputs: Vec<OutputSpec>,
+    #[command(flatten)]
+    backends: BackendArgs,
     /// Selection interface (default: the config's `interface.kind`).
     #[arg(long, value_enum)]
     interface: Option<InterfaceArg>,
@@ -105,10 +68,10 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     }
     let settings = args.rt.loop_settings(args.seconds)?;
     let plan = RunPlan {
-        sensor: &args.sensor,
-        imu: args.imu.as_ref(),
-        arm: &args.arm,
-        outputs: &args.outputs,
+        sensor: &args.backends.sensor,
+        imu: args.backends.imu.as_ref(),
+        arm: &args.backends.arm,
+        outputs: &args.backends.outputs,
         settings: &settings,
         record: args.record.as_deref().map(|dir| Record {
             dir,

@@ -72,7 +72,7 @@ pub fn run(
     events: &mut dyn EventSink,
     console: &dyn Console,
 ) -> anyhow::Result<RunReport> {
-    let imu = imu_sensor(config, plan)?;
+    let imu = imu_sensor(config, plan.sensor, plan.imu)?;
     // The page's address is taken before anything starts: a clash is an
     // error now, not a display missing later.
     let display = Display::open(&plan.display, console)?;
@@ -109,7 +109,7 @@ pub fn run(
     }
 }
 
-/// For a person with gestures, which sensors `plan` reads and the
+/// For a person with gestures, which sensors `--sensor` (`sensor`) and `--imu` read and the
 /// configuration for them (their set loaded): the IMU alone, when
 /// `--sensor` is one (an IMU recording `csv:FILE`; a serial port with
 /// `[sensor.serial] format = "imu"`; an input device or IIO device, with
@@ -117,20 +117,21 @@ pub fn run(
 /// alone. An error, before anything starts, for gestures without an
 /// IMU, an IMU without gestures, `--imu` beside an IMU, or an IMU lacking
 /// a channel the set was recorded with.
-fn imu_sensor(
+pub(crate) fn imu_sensor(
     config: &Config,
-    plan: &RunPlan,
+    sensor: &SensorSpec,
+    imu: Option<&SensorSpec>,
 ) -> anyhow::Result<Option<(Config, ImuSensor, Beside)>> {
     let serial = &config.sensor().serial;
     let gestures = config.core().gesture_set_file();
     let imu_csv = |spec: &SensorSpec| matches!(spec, SensorSpec::Csv(path) if is_imu_csv(path));
-    if let Some(imu) = plan.imu {
-        if imu_csv(plan.sensor)
-            || matches!(plan.sensor, SensorSpec::Serial { .. } if serial.format == SerialFormat::Imu)
+    if let Some(imu) = imu {
+        if imu_csv(sensor)
+            || matches!(sensor, SensorSpec::Serial { .. } if serial.format == SerialFormat::Imu)
         {
             anyhow::bail!(
                 "--sensor {}: with --imu, --sensor is the breath sensor (a sip-and-puff device, a breath recording or `synthetic`); give the IMU once, with --imu",
-                plan.sensor
+                sensor
             );
         }
         let setup = gestures::load_setup(config.core())
@@ -139,8 +140,8 @@ fn imu_sensor(
         let sensor = open_imu_for_set(imu, &config).map_err(|e| anyhow::anyhow!("--imu {e}"))?;
         return Ok(Some((config, sensor, Beside::Breath)));
     }
-    let alone = match plan.sensor {
-        SensorSpec::Csv(_) => imu_csv(plan.sensor),
+    let alone = match sensor {
+        SensorSpec::Csv(_) => imu_csv(sensor),
         SensorSpec::Serial { .. } => serial.format == SerialFormat::Imu,
         SensorSpec::Evdev(_) | SensorSpec::Iio(_) => gestures.is_some(),
         SensorSpec::Synthetic(_) => false,
@@ -156,12 +157,12 @@ fn imu_sensor(
     }
     let setup = gestures::load_setup(config.core())?;
     let config = config.clone().for_imu(setup);
-    let sensor = open_imu_for_set(plan.sensor, &config)?;
+    let sensor = open_imu_for_set(sensor, &config)?;
     Ok(Some((config, sensor, Beside::Nothing)))
 }
 
 /// Whether an IMU is read alone or beside a breath sensor.
-enum Beside {
+pub(crate) enum Beside {
     /// The IMU is the run's only sensor.
     Nothing,
     /// The breath sensor `--sensor` names is read too.

@@ -36,6 +36,7 @@ mod cli;
 mod clinician_flow;
 mod design;
 mod display;
+mod doctor;
 mod fast_paths;
 mod faults;
 mod fit;

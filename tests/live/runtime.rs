@@ -194,6 +194,62 @@ fn a_user_without_privileges_runs_and_is_told_what_it_lacks() {
     assert!(text.contains(crate::common::NO_ALLOCATIONS), "{text}");
 }
 
+/// `doctor` as root gets what a run gets as root; as a user without
+/// privileges (nobody, via setpriv), SCHED_FIFO and the memory lock are
+/// denied, each with the limit it met and the unit setting that grants
+/// it, and the exit status is 1.
+#[test]
+fn doctor_says_what_the_real_time_set_up_gets_and_what_grants_it() {
+    // SAFETY: geteuid has no preconditions.
+    let root = unsafe { libc::geteuid() } == 0;
+    if !crate::common::have_peer(
+        (!root).then(|| "not root: comparing with an unprivileged user needs root".into()),
+    ) {
+        return;
+    }
+    let doctor = |command: &mut Command| {
+        command.args(["doctor", "--no-display"]);
+        let output = crate::watchdog::output(command);
+        (
+            output.status.code(),
+            String::from_utf8_lossy(&output.stdout).to_string(),
+        )
+    };
+    let line = |text: &str, name: &str| {
+        text.lines()
+            .position(|l| l.contains(name))
+            .map(|i| text.lines().skip(i).take(2).collect::<Vec<_>>().join("\n"))
+            .unwrap_or_default()
+    };
+    let (status, text) = doctor(&mut binary());
+    assert_eq!(status, Some(0), "{text}");
+    assert!(
+        line(&text, "SCHED_FIFO priority 80").starts_with("  ok"),
+        "{text}"
+    );
+    assert!(line(&text, "mlockall").starts_with("  ok"), "{text}");
+    assert!(text.contains("as root (uid 0;"), "{text}");
+
+    let mut nobody = Command::new("setpriv");
+    nobody.args(["--reuid=65534", "--regid=65534", "--clear-groups", "--"]);
+    nobody.arg(env!("CARGO_BIN_EXE_sipnpuff"));
+    let (status, text) = doctor(&mut nobody);
+    assert_eq!(status, Some(1), "{text}");
+    assert!(text.contains("(uid 65534;"), "{text}");
+    let fifo = line(&text, "SCHED_FIFO priority 80");
+    assert!(fifo.starts_with("  DENIED"), "{text}");
+    assert!(
+        fifo.contains("its RLIMIT_RTPRIO is 0") && fifo.contains("LimitRTPRIO="),
+        "{text}"
+    );
+    let lock = line(&text, "mlockall");
+    assert!(
+        lock.starts_with("  DENIED") && lock.contains("LimitMEMLOCK=infinity"),
+        "{text}"
+    );
+    assert!(text.contains("2 needed things DENIED"), "{text}");
+}
+
 /// An arm that takes `good` commands, then refuses the next; it records
 /// every call so the test can see how the stream ended.
 struct RefusingArm {
