@@ -32,6 +32,7 @@ pub mod recorder;
 pub mod report;
 pub mod rings;
 pub mod scheduler;
+pub mod service_watchdog;
 pub mod setup;
 pub mod signals;
 pub mod simulated;

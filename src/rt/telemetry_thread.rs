@@ -10,6 +10,7 @@ use std::io;
 use crate::control::event::TimedEvent;
 use crate::control::motion::stream::ArmCommand;
 use crate::rt::recorder::{Lost, SessionRecorder};
+use crate::rt::service_watchdog::Liveness;
 use crate::rt::stop::StopRequest;
 use crate::rt::telemetry::{Drops, Latencies, TelemetryObserver, TickRecord};
 
@@ -73,6 +74,8 @@ pub struct Telemetry<'a> {
     output_error: Option<io::Error>,
     /// The ring drops the recorder has been told of.
     told: Drops,
+    /// Whether the loop keeps its deadlines (the service's watchdog).
+    liveness: Liveness,
 }
 
 /// The telemetry thread's part of the run report.
@@ -101,7 +104,13 @@ impl<'a> Telemetry<'a> {
             events: 0,
             output_error: None,
             told: Drops::default(),
+            liveness: Liveness::default(),
         }
+    }
+
+    /// The loop's progress as the drained records show it.
+    pub fn liveness(&mut self) -> &mut Liveness {
+        &mut self.liveness
     }
 
     /// Empties the rings as they are now: the events, then the recorder's
@@ -166,6 +175,8 @@ impl<'a> Telemetry<'a> {
     }
 
     fn record(&mut self, record: &TickRecord) {
+        self.liveness
+            .tick(record.tick, record.woke_ns, u64::from(record.skipped));
         if record.reference {
             self.reference.record(record);
         } else {

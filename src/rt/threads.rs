@@ -38,12 +38,13 @@ use crate::control::motion::workspace;
 use crate::control::pipeline::Pipeline;
 use crate::output::Output;
 use crate::rt::arm_thread::{ArmStream, run_arm};
-use crate::rt::clock::MonotonicClock;
+use crate::rt::clock::{Clock, MonotonicClock};
 use crate::rt::control_loop::{ControlTick, LoopOptions, TickWork, control_loop};
 use crate::rt::output_thread::{OutputThread, Serves, TickZero};
 use crate::rt::recorder::SessionRecorder;
 use crate::rt::report::{RunFacts, RunReport};
 use crate::rt::rings::{FEEDBACK_RING, Rings};
+use crate::rt::service_watchdog::ServiceNotifier;
 use crate::rt::setup::RtOptions;
 use crate::rt::stop::StopRequest;
 use crate::rt::telemetry_thread::{EventSink, Telemetry, Watchers};
@@ -279,8 +280,12 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     };
 
     let mut telemetry = Telemetry::new(rings.telemetry, watchers, settings.stop);
+    let mut service = ServiceNotifier::from_environment();
+    let status = || format!("running: sensor {sensor_name}; arm {arm_name}");
+    let mut clock = MonotonicClock;
     while !control.is_finished() {
         telemetry.drain();
+        service.tend(clock.now_ns(), telemetry.liveness(), &status);
         thread::sleep(DRAIN_EVERY);
     }
     let looped = control.join();
@@ -301,6 +306,7 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
         cpu_percent,
     };
     let mut report = RunReport::new(run, looped, telemetry, arm);
+    service.stopping(&format!("stopped by: {}", report.stop_reason));
     report.outputs = outputs;
     Ok(report)
 }

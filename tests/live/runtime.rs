@@ -194,6 +194,84 @@ fn a_user_without_privileges_runs_and_is_told_what_it_lacks() {
     assert!(text.contains(crate::common::NO_ALLOCATIONS), "{text}");
 }
 
+/// Under systemd (`Type=notify`, `WatchdogSec=`): READY=1 once the loop
+/// runs, WATCHDOG=1 every half interval while it keeps its deadlines,
+/// none for the window in which the process was stopped (SIGSTOP, as a
+/// stalled loop), STOPPING=1 at the end. The notify socket is this
+/// test's, bound where systemd would bind its own.
+#[test]
+fn the_service_is_ready_once_the_loop_runs_and_petted_only_while_it_keeps_time() {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = crate::scratch::Scratch::new();
+    let path = dir.join("notify");
+    let socket = std::os::unix::net::UnixDatagram::bind(&path).unwrap();
+    socket
+        .set_read_timeout(Some(Duration::from_millis(200)))
+        .unwrap();
+    let config = crate::common::fixture("shared-machine.toml");
+    let mut command = binary();
+    command
+        .args([
+            "run",
+            "--seconds",
+            "4",
+            "--config",
+            config.to_str().unwrap(),
+        ])
+        .env("NOTIFY_SOCKET", &path)
+        .env("WATCHDOG_USEC", "200000");
+    let run = Running::start(command);
+    // (message, ms since the start) as they come.
+    let start = std::time::Instant::now();
+    let mut got: Vec<(String, u128)> = Vec::new();
+    let mut buffer = [0u8; 512];
+    let mut paused = None;
+    while got.last().is_none_or(|(m, _)| !m.starts_with("STOPPING=1")) {
+        if start.elapsed() > Duration::from_secs(30) {
+            break;
+        }
+        if let Ok(n) = socket.recv(&mut buffer) {
+            got.push((
+                String::from_utf8_lossy(&buffer[..n]).to_string(),
+                start.elapsed().as_millis(),
+            ));
+        }
+        if paused.is_none() && got.iter().filter(|(m, _)| m == "WATCHDOG=1\n").count() == 5 {
+            paused = Some(start.elapsed().as_millis());
+            run.pause(Duration::from_millis(600));
+        }
+    }
+    let (status, _, stderr) = run.finish();
+    assert!(status.success(), "{status}: {stderr}");
+    let text = format!("{got:?}");
+    assert!(
+        got[0].0.starts_with("READY=1\nSTATUS=running: sensor "),
+        "{text}"
+    );
+    assert!(
+        got.last()
+            .is_some_and(|(m, _)| m.starts_with("STOPPING=1\nSTATUS=stopped by: ")),
+        "{text}"
+    );
+    let pets: Vec<u128> = got
+        .iter()
+        .filter(|(m, _)| m == "WATCHDOG=1\n")
+        .map(|(_, t)| *t)
+        .collect();
+    // About every 100 ms over ~4 s, less the stall and the window after it.
+    assert!(pets.len() >= 20, "{text}");
+    let paused = paused.expect("paused after the 5th pet");
+    let resumed = paused + 600;
+    // No pet while stopped, and the first window after it (which holds
+    // the ~600 skipped ticks) goes unpetted: the next pet is two
+    // intervals after the resume, not one.
+    let next = pets.iter().find(|&&t| t > paused).copied().unwrap_or(0);
+    assert!(
+        next >= resumed + 150,
+        "resumed at {resumed} ms, petted at {next} ms: {text}"
+    );
+}
+
 /// `doctor` as root gets what a run gets as root; as a user without
 /// privileges (nobody, via setpriv), SCHED_FIFO and the memory lock are
 /// denied, each with the limit it met and the unit setting that grants
