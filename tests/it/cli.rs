@@ -55,6 +55,44 @@ fn enumerated_options_list_their_choices() {
     );
 }
 
+/// A live `fit` or a recorded `run` refused before it starts (a sensor
+/// that is not there) leaves no folder behind: not its default
+/// `fit-LABEL-DATE`, nor a `--record` folder it would have made.
+#[test]
+fn a_session_refused_before_it_starts_leaves_no_folder_behind() {
+    let dir = Scratch::new();
+    for args in [
+        &["fit", "--sensor", "synthetic:nobody", "--no-display"][..],
+        &[
+            "fit",
+            "--sensor",
+            "csv:missing.csv",
+            "--no-display",
+            "--record",
+            "new/session",
+        ],
+        &[
+            "run",
+            "--sensor",
+            "csv:missing.csv",
+            "--no-display",
+            "--record",
+            "new/session",
+        ],
+    ] {
+        let mut command = crate::common::sipnpuff();
+        command.args(args).current_dir(&*dir);
+        let out = crate::watchdog::output(&mut command);
+        assert!(!out.status.success(), "{args:?}");
+        let left: Vec<_> = std::fs::read_dir(&*dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name())
+            .collect();
+        assert!(left.is_empty(), "{args:?} left {left:?}");
+    }
+}
+
 #[test]
 fn numbers_out_of_range_are_refused_before_the_run() {
     let e = refused(&["run", "--priority", "120"]);

@@ -78,7 +78,7 @@ impl Recorder {
         options: RecordOptions,
     ) -> Result<Recorder, RecordError> {
         let io = |what: String| move |error| RecordError::Io { what, error };
-        check_dir(dir)?;
+        make_dir(dir)?;
         let text = config_text(config)?;
         let path = dir.join(CONFIG);
         std::fs::write(&path, text).map_err(io(format!("cannot write {}", path.display())))?;
@@ -249,9 +249,28 @@ impl SessionRecorder for Recorder {
     }
 }
 
-/// Checks, before a run, that `dir` can hold a new recording: created if
-/// missing, writable, and not holding one already (never overwritten).
+/// Checks, before a run, that `dir` can hold a new recording: it can be
+/// created, is writable, and holds no recording already (never
+/// overwritten). What the check created is removed again: a run refused
+/// later (a sensor that is not there) leaves no empty folder behind.
 pub fn check_dir(dir: &Path) -> Result<(), RecordError> {
+    let mut created = Vec::new();
+    let mut missing = Some(dir);
+    while let Some(d) = missing.filter(|d| !d.as_os_str().is_empty() && !d.exists()) {
+        created.push(d.to_path_buf());
+        missing = d.parent();
+    }
+    let checked = make_dir(dir);
+    for d in created {
+        // Empty but for nothing the check left: removal fails otherwise.
+        let _ = std::fs::remove_dir(d);
+    }
+    checked
+}
+
+/// Creates `dir` if missing and checks it is writable and holds no
+/// recording.
+fn make_dir(dir: &Path) -> Result<(), RecordError> {
     let io = |what: String| move |error| RecordError::Io { what, error };
     std::fs::create_dir_all(dir).map_err(io(format!("cannot create {}", dir.display())))?;
     if dir.join(META).exists() {
