@@ -265,12 +265,18 @@ imu_config() { # SET_PATH
 }
 imu_config "$ROOT/fixtures/gesture-user/gestures.toml" >"$OUT/imu.host.toml"
 imu_config /harness/gestures.toml >"$OUT/imu.toml"
-imu_csv "$IMU_MS" >"$OUT/imu.csv"
-expected_from "$OUT/imu.csv" imu "$OUT/imu.host.toml"
-imu_csv "$IMU_UNPLUG_MS" >"$OUT/imu-to-unplug.csv"
-expected_from "$OUT/imu-to-unplug.csv" imu-to-unplug "$OUT/imu.host.toml"
-imu_csv $((IMU_UNPLUG_MS + 500)) >"$OUT/imu-unplug.csv"
-expected_from "$OUT/imu-unplug.csv" imu-unplug "$OUT/imu.host.toml"
+# expected_drive NAME CSV_FUNCTION: the expected events of the drive as
+# CSV_FUNCTION LAST_MS writes it: whole (NAME), up to the unplug
+# (NAME-to-unplug) and driving on 500 ms past it (NAME-unplug).
+expected_drive() {
+    local name=$1 csv=$2 part last
+    for part in ":$IMU_MS" "-to-unplug:$IMU_UNPLUG_MS" "-unplug:$((IMU_UNPLUG_MS + 500))"; do
+        last=${part##*:}
+        "$csv" "$last" >"$OUT/$name${part%:*}.csv"
+        expected_from "$OUT/$name${part%:*}.csv" "$name${part%:*}" "$OUT/imu.host.toml"
+    done
+}
+expected_drive imu imu_csv
 printf 'IMU_MS=%s\nIMU_UNPLUG_MS=%s\n' "$IMU_MS" "$IMU_UNPLUG_MS" >"$OUT/imu.env"
 echo "vm-harness: IMU: $(tr '\n' ' ' <"$EXP/imu.txt"); to the unplug: $(tr '\n' ' ' <"$EXP/imu-to-unplug.txt")"
 
@@ -291,12 +297,7 @@ bmi160_csv() { # LAST_MS: the BMI160's counts as the backend reads them
         $1 > last { exit }
         { printf "%d,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", $1, $2 * a, $3 * a, $4 * a, $5 * g, $6 * g, $7 * g }' "$OUT/imu-drive.bmi160"
 }
-bmi160_csv "$IMU_MS" >"$OUT/bmi160.csv"
-expected_from "$OUT/bmi160.csv" bmi160 "$OUT/imu.host.toml"
-bmi160_csv "$IMU_UNPLUG_MS" >"$OUT/bmi160-to-unplug.csv"
-expected_from "$OUT/bmi160-to-unplug.csv" bmi160-to-unplug "$OUT/imu.host.toml"
-bmi160_csv $((IMU_UNPLUG_MS + 500)) >"$OUT/bmi160-unplug.csv"
-expected_from "$OUT/bmi160-unplug.csv" bmi160-unplug "$OUT/imu.host.toml"
+expected_drive bmi160 bmi160_csv
 echo "vm-harness: BMI160: $(tr '\n' ' ' <"$EXP/bmi160.txt"); to the unplug: $(tr '\n' ' ' <"$EXP/bmi160-to-unplug.txt")"
 
 # Both sensors at once (`run --sensor HID --imu IMU`): the IMU plays the
