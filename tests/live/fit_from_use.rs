@@ -59,10 +59,14 @@ fn a_recording_of_ordinary_use_is_fitted_and_its_drift_said() {
             &s(&recording),
             "--no-display",
         ]);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let tail: Vec<&str> = stdout.lines().rev().take(30).collect();
         assert!(
             out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+            "{}: {}\nthe last lines of its stdout, last first:\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr),
+            tail.join("\n")
         );
     });
     let refit = dir.join("refit.toml");
