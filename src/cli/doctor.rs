@@ -62,34 +62,30 @@ fn user() -> String {
     let mut groups = [0 as libc::gid_t; 64];
     // SAFETY: `groups` has room for the count passed.
     let n = unsafe { libc::getgroups(groups.len() as libc::c_int, groups.as_mut_ptr()) };
-    let names = std::fs::read_to_string("/etc/group").unwrap_or_default();
-    let group_name = |gid: libc::gid_t| {
-        names
-            .lines()
-            .find_map(|l| {
-                let mut f = l.split(':');
-                let name = f.next()?;
-                (f.nth(1)? == gid.to_string()).then(|| name.to_string())
-            })
-            .unwrap_or_else(|| gid.to_string())
-    };
-    let name = std::fs::read_to_string("/etc/passwd")
-        .unwrap_or_default()
-        .lines()
-        .find_map(|l| {
-            let mut f = l.split(':');
-            let name = f.next()?;
-            (f.nth(1)? == uid.to_string()).then(|| name.to_string())
-        })
-        .unwrap_or_else(|| uid.to_string());
+    let groups_file = std::fs::read_to_string("/etc/group").unwrap_or_default();
+    let passwd = std::fs::read_to_string("/etc/passwd").unwrap_or_default();
+    let name = name_of(&passwd, uid);
     let mut ids = vec![gid];
     for g in groups.iter().take(usize::try_from(n).unwrap_or(0)) {
         if !ids.contains(g) {
             ids.push(*g);
         }
     }
-    let groups: Vec<String> = ids.into_iter().map(group_name).collect();
+    let groups: Vec<String> = ids.into_iter().map(|g| name_of(&groups_file, g)).collect();
     format!("{name} (uid {uid}; groups: {})", groups.join(", "))
+}
+
+/// The name of `id` in an `/etc/passwd` or `/etc/group` text (`name:x:id:…`),
+/// else the number.
+fn name_of(file: &str, id: u32) -> String {
+    let id = id.to_string();
+    file.lines()
+        .find_map(|l| {
+            let mut fields = l.split(':');
+            let name = fields.next()?;
+            (fields.nth(1)? == id).then(|| name.to_string())
+        })
+        .unwrap_or(id)
 }
 
 /// The checks as lines: `ok`, `DENIED` (needed) or `missing` (optional),

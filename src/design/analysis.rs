@@ -866,13 +866,19 @@ mode = "translate_z"
         .unwrap()
     }
 
-    #[test]
-    fn a_gesture_always_read_right_costs_its_time_alone() {
+    /// The gesture library analysed for `who`, used uniformly, with the
+    /// timing it was analysed with.
+    fn analysed_gestures(who: &Breathing) -> (AttemptTiming, Analysis) {
         let config = gesture_library();
         let library = config.core().sequences();
-        let who = with_gestures(0.0, 0.0);
-        let t = AttemptTiming::of(&who, &config, None);
-        let a = analyse(library, &who, &Usage::uniform(library), &t);
+        let t = AttemptTiming::of(who, &config, None);
+        let a = analyse(library, who, &Usage::uniform(library), &t);
+        (t, a)
+    }
+
+    #[test]
+    fn a_gesture_always_read_right_costs_its_time_alone() {
+        let (t, a) = analysed_gestures(&with_gestures(0.0, 0.0));
         // The reaction, the nod's 800 ms and the front end's 300 ms of
         // rest: no latency, no retry, no wrong entry.
         let nod = &a.entries[0];
@@ -898,11 +904,7 @@ mode = "translate_z"
 
     #[test]
     fn a_gesture_taken_for_another_lands_in_its_entry() {
-        let config = gesture_library();
-        let library = config.core().sequences();
-        let who = with_gestures(0.2, 0.1);
-        let t = AttemptTiming::of(&who, &config, None);
-        let a = analyse(library, &who, &Usage::uniform(library), &t);
+        let (t, a) = analysed_gestures(&with_gestures(0.2, 0.1));
         let nod = &a.entries[0];
         assert_eq!((nod.p_wrong, nod.p_retry), (0.2, 0.1));
         assert_eq!(nod.confusions[0].label, "translate_y");
