@@ -74,7 +74,7 @@ pub struct Telemetry<'a> {
     output_error: Option<io::Error>,
     /// The ring drops the recorder has been told of.
     told: Drops,
-    /// Whether the loop keeps its deadlines (the service's watchdog).
+    /// Whether the loop keeps running (the service's watchdog).
     liveness: Liveness,
 }
 
@@ -175,8 +175,7 @@ impl<'a> Telemetry<'a> {
     }
 
     fn record(&mut self, record: &TickRecord) {
-        self.liveness
-            .tick(record.tick, record.woke_ns, u64::from(record.skipped));
+        self.liveness.tick(record.woke_ns);
         if record.reference {
             self.reference.record(record);
         } else {

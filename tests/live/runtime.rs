@@ -195,7 +195,7 @@ fn a_user_without_privileges_runs_and_is_told_what_it_lacks() {
 }
 
 /// Under systemd (`Type=notify`, `WatchdogSec=`): READY=1 once the loop
-/// runs, WATCHDOG=1 every half interval while it keeps its deadlines,
+/// runs, WATCHDOG=1 every half interval while its ticks keep coming,
 /// none for the window in which the process was stopped (SIGSTOP, as a
 /// stalled loop), STOPPING=1 at the end. The notify socket is this
 /// test's, bound where systemd would bind its own.
