@@ -49,11 +49,14 @@ mkdir -p "$OUT"
 # ------------------------------------------------------------ tools
 step "tools"
 missing=()
-command -v qemu-system-x86_64 >/dev/null || missing+=(qemu-system-x86)
 command -v mmdebstrap >/dev/null || missing+=(mmdebstrap)
-command -v mke2fs >/dev/null || missing+=(e2fsprogs)
-command -v gcc >/dev/null || missing+=(gcc)
-[ -f /usr/lib/x86_64-linux-gnu/libc.a ] || missing+=(libc6-dev)
+# What the boot needs (with --prepare, only the root file system is made).
+if [ "${1:-}" != --prepare ]; then
+    command -v qemu-system-x86_64 >/dev/null || missing+=(qemu-system-x86)
+    command -v mke2fs >/dev/null || missing+=(e2fsprogs)
+    command -v gcc >/dev/null || missing+=(gcc)
+    [ -f /usr/lib/x86_64-linux-gnu/libc.a ] || missing+=(libc6-dev)
+fi
 if ((${#missing[@]})); then
     [ "$(id -u)" = 0 ] || die "missing ${missing[*]}: run as root (apt-get install) or install them"
     step "installing ${missing[*]}"
