@@ -13,7 +13,7 @@ use crate::config::Config;
 use crate::config::layers::Layered;
 use crate::control::selection::Interface;
 use crate::output::OutputSpec;
-use crate::rt::setup::RtOptions;
+use crate::rt::setup::{RtOptions, ServingPriorities};
 use crate::rt::signals;
 use crate::rt::threads::LoopSettings;
 use crate::sensor::SensorSpec;
@@ -151,7 +151,8 @@ pub fn parse_volts(text: &str) -> Result<f64, String> {
 /// Real-time settings of the control thread.
 #[derive(clap::Args, Clone, Debug)]
 pub struct RtArgs {
-    /// SCHED_FIFO priority of the control thread (1–99; 0: don't ask).
+    /// SCHED_FIFO priority of the control thread (1–99; 0: don't ask);
+    /// the sensor, arm and uinput threads get 10, 20 and 30 less.
     #[arg(long, default_value_t = 80, value_parser = clap::value_parser!(i32).range(0..=99))]
     pub priority: i32,
     /// CPU to pin the control thread to (default: the last one).
@@ -182,10 +183,12 @@ impl RtArgs {
                 )));
             }
         }
+        let fifo_priority = (self.priority > 0).then_some(self.priority);
         Ok(RtOptions {
-            fifo_priority: (self.priority > 0).then_some(self.priority),
+            fifo_priority,
             cpu: self.cpu.or(defaults.cpu),
             lock_memory: !self.no_mlock,
+            serving: ServingPriorities::below(fifo_priority),
             ..defaults
         })
     }

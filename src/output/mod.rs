@@ -84,6 +84,13 @@ pub trait Output: Send {
     /// notices its connection here).
     fn idle(&mut self) {}
 
+    /// Whether a person waits on it with the loop's timing (a key held
+    /// for a breath, the pointer moving): its thread then runs SCHED_FIFO
+    /// below the control thread. A network output is not.
+    fn has_deadlines(&self) -> bool {
+        false
+    }
+
     /// Lets go of every key and button held, closes, and says what was
     /// done and lost.
     fn close(&mut self) -> OutputReport;

@@ -95,6 +95,7 @@ impl OutputLane {
 pub struct OutputThread {
     handle: thread::JoinHandle<OutputReport>,
     describe: String,
+    has_deadlines: bool,
 }
 
 impl OutputThread {
@@ -124,6 +125,7 @@ impl OutputThread {
             dropped: dropped.clone(),
         };
         let describe = output.describe();
+        let has_deadlines = output.has_deadlines();
         let handle = thread::Builder::new()
             .name(format!("output {}", short_name(&describe)))
             .spawn(move || {
@@ -155,7 +157,25 @@ impl OutputThread {
                 report.dropped += dropped.load(Ordering::Relaxed);
                 report
             })?;
-        Ok((OutputThread { handle, describe }, lane))
+        Ok((
+            OutputThread {
+                handle,
+                describe,
+                has_deadlines,
+            },
+            lane,
+        ))
+    }
+
+    /// Its thread and that thread's name, if a person waits on what it
+    /// does ([`Output::has_deadlines`]): for the run to give it its
+    /// real-time priority.
+    pub fn deadline_thread(&self) -> Option<(String, libc::pthread_t)> {
+        use std::os::unix::thread::JoinHandleExt;
+        self.has_deadlines.then(|| {
+            let name = self.handle.thread().name().unwrap_or("output").to_string();
+            (name, self.handle.as_pthread_t())
+        })
     }
 
     /// Waits for the output to close (its lane must be gone) and returns

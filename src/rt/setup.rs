@@ -18,6 +18,44 @@ pub struct RtOptions {
     pub timer_slack: bool,
     /// Hold `/dev/cpu_dma_latency` at 0 while running.
     pub cpu_dma_latency: bool,
+    /// The priorities of the threads that serve the control thread.
+    pub serving: ServingPriorities,
+}
+
+/// SCHED_FIFO priorities of the threads the control loop waits on, each
+/// below it: the sensor's reader (a sample late by `stale_ms` is a
+/// fault), the arm's streamer (an arm stops about 0.1 s after its last
+/// command) and the outputs a person waits on (uinput). `None`:
+/// SCHED_OTHER. The telemetry, display, recorder and network outputs
+/// stay SCHED_OTHER.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ServingPriorities {
+    /// The sensor's reader threads.
+    pub sensor: Option<i32>,
+    /// The arm's streamer thread.
+    pub arm: Option<i32>,
+    /// The outputs with deadlines (uinput).
+    pub output: Option<i32>,
+}
+
+impl ServingPriorities {
+    /// All SCHED_OTHER.
+    pub const NONE: ServingPriorities = ServingPriorities {
+        sensor: None,
+        arm: None,
+        output: None,
+    };
+
+    /// Below a control thread at `control`: 10, 20 and 30 lower, at
+    /// least 1; none when the control thread asks for none.
+    pub fn below(control: Option<i32>) -> ServingPriorities {
+        let step = |down: i32| control.map(|p| (p - down).max(1));
+        ServingPriorities {
+            sensor: step(10),
+            arm: step(20),
+            output: step(30),
+        }
+    }
 }
 
 impl RtOptions {
@@ -28,12 +66,13 @@ impl RtOptions {
         lock_memory: false,
         timer_slack: false,
         cpu_dma_latency: false,
+        serving: ServingPriorities::NONE,
     };
 }
 
 impl Default for RtOptions {
     /// What cyclictest does: FIFO 80, last CPU, memory locked, 1 ns slack,
-    /// CPU DMA latency 0.
+    /// CPU DMA latency 0; the serving threads at 70, 60 and 50.
     fn default() -> Self {
         RtOptions {
             fifo_priority: Some(80),
@@ -41,6 +80,7 @@ impl Default for RtOptions {
             lock_memory: true,
             timer_slack: true,
             cpu_dma_latency: true,
+            serving: ServingPriorities::below(Some(80)),
         }
     }
 }
@@ -209,6 +249,76 @@ pub fn setup_current_thread(options: &RtOptions) -> RtSetup {
     setup
 }
 
+/// Gives `thread`, a thread of this process called `name`, SCHED_FIFO
+/// `priority` and every CPU but `avoid_cpu` (the control thread's): on a
+/// loaded machine ordinary work cannot starve it, and it does not take
+/// the control thread's CPU. Each step reports granted or denied with
+/// the fix. Not RT-safe: call before the loop.
+pub fn setup_serving_thread(
+    thread: libc::pthread_t,
+    name: &str,
+    priority: Option<i32>,
+    avoid_cpu: Option<usize>,
+) -> Vec<RtSetting> {
+    let mut setup = RtSetup::default();
+    let Some(priority) = priority else {
+        return setup.settings;
+    };
+    let param = libc::sched_param {
+        sched_priority: priority,
+    };
+    // SAFETY: `thread` is a live thread of this process (its JoinHandle is
+    // held by the caller); `param` is a valid sched_param.
+    let rc = unsafe { libc::pthread_setschedparam(thread, libc::SCHED_FIFO, &param) };
+    setup.push(
+        format!("{name} thread: SCHED_FIFO priority {priority}"),
+        if rc == 0 {
+            Ok(String::new())
+        } else {
+            Err(format!(
+                "{} (needs root, CAP_SYS_NICE or an rtprio limit)",
+                std::io::Error::from_raw_os_error(rc)
+            ))
+        },
+    );
+    let cpus: Vec<usize> = core_affinity::get_core_ids()
+        .unwrap_or_default()
+        .into_iter()
+        .map(|c| c.id)
+        .filter(|&id| Some(id) != avoid_cpu)
+        .collect();
+    if avoid_cpu.is_some() && !cpus.is_empty() {
+        setup.push(
+            format!("{name} thread: CPUs {cpus:?}"),
+            set_affinity(thread, &cpus),
+        );
+    }
+    setup.settings
+}
+
+/// Restricts `thread` to `cpus`.
+fn set_affinity(thread: libc::pthread_t, cpus: &[usize]) -> Result<String, String> {
+    // SAFETY: cpu_set_t is plain data; all zeroes is the empty set.
+    let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+    for &cpu in cpus {
+        // SAFETY: CPU_SET writes inside `set` for cpu < CPU_SETSIZE, which
+        // every id core_affinity reports is.
+        unsafe { libc::CPU_SET(cpu, &mut set) };
+    }
+    // SAFETY: `thread` is live; `set` is a valid cpu_set_t of its size.
+    let rc = unsafe {
+        libc::pthread_setaffinity_np(thread, std::mem::size_of::<libc::cpu_set_t>(), &set)
+    };
+    if rc == 0 {
+        Ok(String::new())
+    } else {
+        Err(format!(
+            "{} (sched_setaffinity refused)",
+            std::io::Error::from_raw_os_error(rc)
+        ))
+    }
+}
+
 /// Why memory must not be locked here, if so. Under a finite
 /// `RLIMIT_MEMLOCK` (without root), `MCL_FUTURE` can succeed while the
 /// process is small and then make later allocations fail: refuse instead.
@@ -255,6 +365,7 @@ mod tests {
             lock_memory: false,
             timer_slack: true,
             cpu_dma_latency: false,
+            serving: ServingPriorities::NONE,
         };
         let handle = std::thread::spawn(move || setup_current_thread(&options));
         let setup = handle.join().unwrap();
@@ -271,5 +382,71 @@ mod tests {
         for s in &setup.settings {
             assert!(s.granted || !s.detail.is_empty(), "{s:?} says why not");
         }
+    }
+
+    /// The policy, priority and CPUs the calling thread runs with.
+    fn own_scheduling() -> (i32, i32, Vec<usize>) {
+        let mut policy = 0;
+        let mut param = libc::sched_param { sched_priority: 0 };
+        // SAFETY: both out-pointers are valid; pthread_self() is live.
+        unsafe { libc::pthread_getschedparam(libc::pthread_self(), &mut policy, &mut param) };
+        // SAFETY: an all-zero cpu_set_t is valid.
+        let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
+        // SAFETY: `set` is a valid cpu_set_t of this size; 0 is the
+        // calling thread.
+        unsafe { libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut set) };
+        let cpus = (0..libc::CPU_SETSIZE as usize)
+            // SAFETY: cpu < CPU_SETSIZE.
+            .filter(|&cpu| unsafe { libc::CPU_ISSET(cpu, &set) })
+            .collect();
+        (policy, param.sched_priority, cpus)
+    }
+
+    #[test]
+    fn a_serving_thread_runs_with_what_was_granted_and_is_told_what_was_not() {
+        use std::os::unix::thread::JoinHandleExt;
+        let all: Vec<usize> = core_affinity::get_core_ids()
+            .unwrap()
+            .into_iter()
+            .map(|c| c.id)
+            .collect();
+        let avoid = *all.last().unwrap();
+        let (go, wait) = std::sync::mpsc::channel::<()>();
+        let thread = std::thread::spawn(move || {
+            wait.recv().unwrap();
+            own_scheduling()
+        });
+        let settings = setup_serving_thread(thread.as_pthread_t(), "sensor", Some(10), Some(avoid));
+        go.send(()).unwrap();
+        let (policy, priority, cpus) = thread.join().unwrap();
+
+        let fifo = &settings[0];
+        assert_eq!(fifo.name, "sensor thread: SCHED_FIFO priority 10");
+        if fifo.granted {
+            assert_eq!((policy, priority), (libc::SCHED_FIFO, 10));
+        } else {
+            assert_eq!(policy, libc::SCHED_OTHER);
+            assert!(fifo.detail.contains("rtprio"), "{fifo:?}");
+        }
+        if all.len() > 1 {
+            let others: Vec<usize> = all.iter().copied().filter(|&c| c != avoid).collect();
+            assert_eq!(settings[1].name, format!("sensor thread: CPUs {others:?}"));
+            assert!(settings[1].granted, "{:?}", settings[1]);
+            assert_eq!(cpus, others);
+        } else {
+            assert_eq!(settings.len(), 1, "one CPU: nothing to keep it off");
+        }
+    }
+
+    #[test]
+    fn serving_threads_sit_below_the_control_thread() {
+        let p = ServingPriorities::below(Some(80));
+        assert_eq!((p.sensor, p.arm, p.output), (Some(70), Some(60), Some(50)));
+        let low = ServingPriorities::below(Some(15));
+        assert_eq!(
+            (low.sensor, low.arm, low.output),
+            (Some(5), Some(1), Some(1))
+        );
+        assert_eq!(ServingPriorities::below(None), ServingPriorities::NONE);
     }
 }

@@ -16,6 +16,12 @@
 //! the session recorder (see [`recorder`](super::recorder))
 //! ```
 //!
+//! Priorities: the control thread at `--priority` (80) on the last CPU;
+//! the sensor's readers, the arm thread and the uinput output's thread
+//! SCHED_FIFO 10, 20 and 30 below it, on the other CPUs
+//! ([`setup_serving_thread`]); the telemetry, display, recorder and MQTT
+//! threads SCHED_OTHER. Each grant or denial is in the report.
+//!
 //! Every ring is bounded and allocated before the loop (see
 //! [`rings`](super::rings)). Safe stop (a signal, see
 //! [`signals`](super::signals); the end of the run; an arm error; an
@@ -25,6 +31,7 @@
 //! command and the arm is stopped.
 
 use std::fmt;
+use std::os::unix::thread::JoinHandleExt;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::thread;
@@ -45,7 +52,7 @@ use crate::rt::recorder::SessionRecorder;
 use crate::rt::report::{RunFacts, RunReport};
 use crate::rt::rings::{FEEDBACK_RING, Rings};
 use crate::rt::service_watchdog::ServiceNotifier;
-use crate::rt::setup::RtOptions;
+use crate::rt::setup::{RtOptions, RtSetting, setup_serving_thread};
 use crate::rt::stop::StopRequest;
 use crate::rt::telemetry_thread::{EventSink, Telemetry, Watchers};
 use crate::sensor::{Samples, Sensor, SensorError};
@@ -211,6 +218,15 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     // The sensor first: if it cannot start, the arm was never taken.
     let started = sensor.start().map_err(RunError::Sensor)?;
     let producer = started.producer;
+    // The threads the loop waits on, each at its priority below the
+    // control thread and off its CPU: granted or denied, in the report.
+    let serve = |(name, thread): (String, libc::pthread_t), priority| {
+        setup_serving_thread(thread, &name, priority, settings.rt.cpu)
+    };
+    let mut serving: Vec<RtSetting> = Vec::new();
+    for thread in producer.threads() {
+        serving.extend(serve(thread, settings.rt.serving.sensor));
+    }
     // From here on the arm's stream ends with a zero command, whatever
     // happens (the stream's guard sees to it if a thread cannot start).
     let mut stream = ArmStream::connect(arm).map_err(RunError::Arm)?;
@@ -232,6 +248,9 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     for (serves, output) in outputs {
         let (thread, lane) = OutputThread::start(serves, output, tick_zero.clone())
             .map_err(|e| RunError::Thread(format!("cannot start an output's thread: {e}")))?;
+        if let Some(deadline) = thread.deadline_thread() {
+            serving.extend(serve(deadline, settings.rt.serving.output));
+        }
         output_threads.push(thread);
         rings.outputs.outputs.push(lane);
     }
@@ -249,6 +268,10 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
         .name("arm".into())
         .spawn(move || run_arm(stream, &mut commands, &fault, initial, measured))
         .map_err(|e| RunError::Thread(format!("cannot start the arm thread: {e}")))?;
+    serving.extend(serve(
+        ("arm".into(), arm_thread.as_pthread_t()),
+        settings.rt.serving.arm,
+    ));
 
     let cpu_before = cpu_seconds();
     let wall = Instant::now();
@@ -306,6 +329,7 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
         cpu_percent,
     };
     let mut report = RunReport::new(run, looped, telemetry, arm);
+    report.settings.extend(serving);
     service.stopping(&format!("stopped by: {}", report.stop_reason));
     report.outputs = outputs;
     Ok(report)

@@ -308,6 +308,21 @@ impl Producer {
         })
     }
 
+    /// Its threads (and those joined with it), with their names: for the
+    /// run to give them their real-time priority.
+    pub fn threads(&self) -> Vec<(String, libc::pthread_t)> {
+        use std::os::unix::thread::JoinHandleExt;
+        let mut threads = self
+            .also
+            .as_ref()
+            .map_or_else(Vec::new, |also| also.threads());
+        if let Some(thread) = &self.thread {
+            let name = thread.thread().name().unwrap_or("sensor").to_string();
+            threads.insert(0, (name, thread.as_pthread_t()));
+        }
+        threads
+    }
+
     /// Asks the thread (and any joined with it) to end, waits for it, and
     /// returns what it met: the first error, if both met one.
     pub fn stop(mut self) -> Result<(), SensorError> {

@@ -15,7 +15,7 @@ use std::time::Duration;
 use crate::arm::ArmSpec;
 use crate::config::Config;
 use crate::output::OutputSpec;
-use crate::rt::setup::{RtOptions, setup_current_thread};
+use crate::rt::setup::{RtOptions, RtSetting, setup_current_thread, setup_serving_thread};
 use crate::sensor::csv::CsvSensor;
 use crate::sensor::evdev::EvdevSensor;
 use crate::sensor::iio::IioSensor;
@@ -76,7 +76,19 @@ pub struct Examined<'a> {
 
 /// Every check, in the order a run meets them.
 pub fn examine(config: &Config, examined: &Examined) -> Vec<Check> {
-    let mut checks = real_time(&examined.rt);
+    // The threads the loop would wait on: a device's or a recording's
+    // reader (the synthetic user is computed in the loop), the arm's
+    // streamer, a uinput output's writer.
+    let serving = examined.rt.serving;
+    let mut threads = Vec::new();
+    if !matches!(examined.sensor, SensorSpec::Synthetic(_)) || examined.imu.is_some() {
+        threads.push(("sensor", serving.sensor));
+    }
+    threads.push(("arm", serving.arm));
+    if examined.outputs.contains(&OutputSpec::Uinput) {
+        threads.push(("output uinput", serving.output));
+    }
+    let mut checks = real_time(&examined.rt, &threads);
     checks.extend(sensors(config, examined));
     checks.push(arm(examined.arm));
     for output in examined.outputs {
@@ -116,20 +128,21 @@ fn limit(resource: libc::__rlimit_resource_t) -> String {
 
 /// The real-time set-up `run` applies to its control thread, applied to
 /// a scratch thread (its memory lock undone after).
-fn real_time(options: &RtOptions) -> Vec<Check> {
-    let options = *options;
-    let setup = std::thread::spawn(move || setup_current_thread(&options).settings)
+fn real_time(options: &RtOptions, threads: &[(&str, Option<i32>)]) -> Vec<Check> {
+    let control = *options;
+    let mut setup = std::thread::spawn(move || setup_current_thread(&control).settings)
         .join()
         .unwrap_or_default();
     // SAFETY: munlockall has no preconditions; this process needs no lock.
     unsafe { libc::munlockall() };
+    setup.extend(serving_threads(threads, options.cpu));
     let rtprio = limit(libc::RLIMIT_RTPRIO);
     let memlock = limit(libc::RLIMIT_MEMLOCK);
     setup
         .into_iter()
         .filter(|s| !s.name.starts_with("pre-faulted"))
         .map(|s| {
-            let (needed, fix) = if s.name.starts_with("SCHED_FIFO") {
+            let (needed, fix) = if s.name.contains("SCHED_FIFO") {
                 (
                     true,
                     format!(
@@ -143,7 +156,7 @@ fn real_time(options: &RtOptions) -> Vec<Check> {
                         "its RLIMIT_MEMLOCK is {memlock} bytes: the service's unit grants it (LimitMEMLOCK=infinity); as another user, run as root or raise `memlock` in /etc/security/limits.d/"
                     ),
                 )
-            } else if s.name.starts_with("pinned") {
+            } else if s.name.starts_with("pinned") || s.name.contains(": CPUs") {
                 (
                     true,
                     "the CPU is outside this process's affinity: allow it (the unit's CPUAffinity=, taskset) or pick another with --cpu".to_string(),
@@ -172,6 +185,29 @@ fn real_time(options: &RtOptions) -> Vec<Check> {
             )
         })
         .collect()
+}
+
+/// The priorities `run` gives the threads its loop waits on (`threads`:
+/// name and priority), applied to a scratch thread in turn; the CPUs
+/// off `control_cpu` once, as the first's.
+fn serving_threads(threads: &[(&str, Option<i32>)], control_cpu: Option<usize>) -> Vec<RtSetting> {
+    use std::os::unix::thread::JoinHandleExt;
+    let (done, wait) = std::sync::mpsc::channel::<()>();
+    let scratch = std::thread::spawn(move || {
+        let _ = wait.recv();
+    });
+    let mut settings = Vec::new();
+    for (i, &(name, priority)) in threads.iter().enumerate() {
+        let applied = setup_serving_thread(scratch.as_pthread_t(), name, priority, control_cpu);
+        settings.extend(
+            applied
+                .into_iter()
+                .filter(|s| i == 0 || !s.name.contains(": CPUs")),
+        );
+    }
+    drop(done);
+    let _ = scratch.join();
+    settings
 }
 
 /// The sensors `run` would read, opened as it opens them (not started).

@@ -275,9 +275,10 @@ fn the_service_is_ready_once_the_loop_runs_and_petted_only_while_it_keeps_time()
 }
 
 /// `doctor` as root gets what a run gets as root; as a user without
-/// privileges (nobody, via setpriv), SCHED_FIFO and the memory lock are
-/// denied, each with the limit it met and the unit setting that grants
-/// it, and the exit status is 1.
+/// privileges (nobody, via setpriv), SCHED_FIFO (the control thread's
+/// and the arm thread's) and the memory lock are denied, each with the
+/// limit it met and the unit setting that grants it, and the exit
+/// status is 1.
 #[test]
 fn doctor_says_what_the_real_time_set_up_gets_and_what_grants_it() {
     // SAFETY: geteuid has no preconditions.
@@ -307,6 +308,10 @@ fn doctor_says_what_the_real_time_set_up_gets_and_what_grants_it() {
         line(&text, "SCHED_FIFO priority 80").starts_with("  ok"),
         "{text}"
     );
+    assert!(
+        line(&text, "arm thread: SCHED_FIFO priority 60").starts_with("  ok"),
+        "{text}"
+    );
     assert!(line(&text, "mlockall").starts_with("  ok"), "{text}");
     assert!(text.contains("as root (uid 0;"), "{text}");
 
@@ -327,7 +332,15 @@ fn doctor_says_what_the_real_time_set_up_gets_and_what_grants_it() {
         lock.starts_with("  DENIED") && lock.contains("LimitMEMLOCK=infinity"),
         "{text}"
     );
-    assert!(text.contains("2 needed things DENIED"), "{text}");
+    // The arm's streamer (the synthetic user has no reader thread), below
+    // the control thread, denied for the same limit.
+    let arm = line(&text, "arm thread: SCHED_FIFO priority 60");
+    assert!(
+        arm.starts_with("  DENIED") && arm.contains("LimitRTPRIO="),
+        "{text}"
+    );
+    assert!(!text.contains("sensor thread"), "{text}");
+    assert!(text.contains("3 needed things DENIED"), "{text}");
 }
 
 /// An arm that takes `good` commands, then refuses the next; it records
@@ -748,4 +761,150 @@ fn a_run_reads_a_breath_sensor_and_an_imu_side_by_side() {
             "{stderr}"
         );
     });
+}
+
+/// A live thread's scheduling, as `chrt -p` and `taskset -p` see it.
+#[derive(Debug)]
+struct ThreadScheduling {
+    name: String,
+    policy: i32,
+    priority: i32,
+    cpus: Vec<usize>,
+}
+
+/// A CPU list as the kernel writes it: `0-2,5`.
+fn cpu_list(text: &str) -> Vec<usize> {
+    text.split(',')
+        .flat_map(|part| {
+            let (from, to) = part.split_once('-').unwrap_or((part, part));
+            from.parse::<usize>().unwrap()..=to.parse::<usize>().unwrap()
+        })
+        .collect()
+}
+
+/// Every thread of process `pid`.
+fn threads_of(pid: u32) -> Vec<ThreadScheduling> {
+    let mut threads = Vec::new();
+    for task in std::fs::read_dir(format!("/proc/{pid}/task"))
+        .unwrap()
+        .flatten()
+    {
+        let dir = task.path();
+        let (Ok(stat), Ok(status)) = (
+            std::fs::read_to_string(dir.join("stat")),
+            std::fs::read_to_string(dir.join("status")),
+        ) else {
+            continue; // ended meanwhile
+        };
+        // After the name's closing parenthesis, fields 3 on: rt_priority
+        // is field 40, policy 41.
+        let fields: Vec<&str> = stat[stat.rfind(')').unwrap() + 2..].split(' ').collect();
+        let field = |n: usize| fields[n - 3].parse::<i32>().unwrap();
+        let cpus = cpu_list(
+            status
+                .lines()
+                .find_map(|l| l.strip_prefix("Cpus_allowed_list:"))
+                .unwrap()
+                .trim(),
+        );
+        let name = std::fs::read_to_string(dir.join("comm")).unwrap();
+        threads.push(ThreadScheduling {
+            name: name.trim().to_string(),
+            policy: field(41),
+            priority: field(40),
+            cpus,
+        });
+    }
+    threads
+}
+
+/// `chrt -p` on a live `run`: the control thread SCHED_FIFO 80 on the
+/// last CPU; the sensor's reader at 70 and the arm thread at 60 on the
+/// others; the display's and the telemetry's threads SCHED_OTHER. The
+/// report says each was granted, or (without the privilege) denied, and
+/// then the threads stay SCHED_OTHER.
+#[test]
+fn every_thread_the_loop_waits_on_runs_at_its_priority_below_it() {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let mut rest = String::from("tick,volts\n");
+    for t in 0..20_000 {
+        rest += &format!("{t},2.5\n");
+    }
+    let (_dir, path) = crate::scratch::scratch_file("rest.csv", &rest);
+    let sensor = format!("csv:{}", path.display());
+    let config = crate::common::fixture("shared-machine.toml");
+    let run = Running::spawn(&[
+        "run",
+        "--sensor",
+        &sensor,
+        "--seconds",
+        "3",
+        "--config",
+        config.to_str().unwrap(),
+    ]);
+    // The control thread sets itself up at its start, after the others.
+    let pid = run.child.id();
+    let mut threads = threads_of(pid);
+    for _ in 0..100 {
+        if threads.iter().any(|t| t.name == "control" && t.policy != 0) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+        threads = threads_of(pid);
+    }
+    let (status, seen, stderr) = run.finish();
+    let text = seen.join("\n");
+    assert!(status.success(), "{text}\n{stderr}");
+    let granted = |name: &str| {
+        let line = text
+            .lines()
+            .find(|l| l.trim_start().starts_with(name))
+            .unwrap_or_else(|| panic!("no {name:?} in the report:\n{text}"));
+        line.contains("granted")
+    };
+    let fifo = granted("SCHED_FIFO priority 80");
+    let last_cpu = core_affinity::get_core_ids().unwrap().last().unwrap().id;
+    let others: Vec<usize> = core_affinity::get_core_ids()
+        .unwrap()
+        .iter()
+        .map(|c| c.id)
+        .filter(|&c| c != last_cpu)
+        .collect();
+    let find = |name: &str| {
+        threads
+            .iter()
+            .find(|t| t.name == name)
+            .unwrap_or_else(|| panic!("no {name} thread in {threads:?}"))
+    };
+    for (name, priority) in [("control", 80), ("sensor", 70), ("arm", 60)] {
+        let thread = find(name);
+        if name != "control" {
+            assert_eq!(
+                granted(&format!("{name} thread: SCHED_FIFO priority {priority}")),
+                fifo,
+                "{text}"
+            );
+        }
+        if fifo {
+            assert_eq!(
+                (thread.policy, thread.priority),
+                (libc::SCHED_FIFO, priority),
+                "{thread:?}"
+            );
+        } else {
+            assert_eq!(thread.policy, libc::SCHED_OTHER, "{thread:?}");
+        }
+        if name == "control" {
+            assert_eq!(thread.cpus, [last_cpu], "{thread:?}");
+        } else if !others.is_empty() {
+            assert!(granted(&format!("{name} thread: CPUs")), "{text}");
+            assert_eq!(thread.cpus, others, "{thread:?}");
+        }
+    }
+    for thread in threads
+        .iter()
+        .filter(|t| !["control", "sensor", "arm"].contains(&t.name.as_str()))
+    {
+        assert_eq!(thread.policy, libc::SCHED_OTHER, "{thread:?}");
+    }
 }

@@ -154,6 +154,10 @@ impl Output for UinputOutput {
         self.driver.tick_zero = Some(tick_zero);
     }
 
+    fn has_deadlines(&self) -> bool {
+        true
+    }
+
     fn apply(&mut self, command: &OutputCommand) {
         self.driver.apply(command);
     }
