@@ -218,9 +218,13 @@ step_boot() {
     lck=$(awk '/^VmLck/ { print $2 }' /proc/$pid/status)
     node=$(hid_event)
     ls -l "$node" > $ART/boot-node.txt
-    if [ "$user" != sipnpuff ] || [ -z "$fifo" ] || [ "${lck:-0}" -eq 0 ]; then
-        fail boot "user $user, SCHED_FIFO threads '$fifo', VmLck ${lck:-0} kB"; return
+    if [ "$user" != sipnpuff ] || [ "${lck:-0}" -eq 0 ]; then
+        fail boot "user $user, VmLck ${lck:-0} kB"; return
     fi
+    # The loop and the threads it waits on, each at its priority.
+    for want in "control FIFO/80" "sensor-evdev FIFO/70" "arm FIFO/60" "output uinput FIFO/50"; do
+        grep -qx "$want" $ART/boot-threads.txt || { fail boot "no thread '$want' among: $fifo"; return; }
+    done
     if ! ls -l /proc/$pid/fd 2>/dev/null | grep -q "$node"; then
         fail boot "the service does not hold $node open ($(cat $ART/boot-node.txt))"; return
     fi
