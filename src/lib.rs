@@ -19,6 +19,8 @@
 //! * [`output`]: the [`output::Output`] seam beyond the arm and its
 //!   backends: the computer's keyboard and pointer through uinput, the
 //!   home through MQTT (Home Assistant);
+//! * [`clock`]: `CLOCK_MONOTONIC` and absolute sleeps, or simulated time:
+//!   what the runtime's loop and the sensors' timers wait on;
 //! * [`rt`]: the 1 kHz runtime around the core: the scheduler, real-time
 //!   set-up, the threads and rings, telemetry and the run report;
 //! * [`display`]: what the user sees and hears, served to a browser or
@@ -103,6 +105,7 @@
 
 pub mod arm;
 pub mod cli;
+pub mod clock;
 pub mod config;
 pub mod control;
 pub mod design;

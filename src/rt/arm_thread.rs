@@ -21,8 +21,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use nalgebra::Isometry3;
 
 use crate::arm::{Arm, ArmError, ArmState, end_stream};
+use crate::clock::{Clock, MonotonicClock};
 use crate::control::motion::stream::ArmCommand;
-use crate::rt::clock::{Clock, MonotonicClock};
 use crate::rt::scheduler::Scheduler;
 
 /// How often the thread looks for commands: 1 ms.

@@ -18,6 +18,7 @@ use std::time::{Duration, Instant, SystemTime};
 
 use nalgebra::Isometry3;
 
+use crate::clock::Clock;
 use crate::control::detector::FaultReason;
 use crate::control::event::{Event, TimedEvent};
 use crate::control::motion::feedback::ArmFault;
@@ -26,7 +27,6 @@ use crate::control::pipeline::Pipeline;
 use crate::control::tick::{ArmInput, ArmPose, TickInput, TickOutput};
 use crate::control::view::CoreView;
 use crate::rt::alloc_counter;
-use crate::rt::clock::Clock;
 use crate::rt::output_thread::{OutputLane, TickZero};
 use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
 use crate::rt::setup::{RtOptions, RtSetting, setup_current_thread};

@@ -4,7 +4,8 @@
 //! (`control`) and the sensor and arm seams, never a concrete backend,
 //! the simulator, the tools or the command line.
 //!
-//! * [`clock`], [`scheduler`]: absolute deadlines, skip accounting;
+//! * [`scheduler`]: absolute deadlines on the [`crate::clock`], skip
+//!   accounting;
 //! * [`setup`]: SCHED_FIFO, affinity, mlockall, each step reported;
 //! * [`stop`], [`signals`]: why a run stops; stop requests, from signals
 //!   (which ones, and their handlers) and failed outputs;
@@ -25,7 +26,6 @@
 
 pub mod alloc_counter;
 pub mod arm_thread;
-pub mod clock;
 pub mod control_loop;
 pub mod output_thread;
 pub mod recorder;

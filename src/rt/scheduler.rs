@@ -12,8 +12,8 @@
 //! spin on the clock (trades CPU for wake-up latency; never spins longer
 //! than the margin, since a SCHED_FIFO thread that spins is throttled).
 
+use crate::clock::Clock;
 use crate::control::Tick;
-use crate::rt::clock::Clock;
 
 /// One wake-up of the loop.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -117,7 +117,7 @@ impl Scheduler {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rt::clock::SimClock;
+    use crate::clock::SimClock;
 
     const P: u64 = 1_000_000;
 

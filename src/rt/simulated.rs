@@ -11,12 +11,12 @@ use std::thread;
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use rtrb::RingBuffer;
 
+use crate::clock::SimClock;
 use crate::control::core_config::CoreConfig;
 use crate::control::motion::stream::ArmCommand;
 use crate::control::output_command::OutputCommand;
 use crate::control::pipeline::Pipeline;
 use crate::output::{Output, OutputReport};
-use crate::rt::clock::SimClock;
 use crate::rt::control_loop::{
     ControlTick, LoopOptions, StopReason, TickOutcome, TickWork, WorkSummary, control_loop,
 };

@@ -40,12 +40,12 @@ use std::time::{Duration, Instant};
 use rtrb::RingBuffer;
 
 use crate::arm::{Arm, ArmError, ArmState};
+use crate::clock::{Clock, MonotonicClock};
 use crate::control::core_config::CoreConfig;
 use crate::control::motion::workspace;
 use crate::control::pipeline::Pipeline;
 use crate::output::Output;
 use crate::rt::arm_thread::{ArmStream, run_arm};
-use crate::rt::clock::{Clock, MonotonicClock};
 use crate::rt::control_loop::{ControlTick, LoopOptions, TickWork, control_loop};
 use crate::rt::output_thread::{OutputThread, Serves, TickZero};
 use crate::rt::recorder::SessionRecorder;

@@ -18,10 +18,11 @@ use std::io;
 use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
 
+use crate::clock::MonotonicClock;
 use crate::sensor::device::{self, DeviceReader};
 use crate::sensor::held::{HeldSamples, Holder, hold};
+use crate::sensor::pacer::Pacer;
 use crate::sensor::settings::IioSettings;
 use crate::sensor::{Producer, Sensor, SensorError, Started};
 
@@ -227,20 +228,13 @@ impl DeviceReader for Reader {
 
     /// Reads at `rate_hz` on absolute deadlines (no drift).
     fn read_until_lost(&mut self, holder: &Holder, stop: &AtomicBool) -> io::Result<()> {
-        let period = Duration::from_secs(1) / self.sensor.settings.rate_hz.max(1);
-        let mut next = Instant::now();
+        let period_ns = 1_000_000_000 / u64::from(self.sensor.settings.rate_hz.max(1));
+        // Behind (a slow read): from now, no burst of catch-up reads.
+        let mut pacer = Pacer::new(MonotonicClock, period_ns, false);
         while !stop.load(Ordering::Relaxed) {
             let raw = read_raw(&self.sensor.file)?;
             holder.set(self.sensor.conversion.volts(raw));
-            next += period;
-            let now = Instant::now();
-            if next > now {
-                std::thread::sleep(next - now);
-            } else {
-                // Behind (a slow read): start again from now, no burst of
-                // catch-up reads.
-                next = now;
-            }
+            pacer.wait();
         }
         Ok(())
     }

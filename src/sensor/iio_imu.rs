@@ -25,12 +25,13 @@ use std::fs::File;
 use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
-use std::time::{Duration, Instant};
 
+use crate::clock::MonotonicClock;
 use crate::control::imu::{CHANNELS, Channel, Channels, ImuSample};
 use crate::sensor::iio::{PERMISSION_FIX, channel_attribute, read_raw};
 use crate::sensor::iio_buffer::IioBuffer;
 use crate::sensor::imu_ring::{ImuRing, imu_ring};
+use crate::sensor::pacer::Pacer;
 use crate::sensor::settings::IioSettings;
 use crate::sensor::{Producer, Sensor, SensorError, Started};
 
@@ -267,26 +268,20 @@ impl Sensor for IioImu {
             return Ok(Started { samples, producer });
         }
         let producer = Producer::spawn("sensor-iio-imu", move |stop| {
-            let period = Duration::from_secs(1) / self.rate_hz;
-            let mut next = Instant::now() + period;
+            // Behind (a slow read): from now, no burst of catch-up reads.
+            let mut pacer = Pacer::new(
+                MonotonicClock,
+                1_000_000_000 / u64::from(self.rate_hz),
+                false,
+            );
             while !stop.load(Ordering::Relaxed) {
-                let now = Instant::now();
-                if next > now {
-                    std::thread::sleep(next - now);
-                }
+                pacer.wait();
                 // A read failing (the device unbound) ends the reader:
                 // `feed` dropped tells the control thread the IMU is lost.
                 let Ok(sample) = self.read() else {
                     break;
                 };
                 feed.push(sample);
-                next += period;
-                let now = Instant::now();
-                if next < now {
-                    // Behind (a slow read): from now, no burst of catch-up
-                    // reads.
-                    next = now;
-                }
             }
             Ok(())
         })?;

@@ -38,6 +38,7 @@ pub mod imu_playback;
 pub mod imu_ring;
 pub mod imu_sensor;
 pub mod listing;
+pub mod pacer;
 pub mod rezero;
 pub mod ring;
 pub mod serial;

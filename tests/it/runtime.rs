@@ -2,12 +2,12 @@
 //! stay true across skipped ticks, and a late wake-up faults and throws
 //! the sensor's backlog away.
 
+use sipnpuff::clock::SimClock;
 use sipnpuff::config::Config;
 use sipnpuff::control::event::Event;
 use sipnpuff::control::modes::DetectionReason;
 use sipnpuff::control::motion::stream::ArmCommand;
 use sipnpuff::control::pipeline::Pipeline;
-use sipnpuff::rt::clock::SimClock;
 use sipnpuff::rt::scheduler::Scheduler;
 
 use crate::common::TickByTick;

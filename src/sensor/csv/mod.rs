@@ -12,12 +12,13 @@ use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
-use std::time::{Duration, Instant};
 
 use self::breaks::BOM;
 pub use self::decimal::parse_volts;
 use self::decimal::{decimal_prefix, fast_decimal};
 use self::lines::{Line, PlainLine, PlainLines, Unread};
+use crate::clock::MonotonicClock;
+use crate::sensor::pacer::Pacer;
 use crate::sensor::ring::{RingSamples, SAMPLE_RING, ring};
 use crate::sensor::{Producer, Sensor, SensorError, Started};
 
@@ -26,7 +27,7 @@ mod decimal;
 mod lines;
 
 /// The period of a recording's samples: 1 ms.
-const SAMPLE_PERIOD: Duration = Duration::from_millis(1);
+const SAMPLE_PERIOD_NS: u64 = 1_000_000;
 
 /// A problem with a recording, naming the line.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -350,16 +351,14 @@ impl Sensor for CsvSensor {
         let (mut feed, samples) = ring(SAMPLE_RING);
         let CsvSensor { path, mut signal } = self;
         let producer = Producer::spawn("sensor", move |stop| {
-            // Deadlines from the start, so lateness never accumulates.
-            let mut deadline = Instant::now();
+            // A row a millisecond; after a late wake-up the rows owed come
+            // at once (the ring keeps the newest two).
+            let mut pacer = Pacer::new(MonotonicClock, SAMPLE_PERIOD_NS, true);
             while let Some(volts) = signal.next_sample().map_err(|e| bad_data(&path, &e))? {
                 if stop.load(Ordering::Relaxed) {
                     break;
                 }
-                deadline += SAMPLE_PERIOD;
-                if let Some(wait) = deadline.checked_duration_since(Instant::now()) {
-                    std::thread::sleep(wait);
-                }
+                pacer.wait();
                 // Full: the loop is behind; the sample is lost and the loop
                 // counts what it discards.
                 feed.push(volts);

@@ -1,7 +1,7 @@
-//! Time for the runtime: `CLOCK_MONOTONIC` in nanoseconds, and absolute
-//! sleeps with `clock_nanosleep(TIMER_ABSTIME)` (no drift: a late wake-up
-//! does not delay later deadlines). Behind a trait so the scheduler can be
-//! tested on simulated time.
+//! Time for the runtime's loop and the sensors' timers: `CLOCK_MONOTONIC`
+//! in nanoseconds, and absolute sleeps with `clock_nanosleep(TIMER_ABSTIME)`
+//! (no drift: a late wake-up does not delay later deadlines). Behind a
+//! trait so what waits on it can be tested on simulated time.
 
 /// A monotonic clock that can sleep until an absolute time.
 pub trait Clock {
