@@ -227,26 +227,34 @@ pub fn setup_current_thread(options: &RtOptions) -> RtSetup {
     }
 
     if let Some(priority) = options.fifo_priority {
-        let param = libc::sched_param {
-            sched_priority: priority,
-        };
-        // SAFETY: `param` is a valid sched_param; pthread_self() is the
-        // calling thread.
-        let rc =
-            unsafe { libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) };
         setup.push(
             format!("SCHED_FIFO priority {priority}"),
-            if rc == 0 {
-                Ok(String::new())
-            } else {
-                Err(format!(
-                    "{} (needs root, CAP_SYS_NICE or an rtprio limit)",
-                    std::io::Error::from_raw_os_error(rc)
-                ))
-            },
+            // SAFETY: pthread_self() is the calling thread, alive.
+            unsafe { set_fifo(libc::pthread_self(), priority) },
         );
     }
     setup
+}
+
+/// Puts `thread` in SCHED_FIFO at `priority`.
+///
+/// # Safety
+/// `thread` must be a live thread of this process.
+unsafe fn set_fifo(thread: libc::pthread_t, priority: i32) -> Result<String, String> {
+    let param = libc::sched_param {
+        sched_priority: priority,
+    };
+    // SAFETY: the caller keeps `thread` alive; `param` is a valid
+    // sched_param.
+    let rc = unsafe { libc::pthread_setschedparam(thread, libc::SCHED_FIFO, &param) };
+    if rc == 0 {
+        Ok(String::new())
+    } else {
+        Err(format!(
+            "{} (needs root, CAP_SYS_NICE or an rtprio limit)",
+            std::io::Error::from_raw_os_error(rc)
+        ))
+    }
 }
 
 /// Gives `thread`, a thread of this process called `name`, SCHED_FIFO
@@ -264,22 +272,11 @@ pub fn setup_serving_thread(
     let Some(priority) = priority else {
         return setup.settings;
     };
-    let param = libc::sched_param {
-        sched_priority: priority,
-    };
-    // SAFETY: `thread` is a live thread of this process (its JoinHandle is
-    // held by the caller); `param` is a valid sched_param.
-    let rc = unsafe { libc::pthread_setschedparam(thread, libc::SCHED_FIFO, &param) };
     setup.push(
         format!("{name} thread: SCHED_FIFO priority {priority}"),
-        if rc == 0 {
-            Ok(String::new())
-        } else {
-            Err(format!(
-                "{} (needs root, CAP_SYS_NICE or an rtprio limit)",
-                std::io::Error::from_raw_os_error(rc)
-            ))
-        },
+        // SAFETY: `thread` is a live thread of this process (its
+        // JoinHandle is held by the caller).
+        unsafe { set_fifo(thread, priority) },
     );
     let cpus: Vec<usize> = core_affinity::get_core_ids()
         .unwrap_or_default()

@@ -414,36 +414,15 @@ if [ -f "$OUT/artifacts.txt" ]; then
         /^=== END$/ { close(f); f = ""; next }
         f != "" { print >> f }'
 fi
-failed=0
-passed=0
+. "$HERE/summary.sh"
 {
     echo "VM harness: $(cat "$kernel/version"), boot and tests ${boot_seconds} s, whole run $((SECONDS - started)) s"
-    for t in "${tests[@]}"; do
-        line=$(grep -E "^(PASS|FAIL) $t( |$)" "$OUT/console.log" | head -n 1 || true)
-        if [ -z "$line" ]; then
-            echo "MISSING $t (the guest printed no result)"
-            failed=1
-        else
-            echo "$line"
-            case "$line" in FAIL*) failed=1 ;; *) passed=$((passed + 1)) ;; esac
-        fi
-    done
-    if [ "$qemu_status" = 124 ] || [ "$qemu_status" = 137 ]; then
-        echo "TIMEOUT: the guest did not power off within ${TIMEOUT} s"
-        failed=1
-    elif [ "$qemu_status" != 0 ]; then
-        echo "QEMU exited with status $qemu_status"
-        failed=1
-    fi
-    grep -qx DONE "$OUT/console.log" || {
-        echo "the guest did not reach the end of its tests (no DONE line)"
-        failed=1
-    }
+    vm_summary "$OUT/console.log" "$qemu_status" "$TIMEOUT" "${tests[@]}"
 } >"$OUT/summary.txt"
 echo
 echo "==== VM harness summary (log: $OUT/console.log, artifacts: $OUT/artifacts/)"
 cat "$OUT/summary.txt"
 retried=$(grep -c "^vm: retry " "$OUT/console.log" || true)
 grep "^vm: first attempt: FAIL" "$OUT/console.log" || true
-echo "vm-harness: ${passed} passed (${retried} of the tests run a second time after a first attempt failed), $((${#tests[@]} - passed)) failed"
-exit $failed
+echo "vm-harness: ${PASSED} passed (${retried} of the tests run a second time after a first attempt failed), $((${#tests[@]} - PASSED)) failed"
+exit $FAILED

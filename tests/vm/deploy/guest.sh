@@ -247,16 +247,25 @@ step_breaths() {
     pass breaths "$(grep -c '^burst' $V/expected.txt) bursts and $(grep -c '^match' $V/expected.txt) modes as the host's replay ($(tr '\n' ' ' < $V/expected.txt | sed 's/ $//')); arm points moving: $(moving_since $k)"
 }
 
-# A puff held in translate_x: the arm moving when the service is stopped.
-MOVE_PATTERN=$V/move.txt
+# move STEP: plays a puff held in translate_x (move.txt) and returns
+# once the arm moves, the service to be stopped mid-motion; sets C (the
+# journal's cursor), K (the arm log's line count) and PID (the service's
+# process) from before.
+move() {
+    C=$(cursor)
+    K=$(kinova_lines)
+    PID=$(prop MainPID)
+    feed "$1" $V/move.txt
+    wait_moving "$K" 30 && return 0
+    unfeed
+    fail "$1" "the arm never moved"
+    return 1
+}
 
 step_restart() {
-    local c k pid t0 t1 report
-    c=$(cursor)
-    k=$(kinova_lines)
-    pid=$(prop MainPID)
-    feed restart $MOVE_PATTERN
-    if ! wait_moving "$k" 30; then unfeed; fail restart "the arm never moved"; return; fi
+    local t0 t1 report c pid
+    move restart || return
+    c=$C pid=$PID
     t0=$(now_us)
     systemctl restart $UNIT
     t1=$(prop ActiveEnterTimestampMonotonic)
@@ -288,11 +297,8 @@ step_kill() {
 
 step_watchdog() {
     local c k pid t0 t1 init last first gap timeout
-    c=$(cursor)
-    k=$(kinova_lines)
-    pid=$(prop MainPID)
-    feed watchdog $MOVE_PATTERN
-    if ! wait_moving "$k" 30; then unfeed; fail watchdog "the arm never moved"; return; fi
+    move watchdog || return
+    c=$C k=$K pid=$PID
     t0=$(now_us)
     kill -STOP $pid
     if ! wait_for 60 active_with_new_pid $pid; then

@@ -228,31 +228,13 @@ boot_seconds=$((SECONDS - boot_start))
 rm -rf "$OUT/art"
 debugfs -R "rdump /var/lib/vmtest/art $OUT" "$image" >/dev/null 2>&1 || true
 mv "$OUT/art" "$OUT/artifacts" 2>/dev/null || mkdir -p "$OUT/artifacts"
-failed=0
-passed=0
+. "$ROOT/tests/vm/summary.sh"
 {
     echo "VM deploy: $(basename "$kernel"), two boots and the steps ${boot_seconds} s, whole run $((SECONDS - started)) s"
-    for s in "${STEPS[@]}"; do
-        line=$(grep -E "^(PASS|FAIL) $s( |$)" "$OUT/console.log" | head -n 1 || true)
-        if [ -z "$line" ]; then
-            echo "MISSING $s (the guest printed no result)"
-            failed=1
-        else
-            echo "$line"
-            case "$line" in FAIL*) failed=1 ;; *) passed=$((passed + 1)) ;; esac
-        fi
-    done
-    if [ "$qemu_status" = 124 ] || [ "$qemu_status" = 137 ]; then
-        echo "TIMEOUT: the guest did not power off within ${TIMEOUT} s"
-        failed=1
-    fi
-    grep -qx DONE "$OUT/console.log" || {
-        echo "the guest did not reach the end of its steps (no DONE line)"
-        failed=1
-    }
+    vm_summary "$OUT/console.log" "$qemu_status" "$TIMEOUT" "${STEPS[@]}"
 } >"$OUT/summary.txt"
 echo
 echo "==== VM deploy summary (log: $OUT/console.log, artifacts: $OUT/artifacts/)"
 cat "$OUT/summary.txt"
-echo "vm-deploy: ${passed} passed, $((${#STEPS[@]} - passed)) failed"
-exit $failed
+echo "vm-deploy: ${PASSED} passed, $((${#STEPS[@]} - PASSED)) failed"
+exit $FAILED
