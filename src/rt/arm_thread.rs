@@ -2,31 +2,80 @@
 //! sends them to the arm, and ends the stream with a zero command on every
 //! way out.
 //!
-//! Pacing: the same absolute-deadline scheduler as the control loop, with
-//! a 1 ms period, so a command reaches the arm within a millisecond of the
-//! control tick that made it (the core's 100 Hz cadence is the stream's).
+//! Waking: only for work. The control thread wakes it when it hands over a
+//! command ([`ArmHandoff`]), so a command reaches the arm within a wake-up
+//! of the tick that made it; 10 ms without a command (the stream's
+//! period) wakes it too. At each wake-up it asks the backend whether its
+//! link stands ([`Arm::check_link`]) and for news of the measured pose
+//! ([`Arm::feedback`]), which goes to the control thread through its own
+//! ring when the backend measures the pose.
 //! Commands are sent in order, all of them: each is 10 ms of the path the
 //! core's pose estimate (and its workspace checks) assumed, so the arm
 //! retraces that path even after a stall of this thread.
-//!
-//! Every millisecond it also asks the backend whether its link stands
-//! ([`Arm::check_link`]) and for news of the measured pose
-//! ([`Arm::feedback`]), which goes to the control thread through its own
-//! ring when the backend measures the pose: a lost link reaches the core
-//! within a millisecond of the backend knowing it.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::Thread;
+use std::time::Duration;
 
 use nalgebra::Isometry3;
 
 use crate::arm::{Arm, ArmError, ArmState, end_stream};
 use crate::clock::{Clock, MonotonicClock};
 use crate::control::motion::stream::ArmCommand;
-use crate::rt::scheduler::Scheduler;
+use crate::rt::serving::{ServingReport, WakeLog};
 
-/// How often the thread looks for commands: 1 ms.
-pub const ARM_POLL_NS: u64 = 1_000_000;
+/// How long the thread waits for a command before it wakes anyway: the
+/// stream's 10 ms.
+pub const ARM_WAKE_NS: u64 = 10_000_000;
+
+/// A command handed to the arm thread, with when the control tick that
+/// made it woke (the arm thread's wake-up latency is measured from it).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Handed {
+    /// The command.
+    pub command: ArmCommand,
+    /// When its control tick woke, ns on the monotonic clock.
+    pub tick_woke_ns: u64,
+}
+
+/// The control thread's end of the command ring: each command pushed
+/// wakes the arm thread. Neither allocates nor blocks.
+pub struct ArmHandoff {
+    ring: rtrb::Producer<Handed>,
+    thread: Option<Thread>,
+}
+
+impl ArmHandoff {
+    /// Hands over through `ring`; nobody is woken until [`Self::wakes`].
+    pub fn new(ring: rtrb::Producer<Handed>) -> ArmHandoff {
+        ArmHandoff { ring, thread: None }
+    }
+
+    /// Each command from here on wakes `thread`.
+    pub fn wakes(&mut self, thread: Thread) {
+        self.thread = Some(thread);
+    }
+
+    /// Hands `command` over and wakes the arm thread; a full ring gives
+    /// the command back.
+    pub fn hand(&mut self, command: ArmCommand, tick_woke_ns: u64) -> Result<(), ArmCommand> {
+        let handed = Handed {
+            command,
+            tick_woke_ns,
+        };
+        let pushed = self.ring.push(handed).map_err(|_| command);
+        if let Some(thread) = &self.thread {
+            // A futex wake: it returns at once whether or not the thread
+            // waits, and allocates nothing (the counting allocator still
+            // checks). RealtimeSanitizer flags every raw `syscall`, so it
+            // is told that this one is known not to block.
+            let _known_nonblocking = rtsan_standalone::ScopedDisabler::default();
+            thread.unpark();
+        }
+        pushed
+    }
+}
 
 /// A connected arm whose stream must end with a zero command: done by
 /// `ArmStream::end`, or, on any other way out (an early return, a panic),
@@ -98,6 +147,9 @@ pub struct ArmReport {
     /// Measured poses the control thread's full ring could not take
     /// (dropped and counted; the newest wins anyway).
     pub feedback_drops: u64,
+    /// Its wake-ups for commands, from their tick's wake-up, and its page
+    /// faults.
+    pub serving: ServingReport,
 }
 
 /// Where the measured poses go: the control thread's ring, when the arm
@@ -111,78 +163,91 @@ pub type FeedbackProducer = rtrb::Producer<Isometry3<f64>>;
 /// arm's state at the start; measured poses go to `measured`, if given.
 pub fn run_arm(
     mut stream: ArmStream,
-    commands: &mut rtrb::Consumer<ArmCommand>,
+    commands: &mut rtrb::Consumer<Handed>,
     fault: &Arc<AtomicBool>,
     state: Option<ArmState>,
     mut measured: Option<FeedbackProducer>,
 ) -> ArmReport {
     let mut clock = MonotonicClock;
-    let mut scheduler = Scheduler::new(clock.now_ns() + ARM_POLL_NS, ARM_POLL_NS, None);
-    let mut report = ArmReport {
-        state: state.or_else(|| stream.arm.feedback()),
-        commands: 0,
-        ended_with_zero: false,
-        error: None,
-        reports: 0,
-        feedback_drops: 0,
-    };
-    let fail = |stream: &mut ArmStream, report: &mut ArmReport, error: ArmError| {
-        report.ended_with_zero = stream.end().is_ok();
-        report.error = Some(error);
+    let mut log = WakeLog::start();
+    let mut report_state = state.or_else(|| stream.arm.feedback());
+    let mut received = 0u64;
+    let mut reports = 0u64;
+    let mut feedback_drops = 0u64;
+    let mut error: Option<ArmError> = None;
+    let mut ended_with_zero = false;
+    let mut fail = |stream: &mut ArmStream, error: &mut Option<ArmError>, e: ArmError| {
+        ended_with_zero = stream.end().is_ok();
+        *error = Some(e);
         fault.store(true, Ordering::Relaxed);
     };
-    let mut since_feedback = 0u32;
+    let mut next_ns = clock.now_ns() + ARM_WAKE_NS;
     loop {
-        scheduler.wait(&mut clock);
+        // Woken by a handed command, or 10 ms after the last wake-up
+        // without one (a spurious wake-up only drains an empty ring).
+        let now = clock.now_ns();
+        if next_ns > now {
+            std::thread::park_timeout(Duration::from_nanos(next_ns - now));
+        }
+        let woke = clock.now_ns();
+        let timed = woke >= next_ns;
+        next_ns = woke + ARM_WAKE_NS;
         // Checked before draining: whatever was pushed before the loop
         // ended is sent.
         let abandoned = commands.is_abandoned();
         let mut sent = false;
-        while let Ok(command) = commands.pop() {
-            report.commands += 1;
-            if report.error.is_some() {
+        while let Ok(handed) = commands.pop() {
+            received += 1;
+            log.woke(woke.saturating_sub(handed.tick_woke_ns));
+            if error.is_some() {
                 continue;
             }
-            match stream.send(&command) {
+            match stream.send(&handed.command) {
                 Ok(()) => sent = true,
-                Err(error) => fail(&mut stream, &mut report, error),
+                Err(e) => fail(&mut stream, &mut error, e),
             }
         }
-        if report.error.is_none()
-            && let Err(error) = stream.arm.check_link()
+        if error.is_none()
+            && let Err(e) = stream.arm.check_link()
         {
-            fail(&mut stream, &mut report, error);
+            fail(&mut stream, &mut error, e);
         }
-        // A measured pose as soon as it comes; otherwise the state at the
-        // stream's rate, and at the end.
-        since_feedback += 1;
-        if measured.is_some() || sent || since_feedback >= 10 || abandoned {
-            since_feedback = 0;
-            if let Some(state) = stream.arm.feedback() {
-                report.state = Some(state);
-                report.reports += 1;
-                if report.error.is_none()
-                    && let Some(ring) = measured.as_mut()
-                    && ring.push(state.pose).is_err()
-                {
-                    report.feedback_drops += 1;
-                }
+        // The arm's state after each command sent, at the stream's period,
+        // and at the end; a measured pose goes on to the control thread.
+        if (measured.is_some() || sent || timed || abandoned)
+            && let Some(state) = stream.arm.feedback()
+        {
+            report_state = Some(state);
+            reports += 1;
+            if error.is_none()
+                && let Some(ring) = measured.as_mut()
+                && ring.push(state.pose).is_err()
+            {
+                feedback_drops += 1;
             }
         }
         if abandoned {
             break;
         }
     }
-    if report.error.is_none() {
+    if error.is_none() {
         match stream.end() {
-            Ok(()) => report.ended_with_zero = true,
-            Err(error) => report.error = Some(error),
+            Ok(()) => ended_with_zero = true,
+            Err(e) => error = Some(e),
         }
         if let Some(state) = stream.arm.feedback() {
-            report.state = Some(state);
+            report_state = Some(state);
         }
     }
-    report
+    ArmReport {
+        state: report_state,
+        commands: received,
+        ended_with_zero,
+        error,
+        reports,
+        feedback_drops,
+        serving: log.finish("arm", "its control tick's wake-up"),
+    }
 }
 
 #[cfg(test)]
@@ -267,11 +332,12 @@ mod tests {
     fn run(commands: &[ArmCommand], fail_at: Option<usize>) -> (Vec<Call>, ArmReport, bool) {
         let (arm, calls) = RecordingArm::new(fail_at);
         let stream = ArmStream::connect(arm).unwrap();
-        let (mut tx, mut rx) = rtrb::RingBuffer::new(64);
+        let (tx, mut rx) = rtrb::RingBuffer::new(64);
+        let mut handoff = ArmHandoff::new(tx);
         for c in commands {
-            tx.push(*c).unwrap();
+            handoff.hand(*c, 0).unwrap();
         }
-        drop(tx);
+        drop(handoff);
         let fault = Arc::new(AtomicBool::new(false));
         let report = run_arm(stream, &mut rx, &fault, None, None);
         let calls = calls.lock().unwrap().clone();
@@ -311,6 +377,30 @@ mod tests {
         assert!(report.ended_with_zero);
         assert_eq!(report.commands, 6, "every command was taken off the ring");
         assert!(fault, "the control loop is asked for a safe stop");
+    }
+
+    #[test]
+    fn a_handed_command_wakes_the_parked_arm_thread() {
+        let (tx, mut rx) = rtrb::RingBuffer::new(4);
+        let mut handoff = ArmHandoff::new(tx);
+        let taker = std::thread::spawn(move || {
+            // Parks with no timeout: only the handoff can wake it.
+            loop {
+                if let Ok(handed) = rx.pop() {
+                    break handed;
+                }
+                std::thread::park();
+            }
+        });
+        handoff.wakes(taker.thread().clone());
+        handoff.hand(moving(3), 42).unwrap();
+        assert_eq!(
+            taker.join().unwrap(),
+            Handed {
+                command: moving(3),
+                tick_woke_ns: 42
+            }
+        );
     }
 
     #[test]

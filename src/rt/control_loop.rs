@@ -27,8 +27,10 @@ use crate::control::pipeline::Pipeline;
 use crate::control::tick::{ArmInput, ArmPose, TickInput, TickOutput};
 use crate::control::view::CoreView;
 use crate::rt::alloc_counter;
+use crate::rt::arm_thread::ArmHandoff;
 use crate::rt::output_thread::{OutputLane, TickZero};
 use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
+use crate::rt::serving::own_page_faults;
 use crate::rt::setup::{RtOptions, RtSetting, setup_current_thread};
 pub use crate::rt::stop::StopReason;
 use crate::rt::stop::StopRequest;
@@ -151,8 +153,8 @@ pub trait TickWork: Send {
 /// The rings the control tick pushes into, allocated before the loop. A
 /// full ring never blocks: the item is dropped and counted.
 pub struct OutputRings {
-    /// The 100 Hz commands, to the arm thread.
-    pub arm: rtrb::Producer<ArmCommand>,
+    /// The 100 Hz commands, to the arm thread (woken for each).
+    pub arm: ArmHandoff,
     /// Events, to the telemetry side.
     pub events: rtrb::Producer<TimedEvent>,
     /// `run --record`: a copy of each arm command, to the telemetry side
@@ -223,6 +225,11 @@ impl<S: Samples> ControlTick<S> {
             faults: SensorFaults::default(),
             sensor_away: false,
         }
+    }
+
+    /// Each command handed to the arm wakes `arm_thread`.
+    pub fn wakes_arm(&mut self, arm_thread: std::thread::Thread) {
+        self.rings.arm.wakes(arm_thread);
     }
 
     /// The arm measures its pose: the motion starts at `start` (the first
@@ -301,7 +308,7 @@ impl<S: Samples> TickWork for ControlTick<S> {
         let stop = stop.or(self.core.arm_fault().map(|_| StopReason::ArmFault));
         if let Some(command) = out.motion.arm_command {
             self.last_arm_command = command;
-            if self.rings.arm.push(command).is_err() {
+            if self.rings.arm.hand(command, wake.woke_ns).is_err() {
                 self.drops.arm_commands += 1;
             }
             if let Some(recorded) = &mut self.rings.recorded
@@ -419,6 +426,8 @@ pub struct LoopResult {
     pub drift_ticks: i64,
     /// Heap allocations on the loop's thread after start-up.
     pub allocations: u64,
+    /// Page faults the loop's thread took after start-up.
+    pub page_faults: u64,
     /// Wall time of the loop, s.
     pub wall_seconds: f64,
 }
@@ -435,6 +444,7 @@ pub fn control_loop<C: Clock, W: TickWork>(
     let setup = setup_current_thread(&options.rt);
     let started = Instant::now();
     let allocations_before = alloc_counter::thread_allocations();
+    let faults_before = own_page_faults();
     let mut record_drops = 0u64;
 
     let start = clock.now_ns() + PERIOD_NS;
@@ -490,6 +500,7 @@ pub fn control_loop<C: Clock, W: TickWork>(
         }
     };
     let allocations = alloc_counter::thread_allocations() - allocations_before;
+    let page_faults = own_page_faults().saturating_sub(faults_before);
     let summary = work.summary();
     LoopResult {
         drops: Drops {
@@ -502,6 +513,7 @@ pub fn control_loop<C: Clock, W: TickWork>(
         stats: scheduler.stats(),
         drift_ticks: scheduler.drift_ticks(last_woke),
         allocations,
+        page_faults,
         wall_seconds: started.elapsed().as_secs_f64(),
     }
 }

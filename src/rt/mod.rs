@@ -10,6 +10,8 @@
 //! * [`stop`], [`signals`]: why a run stops; stop requests, from signals
 //!   (which ones, and their handlers) and failed outputs;
 //! * [`control_loop`]: the 1 kHz loop and the production tick;
+//! * [`serving`]: what each thread the loop waits on reports of its
+//!   wake-ups and page faults;
 //! * [`arm_thread`]: the 100 Hz arm stream; [`output_thread`]: the
 //!   outputs beyond the arm (keyboard and pointer, home), each on its own
 //!   thread;
@@ -33,6 +35,7 @@ pub mod report;
 pub mod rings;
 pub mod scheduler;
 pub mod service_watchdog;
+pub mod serving;
 pub mod setup;
 pub mod signals;
 pub mod simulated;

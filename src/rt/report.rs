@@ -13,6 +13,7 @@ use crate::rt::arm_thread::ArmReport;
 use crate::rt::control_loop::{LoopResult, SensorFaults, StopReason};
 use crate::rt::recorder::RecordingReport;
 use crate::rt::scheduler::SchedulerStats;
+use crate::rt::serving::ServingReport;
 use crate::rt::setup::RtSetting;
 use crate::rt::telemetry::{Drops, Latencies, Percentiles, at, write_hgrm};
 use crate::rt::telemetry_thread::TelemetryReport;
@@ -42,6 +43,11 @@ pub struct RunReport {
     pub drops: Drops,
     /// Heap allocations on the control thread after start-up.
     pub control_thread_allocations: u64,
+    /// Page faults the control thread took after start-up.
+    pub control_thread_page_faults: u64,
+    /// The threads the loop waits on (the arm's, the sensor's, an
+    /// output's): how late they woke, and their page faults.
+    pub serving: Vec<ServingReport>,
     /// Events logged.
     pub events: u64,
     /// Why the run ended.
@@ -147,6 +153,8 @@ impl RunReport {
             reference: telemetry.reference,
             drops: looped.drops,
             control_thread_allocations: looped.allocations,
+            control_thread_page_faults: looped.page_faults,
+            serving: vec![arm.serving],
             events: telemetry.events,
             stop_reason: work.stop_reason,
             arm: arm.state,
@@ -220,6 +228,20 @@ impl RunReport {
         s += &(Percentiles::of(&self.full.wake).line("wake-up latency") + "\n");
         s += &(Percentiles::of(&self.full.compute).line("compute") + "\n");
         s += &(Percentiles::of(&self.full.period).line("period") + "\n");
+        s += "each thread's wake-ups, µs late; its page faults while running:\n";
+        s += &format!(
+            "{}  {} page faults; late after its deadline\n",
+            Percentiles::of(&self.full.wake).line("control"),
+            self.control_thread_page_faults
+        );
+        for thread in &self.serving {
+            s += &format!(
+                "{}  {} page faults; late after {}\n",
+                Percentiles::of(&thread.wake).line(&thread.thread),
+                thread.page_faults,
+                thread.due
+            );
+        }
         let d = &self.drops;
         s += &format!(
             "rings: dropped {} samples, {} arm commands, {} tick records, {} events\n",

@@ -7,7 +7,7 @@
 
 use rtrb::RingBuffer;
 
-use crate::control::motion::stream::ArmCommand;
+use crate::rt::arm_thread::{ArmHandoff, Handed};
 use crate::rt::control_loop::OutputRings;
 use crate::rt::telemetry::TickRecord;
 use crate::rt::telemetry_thread::TelemetryRings;
@@ -30,7 +30,7 @@ pub(super) struct Rings {
     /// The control loop's tick records.
     pub records: rtrb::Producer<TickRecord>,
     /// The arm thread's end of the command ring.
-    pub arm: rtrb::Consumer<ArmCommand>,
+    pub arm: rtrb::Consumer<Handed>,
     /// The telemetry side's ends.
     pub telemetry: TelemetryRings,
 }
@@ -50,7 +50,7 @@ impl Rings {
         };
         Rings {
             outputs: OutputRings {
-                arm,
+                arm: ArmHandoff::new(arm),
                 events,
                 recorded,
                 outputs: Vec::new(),

@@ -261,10 +261,15 @@ fn simulate<S: Samples>(
                     break (ticks, events, arm_commands, recorded);
                 }
                 if !popped {
-                    thread::yield_now();
+                    // Parked as the arm thread parks: a command handed
+                    // over wakes it.
+                    thread::park_timeout(std::time::Duration::from_micros(100));
                 }
             }
         });
+        // Each command handed over wakes the thread that takes it, as in
+        // `run`.
+        work.work.wakes_arm(drain.thread().clone());
         let result = control_loop(SimClock::default(), &mut work, &mut records, &options);
         // The rings' producers go with the work and the record ring: the
         // drain thread sees them abandoned and ends.

@@ -123,7 +123,10 @@ impl Latencies {
     }
 }
 
-fn as_percentiles<S: Serializer>(h: &Histogram<u64>, serializer: S) -> Result<S::Ok, S::Error> {
+pub(crate) fn as_percentiles<S: Serializer>(
+    h: &Histogram<u64>,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
     Percentiles::of(h).serialize(serializer)
 }
 

@@ -268,6 +268,7 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
         .name("arm".into())
         .spawn(move || run_arm(stream, &mut commands, &fault, initial, measured))
         .map_err(|e| RunError::Thread(format!("cannot start the arm thread: {e}")))?;
+    tick.wakes_arm(arm_thread.thread().clone());
     serving.extend(serve(
         ("arm".into(), arm_thread.as_pthread_t()),
         settings.rt.serving.arm,

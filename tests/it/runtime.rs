@@ -6,7 +6,6 @@ use sipnpuff::clock::SimClock;
 use sipnpuff::config::Config;
 use sipnpuff::control::event::Event;
 use sipnpuff::control::modes::DetectionReason;
-use sipnpuff::control::motion::stream::ArmCommand;
 use sipnpuff::control::pipeline::Pipeline;
 use sipnpuff::rt::scheduler::Scheduler;
 
@@ -109,19 +108,20 @@ fn skipped_ticks_keep_the_cores_timers_true() {
 #[test]
 fn a_late_wake_up_faults_and_discards_the_sensors_backlog() {
     use sipnpuff::control::event::TimedEvent;
+    use sipnpuff::rt::arm_thread::{ArmHandoff, Handed};
     use sipnpuff::rt::control_loop::{ControlTick, OutputRings, TickWork};
     use sipnpuff::rt::scheduler::Wake;
     use sipnpuff::sensor::ring::{SAMPLE_RING, ring};
 
     let config = Config::default();
-    let (arm_tx, _arm_rx) = rtrb::RingBuffer::<ArmCommand>::new(4096);
+    let (arm_tx, _arm_rx) = rtrb::RingBuffer::<Handed>::new(4096);
     let (events_tx, mut events_rx) = rtrb::RingBuffer::<TimedEvent>::new(4096);
     let (mut feed, samples) = ring(SAMPLE_RING);
     let mut work = ControlTick::new(
         Pipeline::new(config.core()),
         samples,
         OutputRings {
-            arm: arm_tx,
+            arm: ArmHandoff::new(arm_tx),
             events: events_tx,
             recorded: None,
             outputs: Vec::new(),

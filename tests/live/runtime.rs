@@ -85,6 +85,16 @@ fn a_short_real_run_reports_its_structure() {
     let report = real_run(2.0);
     check_structure(&report, 2.0);
     assert_eq!(report.stop_reason, StopReason::Time);
+    // The arm thread woke once for each command handed to it, timed from
+    // its control tick's wake-up.
+    let arm = &report.serving[0];
+    assert_eq!(arm.thread, "arm");
+    assert_eq!(arm.wake.len(), report.arm_commands);
+    assert!(
+        report.to_text().contains("  arm    "),
+        "{}",
+        report.to_text()
+    );
 
     // --histogram-dir: one .hgrm per histogram, in the plotter's format,
     // its total the number of ticks.
