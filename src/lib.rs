@@ -21,6 +21,8 @@
 //!   home through MQTT (Home Assistant);
 //! * [`clock`]: `CLOCK_MONOTONIC` and absolute sleeps, or simulated time:
 //!   what the runtime's loop and the sensors' timers wait on;
+//! * [`wakes`]: a thread's record of how late it woke and the page faults
+//!   it took, kept by the threads the loop waits on;
 //! * [`rt`]: the 1 kHz runtime around the core: the scheduler, real-time
 //!   set-up, the threads and rings, telemetry and the run report;
 //! * [`display`]: what the user sees and hears, served to a browser or
@@ -119,4 +121,5 @@ pub mod sensor;
 pub mod session;
 pub mod sim;
 pub mod tools;
+pub mod wakes;
 pub mod wiring;

@@ -23,7 +23,8 @@ use nalgebra::Isometry3;
 use crate::arm::{Arm, ArmError, ArmState, end_stream};
 use crate::clock::{Clock, MonotonicClock};
 use crate::control::motion::stream::ArmCommand;
-use crate::rt::serving::{ServingReport, WakeLog};
+use crate::rt::serving::ServingReport;
+use crate::wakes::WakeLog;
 
 /// How long the thread waits for a command before it wakes anyway: the
 /// stream's 10 ms.
@@ -170,6 +171,7 @@ pub fn run_arm(
 ) -> ArmReport {
     let mut clock = MonotonicClock;
     let mut log = WakeLog::start();
+    log.due_on("its command's control tick");
     let mut report_state = state.or_else(|| stream.arm.feedback());
     let mut received = 0u64;
     let mut reports = 0u64;
@@ -246,7 +248,7 @@ pub fn run_arm(
         error,
         reports,
         feedback_drops,
-        serving: log.finish("arm", "its control tick's wake-up"),
+        serving: ServingReport::new("arm", log.finish()),
     }
 }
 

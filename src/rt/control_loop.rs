@@ -30,12 +30,12 @@ use crate::rt::alloc_counter;
 use crate::rt::arm_thread::ArmHandoff;
 use crate::rt::output_thread::{OutputLane, TickZero};
 use crate::rt::scheduler::{Scheduler, SchedulerStats, Wake};
-use crate::rt::serving::own_page_faults;
 use crate::rt::setup::{RtOptions, RtSetting, setup_current_thread};
 pub use crate::rt::stop::StopReason;
 use crate::rt::stop::StopRequest;
 use crate::rt::telemetry::{Drops, TickRecord};
 use crate::sensor::{Reading, Samples};
+use crate::wakes::own_page_faults;
 
 /// The control period: 1 ms.
 pub const PERIOD_NS: u64 = 1_000_000;

@@ -235,12 +235,17 @@ impl RunReport {
             self.control_thread_page_faults
         );
         for thread in &self.serving {
-            s += &format!(
-                "{}  {} page faults; late after {}\n",
-                Percentiles::of(&thread.wake).line(&thread.thread),
-                thread.page_faults,
-                thread.due
-            );
+            s += &match thread.due {
+                Some(due) => format!(
+                    "{}  {} page faults; late after {due}\n",
+                    Percentiles::of(&thread.wake).line(&thread.thread),
+                    thread.page_faults,
+                ),
+                None => format!(
+                    "  {:<22} waits on its device (no due time to measure from)  {} page faults\n",
+                    thread.thread, thread.page_faults
+                ),
+            };
         }
         let d = &self.drops;
         s += &format!(

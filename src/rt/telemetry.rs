@@ -7,6 +7,8 @@
 use std::io::Write;
 
 use hdrhistogram::Histogram;
+
+pub use crate::wakes::histogram;
 use serde::ser::SerializeStruct;
 use serde::{Serialize, Serializer};
 
@@ -74,17 +76,6 @@ pub trait TelemetryObserver {
     fn event(&mut self, event: &TimedEvent);
     /// The rings are empty for now.
     fn drained(&mut self);
-}
-
-/// Upper bound of every histogram: 10 s in ns (`saturating_record` clamps
-/// anything longer rather than fail).
-const HISTOGRAM_MAX_NS: u64 = 10_000_000_000;
-
-/// An empty histogram, 1 ns to 10 s at 3 significant digits.
-pub fn histogram() -> Histogram<u64> {
-    // Constant bounds that hdrhistogram accepts (low ≥ 1, high ≥ 2 × low,
-    // 3 digits): it cannot fail (the unit tests build one).
-    Histogram::new_with_bounds(1, HISTOGRAM_MAX_NS, 3).expect("constant bounds are valid")
 }
 
 /// Histograms of one arm of a run (ns). Not RT-safe: telemetry side.

@@ -52,6 +52,7 @@ use crate::rt::recorder::SessionRecorder;
 use crate::rt::report::{RunFacts, RunReport};
 use crate::rt::rings::{FEEDBACK_RING, Rings};
 use crate::rt::service_watchdog::ServiceNotifier;
+use crate::rt::serving::ServingReport;
 use crate::rt::setup::{RtOptions, RtSetting, setup_serving_thread};
 use crate::rt::stop::StopRequest;
 use crate::rt::telemetry_thread::{EventSink, Telemetry, Watchers};
@@ -316,7 +317,8 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     telemetry.drain();
     let wall_seconds = wall.elapsed().as_secs_f64();
     let cpu_percent = 100.0 * (cpu_seconds() - cpu_before) / wall_seconds.max(1e-9);
-    let sensor_error = producer.stop().err();
+    let (sensor_stopped, sensor_wakes) = producer.stop_with_wakes();
+    let sensor_error = sensor_stopped.err();
     let arm = arm_thread.join();
     let looped = looped.map_err(|_| RunError::Thread("the control thread panicked".into()))?;
     let arm = arm.map_err(|_| RunError::Thread("the arm thread panicked".into()))?;
@@ -331,6 +333,10 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     };
     let mut report = RunReport::new(run, looped, telemetry, arm);
     report.settings.extend(serving);
+    let sensors = sensor_wakes
+        .into_iter()
+        .map(|(name, wakes)| ServingReport::new(&name, wakes));
+    report.serving.splice(0..0, sensors);
     service.stopping(&format!("stopped by: {}", report.stop_reason));
     report.outputs = outputs;
     Ok(report)

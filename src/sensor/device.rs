@@ -11,6 +11,7 @@ use std::time::Duration;
 
 use crate::sensor::SensorError;
 use crate::sensor::held::{Holder, Link};
+use crate::wakes::WakeLog;
 
 /// How often a lost device is looked for again.
 pub const RECONNECT_EVERY: Duration = Duration::from_millis(250);
@@ -24,8 +25,14 @@ pub trait DeviceReader {
     fn reconnects(&self) -> bool;
 
     /// Reads into `holder` until `stop` is set (`Ok`) or the device fails
-    /// (`Err`).
-    fn read_until_lost(&mut self, holder: &Holder, stop: &AtomicBool) -> io::Result<()>;
+    /// (`Err`), logging how late it woke for data when it knows when the
+    /// data was due.
+    fn read_until_lost(
+        &mut self,
+        holder: &Holder,
+        stop: &AtomicBool,
+        log: &mut WakeLog,
+    ) -> io::Result<()>;
 
     /// One attempt to open the device again; on success the reader holds
     /// the new device and `holder` its current value.
@@ -40,9 +47,10 @@ pub fn run(
     reader: &mut impl DeviceReader,
     holder: &Holder,
     stop: &AtomicBool,
+    log: &mut WakeLog,
 ) -> Result<(), SensorError> {
     loop {
-        match reader.read_until_lost(holder, stop) {
+        match reader.read_until_lost(holder, stop, log) {
             Ok(()) => {
                 reader.finish();
                 return Ok(());
@@ -92,7 +100,12 @@ mod tests {
         fn reconnects(&self) -> bool {
             self.reconnect
         }
-        fn read_until_lost(&mut self, holder: &Holder, stop: &AtomicBool) -> io::Result<()> {
+        fn read_until_lost(
+            &mut self,
+            holder: &Holder,
+            stop: &AtomicBool,
+            _log: &mut WakeLog,
+        ) -> io::Result<()> {
             self.reads += 1;
             holder.set(f64::from(self.reads));
             if self.reads >= 2 {
@@ -116,7 +129,10 @@ mod tests {
             attempts: 0,
             reconnect: false,
         };
-        let e = run(&mut once, &holder, &stop).unwrap_err().to_string();
+        let mut log = WakeLog::start();
+        let e = run(&mut once, &holder, &stop, &mut log)
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("flaky disconnected: "), "{e}");
         assert!(e.contains("reconnect = true"), "{e}");
         assert_eq!(samples.try_read(0).sample, Sample::Lost);
@@ -125,7 +141,7 @@ mod tests {
             attempts: 0,
             reconnect: true,
         };
-        assert!(run(&mut again, &holder, &stop).is_ok());
+        assert!(run(&mut again, &holder, &stop, &mut log).is_ok());
         assert_eq!((again.reads, again.attempts), (2, 2));
         assert_eq!(samples.try_read(0).sample, Sample::Volts(2.0), "live again");
     }

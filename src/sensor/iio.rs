@@ -25,6 +25,7 @@ use crate::sensor::held::{HeldSamples, Holder, hold};
 use crate::sensor::pacer::Pacer;
 use crate::sensor::settings::IioSettings;
 use crate::sensor::{Producer, Sensor, SensorError, Started};
+use crate::wakes::WakeLog;
 
 /// What permission problems on IIO files need.
 pub const PERMISSION_FIX: &str = "IIO sysfs files are usually readable by all; if not, run as root or add a udev rule, e.g. SUBSYSTEM==\"iio\", RUN+=\"/bin/chmod a+r /sys%p/in_voltage0_raw\"";
@@ -205,8 +206,8 @@ impl Sensor for IioSensor {
         let (holder, samples) = hold();
         holder.set(self.conversion.volts(self.first_raw));
         let mut reader = Reader { sensor: self };
-        let producer = Producer::spawn("sensor-iio", move |stop| {
-            device::run(&mut reader, &holder, &stop)
+        let producer = Producer::spawn("sensor-iio", move |stop, log| {
+            device::run(&mut reader, &holder, &stop, log)
         })?;
         Ok(Started { samples, producer })
     }
@@ -227,14 +228,20 @@ impl DeviceReader for Reader {
     }
 
     /// Reads at `rate_hz` on absolute deadlines (no drift).
-    fn read_until_lost(&mut self, holder: &Holder, stop: &AtomicBool) -> io::Result<()> {
+    fn read_until_lost(
+        &mut self,
+        holder: &Holder,
+        stop: &AtomicBool,
+        log: &mut WakeLog,
+    ) -> io::Result<()> {
         let period_ns = 1_000_000_000 / u64::from(self.sensor.settings.rate_hz.max(1));
         // Behind (a slow read): from now, no burst of catch-up reads.
         let mut pacer = Pacer::new(MonotonicClock, period_ns, false);
+        log.due_on("its read's deadline");
         while !stop.load(Ordering::Relaxed) {
             let raw = read_raw(&self.sensor.file)?;
             holder.set(self.sensor.conversion.volts(raw));
-            pacer.wait();
+            log.woke(pacer.wait());
         }
         Ok(())
     }

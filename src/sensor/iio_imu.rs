@@ -251,7 +251,7 @@ impl Sensor for IioImu {
         feed.push(self.first);
         if let Some(mut buffer) = self.buffer.take() {
             let scales = self.scales();
-            let producer = Producer::spawn("sensor-iio-imu", move |stop| {
+            let producer = Producer::spawn("sensor-iio-imu", move |stop, _log| {
                 while !stop.load(Ordering::Relaxed) {
                     // A read failing (the device unbound) ends the reader:
                     // `feed` dropped tells the control thread the IMU is
@@ -267,15 +267,16 @@ impl Sensor for IioImu {
             })?;
             return Ok(Started { samples, producer });
         }
-        let producer = Producer::spawn("sensor-iio-imu", move |stop| {
+        let producer = Producer::spawn("sensor-iio-imu", move |stop, log| {
             // Behind (a slow read): from now, no burst of catch-up reads.
             let mut pacer = Pacer::new(
                 MonotonicClock,
                 1_000_000_000 / u64::from(self.rate_hz),
                 false,
             );
+            log.due_on("its read's deadline");
             while !stop.load(Ordering::Relaxed) {
-                pacer.wait();
+                log.woke(pacer.wait());
                 // A read failing (the device unbound) ends the reader:
                 // `feed` dropped tells the control thread the IMU is lost.
                 let Ok(sample) = self.read() else {

@@ -54,6 +54,7 @@ use std::thread::JoinHandle;
 
 use crate::control::imu::ImuInput;
 use crate::control::sample::Sample;
+use crate::wakes::{WakeLog, Wakes};
 
 /// Which sensor to open: the `--sensor` forms, a contract documented in
 /// `--help` and `docs/commands.md`. A new backend adds its form here and
@@ -261,7 +262,7 @@ pub struct Started<S> {
 /// The producer thread of a started sensor, if it has one.
 #[derive(Debug)]
 pub struct Producer {
-    thread: Option<JoinHandle<Result<(), SensorError>>>,
+    thread: Option<JoinHandle<(Result<(), SensorError>, Wakes)>>,
     stop: Arc<AtomicBool>,
     /// A second sensor's producer, stopped with this one.
     also: Option<Box<Producer>>,
@@ -288,16 +289,21 @@ impl Producer {
     }
 
     /// Spawns a producer thread named `name`; `body` gets the flag that
-    /// asks it to end.
+    /// asks it to end, and the log of its wake-ups (a reader that knows
+    /// when its data was due records how late it woke for it).
     pub fn spawn(
         name: &str,
-        body: impl FnOnce(Arc<AtomicBool>) -> Result<(), SensorError> + Send + 'static,
+        body: impl FnOnce(Arc<AtomicBool>, &mut WakeLog) -> Result<(), SensorError> + Send + 'static,
     ) -> Result<Producer, SensorError> {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
         let thread = std::thread::Builder::new()
             .name(name.into())
-            .spawn(move || body(flag))
+            .spawn(move || {
+                let mut log = WakeLog::start();
+                let result = body(flag, &mut log);
+                (result, log.finish())
+            })
             .map_err(|error| SensorError::Io {
                 what: format!("cannot start the {name} thread"),
                 error,
@@ -326,17 +332,34 @@ impl Producer {
 
     /// Asks the thread (and any joined with it) to end, waits for it, and
     /// returns what it met: the first error, if both met one.
-    pub fn stop(mut self) -> Result<(), SensorError> {
+    pub fn stop(self) -> Result<(), SensorError> {
+        self.stop_with_wakes().0
+    }
+
+    /// As [`Producer::stop`], with each thread's name and wake-up log.
+    pub fn stop_with_wakes(mut self) -> (Result<(), SensorError>, Vec<(String, Wakes)>) {
         self.stop.store(true, Ordering::Relaxed);
-        let also = self.also.take().map(|also| also.stop());
+        let (also, mut wakes) = self
+            .also
+            .take()
+            .map_or((Ok(()), Vec::new()), |also| also.stop_with_wakes());
         let own = match self.thread.take() {
             None => Ok(()),
-            Some(thread) => thread.join().unwrap_or(Err(SensorError::Disconnected {
-                what: "the sensor thread".into(),
-                detail: "it stopped unexpectedly (panicked)".into(),
-            })),
+            Some(thread) => {
+                let name = thread.thread().name().unwrap_or("sensor").to_string();
+                match thread.join() {
+                    Ok((result, log)) => {
+                        wakes.insert(0, (name, log));
+                        result
+                    }
+                    Err(_) => Err(SensorError::Disconnected {
+                        what: "the sensor thread".into(),
+                        detail: "it stopped unexpectedly (panicked)".into(),
+                    }),
+                }
+            }
         };
-        own.and(also.unwrap_or(Ok(())))
+        (own.and(also), wakes)
     }
 }
 

@@ -29,15 +29,18 @@ impl<C: Clock> Pacer<C> {
         }
     }
 
-    /// Returns at the next deadline (at once if it has passed).
-    pub fn wait(&mut self) {
+    /// Returns at the next deadline (at once if it has passed), and how
+    /// late after it, ns.
+    pub fn wait(&mut self) -> u64 {
         let now = self.clock.now_ns();
-        if self.next_ns > now {
-            self.clock.sleep_until_ns(self.next_ns);
+        let due = self.next_ns;
+        if due > now {
+            self.clock.sleep_until_ns(due);
         } else if !self.catch_up {
             self.next_ns = now;
         }
         self.next_ns += self.period_ns;
+        self.clock.now_ns().saturating_sub(due)
     }
 }
 
@@ -66,6 +69,19 @@ mod tests {
     #[test]
     fn a_recording_catches_up_after_a_late_wake_up_without_drifting() {
         assert_eq!(returns(true), [1, 2, 8, 8, 8, 8, 8, 8, 9]);
+    }
+
+    #[test]
+    fn each_wait_says_how_late_it_returned() {
+        let clock = SimClock {
+            lateness: [0, 0, 5 * MS].into(),
+            ..SimClock::default()
+        };
+        let mut pacer = Pacer::new(clock, MS, true);
+        let late: Vec<u64> = (0..7).map(|_| pacer.wait() / MS).collect();
+        // The third wake-up came 5 ms late; the rows owed after it were
+        // due 4, 3, 2 and 1 ms before.
+        assert_eq!(late, [0, 0, 5, 4, 3, 2, 1]);
     }
 
     #[test]

@@ -31,6 +31,7 @@ use crate::sensor::device::{self, DeviceReader};
 use crate::sensor::held::{HeldSamples, Holder, Link, hold};
 use crate::sensor::settings::{SerialFormat, SerialSettings};
 use crate::sensor::{Producer, Sensor, SensorError, Started};
+use crate::wakes::WakeLog;
 
 /// What permission problems on serial ports need.
 pub const PERMISSION_FIX: &str = "serial ports belong to root and the `dialout` group: add the user to it (`sudo usermod -aG dialout $USER`, then log in again)";
@@ -379,8 +380,8 @@ impl Sensor for SerialSensor {
             holder.set(self.last_volts);
         }
         let mut reader = Reader { sensor: self };
-        let producer = Producer::spawn("sensor-serial", move |stop| {
-            device::run(&mut reader, &holder, &stop)
+        let producer = Producer::spawn("sensor-serial", move |stop, log| {
+            device::run(&mut reader, &holder, &stop, log)
         })?;
         Ok(Started { samples, producer })
     }
@@ -400,7 +401,12 @@ impl DeviceReader for Reader {
         self.sensor.reconnect
     }
 
-    fn read_until_lost(&mut self, holder: &Holder, stop: &AtomicBool) -> io::Result<()> {
+    fn read_until_lost(
+        &mut self,
+        holder: &Holder,
+        stop: &AtomicBool,
+        _log: &mut WakeLog,
+    ) -> io::Result<()> {
         let silence = Duration::from_millis(u64::from(self.sensor.format.settings.silence_ms));
         let mut last_sample = Instant::now();
         let mut buffer = [0u8; 4096];

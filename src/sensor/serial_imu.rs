@@ -112,7 +112,7 @@ impl Sensor for SerialImu {
 
     fn start(mut self) -> Result<Started<ImuRing>, SensorError> {
         let (mut feed, samples) = imu_ring();
-        let thread = Producer::spawn("sensor-serial-imu", move |stop| {
+        let thread = Producer::spawn("sensor-serial-imu", move |stop, _log| {
             let mut buffer = [0u8; 4096];
             while !stop.load(Ordering::Relaxed) {
                 let n = match self.port.read(&mut buffer) {

@@ -25,7 +25,7 @@ const CRATE_NAME: &str = "sipnpuff";
 
 /// The crate's top-level modules by floor, the ground first. A module
 /// imports only from floors below its own: the core knows nothing else,
-/// nor does the clock beside it;
+/// nor do the clock and the threads' wake-up log beside it;
 /// the seams (sensor, arm, output) know the core; configuration and the
 /// runtime know the seams; fitting, and the wiring that opens backends
 /// from their specs, know the configuration and the runtime; simulation
@@ -34,7 +34,7 @@ const CRATE_NAME: &str = "sipnpuff";
 /// backends, the display, the recorder and the synthetic sensor, sit on
 /// the tools; the command line sits on top.
 pub const FLOORS: &[&[&str]] = &[
-    &["control", "clock"],
+    &["control", "clock", "wakes"],
     &["sensor", "arm", "output"],
     &["config", "rt"],
     &["fit", "gestures", "wiring"],
@@ -70,7 +70,7 @@ pub fn rule_violation(from_role: &str, to: &[String]) -> Option<&'static str> {
         return Some("rule 1: a module imports only from floors below its own");
     }
     let port_root = matches!(top, "sensor" | "arm" | "output") && to.len() == 1;
-    if from_role == "rt" && !port_root && !matches!(top, "control" | "clock") {
+    if from_role == "rt" && !port_root && !matches!(top, "control" | "clock" | "wakes") {
         return Some(
             "rule 2: rt/ may use only the sensor/arm/output module roots (mod.rs), not backends",
         );

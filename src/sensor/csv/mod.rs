@@ -350,15 +350,16 @@ impl Sensor for CsvSensor {
     fn start(self) -> Result<Started<RingSamples>, SensorError> {
         let (mut feed, samples) = ring(SAMPLE_RING);
         let CsvSensor { path, mut signal } = self;
-        let producer = Producer::spawn("sensor", move |stop| {
+        let producer = Producer::spawn("sensor", move |stop, log| {
             // A row a millisecond; after a late wake-up the rows owed come
             // at once (the ring keeps the newest two).
             let mut pacer = Pacer::new(MonotonicClock, SAMPLE_PERIOD_NS, true);
+            log.due_on("its row's deadline");
             while let Some(volts) = signal.next_sample().map_err(|e| bad_data(&path, &e))? {
                 if stop.load(Ordering::Relaxed) {
                     break;
                 }
-                pacer.wait();
+                log.woke(pacer.wait());
                 // Full: the loop is behind; the sample is lost and the loop
                 // counts what it discards.
                 feed.push(volts);

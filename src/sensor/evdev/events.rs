@@ -34,6 +34,23 @@ pub fn parse_events(bytes: &[u8]) -> impl Iterator<Item = InputEvent> + '_ {
     })
 }
 
+/// The time stamp of the first whole event in `bytes`, ns (its `timeval`,
+/// on the clock the device was given).
+pub fn first_event_ns(bytes: &[u8]) -> Option<u64> {
+    let event = bytes.get(..EVENT_BYTES)?;
+    let field = |at: usize| {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&event[at..at + 8]);
+        i64::from_ne_bytes(b)
+    };
+    let (sec, usec) = (field(0), field(8));
+    u64::try_from(
+        sec.checked_mul(1_000_000_000)?
+            .checked_add(usec.checked_mul(1000)?)?,
+    )
+    .ok()
+}
+
 /// How events become volts: the pure part of the backend.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Mapping {
@@ -221,6 +238,15 @@ mod tests {
                 }
             ]
         );
+    }
+
+    #[test]
+    fn a_batch_is_stamped_with_its_first_events_time() {
+        let mut bytes = event_bytes(12, EV_ABS, 0, 700);
+        bytes[8..16].copy_from_slice(&345_678i64.to_ne_bytes());
+        bytes.extend(event_bytes(13, EV_SYN, 0, 0));
+        assert_eq!(first_event_ns(&bytes), Some(12_345_678_000));
+        assert_eq!(first_event_ns(&bytes[..EVENT_BYTES - 1]), None);
     }
 
     #[test]

@@ -254,7 +254,7 @@ impl Sensor for EvdevImu {
         let mut frames = ImuFrames::new(self.axes, counts);
         feed.push(frames.sample());
         let device = self.device;
-        let producer = Producer::spawn("sensor-evdev-imu", move |stop| {
+        let producer = Producer::spawn("sensor-evdev-imu", move |stop, _log| {
             // The device gone (or the stop) ends the loop; `feed` dropped
             // tells the control thread the IMU is lost.
             let _ = read_frames(&device, &mut frames, &mut feed, || {

@@ -30,11 +30,16 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use evdev::raw_stream::RawDevice;
 use evdev::{AbsoluteAxisCode, KeyCode, PropType};
 
+use crate::clock::{Clock, MonotonicClock};
 use crate::sensor::device::{self, DeviceReader};
 use crate::sensor::held::{HeldSamples, Holder, Link, hold};
 use crate::sensor::settings::{EvdevInput, EvdevSettings};
 use crate::sensor::{EvdevTarget, Producer, Sensor, SensorError, Started};
-use events::{EV_SYN, EVENT_BYTES, EventMapper, Mapping, SYN_DROPPED, SwitchLevels, parse_events};
+use crate::wakes::WakeLog;
+use events::{
+    EV_SYN, EVENT_BYTES, EventMapper, Mapping, SYN_DROPPED, SwitchLevels, first_event_ns,
+    parse_events,
+};
 
 /// What permission problems on input devices need.
 pub const PERMISSION_FIX: &str = "input devices belong to root and the `input` group: add the user to it (`sudo usermod -aG input $USER`, then log in again) or install a udev rule, e.g. /etc/udev/rules.d/70-sipnpuff.rules: SUBSYSTEM==\"input\", ATTRS{name}==\"*Breeze*\", MODE=\"0660\", GROUP=\"plugdev\"";
@@ -277,6 +282,19 @@ pub(super) fn clear_fuzz(fd: RawFd, code: u16) -> io::Result<()> {
     Ok(())
 }
 
+/// `EVIOCSCLOCKID`: the device's events are stamped on `CLOCK_MONOTONIC`
+/// (the kernel's default is `CLOCK_REALTIME`).
+fn monotonic_stamps(fd: RawFd) -> io::Result<()> {
+    let request = ioc(1, 0xa0, size_of::<libc::c_int>());
+    let clock: libc::c_int = libc::CLOCK_MONOTONIC;
+    // SAFETY: EVIOCSCLOCKID reads one int from `clock`.
+    let rc = unsafe { libc::ioctl(fd, request as _, &clock) };
+    if rc < 0 {
+        return Err(io::Error::last_os_error());
+    }
+    Ok(())
+}
+
 /// `_IOC(dir, 'E', nr, size)` (dir 1 = write, 2 = read).
 fn ioc(dir: u64, nr: u64, size: usize) -> u64 {
     (dir << 30) | ((size as u64) << 16) | (u64::from(b'E') << 8) | nr
@@ -409,8 +427,8 @@ impl Sensor for EvdevSensor {
             }
         })?;
         holder.set(now);
-        let producer = Producer::spawn("sensor-evdev", move |stop| {
-            device::run(&mut reader, &holder, &stop)
+        let producer = Producer::spawn("sensor-evdev", move |stop, log| {
+            device::run(&mut reader, &holder, &stop, log)
         })?;
         Ok(Started { samples, producer })
     }
@@ -483,14 +501,29 @@ impl DeviceReader for Reader {
         self.sensor.reconnect
     }
 
-    fn read_until_lost(&mut self, holder: &Holder, stop: &AtomicBool) -> io::Result<()> {
+    fn read_until_lost(
+        &mut self,
+        holder: &Holder,
+        stop: &AtomicBool,
+        log: &mut WakeLog,
+    ) -> io::Result<()> {
         let fd = self.sensor.device.as_raw_fd();
         let mut buffer = [0u8; EVENT_BYTES * 64];
+        // Events stamped on the monotonic clock: how late the thread woke
+        // for each batch is measured from its first event's stamp.
+        let stamped = monotonic_stamps(fd).is_ok();
+        if stamped {
+            log.due_on("its first event's kernel time stamp");
+        }
+        let mut clock = MonotonicClock;
         while !stop.load(Ordering::Relaxed) {
             let n = match poll_read(fd, &mut buffer, POLL_MS)? {
                 Polled::Read(n) => n,
                 Polled::TimedOut | Polled::Interrupted => continue,
             };
+            if stamped && let Some(at) = first_event_ns(buffer.get(..n).unwrap_or_default()) {
+                log.woke(clock.now_ns().saturating_sub(at));
+            }
             let mut dropped = false;
             for event in parse_events(buffer.get(..n).unwrap_or_default()) {
                 if event.kind == EV_SYN && event.code == SYN_DROPPED {
@@ -539,6 +572,8 @@ mod tests {
         // EVIOCGABS(ABS_X) = 0x80184540, EVIOCSABS(ABS_X) = 0x401845c0.
         assert_eq!(ioc(2, 0x40, size_of::<libc::input_absinfo>()), 0x8018_4540);
         assert_eq!(ioc(1, 0xc0, size_of::<libc::input_absinfo>()), 0x4018_45c0);
+        // EVIOCSCLOCKID = 0x400445a0.
+        assert_eq!(ioc(1, 0xa0, size_of::<libc::c_int>()), 0x4004_45a0);
     }
 
     #[test]
