@@ -11,6 +11,7 @@ use crate::arm::ArmSpec;
 use crate::cli::output::invalid;
 use crate::config::Config;
 use crate::config::layers::Layered;
+use crate::config::realtime::RtSettings;
 use crate::control::selection::Interface;
 use crate::output::OutputSpec;
 use crate::rt::setup::{RtOptions, ServingPriorities};
@@ -148,14 +149,17 @@ pub fn parse_volts(text: &str) -> Result<f64, String> {
     }
 }
 
-/// Real-time settings of the control thread.
+/// Real-time settings of the control thread, over the configuration's
+/// `[rt]`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct RtArgs {
     /// SCHED_FIFO priority of the control thread (1–99; 0: don't ask);
-    /// the sensor, arm and uinput threads get 10, 20 and 30 less.
-    #[arg(long, default_value_t = 80, value_parser = clap::value_parser!(i32).range(0..=99))]
-    pub priority: i32,
-    /// CPU to pin the control thread to (default: the last one).
+    /// the sensor, arm and uinput threads get 10, 20 and 30 less
+    /// (default: `[rt]`, 80, 70, 60, 50).
+    #[arg(long, value_parser = clap::value_parser!(i32).range(0..=99))]
+    pub priority: Option<i32>,
+    /// CPU to pin the control thread to (default: `[rt] control_cpu`, or
+    /// the last one).
     #[arg(long)]
     pub cpu: Option<usize>,
     /// Don't lock memory (mlockall).
@@ -168,27 +172,58 @@ pub struct RtArgs {
 }
 
 impl RtArgs {
-    /// The settings to ask for; an error if the CPU does not exist.
-    pub fn options(&self) -> anyhow::Result<RtOptions> {
+    /// The settings to ask for: the configuration's `[rt]`, these options
+    /// over it; an error if a CPU does not exist on this machine.
+    pub fn options(&self, rt: &RtSettings) -> anyhow::Result<RtOptions> {
         let defaults = RtOptions::default();
-        if let Some(cpu) = self.cpu {
-            let ids: Vec<usize> = core_affinity::get_core_ids()
-                .unwrap_or_default()
-                .into_iter()
-                .map(|c| c.id)
-                .collect();
-            if !ids.contains(&cpu) {
-                return invalid(Err(anyhow::anyhow!(
-                    "--cpu {cpu}: no such CPU (this machine has CPUs {ids:?})"
-                )));
-            }
+        let ids: Vec<usize> = core_affinity::get_core_ids()
+            .unwrap_or_default()
+            .into_iter()
+            .map(|c| c.id)
+            .collect();
+        let missing = |what: String, cpu: usize| {
+            invalid(Err(anyhow::anyhow!(
+                "{what}: no such CPU {cpu} (this machine has CPUs {ids:?})"
+            )))
+        };
+        if let Some(cpu) = self.cpu.filter(|cpu| !ids.contains(cpu)) {
+            return missing(format!("--cpu {cpu}"), cpu);
         }
-        let fifo_priority = (self.priority > 0).then_some(self.priority);
+        if self.cpu.is_none()
+            && let Some(cpu) = rt.control_cpu.filter(|cpu| !ids.contains(cpu))
+        {
+            return missing(format!("[rt] control_cpu = {cpu}"), cpu);
+        }
+        if let Some(&cpu) = rt.serving_cpus.iter().find(|cpu| !ids.contains(cpu)) {
+            return missing(format!("[rt] serving_cpus = {:?}", rt.serving_cpus), cpu);
+        }
+        let priority = |p: i32| (p > 0).then_some(p);
+        let (fifo_priority, serving) = match self.priority {
+            Some(control) => (
+                priority(control),
+                ServingPriorities::below(priority(control)),
+            ),
+            None => (
+                priority(rt.control_priority),
+                ServingPriorities {
+                    sensor: priority(rt.sensor_priority),
+                    arm: priority(rt.arm_priority),
+                    output: priority(rt.output_priority),
+                },
+            ),
+        };
+        let cpu = self.cpu.or(rt.control_cpu).or(defaults.cpu);
+        let serving_cpus = rt
+            .serving_cpus
+            .iter()
+            .filter(|&&id| Some(id) != cpu)
+            .fold(0u64, |mask, &id| mask | 1 << id);
         Ok(RtOptions {
             fifo_priority,
-            cpu: self.cpu.or(defaults.cpu),
+            cpu,
             lock_memory: !self.no_mlock,
-            serving: ServingPriorities::below(fifo_priority),
+            serving,
+            serving_cpus,
             ..defaults
         })
     }
@@ -200,10 +235,14 @@ impl RtArgs {
 
     /// The loop's settings: these, `seconds` long (`None`: until the
     /// sensor ends), stopped safely from here on by every stop signal.
-    pub fn loop_settings(&self, seconds: Option<f64>) -> anyhow::Result<LoopSettings> {
+    pub fn loop_settings(
+        &self,
+        seconds: Option<f64>,
+        rt: &RtSettings,
+    ) -> anyhow::Result<LoopSettings> {
         Ok(LoopSettings {
             seconds,
-            rt: self.options()?,
+            rt: self.options(rt)?,
             spin_margin_ns: self.spin_margin_ns(),
             stop: signals::stop_request().context("cannot install the signal handlers")?,
         })
@@ -244,5 +283,81 @@ mod tests {
         }
         assert_eq!(parse_volts("0"), Ok(0.0));
         assert!(parse_volts("-0.1").is_err());
+    }
+
+    fn rt_args(priority: Option<i32>, cpu: Option<usize>) -> RtArgs {
+        RtArgs {
+            priority,
+            cpu,
+            no_mlock: false,
+            spin_margin_us: None,
+        }
+    }
+
+    #[test]
+    fn the_configurations_rt_section_sets_every_thread_and_options_override_it() {
+        let cpus: Vec<usize> = core_affinity::get_core_ids()
+            .unwrap()
+            .into_iter()
+            .map(|c| c.id)
+            .collect();
+        let first = cpus[0];
+        let rt = RtSettings {
+            control_priority: 90,
+            sensor_priority: 85,
+            arm_priority: 0,
+            output_priority: 40,
+            control_cpu: Some(first),
+            serving_cpus: Vec::new(),
+        };
+        let options = rt_args(None, None).options(&rt).unwrap();
+        assert_eq!(options.fifo_priority, Some(90));
+        assert_eq!(
+            options.serving,
+            ServingPriorities {
+                sensor: Some(85),
+                arm: None,
+                output: Some(40)
+            }
+        );
+        assert_eq!(options.cpu, Some(first));
+        let others: Vec<usize> = cpus.iter().copied().filter(|&c| c != first).collect();
+        assert_eq!(
+            options.serving_cpu_list(),
+            (!others.is_empty()).then_some(others)
+        );
+        // --priority: the control thread there, the others 10, 20, 30 below.
+        let options = rt_args(Some(60), None).options(&rt).unwrap();
+        assert_eq!(options.fifo_priority, Some(60));
+        assert_eq!(options.serving, ServingPriorities::below(Some(60)));
+        // A CPU this machine lacks is named with its key.
+        let absent = cpus.iter().max().unwrap() + 1;
+        let lacking = RtSettings {
+            control_cpu: Some(absent),
+            ..RtSettings::default()
+        };
+        let e = rt_args(None, None)
+            .options(&lacking)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with(&format!("[rt] control_cpu = {absent}: no such CPU")),
+            "{e}"
+        );
+        let e = rt_args(Some(80), Some(absent)).options(&RtSettings::default());
+        assert!(
+            e.unwrap_err()
+                .to_string()
+                .starts_with(&format!("--cpu {absent}"))
+        );
+        let given = RtSettings {
+            serving_cpus: vec![first],
+            control_cpu: None,
+            ..RtSettings::default()
+        };
+        let options = rt_args(None, Some(absent - 1)).options(&given).unwrap();
+        if absent - 1 != first {
+            assert_eq!(options.serving_cpu_list(), Some(vec![first]));
+        }
     }
 }

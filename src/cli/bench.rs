@@ -131,7 +131,7 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<u8> {
             if let Some(dir) = &histogram_dir {
                 writable_dir(dir)?;
             }
-            let settings = rt.loop_settings(Some(seconds))?;
+            let settings = rt.loop_settings(Some(seconds), config.rt())?;
             let run = bench_latency(&config, block, settings)?;
             let report = LatencyReport::of(&run, seconds);
             if json {

@@ -34,7 +34,7 @@ pub fn doctor(args: DoctorArgs) -> anyhow::Result<u8> {
         imu: args.backends.imu.as_ref(),
         arm: &args.backends.arm,
         outputs: &args.backends.outputs,
-        rt: args.rt.options()?,
+        rt: args.rt.options(config.rt())?,
         page: args.display.choice().page,
     };
     let checks = doctor::examine(&config, &examined);

@@ -147,7 +147,7 @@ fn live(args: &FitArgs, request: &FitRequest) -> anyhow::Result<FitEnd> {
     }
     record_dir(&dir)?;
     let out = args.out.clone().unwrap_or_else(|| dir.join(PROFILE));
-    let settings = args.rt.loop_settings(None)?;
+    let settings = args.rt.loop_settings(None, request.current.rt())?;
     let live = Live {
         sensor: &args.sensor,
         dir: &dir,

@@ -66,7 +66,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     if let Some(dir) = &args.record {
         record_dir(dir)?;
     }
-    let settings = args.rt.loop_settings(args.seconds)?;
+    let settings = args.rt.loop_settings(args.seconds, config.rt())?;
     let plan = RunPlan {
         sensor: &args.backends.sensor,
         imu: args.backends.imu.as_ref(),

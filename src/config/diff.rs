@@ -115,6 +115,7 @@ fn tree(config: &Config) -> Result<Table, toml::ser::Error> {
         config.sensor().clone(),
         config.arm().clone(),
         config.output().clone(),
+        config.rt().clone(),
     );
     Table::try_from(file)
 }

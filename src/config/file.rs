@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::arm::settings::ArmSettings;
 use crate::config::defaults;
 use crate::config::library::LibraryEntry;
+use crate::config::realtime::RtSettings;
 use crate::control::core_config::{CoreConfig, GesturesSection, InterfaceSection};
 use crate::control::detector::DetectorConfig;
 use crate::control::modes::CommandConfig;
@@ -40,6 +41,7 @@ pub(super) struct File {
     sensor: SensorSettings,
     gestures: GesturesSection,
     output: OutputSection,
+    rt: RtSettings,
 }
 
 /// `[output]`: the uinput device (its name and the pointer's speeds) and
@@ -81,6 +83,7 @@ impl Default for File {
             SensorSettings::default(),
             ArmSettings::default(),
             OutputSettings::default(),
+            RtSettings::default(),
         )
     }
 }
@@ -92,6 +95,7 @@ impl File {
         sensor: SensorSettings,
         arm: ArmSettings,
         output: OutputSettings,
+        rt: RtSettings,
     ) -> File {
         File {
             detector: core.detector,
@@ -116,11 +120,20 @@ impl File {
                 },
                 mqtt: output.mqtt,
             },
+            rt,
         }
     }
 
     /// The settings the file holds, not yet validated.
-    pub(super) fn into_parts(self) -> (CoreConfig, SensorSettings, ArmSettings, OutputSettings) {
+    pub(super) fn into_parts(
+        self,
+    ) -> (
+        CoreConfig,
+        SensorSettings,
+        ArmSettings,
+        OutputSettings,
+        RtSettings,
+    ) {
         let core = CoreConfig {
             detector: self.detector,
             matcher: self.matcher,
@@ -141,7 +154,7 @@ impl File {
             uinput: self.output.uinput.device,
             mqtt: self.output.mqtt,
         };
-        (core, self.sensor, self.arm.backends, output)
+        (core, self.sensor, self.arm.backends, output, self.rt)
     }
 
     /// The built-in configuration as a TOML tree: what a file's key is
@@ -151,6 +164,7 @@ impl File {
         let mut file = File::default();
         file.output.mqtt.credentials_file = Some(std::path::PathBuf::from("credentials.toml"));
         file.gestures.set = Some(std::path::PathBuf::from("gestures.toml"));
+        file.rt.control_cpu = Some(1);
         let mut sample =
             toml::Value::try_from(file).unwrap_or_else(|_| toml::Value::Table(toml::Table::new()));
         if let Some(toml::Value::Table(detector)) = sample.get_mut("detector") {

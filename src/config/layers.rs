@@ -128,18 +128,19 @@ impl Layered {
         // The merged files read (what one file got wrong is mended, and
         // said above with its own line), then checked together.
         let mut mended = Problems::default();
-        let (core, sensor, arm, output) = read::file(merged, &mut mended).into_parts();
+        let (core, sensor, arm, output, rt) = read::file(merged, &mut mended).into_parts();
         let mut found = Problems::default();
         if problems.is_empty() {
             found.errors = mended.errors;
         }
-        validate::config(&mut found, &core, &sensor, &arm, &output);
+        validate::config(&mut found, &core, &sensor, &arm, &output, &rt);
         if found.errors.is_empty() && problems.is_empty() {
             let config = Config {
                 core,
                 sensor,
                 arm,
                 output,
+                rt,
             };
             return Ok(Layered {
                 config,

@@ -15,6 +15,7 @@
 //!   through the same layout;
 //! * [`diff`]: what a file changes from the built-in configuration, with
 //!   the reasons written in it, compared through that same layout;
+//! * [`realtime`]: `[rt]`, the threads' priorities and CPUs;
 //! * [`layers`]: a setup from several files (`--config A --config B`),
 //!   later over earlier, each setting with the file it came from;
 //! * [`invalid`](mod@invalid): the mark of a configuration or an option
@@ -31,6 +32,7 @@ mod lines;
 mod names;
 pub mod print;
 mod read;
+pub mod realtime;
 pub mod validate;
 
 use std::path::{Path, PathBuf};
@@ -48,6 +50,7 @@ use crate::sensor::settings::SensorSettings;
 use error::Problems;
 pub use error::{ConfigError, ConfigErrors, ConfigFileError};
 use file::File;
+use realtime::RtSettings;
 
 /// The whole validated configuration. Only [`Config::default`],
 /// [`Config::from_toml_str`] (and [`Config::from_file`]) and the `with_*`
@@ -58,17 +61,19 @@ pub struct Config {
     sensor: SensorSettings,
     arm: ArmSettings,
     output: OutputSettings,
+    rt: RtSettings,
 }
 
 /// The built-in configuration (see `defaults`).
 impl Default for Config {
     fn default() -> Self {
-        let (core, sensor, arm, output) = File::default().into_parts();
+        let (core, sensor, arm, output, rt) = File::default().into_parts();
         Config {
             core,
             sensor,
             arm,
             output,
+            rt,
         }
     }
 }
@@ -105,14 +110,15 @@ impl Config {
             .map_err(|e: toml::de::Error| ConfigErrors(vec![lines::syntax_error(text, &e)]))?;
         let sections: Vec<String> = root.keys().cloned().collect();
         let mut problems = Problems::default();
-        let (core, sensor, arm, output) = read::file(root, &mut problems).into_parts();
-        validate::config(&mut problems, &core, &sensor, &arm, &output);
+        let (core, sensor, arm, output, rt) = read::file(root, &mut problems).into_parts();
+        validate::config(&mut problems, &core, &sensor, &arm, &output, &rt);
         if problems.errors.is_empty() {
             Ok(Config {
                 core,
                 sensor,
                 arm,
                 output,
+                rt,
             })
         } else {
             Err(lines::in_file_order(text, &sections, problems.errors))
@@ -128,6 +134,7 @@ impl Config {
             &self.sensor,
             &self.arm,
             &self.output,
+            &self.rt,
         );
         if problems.errors.is_empty() {
             Ok(self)
@@ -172,6 +179,11 @@ impl Config {
     /// and `mqtt` tables).
     pub fn output(&self) -> &OutputSettings {
         &self.output
+    }
+
+    /// The threads' real-time priorities and CPUs (`[rt]`).
+    pub fn rt(&self) -> &RtSettings {
+        &self.rt
     }
 
     /// The same configuration with other output settings, validated.

@@ -16,6 +16,7 @@ impl Config {
             self.sensor.clone(),
             self.arm.clone(),
             self.output.clone(),
+            self.rt.clone(),
         );
         let text = toml::to_string(&file)?;
         let mut entries = self.core().sequences().iter();

@@ -523,3 +523,73 @@ fn an_iio_trigger_without_the_buffer_is_refused_naming_its_line() {
         Config::from_toml_str("[sensor.iio]\nbuffered = true\ntrigger = \"bmi160-dev0\"\n").is_ok()
     );
 }
+
+#[test]
+fn rt_priorities_and_cpus_are_read_and_every_error_named_with_its_line() {
+    let c = Config::from_toml_str(
+        "[rt]\ncontrol_priority = 90\nsensor_priority = 85\narm_priority = 0\ncontrol_cpu = 3\nserving_cpus = [1, 2]\n",
+    )
+    .unwrap();
+    let rt = c.rt();
+    assert_eq!(
+        (
+            rt.control_priority,
+            rt.sensor_priority,
+            rt.arm_priority,
+            rt.output_priority
+        ),
+        (90, 85, 0, 50)
+    );
+    assert_eq!(
+        (rt.control_cpu, rt.serving_cpus.as_slice()),
+        (Some(3), &[1, 2][..])
+    );
+
+    let e = errors(
+        "[rt]\ncontrol_priority = 50\nsensor_priority = 60\narm_priority = 120\ncontrol_cpu = 1\nserving_cpus = [0, 1]\n",
+    );
+    let found: Vec<(&str, Option<usize>, &str)> = e
+        .iter()
+        .map(|e| (e.key.as_str(), e.line, e.message.as_str()))
+        .collect();
+    assert_eq!(
+        found,
+        [
+            (
+                "rt.sensor_priority",
+                Some(3),
+                "60 is not below control_priority = 50: the control thread must preempt every thread it waits on"
+            ),
+            (
+                "rt.arm_priority",
+                Some(4),
+                "120: SCHED_FIFO priorities are 1–99 (0: SCHED_OTHER)"
+            ),
+            (
+                "rt.serving_cpus",
+                Some(6),
+                "CPU 1 is the control thread's (control_cpu): it keeps its CPU to itself"
+            ),
+            // Not in the file: its default, named all the same.
+            (
+                "rt.output_priority",
+                None,
+                "50 is not below control_priority = 50: the control thread must preempt every thread it waits on"
+            ),
+        ]
+    );
+    // A control thread at SCHED_OTHER takes every thread with it.
+    assert_eq!(
+        keys("[rt]\ncontrol_priority = 0\n"),
+        [
+            "rt.sensor_priority",
+            "rt.arm_priority",
+            "rt.output_priority"
+        ]
+    );
+    assert!(Config::from_toml_str(
+        "[rt]\ncontrol_priority = 0\nsensor_priority = 0\narm_priority = 0\noutput_priority = 0\n"
+    )
+    .is_ok());
+    assert_eq!(keys("[rt]\npriority = 80\n"), ["rt.priority"]);
+}

@@ -20,6 +20,9 @@ pub struct RtOptions {
     pub cpu_dma_latency: bool,
     /// The priorities of the threads that serve the control thread.
     pub serving: ServingPriorities,
+    /// Their CPUs, a bit each (CPU 0 the lowest); 0: every CPU but the
+    /// control thread's.
+    pub serving_cpus: u64,
 }
 
 /// SCHED_FIFO priorities of the threads the control loop waits on, each
@@ -67,7 +70,25 @@ impl RtOptions {
         timer_slack: false,
         cpu_dma_latency: false,
         serving: ServingPriorities::NONE,
+        serving_cpus: 0,
     };
+
+    /// The CPUs of the threads that serve the control thread: those of
+    /// `serving_cpus`, or else every CPU but the control thread's; `None`
+    /// when the control thread is not pinned and none are given.
+    pub fn serving_cpu_list(&self) -> Option<Vec<usize>> {
+        let all = core_affinity::get_core_ids()
+            .unwrap_or_default()
+            .into_iter()
+            .map(|c| c.id);
+        if self.serving_cpus != 0 {
+            let given = |id: &usize| *id < 64 && self.serving_cpus & (1 << id) != 0;
+            return Some(all.filter(given).collect());
+        }
+        let control = self.cpu?;
+        let others: Vec<usize> = all.filter(|&id| id != control).collect();
+        (!others.is_empty()).then_some(others)
+    }
 }
 
 impl Default for RtOptions {
@@ -81,6 +102,7 @@ impl Default for RtOptions {
             timer_slack: true,
             cpu_dma_latency: true,
             serving: ServingPriorities::below(Some(80)),
+            serving_cpus: 0,
         }
     }
 }
@@ -258,15 +280,16 @@ unsafe fn set_fifo(thread: libc::pthread_t, priority: i32) -> Result<String, Str
 }
 
 /// Gives `thread`, a thread of this process called `name`, SCHED_FIFO
-/// `priority` and every CPU but `avoid_cpu` (the control thread's): on a
-/// loaded machine ordinary work cannot starve it, and it does not take
-/// the control thread's CPU. Each step reports granted or denied with
-/// the fix. Not RT-safe: call before the loop.
+/// `priority` and the CPUs `cpus` (by default every CPU but the control
+/// thread's, [`RtOptions::serving_cpu_list`]): on a loaded machine
+/// ordinary work cannot starve it, and it does not take the control
+/// thread's CPU. Each step reports granted or denied with the fix. Not
+/// RT-safe: call before the loop.
 pub fn setup_serving_thread(
     thread: libc::pthread_t,
     name: &str,
     priority: Option<i32>,
-    avoid_cpu: Option<usize>,
+    cpus: Option<&[usize]>,
 ) -> Vec<RtSetting> {
     let mut setup = RtSetup::default();
     let Some(priority) = priority else {
@@ -278,16 +301,10 @@ pub fn setup_serving_thread(
         // JoinHandle is held by the caller).
         unsafe { set_fifo(thread, priority) },
     );
-    let cpus: Vec<usize> = core_affinity::get_core_ids()
-        .unwrap_or_default()
-        .into_iter()
-        .map(|c| c.id)
-        .filter(|&id| Some(id) != avoid_cpu)
-        .collect();
-    if avoid_cpu.is_some() && !cpus.is_empty() {
+    if let Some(cpus) = cpus.filter(|cpus| !cpus.is_empty()) {
         setup.push(
             format!("{name} thread: CPUs {cpus:?}"),
-            set_affinity(thread, &cpus),
+            set_affinity(thread, cpus),
         );
     }
     setup.settings
@@ -363,6 +380,7 @@ mod tests {
             timer_slack: true,
             cpu_dma_latency: false,
             serving: ServingPriorities::NONE,
+            serving_cpus: 0,
         };
         let handle = std::thread::spawn(move || setup_current_thread(&options));
         let setup = handle.join().unwrap();
@@ -413,7 +431,13 @@ mod tests {
             wait.recv().unwrap();
             own_scheduling()
         });
-        let settings = setup_serving_thread(thread.as_pthread_t(), "sensor", Some(10), Some(avoid));
+        let options = RtOptions {
+            cpu: Some(avoid),
+            ..RtOptions::NONE
+        };
+        let cpus = options.serving_cpu_list();
+        let settings =
+            setup_serving_thread(thread.as_pthread_t(), "sensor", Some(10), cpus.as_deref());
         go.send(()).unwrap();
         let (policy, priority, cpus) = thread.join().unwrap();
 

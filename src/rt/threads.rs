@@ -221,8 +221,9 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     let producer = started.producer;
     // The threads the loop waits on, each at its priority below the
     // control thread and off its CPU: granted or denied, in the report.
+    let serving_cpus = settings.rt.serving_cpu_list();
     let serve = |(name, thread): (String, libc::pthread_t), priority| {
-        setup_serving_thread(thread, &name, priority, settings.rt.cpu)
+        setup_serving_thread(thread, &name, priority, serving_cpus.as_deref())
     };
     let mut serving: Vec<RtSetting> = Vec::new();
     for thread in producer.threads() {

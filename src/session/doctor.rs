@@ -135,7 +135,7 @@ fn real_time(options: &RtOptions, threads: &[(&str, Option<i32>)]) -> Vec<Check>
         .unwrap_or_default();
     // SAFETY: munlockall has no preconditions; this process needs no lock.
     unsafe { libc::munlockall() };
-    setup.extend(serving_threads(threads, options.cpu));
+    setup.extend(serving_threads(threads, options.serving_cpu_list()));
     let rtprio = limit(libc::RLIMIT_RTPRIO);
     let memlock = limit(libc::RLIMIT_MEMLOCK);
     setup
@@ -188,9 +188,9 @@ fn real_time(options: &RtOptions, threads: &[(&str, Option<i32>)]) -> Vec<Check>
 }
 
 /// The priorities `run` gives the threads its loop waits on (`threads`:
-/// name and priority), applied to a scratch thread in turn; the CPUs
-/// off `control_cpu` once, as the first's.
-fn serving_threads(threads: &[(&str, Option<i32>)], control_cpu: Option<usize>) -> Vec<RtSetting> {
+/// name and priority), applied to a scratch thread in turn; their CPUs
+/// once, as the first's.
+fn serving_threads(threads: &[(&str, Option<i32>)], cpus: Option<Vec<usize>>) -> Vec<RtSetting> {
     use std::os::unix::thread::JoinHandleExt;
     let (done, wait) = std::sync::mpsc::channel::<()>();
     let scratch = std::thread::spawn(move || {
@@ -198,7 +198,7 @@ fn serving_threads(threads: &[(&str, Option<i32>)], control_cpu: Option<usize>) 
     });
     let mut settings = Vec::new();
     for (i, &(name, priority)) in threads.iter().enumerate() {
-        let applied = setup_serving_thread(scratch.as_pthread_t(), name, priority, control_cpu);
+        let applied = setup_serving_thread(scratch.as_pthread_t(), name, priority, cpus.as_deref());
         settings.extend(
             applied
                 .into_iter()

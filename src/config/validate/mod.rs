@@ -6,17 +6,20 @@
 //!
 //! One file per part of the file: `detector`, `selection` (matcher,
 //! command mode, scanning, the library), `motion` (limits and workspace),
-//! `arm` (power-up pose, measured-pose checks, backends) and `sensor`.
+//! `arm` (power-up pose, measured-pose checks, backends), `sensor`,
+//! `output` and `realtime` (`[rt]`).
 
 mod arm;
 mod detector;
 mod motion;
 mod output;
+mod realtime;
 mod selection;
 mod sensor;
 
 use crate::arm::settings::ArmSettings;
 use crate::config::error::Problems;
+use crate::config::realtime::RtSettings;
 use crate::control::core_config::CoreConfig;
 use crate::output::settings::OutputSettings;
 use crate::sensor::settings::SensorSettings;
@@ -74,6 +77,7 @@ pub(super) fn config(
     sensor: &SensorSettings,
     arm: &ArmSettings,
     output: &OutputSettings,
+    rt: &RtSettings,
 ) {
     detector::detector(p, core.detector());
     selection::matcher(p, core.matcher());
@@ -88,4 +92,5 @@ pub(super) fn config(
     selection::gestures(p, core);
     sensor::sensor(p, sensor);
     output::output(p, output, core.pointer());
+    realtime::rt(p, rt);
 }
