@@ -18,13 +18,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::Thread;
 use std::time::Duration;
 
+use hdrhistogram::Histogram;
 use nalgebra::Isometry3;
 
 use crate::arm::{Arm, ArmError, ArmState, end_stream};
 use crate::clock::{Clock, MonotonicClock};
 use crate::control::motion::stream::ArmCommand;
 use crate::rt::serving::ServingReport;
-use crate::wakes::WakeLog;
+use crate::wakes::{WakeLog, histogram};
 
 /// How long the thread waits for a command before it wakes anyway: the
 /// stream's 10 ms.
@@ -151,6 +152,9 @@ pub struct ArmReport {
     /// Its wake-ups for commands, from their tick's wake-up, and its page
     /// faults.
     pub serving: ServingReport,
+    /// Time between one command's send and the next's, ns (nominally the
+    /// stream's 10 ms: what the arm's own stream watchdog sees).
+    pub send_gaps: Histogram<u64>,
 }
 
 /// Where the measured poses go: the control thread's ring, when the arm
@@ -178,6 +182,8 @@ pub fn run_arm(
     let mut feedback_drops = 0u64;
     let mut error: Option<ArmError> = None;
     let mut ended_with_zero = false;
+    let mut send_gaps = histogram();
+    let mut last_send_ns: Option<u64> = None;
     let mut fail = |stream: &mut ArmStream, error: &mut Option<ArmError>, e: ArmError| {
         ended_with_zero = stream.end().is_ok();
         *error = Some(e);
@@ -205,7 +211,13 @@ pub fn run_arm(
                 continue;
             }
             match stream.send(&handed.command) {
-                Ok(()) => sent = true,
+                Ok(()) => {
+                    sent = true;
+                    let at = clock.now_ns();
+                    if let Some(last) = last_send_ns.replace(at) {
+                        send_gaps.saturating_record(at.saturating_sub(last).max(1));
+                    }
+                }
                 Err(e) => fail(&mut stream, &mut error, e),
             }
         }
@@ -249,6 +261,7 @@ pub fn run_arm(
         reports,
         feedback_drops,
         serving: ServingReport::new("arm", log.finish()),
+        send_gaps,
     }
 }
 

@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use hdrhistogram::Histogram;
 use serde::Serialize;
 
 use crate::arm::ArmState;
@@ -15,7 +16,7 @@ use crate::rt::recorder::RecordingReport;
 use crate::rt::scheduler::SchedulerStats;
 use crate::rt::serving::ServingReport;
 use crate::rt::setup::RtSetting;
-use crate::rt::telemetry::{Drops, Latencies, Percentiles, at, write_hgrm};
+use crate::rt::telemetry::{Drops, Latencies, Percentiles, as_percentiles, at, write_hgrm};
 use crate::rt::telemetry_thread::TelemetryReport;
 use crate::sensor::SensorError;
 
@@ -56,6 +57,10 @@ pub struct RunReport {
     pub arm: Option<ArmState>,
     /// Commands the arm received.
     pub arm_commands: u64,
+    /// Time from one command sent to the arm to the next, ns (nominally
+    /// 10 ms).
+    #[serde(rename = "arm_command_gaps_ns", serialize_with = "as_percentiles")]
+    pub arm_command_gaps: Histogram<u64>,
     /// The stream ended with a zero command and the arm was stopped.
     pub stream_ended_with_zero: bool,
     /// The last command the core sent to the arm.
@@ -159,6 +164,7 @@ impl RunReport {
             stop_reason: work.stop_reason,
             arm: arm.state,
             arm_commands: arm.commands,
+            arm_command_gaps: arm.send_gaps,
             stream_ended_with_zero: arm.ended_with_zero,
             last_arm_command: work.last_arm_command,
             final_velocity: work.final_velocity,
@@ -281,6 +287,10 @@ impl RunReport {
                 );
             }
         }
+        s += &format!(
+            "{}\n",
+            Percentiles::of(&self.arm_command_gaps).line("arm command gaps, µs")
+        );
         if self.arm_measured {
             s += &format!(
                 "arm feedback: {} measured poses taken in ({} dropped), largest correction of the estimate {:.1} mm\n",

@@ -27,25 +27,46 @@ const MAX_QUEUED: usize = 2;
 pub fn ring(capacity: usize) -> (SampleFeed, RingSamples) {
     let (tx, rx) = RingBuffer::new(capacity);
     let finished = Arc::new(AtomicBool::new(false));
+    let reading = Arc::new(AtomicBool::new(false));
     (
         SampleFeed {
             tx,
             finished: finished.clone(),
+            reading: reading.clone(),
         },
-        RingSamples { rx, finished },
+        RingSamples {
+            rx,
+            finished,
+            reading,
+            read_once: false,
+        },
     )
 }
+
+/// How often a producer looks whether the control thread reads yet.
+const READER_POLL: std::time::Duration = std::time::Duration::from_micros(100);
 
 /// The producer's end. Dropping it marks the sensor as ended.
 pub struct SampleFeed {
     tx: rtrb::Producer<f64>,
     finished: Arc<AtomicBool>,
+    reading: Arc<AtomicBool>,
 }
 
 impl SampleFeed {
     /// Pushes a sample; `false` if the ring was full and it was dropped.
     pub fn push(&mut self, volts: f64) -> bool {
         self.tx.push(volts).is_ok()
+    }
+
+    /// Returns once the control thread reads the ring (its first tick),
+    /// or `stop` is set: a recording played from then on starts with the
+    /// loop, instead of piling up rows meanwhile that the first tick
+    /// would throw away.
+    pub fn wait_for_reader(&self, stop: &AtomicBool) {
+        while !self.reading.load(Ordering::Acquire) && !stop.load(Ordering::Relaxed) {
+            std::thread::sleep(READER_POLL);
+        }
     }
 }
 
@@ -59,10 +80,17 @@ impl Drop for SampleFeed {
 pub struct RingSamples {
     rx: rtrb::Consumer<f64>,
     finished: Arc<AtomicBool>,
+    /// Told to the producer on the first read.
+    reading: Arc<AtomicBool>,
+    read_once: bool,
 }
 
 impl Samples for RingSamples {
     fn try_read(&mut self, skipped: u64) -> Reading {
+        if !self.read_once {
+            self.read_once = true;
+            self.reading.store(true, Ordering::Release);
+        }
         // One sample per tick; after skipped ticks, their samples are
         // stale: keep the last of those taken.
         let mut reading = Reading::default();
@@ -82,6 +110,10 @@ impl Samples for RingSamples {
     }
 
     fn discard_backlog(&mut self, _skipped: u64) -> u64 {
+        if !self.read_once {
+            self.read_once = true;
+            self.reading.store(true, Ordering::Release);
+        }
         let mut discarded = 0;
         while self.rx.pop().is_ok() {
             discarded += 1;
@@ -117,6 +149,24 @@ mod tests {
         assert!(!samples.ended(), "two samples still queued");
         samples.try_read(1);
         assert!(samples.ended());
+    }
+
+    #[test]
+    fn a_producer_waits_for_the_loops_first_read() {
+        let (feed, mut samples) = ring(16);
+        let stop = AtomicBool::new(false);
+        let producer = std::thread::spawn(move || {
+            feed.wait_for_reader(&stop);
+            feed
+        });
+        // Only the first read lets the producer go on.
+        assert_eq!(samples.try_read(0), Reading::default());
+        let mut feed = producer.join().unwrap();
+        feed.push(1.0);
+        assert_eq!(samples.try_read(0).sample, Sample::Volts(1.0));
+        // A stopped sensor does not wait.
+        let (feed, _samples) = ring(16);
+        feed.wait_for_reader(&AtomicBool::new(true));
     }
 
     #[test]

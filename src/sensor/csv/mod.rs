@@ -351,8 +351,10 @@ impl Sensor for CsvSensor {
         let (mut feed, samples) = ring(SAMPLE_RING);
         let CsvSensor { path, mut signal } = self;
         let producer = Producer::spawn("sensor", move |stop, log| {
-            // A row a millisecond; after a late wake-up the rows owed come
-            // at once (the ring keeps the newest two).
+            // A row a millisecond from the loop's first tick; after a late
+            // wake-up the rows owed come at once (the ring keeps the
+            // newest two).
+            feed.wait_for_reader(&stop);
             let mut pacer = Pacer::new(MonotonicClock, SAMPLE_PERIOD_NS, true);
             log.due_on("its row's deadline");
             while let Some(volts) = signal.next_sample().map_err(|e| bad_data(&path, &e))? {
