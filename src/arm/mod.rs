@@ -216,8 +216,8 @@ pub trait Arm: Send {
 
     /// Whether the link still stands: `Err(ArmError::Disconnected)` once
     /// the backend knows the other side is gone (the receiver, the
-    /// master, the device). Polled every millisecond by the arm thread;
-    /// never blocks.
+    /// master, the device). Asked at each of the arm thread's wake-ups
+    /// (each command, at least every 10 ms); never blocks.
     fn check_link(&mut self) -> Result<(), ArmError> {
         Ok(())
     }
@@ -225,6 +225,13 @@ pub trait Arm: Send {
     /// Ends the stream and releases the arm. Call through [`end_stream`],
     /// which sends the zero command first.
     fn stop(&mut self) -> Result<(), ArmError>;
+
+    /// The backend's own threads that carry the stream on to the arm (the
+    /// Kinova SDK's worker), named, while connected: `run` gives them the
+    /// arm thread's priority and CPUs, since a command waits on them too.
+    fn threads(&self) -> Vec<(String, libc::pthread_t)> {
+        Vec::new()
+    }
 }
 
 /// Ends a stream: a zero command numbered after `last` (so the arm stands

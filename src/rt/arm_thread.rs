@@ -104,6 +104,11 @@ impl ArmStream {
         self.arm.measures_pose()
     }
 
+    /// The backend's own threads that carry the stream ([`Arm::threads`]).
+    pub fn backend_threads(&self) -> Vec<(String, libc::pthread_t)> {
+        self.arm.threads()
+    }
+
     /// The arm's newest state, if it has one (at start: where it is).
     pub fn feedback(&mut self) -> Option<ArmState> {
         self.arm.feedback()

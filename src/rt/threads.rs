@@ -232,6 +232,9 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     // From here on the arm's stream ends with a zero command, whatever
     // happens (the stream's guard sees to it if a thread cannot start).
     let mut stream = ArmStream::connect(arm).map_err(RunError::Arm)?;
+    for thread in stream.backend_threads() {
+        serving.extend(serve(thread, settings.rt.serving.arm));
+    }
     // An arm that measures its pose: the motion starts where it is, and
     // its measurements reach the core through their own ring.
     let (initial, measured, feedback) = if stream.measures_pose() {

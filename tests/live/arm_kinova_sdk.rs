@@ -320,6 +320,17 @@ fn usb_streams_the_cores_commands_at_100_hz_and_reads_the_measured_pose() {
         assert_eq!(report["stream_ended_with_zero"], true);
         assert_eq!(report["drops"]["arm_commands"], 0);
         assert_eq!(report["drops"]["recorded_commands"], 0);
+        // The SDK's worker carries every point: it runs at the arm
+        // thread's priority whenever the arm thread does.
+        let granted = |name: &str| {
+            let settings = report["settings"].as_array().unwrap();
+            let setting = settings.iter().find(|s| s["name"] == name);
+            setting.unwrap_or_else(|| panic!("no {name:?} in {settings:?}"))["granted"] == true
+        };
+        assert_eq!(
+            granted("kinova-sdk thread: SCHED_FIFO priority 60"),
+            granted("arm thread: SCHED_FIFO priority 60")
+        );
 
         // The layouts the C compiler made of the headers' declarations.
         let init = &run.calls[0];

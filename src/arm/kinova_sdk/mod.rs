@@ -47,6 +47,8 @@ pub struct KinovaSdkArm {
     settings: ArmSettings,
     epoch: Instant,
     running: Option<Running>,
+    /// The SDK's worker thread, once started.
+    worker: Option<std::thread::JoinHandle<()>>,
     /// The newest state, kept for the report after the stop.
     last: Option<ArmState>,
 }
@@ -74,6 +76,7 @@ impl KinovaSdkArm {
             settings: settings.clone(),
             epoch: Instant::now(),
             running: None,
+            worker: None,
             last: None,
         }
     }
@@ -201,12 +204,14 @@ impl Arm for KinovaSdkArm {
             epoch: self.epoch,
             abandoned: abandoned.clone(),
         };
-        std::thread::Builder::new()
+        let worker = std::thread::Builder::new()
             .name("kinova-sdk".into())
             .spawn(move || worker.run())
             .map_err(|e| ArmError::Unavailable {
                 detail: format!("could not start the SDK thread: {e}"),
             })?;
+        // Dropped with the backend: the worker ends on its own.
+        self.worker = Some(worker);
         let timeout = Duration::from_millis(u64::from(self.settings.connect_timeout_ms));
         match connected.recv_timeout(timeout) {
             Ok(Ok(())) => {
@@ -377,6 +382,17 @@ impl Arm for KinovaSdkArm {
                 ),
             }),
         }
+    }
+
+    /// The SDK's worker, which makes every library call (the trajectory
+    /// points included), while it runs.
+    fn threads(&self) -> Vec<(String, libc::pthread_t)> {
+        use std::os::unix::thread::JoinHandleExt;
+        self.worker
+            .iter()
+            .filter(|worker| !worker.is_finished())
+            .map(|worker| ("kinova-sdk".to_string(), worker.as_pthread_t()))
+            .collect()
     }
 }
 

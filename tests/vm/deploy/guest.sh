@@ -222,7 +222,7 @@ step_boot() {
         fail boot "user $user, VmLck ${lck:-0} kB"; return
     fi
     # The loop and the threads it waits on, each at its priority.
-    for want in "control FIFO/80" "sensor-evdev FIFO/70" "arm FIFO/60" "output uinput FIFO/50"; do
+    for want in "control FIFO/80" "sensor-evdev FIFO/70" "arm FIFO/60" "kinova-sdk FIFO/60" "output uinput FIFO/50"; do
         grep -qx "$want" $ART/boot-threads.txt || { fail boot "no thread '$want' among: $fifo"; return; }
     done
     if ! ls -l /proc/$pid/fd 2>/dev/null | grep -q "$node"; then
