@@ -15,8 +15,9 @@
 # on the run's own display page; none = no load. Arms: sim (the simulated
 # JACO2) and ros2 (the Cyclone DDS peer of tests/peers/ros2 receiving, in
 # a private network namespace; its receive gaps are reported too).
-# --check: exit 1 unless every run had no stale-sensor fault and dropped
-# no sample (what .ci/run asserts). Needs root (SCHED_FIFO, mlockall,
+# --check: exit 1 if a run had a stale-sensor fault, or dropped more
+# samples than ticks the loop skipped (a reader starved while the loop
+# kept time; what .ci/run asserts). Needs root (SCHED_FIFO, mlockall,
 # network namespaces), stress-ng and cyclictest (rt-tests).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -181,6 +182,9 @@ try:
     result["peer_messages"] = len(times)
 except (FileNotFoundError, IndexError, ValueError):
     pass
+page = report.get("display")
+if page:
+    result["page"] = page
 json.dump(result, open(f"{d}/result.json", "w"))
 t = result["threads"]
 line = (f"{arm:<5} {load:<8} stale faults {stale}, dropped samples {result['dropped_samples']}, "
@@ -190,6 +194,8 @@ if "peer_gap_max_ms" in result:
     line += f" (at the peer: p99.9 {result['peer_gap_p999_ms']:.2f} ms, max {result['peer_gap_max_ms']:.2f} ms, {result['peer_messages']} messages)"
 line += "\n      wake-up µs p50/p99/p99.9/max, page faults: " + "; ".join(
     f"{n} {v['p50_us']:.0f}/{v['p99_us']:.0f}/{v['p999_us']:.0f}/{v['max_us']:.0f}, {v['page_faults']}" for n, v in t.items())
+if page:
+    line += f"\n      the page: {page['pages_opened']} opened, {page['frames_sent']} frames sent, {page['frames_skipped']} skipped"
 cy = result["cyclictest_us"]
 line += f"; cyclictest {cy['p50']}/{cy['p99']}/{cy['p999']}/{cy['max']} ({cyclic_samples} samples)"
 if status != 0:
@@ -220,12 +226,17 @@ import glob, json, sys
 bad = []
 for path in sorted(glob.glob(f"{sys.argv[1]}/*/result.json")):
     r = json.load(open(path))
-    if r["stale_faults"] != 0 or r["dropped_samples"] != 0 or r["exit"] != 0:
+    # A sample is dropped when the loop finds more than two queued: after
+    # a stall of the whole machine (which cyclictest sees too) the
+    # recording's rows for the ticks the loop skipped arrive late. More
+    # dropped than skipped is a starved reader with the loop on time.
+    if r["stale_faults"] != 0 or r["dropped_samples"] > r["skipped_ticks"] or r["exit"] != 0:
         bad.append(f"{r['arm']} under {r['load']}: {r['stale_faults']} stale faults, "
-                   f"{r['dropped_samples']} dropped samples, exit {r['exit']}")
+                   f"{r['dropped_samples']} dropped samples with {r['skipped_ticks']} ticks "
+                   f"skipped, exit {r['exit']}")
 if bad:
     print("soak: FAILED\n  " + "\n  ".join(bad))
     sys.exit(1)
-print("soak: every run without a stale-sensor fault or a dropped sample")
+print("soak: no stale-sensor fault, and no sample dropped but those of ticks the loop skipped")
 PYEOF
 fi
