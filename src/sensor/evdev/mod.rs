@@ -30,7 +30,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use evdev::raw_stream::RawDevice;
 use evdev::{AbsoluteAxisCode, KeyCode, PropType};
 
-use crate::clock::{Clock, MonotonicClock};
 use crate::sensor::device::{self, DeviceReader};
 use crate::sensor::held::{HeldSamples, Holder, Link, hold};
 use crate::sensor::settings::{EvdevInput, EvdevSettings};
@@ -282,17 +281,16 @@ pub(super) fn clear_fuzz(fd: RawFd, code: u16) -> io::Result<()> {
     Ok(())
 }
 
-/// `EVIOCSCLOCKID`: the device's events are stamped on `CLOCK_MONOTONIC`
-/// (the kernel's default is `CLOCK_REALTIME`).
-fn monotonic_stamps(fd: RawFd) -> io::Result<()> {
-    let request = ioc(1, 0xa0, size_of::<libc::c_int>());
-    let clock: libc::c_int = libc::CLOCK_MONOTONIC;
-    // SAFETY: EVIOCSCLOCKID reads one int from `clock`.
-    let rc = unsafe { libc::ioctl(fd, request as _, &clock) };
-    if rc < 0 {
-        return Err(io::Error::last_os_error());
-    }
-    Ok(())
+/// `CLOCK_REALTIME` now, ns: the clock evdev stamps events with.
+fn realtime_now_ns() -> u64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec; CLOCK_REALTIME always
+    // exists.
+    unsafe { libc::clock_gettime(libc::CLOCK_REALTIME, &mut ts) };
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
 }
 
 /// `_IOC(dir, 'E', nr, size)` (dir 1 = write, 2 = read).
@@ -509,20 +507,20 @@ impl DeviceReader for Reader {
     ) -> io::Result<()> {
         let fd = self.sensor.device.as_raw_fd();
         let mut buffer = [0u8; EVENT_BYTES * 64];
-        // Events stamped on the monotonic clock: how late the thread woke
-        // for each batch is measured from its first event's stamp.
-        let stamped = monotonic_stamps(fd).is_ok();
-        if stamped {
-            log.due_on("its first event's kernel time stamp");
-        }
-        let mut clock = MonotonicClock;
+        // How late the thread woke for each batch, from its first event's
+        // kernel stamp, on the clock the kernel stamps with by default
+        // (CLOCK_REALTIME: a step of the clock is one outlier). Asking for
+        // another clock (EVIOCSCLOCKID) would flush the queued events and
+        // queue SYN_DROPPED, whose state read right after a reopen is
+        // stale.
+        log.due_on("its first event's kernel time stamp");
         while !stop.load(Ordering::Relaxed) {
             let n = match poll_read(fd, &mut buffer, POLL_MS)? {
                 Polled::Read(n) => n,
                 Polled::TimedOut | Polled::Interrupted => continue,
             };
-            if stamped && let Some(at) = first_event_ns(buffer.get(..n).unwrap_or_default()) {
-                log.woke(clock.now_ns().saturating_sub(at));
+            if let Some(at) = first_event_ns(buffer.get(..n).unwrap_or_default()) {
+                log.woke(realtime_now_ns().saturating_sub(at));
             }
             let mut dropped = false;
             for event in parse_events(buffer.get(..n).unwrap_or_default()) {
@@ -572,8 +570,6 @@ mod tests {
         // EVIOCGABS(ABS_X) = 0x80184540, EVIOCSABS(ABS_X) = 0x401845c0.
         assert_eq!(ioc(2, 0x40, size_of::<libc::input_absinfo>()), 0x8018_4540);
         assert_eq!(ioc(1, 0xc0, size_of::<libc::input_absinfo>()), 0x4018_45c0);
-        // EVIOCSCLOCKID = 0x400445a0.
-        assert_eq!(ioc(1, 0xa0, size_of::<libc::c_int>()), 0x4004_45a0);
     }
 
     #[test]
