@@ -39,9 +39,15 @@ pub struct Wakes {
 }
 
 impl WakeLog {
-    /// Starts the log on the calling thread (its page faults count from
-    /// here).
+    /// Starts the log on the calling thread, after touching its stack,
+    /// heap ([`prefault_stack`], [`warm_heap`]) and the clock: the faults
+    /// of their first use come before the thread's loop. Its page faults count
+    /// from here.
     pub fn start() -> WakeLog {
+        prefault_stack();
+        warm_heap();
+        // The clock's pages (the vDSO's data), which no lock maps.
+        std::hint::black_box(std::time::Instant::now());
         WakeLog {
             wakes: Wakes {
                 due: None,
@@ -66,6 +72,64 @@ impl WakeLog {
     pub fn finish(mut self) -> Wakes {
         self.wakes.page_faults = own_page_faults().saturating_sub(self.faults_before);
         self.wakes
+    }
+}
+
+/// Bytes of stack a deadline thread touches before its loop: more than
+/// any of them uses.
+pub const PREFAULT_BYTES: usize = 256 * 1024;
+
+/// Bytes of heap a deadline thread allocates and touches before its loop:
+/// more than any backend's first sends take (the ROS 2 writer's: about
+/// 70 pages).
+const WARM_HEAP_BYTES: usize = 1024 * 1024;
+
+/// Below the allocator's smallest threshold for a block of its own mapping.
+const WARM_BLOCK: usize = 16 * 1024;
+
+/// Touches [`PREFAULT_BYTES`] of the calling thread's stack, a page at a
+/// time, so its loop never faults on it (the memory lock then keeps it).
+#[inline(never)]
+pub fn prefault_stack() {
+    let mut buffer = [0u8; PREFAULT_BYTES];
+    for i in (0..PREFAULT_BYTES).step_by(4096) {
+        buffer[i] = 1;
+    }
+    std::hint::black_box(&buffer);
+}
+
+/// Allocates [`WARM_HEAP_BYTES`] in blocks, touches and frees them: the
+/// calling thread's allocator arena is made and grown before its loop,
+/// and with [`keep_heap_resident`] stays so.
+fn warm_heap() {
+    let blocks: Vec<Vec<u8>> = (0..WARM_HEAP_BYTES / WARM_BLOCK)
+        .map(|_| vec![1u8; WARM_BLOCK])
+        .collect();
+    std::hint::black_box(&blocks);
+}
+
+/// Makes heap memory, once touched, stay: glibc's allocator stops giving
+/// freed memory back (`M_TRIM_THRESHOLD`) and serves large blocks from
+/// its heap instead of fresh mappings (`M_MMAP_MAX` 0), so under a memory
+/// lock no later allocation faults on memory already used. For the whole
+/// process: called once, before the threads start.
+pub fn keep_heap_resident() -> Result<String, String> {
+    #[cfg(target_env = "gnu")]
+    {
+        // SAFETY: mallopt only sets the allocator's parameters.
+        let kept = unsafe {
+            libc::mallopt(libc::M_TRIM_THRESHOLD, i32::MAX) == 1
+                && libc::mallopt(libc::M_MMAP_MAX, 0) == 1
+        };
+        if kept {
+            Ok(String::new())
+        } else {
+            Err("mallopt refused".into())
+        }
+    }
+    #[cfg(not(target_env = "gnu"))]
+    {
+        Err("not glibc's allocator".into())
     }
 }
 

@@ -14,7 +14,7 @@ use crate::config::layers::Layered;
 use crate::config::realtime::RtSettings;
 use crate::control::selection::Interface;
 use crate::output::OutputSpec;
-use crate::rt::setup::{RtOptions, ServingPriorities};
+use crate::rt::setup::{RtOptions, ServingPriorities, machine_cpus};
 use crate::rt::signals;
 use crate::rt::threads::LoopSettings;
 use crate::sensor::SensorSpec;
@@ -176,11 +176,7 @@ impl RtArgs {
     /// over it; an error if a CPU does not exist on this machine.
     pub fn options(&self, rt: &RtSettings) -> anyhow::Result<RtOptions> {
         let defaults = RtOptions::default();
-        let ids: Vec<usize> = core_affinity::get_core_ids()
-            .unwrap_or_default()
-            .into_iter()
-            .map(|c| c.id)
-            .collect();
+        let ids = machine_cpus();
         let missing = |what: String, cpu: usize| {
             invalid(Err(anyhow::anyhow!(
                 "{what}: no such CPU {cpu} (this machine has CPUs {ids:?})"
@@ -216,8 +212,9 @@ impl RtArgs {
         let serving_cpus = rt
             .serving_cpus
             .iter()
-            .filter(|&&id| Some(id) != cpu)
-            .fold(0u64, |mask, &id| mask | 1 << id);
+            .copied()
+            .filter(|&id| Some(id) != cpu)
+            .collect();
         Ok(RtOptions {
             fifo_priority,
             cpu,
@@ -296,11 +293,7 @@ mod tests {
 
     #[test]
     fn the_configurations_rt_section_sets_every_thread_and_options_override_it() {
-        let cpus: Vec<usize> = core_affinity::get_core_ids()
-            .unwrap()
-            .into_iter()
-            .map(|c| c.id)
-            .collect();
+        let cpus = machine_cpus();
         let first = cpus[0];
         let rt = RtSettings {
             control_priority: 90,

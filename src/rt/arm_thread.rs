@@ -179,6 +179,7 @@ pub fn run_arm(
     mut measured: Option<FeedbackProducer>,
 ) -> ArmReport {
     let mut clock = MonotonicClock;
+    let mut send_gaps = histogram();
     let mut log = WakeLog::start();
     log.due_on("its command's control tick");
     let mut report_state = state.or_else(|| stream.arm.feedback());
@@ -187,7 +188,6 @@ pub fn run_arm(
     let mut feedback_drops = 0u64;
     let mut error: Option<ArmError> = None;
     let mut ended_with_zero = false;
-    let mut send_gaps = histogram();
     let mut last_send_ns: Option<u64> = None;
     let mut fail = |stream: &mut ArmStream, error: &mut Option<ArmError>, e: ArmError| {
         ended_with_zero = stream.end().is_ok();
@@ -249,6 +249,9 @@ pub fn run_arm(
             break;
         }
     }
+    // The stream's end (a backend may start a thread to close its link)
+    // is after the run, not in it.
+    let serving = ServingReport::new("arm", log.finish());
     if error.is_none() {
         match stream.end() {
             Ok(()) => ended_with_zero = true,
@@ -265,7 +268,7 @@ pub fn run_arm(
         error,
         reports,
         feedback_drops,
-        serving: ServingReport::new("arm", log.finish()),
+        serving,
         send_gaps,
     }
 }

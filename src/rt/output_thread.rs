@@ -9,12 +9,14 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::thread;
-use std::time::{Duration, SystemTime};
+use std::time::{Duration, Instant, SystemTime};
 
 use rtrb::RingBuffer;
 
 use crate::control::output_command::OutputCommand;
 use crate::output::{Output, OutputReport};
+use crate::rt::serving::ServingReport;
+use crate::wakes::{WakeLog, Wakes};
 
 /// Commands to one output: 2 s of pointer moves at 100 Hz, with room for
 /// the actions of a burst of matches.
@@ -93,7 +95,7 @@ impl OutputLane {
 /// One output on its own thread, until the control thread's end of its
 /// ring goes.
 pub struct OutputThread {
-    handle: thread::JoinHandle<OutputReport>,
+    handle: thread::JoinHandle<(OutputReport, Option<Wakes>)>,
     describe: String,
     has_deadlines: bool,
 }
@@ -129,6 +131,13 @@ impl OutputThread {
         let handle = thread::Builder::new()
             .name(format!("output {}", short_name(&describe)))
             .spawn(move || {
+                // A thread a person waits on keeps its wake-ups and page
+                // faults, for the report.
+                let mut log = has_deadlines.then(|| {
+                    let mut log = WakeLog::start();
+                    log.due_on("the end of its 1 ms sleep");
+                    log
+                });
                 let zero = loop {
                     if let Some(zero) = tick_zero.get() {
                         break zero;
@@ -150,12 +159,18 @@ impl OutputThread {
                     }
                     output.idle();
                     if !worked {
+                        let asleep = Instant::now();
                         thread::sleep(IDLE_SLEEP);
+                        if let Some(log) = log.as_mut() {
+                            let late = asleep.elapsed().saturating_sub(IDLE_SLEEP);
+                            log.woke(late.as_nanos() as u64);
+                        }
                     }
                 }
+                let wakes = log.map(WakeLog::finish);
                 let mut report = output.close();
                 report.dropped += dropped.load(Ordering::Relaxed);
-                report
+                (report, wakes)
             })?;
         Ok((
             OutputThread {
@@ -179,20 +194,99 @@ impl OutputThread {
     }
 
     /// Waits for the output to close (its lane must be gone) and returns
-    /// its report; a thread that died says so.
-    pub fn join(self) -> OutputReport {
-        self.handle.join().unwrap_or_else(|_| OutputReport {
-            output: self.describe.clone(),
-            notes: vec![format!(
-                "the output's thread died: {} may not have let go of what it held",
-                self.describe
-            )],
-            ..OutputReport::default()
-        })
+    /// its report, and a deadline thread's wake-ups and page faults; a
+    /// thread that died says so.
+    pub fn join(self) -> (OutputReport, Option<ServingReport>) {
+        let name = self.handle.thread().name().unwrap_or("output").to_string();
+        match self.handle.join() {
+            Ok((report, wakes)) => (report, wakes.map(|w| ServingReport::new(&name, w))),
+            Err(_) => (
+                OutputReport {
+                    output: self.describe.clone(),
+                    notes: vec![format!(
+                        "the output's thread died: {} may not have let go of what it held",
+                        self.describe
+                    )],
+                    ..OutputReport::default()
+                },
+                None,
+            ),
+        }
     }
 }
 
 /// The first word of an output's description (a thread's name is short).
 fn short_name(describe: &str) -> &str {
     describe.split_whitespace().next().unwrap_or("output")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An output that only counts what it is given, and its idle calls.
+    struct Counting {
+        deadlines: bool,
+        applied: u64,
+        idles: Arc<AtomicU64>,
+    }
+
+    impl Output for Counting {
+        fn describe(&self) -> String {
+            "counting".into()
+        }
+        fn apply(&mut self, _command: &OutputCommand) {
+            self.applied += 1;
+        }
+        fn idle(&mut self) {
+            self.idles.fetch_add(1, Ordering::Relaxed);
+        }
+        fn has_deadlines(&self) -> bool {
+            self.deadlines
+        }
+        fn close(&mut self) -> OutputReport {
+            OutputReport {
+                output: self.describe(),
+                applied: self.applied,
+                ..OutputReport::default()
+            }
+        }
+    }
+
+    /// Runs an output's thread with one command, for three of its sleeps
+    /// (each between two idle calls).
+    fn serve(deadlines: bool) -> (OutputReport, Option<ServingReport>) {
+        let idles = Arc::new(AtomicU64::new(0));
+        let output = Box::new(Counting {
+            deadlines,
+            applied: 0,
+            idles: idles.clone(),
+        });
+        let (thread, mut lane) =
+            OutputThread::start(Serves::Computer, output, TickZero::known(SystemTime::now()))
+                .unwrap();
+        lane.offer(&OutputCommand::Button { down: true });
+        while idles.load(Ordering::Relaxed) < 4 {
+            thread::sleep(Duration::from_millis(1));
+        }
+        drop(lane);
+        thread.join()
+    }
+
+    #[test]
+    fn an_output_a_person_waits_on_reports_its_wake_ups_and_page_faults() {
+        let (report, wakes) = serve(true);
+        assert_eq!(report.applied, 1);
+        let wakes = wakes.expect("a deadline thread keeps its wake-ups");
+        assert_eq!(wakes.thread, "output counting");
+        assert_eq!(wakes.due, Some("the end of its 1 ms sleep"));
+        assert!(wakes.wake.len() >= 3, "{}", wakes.wake.len());
+    }
+
+    #[test]
+    fn a_network_output_keeps_no_wake_ups() {
+        let (report, wakes) = serve(false);
+        assert_eq!(report.applied, 1);
+        assert!(wakes.is_none());
+    }
 }

@@ -5,14 +5,18 @@
 use std::fs::File;
 use std::io::Write;
 
+use crate::wakes::{PREFAULT_BYTES, prefault_stack};
+
 /// What to ask for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RtOptions {
     /// SCHED_FIFO priority (1–99); `None`: stay SCHED_OTHER.
     pub fifo_priority: Option<i32>,
     /// CPU to pin the control thread to; `None`: no pinning.
     pub cpu: Option<usize>,
-    /// `mlockall(MCL_CURRENT | MCL_FUTURE)` and a pre-faulted stack.
+    /// `mlockall(MCL_CURRENT | MCL_FUTURE)` before the threads start,
+    /// heap kept resident, and every deadline thread's stack and heap
+    /// touched before its loop.
     pub lock_memory: bool,
     /// `PR_SET_TIMERSLACK` of 1 ns (SCHED_OTHER threads get 50 µs).
     pub timer_slack: bool,
@@ -20,9 +24,17 @@ pub struct RtOptions {
     pub cpu_dma_latency: bool,
     /// The priorities of the threads that serve the control thread.
     pub serving: ServingPriorities,
-    /// Their CPUs, a bit each (CPU 0 the lowest); 0: every CPU but the
-    /// control thread's.
-    pub serving_cpus: u64,
+    /// Their CPUs; empty: every CPU but the control thread's.
+    pub serving_cpus: Vec<usize>,
+}
+
+/// This machine's CPUs, as the scheduler numbers them (empty if unknown).
+pub fn machine_cpus() -> Vec<usize> {
+    core_affinity::get_core_ids()
+        .unwrap_or_default()
+        .into_iter()
+        .map(|c| c.id)
+        .collect()
 }
 
 /// SCHED_FIFO priorities of the threads the control loop waits on, each
@@ -70,23 +82,21 @@ impl RtOptions {
         timer_slack: false,
         cpu_dma_latency: false,
         serving: ServingPriorities::NONE,
-        serving_cpus: 0,
+        serving_cpus: Vec::new(),
     };
 
     /// The CPUs of the threads that serve the control thread: those of
     /// `serving_cpus`, or else every CPU but the control thread's; `None`
     /// when the control thread is not pinned and none are given.
     pub fn serving_cpu_list(&self) -> Option<Vec<usize>> {
-        let all = core_affinity::get_core_ids()
-            .unwrap_or_default()
-            .into_iter()
-            .map(|c| c.id);
-        if self.serving_cpus != 0 {
-            let given = |id: &usize| *id < 64 && self.serving_cpus & (1 << id) != 0;
-            return Some(all.filter(given).collect());
+        if !self.serving_cpus.is_empty() {
+            return Some(self.serving_cpus.clone());
         }
         let control = self.cpu?;
-        let others: Vec<usize> = all.filter(|&id| id != control).collect();
+        let others: Vec<usize> = machine_cpus()
+            .into_iter()
+            .filter(|&id| id != control)
+            .collect();
         (!others.is_empty()).then_some(others)
     }
 }
@@ -97,12 +107,12 @@ impl Default for RtOptions {
     fn default() -> Self {
         RtOptions {
             fifo_priority: Some(80),
-            cpu: core_affinity::get_core_ids().and_then(|ids| ids.last().map(|id| id.id)),
+            cpu: machine_cpus().last().copied(),
             lock_memory: true,
             timer_slack: true,
             cpu_dma_latency: true,
             serving: ServingPriorities::below(Some(80)),
-            serving_cpus: 0,
+            serving_cpus: Vec::new(),
         }
     }
 }
@@ -129,9 +139,6 @@ pub struct RtSetup {
     _dma_latency: Option<File>,
 }
 
-/// Bytes of stack touched up front so the loop never page-faults on it.
-pub const PREFAULT_STACK_BYTES: usize = 256 * 1024;
-
 fn errno_text() -> String {
     std::io::Error::last_os_error().to_string()
 }
@@ -145,16 +152,47 @@ impl RtSetup {
     }
 
     fn push(&mut self, name: impl Into<String>, result: Result<String, String>) {
+        self.settings.push(RtSetting::from_result(name, result));
+    }
+}
+
+impl RtSetting {
+    /// `name`, granted with its detail (`Ok`) or denied with the reason.
+    pub fn from_result(name: impl Into<String>, result: Result<String, String>) -> RtSetting {
         let (granted, detail) = match result {
             Ok(d) => (true, d),
             Err(d) => (false, d),
         };
-        self.settings.push(RtSetting {
+        RtSetting {
             name: name.into(),
             granted,
             detail,
-        });
+        }
     }
+}
+
+/// Locks the process's memory, present and future
+/// (`mlockall(MCL_CURRENT | MCL_FUTURE)`): every mapping is made resident
+/// now, and each later one (a thread's stack, the allocator's growth) as
+/// it is made, by the thread that makes it.
+pub fn lock_process_memory() -> RtSetting {
+    let name = "mlockall(MCL_CURRENT | MCL_FUTURE)";
+    if let Some(why) = memlock_refusal() {
+        return RtSetting::from_result(name, Err(why));
+    }
+    // SAFETY: mlockall has no memory-safety preconditions.
+    let rc = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
+    RtSetting::from_result(
+        name,
+        if rc == 0 {
+            Ok(String::new())
+        } else {
+            Err(format!(
+                "{} (needs root or an unlimited memlock limit)",
+                errno_text()
+            ))
+        },
+    )
 }
 
 /// Applies `options` to the calling thread (and the process, for memory
@@ -179,29 +217,12 @@ pub fn setup_current_thread(options: &RtOptions) -> RtSetup {
         },
     );
 
+    // The process's memory is locked once, before any thread starts
+    // (`lock_process_memory`, by `rt::threads::run`).
     if options.lock_memory {
-        let name = "mlockall(MCL_CURRENT | MCL_FUTURE)";
-        match memlock_refusal() {
-            Some(why) => setup.push(name, Err(why)),
-            None => {
-                // SAFETY: mlockall has no memory-safety preconditions.
-                let rc = unsafe { libc::mlockall(libc::MCL_CURRENT | libc::MCL_FUTURE) };
-                setup.push(
-                    name,
-                    if rc == 0 {
-                        Ok(String::new())
-                    } else {
-                        Err(format!(
-                            "{} (needs root or an unlimited memlock limit)",
-                            errno_text()
-                        ))
-                    },
-                );
-            }
-        }
         prefault_stack();
         setup.push(
-            format!("pre-faulted stack ({} KiB)", PREFAULT_STACK_BYTES / 1024),
+            format!("pre-faulted stack ({} KiB)", PREFAULT_BYTES / 1024),
             Ok(String::new()),
         );
     }
@@ -356,17 +377,6 @@ fn memlock_refusal() -> Option<String> {
     ))
 }
 
-/// Touches `PREFAULT_STACK_BYTES` of stack so its pages are mapped (and,
-/// with `mlockall`, locked) before the loop.
-#[inline(never)]
-fn prefault_stack() {
-    let mut buffer = [0u8; PREFAULT_STACK_BYTES];
-    for i in (0..PREFAULT_STACK_BYTES).step_by(4096) {
-        buffer[i] = 1;
-    }
-    std::hint::black_box(&buffer);
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -380,7 +390,7 @@ mod tests {
             timer_slack: true,
             cpu_dma_latency: false,
             serving: ServingPriorities::NONE,
-            serving_cpus: 0,
+            serving_cpus: Vec::new(),
         };
         let handle = std::thread::spawn(move || setup_current_thread(&options));
         let setup = handle.join().unwrap();
@@ -420,11 +430,7 @@ mod tests {
     #[test]
     fn a_serving_thread_runs_with_what_was_granted_and_is_told_what_was_not() {
         use std::os::unix::thread::JoinHandleExt;
-        let all: Vec<usize> = core_affinity::get_core_ids()
-            .unwrap()
-            .into_iter()
-            .map(|c| c.id)
-            .collect();
+        let all = machine_cpus();
         let avoid = *all.last().unwrap();
         let (go, wait) = std::sync::mpsc::channel::<()>();
         let thread = std::thread::spawn(move || {

@@ -278,7 +278,10 @@ fn simulate<S: Samples>(
         let counts = drain.join().unwrap_or_default();
         (result, counts)
     });
-    let reports: Vec<OutputReport> = output_threads.into_iter().map(OutputThread::join).collect();
+    let reports: Vec<OutputReport> = output_threads
+        .into_iter()
+        .map(|thread| thread.join().0)
+        .collect();
     let output_drops = reports.iter().map(|r| r.dropped).sum();
     let output_commands = reports.iter().map(|r| r.applied).sum::<u64>() + output_drops;
     let run = SimulatedRun {

@@ -53,10 +53,11 @@ use crate::rt::report::{RunFacts, RunReport};
 use crate::rt::rings::{FEEDBACK_RING, Rings};
 use crate::rt::service_watchdog::ServiceNotifier;
 use crate::rt::serving::ServingReport;
-use crate::rt::setup::{RtOptions, RtSetting, setup_serving_thread};
+use crate::rt::setup::{RtOptions, RtSetting, lock_process_memory, setup_serving_thread};
 use crate::rt::stop::StopRequest;
 use crate::rt::telemetry_thread::{EventSink, Telemetry, Watchers};
 use crate::sensor::{Samples, Sensor, SensorError};
+use crate::wakes::keep_heap_resident;
 
 /// After connecting, how long a measuring arm has to report its pose.
 const FIRST_POSE_WAIT: Duration = Duration::from_secs(2);
@@ -216,6 +217,17 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     if let Some(recorder) = watchers.recorder.as_deref_mut() {
         recorder.start(&sensor_name, &arm_name);
     }
+    // Before any thread starts: memory locked, and heap memory, once
+    // touched, kept (each deadline thread touches its own before its
+    // loop, so none faults in it).
+    let mut memory: Vec<RtSetting> = Vec::new();
+    if settings.rt.lock_memory {
+        memory.push(lock_process_memory());
+        memory.push(RtSetting::from_result(
+            "heap kept resident (no trim, no mmap)",
+            keep_heap_resident(),
+        ));
+    }
     // The sensor first: if it cannot start, the arm was never taken.
     let started = sensor.start().map_err(RunError::Sensor)?;
     let producer = started.producer;
@@ -326,7 +338,8 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     let arm = arm_thread.join();
     let looped = looped.map_err(|_| RunError::Thread("the control thread panicked".into()))?;
     let arm = arm.map_err(|_| RunError::Thread("the arm thread panicked".into()))?;
-    let outputs = output_threads.into_iter().map(OutputThread::join).collect();
+    let (outputs, output_wakes): (Vec<_>, Vec<_>) =
+        output_threads.into_iter().map(OutputThread::join).unzip();
     let telemetry = telemetry.finish(&looped.drops);
     let run = RunFacts {
         sensor: sensor_name,
@@ -336,11 +349,13 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
         cpu_percent,
     };
     let mut report = RunReport::new(run, looped, telemetry, arm);
+    report.settings.splice(0..0, memory);
     report.settings.extend(serving);
     let sensors = sensor_wakes
         .into_iter()
         .map(|(name, wakes)| ServingReport::new(&name, wakes));
     report.serving.splice(0..0, sensors);
+    report.serving.extend(output_wakes.into_iter().flatten());
     service.stopping(&format!("stopped by: {}", report.stop_reason));
     report.outputs = outputs;
     Ok(report)

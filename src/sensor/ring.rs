@@ -38,7 +38,6 @@ pub fn ring(capacity: usize) -> (SampleFeed, RingSamples) {
             rx,
             finished,
             reading,
-            read_once: false,
         },
     )
 }
@@ -82,15 +81,21 @@ pub struct RingSamples {
     finished: Arc<AtomicBool>,
     /// Told to the producer on the first read.
     reading: Arc<AtomicBool>,
-    read_once: bool,
+}
+
+impl RingSamples {
+    /// Tells the producer the control thread reads (once: later ticks
+    /// only load the flag).
+    fn mark_reading(&self) {
+        if !self.reading.load(Ordering::Relaxed) {
+            self.reading.store(true, Ordering::Release);
+        }
+    }
 }
 
 impl Samples for RingSamples {
     fn try_read(&mut self, skipped: u64) -> Reading {
-        if !self.read_once {
-            self.read_once = true;
-            self.reading.store(true, Ordering::Release);
-        }
+        self.mark_reading();
         // One sample per tick; after skipped ticks, their samples are
         // stale: keep the last of those taken.
         let mut reading = Reading::default();
@@ -110,10 +115,7 @@ impl Samples for RingSamples {
     }
 
     fn discard_backlog(&mut self, _skipped: u64) -> u64 {
-        if !self.read_once {
-            self.read_once = true;
-            self.reading.store(true, Ordering::Release);
-        }
+        self.mark_reading();
         let mut discarded = 0;
         while self.rx.pop().is_ok() {
             discarded += 1;

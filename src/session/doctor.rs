@@ -15,7 +15,9 @@ use std::time::Duration;
 use crate::arm::ArmSpec;
 use crate::config::Config;
 use crate::output::OutputSpec;
-use crate::rt::setup::{RtOptions, RtSetting, setup_current_thread, setup_serving_thread};
+use crate::rt::setup::{
+    RtOptions, RtSetting, lock_process_memory, setup_current_thread, setup_serving_thread,
+};
 use crate::sensor::csv::CsvSensor;
 use crate::sensor::evdev::EvdevSensor;
 use crate::sensor::iio::IioSensor;
@@ -126,13 +128,20 @@ fn limit(resource: libc::__rlimit_resource_t) -> String {
     }
 }
 
-/// The real-time set-up `run` applies to its control thread, applied to
-/// a scratch thread (its memory lock undone after).
+/// The real-time set-up `run` applies to its process and its control
+/// thread, applied to a scratch thread (the memory lock undone after).
 fn real_time(options: &RtOptions, threads: &[(&str, Option<i32>)]) -> Vec<Check> {
-    let control = *options;
-    let mut setup = std::thread::spawn(move || setup_current_thread(&control).settings)
-        .join()
-        .unwrap_or_default();
+    let control = options.clone();
+    let mut setup = std::thread::spawn(move || {
+        let mut settings = Vec::new();
+        if control.lock_memory {
+            settings.push(lock_process_memory());
+        }
+        settings.extend(setup_current_thread(&control).settings);
+        settings
+    })
+    .join()
+    .unwrap_or_default();
     // SAFETY: munlockall has no preconditions; this process needs no lock.
     unsafe { libc::munlockall() };
     setup.extend(serving_threads(threads, options.serving_cpu_list()));
