@@ -227,11 +227,23 @@ pub trait Arm: Send {
     fn stop(&mut self) -> Result<(), ArmError>;
 
     /// The backend's own threads that carry the stream on to the arm (the
-    /// Kinova SDK's worker), named, while connected: `run` gives them the
-    /// arm thread's priority and CPUs, since a command waits on them too.
-    fn threads(&self) -> Vec<(String, libc::pthread_t)> {
+    /// Kinova SDK's worker, the DDS event loop that sends what a ROS 2
+    /// writer queued), named, while connected: `run` gives them the arm
+    /// thread's priority and CPUs, since a command waits on them too.
+    fn threads(&self) -> Vec<(String, ThreadRef)> {
         Vec::new()
     }
+}
+
+/// A thread of this process, as the scheduler is told about it: one we
+/// started (its pthread), or one a library started, found by its kernel
+/// task id.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ThreadRef {
+    /// A thread whose `JoinHandle` its owner holds.
+    Pthread(libc::pthread_t),
+    /// A thread's task id (`/proc/self/task/TID`).
+    Task(libc::pid_t),
 }
 
 /// Ends a stream: a zero command numbered after `last` (so the arm stands

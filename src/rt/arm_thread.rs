@@ -21,7 +21,7 @@ use std::time::Duration;
 use hdrhistogram::Histogram;
 use nalgebra::Isometry3;
 
-use crate::arm::{Arm, ArmError, ArmState, end_stream};
+use crate::arm::{Arm, ArmError, ArmState, ThreadRef, end_stream};
 use crate::clock::{Clock, MonotonicClock};
 use crate::control::motion::stream::ArmCommand;
 use crate::rt::serving::ServingReport;
@@ -105,7 +105,7 @@ impl ArmStream {
     }
 
     /// The backend's own threads that carry the stream ([`Arm::threads`]).
-    pub fn backend_threads(&self) -> Vec<(String, libc::pthread_t)> {
+    pub fn backend_threads(&self) -> Vec<(String, ThreadRef)> {
         self.arm.threads()
     }
 

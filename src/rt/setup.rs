@@ -5,6 +5,7 @@
 use std::fs::File;
 use std::io::Write;
 
+use crate::arm::ThreadRef;
 use crate::wakes::{PREFAULT_BYTES, prefault_stack};
 
 /// What to ask for.
@@ -273,7 +274,7 @@ pub fn setup_current_thread(options: &RtOptions) -> RtSetup {
         setup.push(
             format!("SCHED_FIFO priority {priority}"),
             // SAFETY: pthread_self() is the calling thread, alive.
-            unsafe { set_fifo(libc::pthread_self(), priority) },
+            unsafe { set_fifo(ThreadRef::Pthread(libc::pthread_self()), priority) },
         );
     }
     setup
@@ -283,13 +284,23 @@ pub fn setup_current_thread(options: &RtOptions) -> RtSetup {
 ///
 /// # Safety
 /// `thread` must be a live thread of this process.
-unsafe fn set_fifo(thread: libc::pthread_t, priority: i32) -> Result<String, String> {
+unsafe fn set_fifo(thread: ThreadRef, priority: i32) -> Result<String, String> {
     let param = libc::sched_param {
         sched_priority: priority,
     };
     // SAFETY: the caller keeps `thread` alive; `param` is a valid
     // sched_param.
-    let rc = unsafe { libc::pthread_setschedparam(thread, libc::SCHED_FIFO, &param) };
+    let rc = unsafe {
+        match thread {
+            ThreadRef::Pthread(thread) => {
+                libc::pthread_setschedparam(thread, libc::SCHED_FIFO, &param)
+            }
+            ThreadRef::Task(tid) => match libc::sched_setscheduler(tid, libc::SCHED_FIFO, &param) {
+                0 => 0,
+                _ => std::io::Error::last_os_error().raw_os_error().unwrap_or(-1),
+            },
+        }
+    };
     if rc == 0 {
         Ok(String::new())
     } else {
@@ -307,7 +318,7 @@ unsafe fn set_fifo(thread: libc::pthread_t, priority: i32) -> Result<String, Str
 /// thread's CPU. Each step reports granted or denied with the fix. Not
 /// RT-safe: call before the loop.
 pub fn setup_serving_thread(
-    thread: libc::pthread_t,
+    thread: ThreadRef,
     name: &str,
     priority: Option<i32>,
     cpus: Option<&[usize]>,
@@ -319,7 +330,7 @@ pub fn setup_serving_thread(
     setup.push(
         format!("{name} thread: SCHED_FIFO priority {priority}"),
         // SAFETY: `thread` is a live thread of this process (its
-        // JoinHandle is held by the caller).
+        // JoinHandle, or its library, is held by the caller).
         unsafe { set_fifo(thread, priority) },
     );
     if let Some(cpus) = cpus.filter(|cpus| !cpus.is_empty()) {
@@ -332,7 +343,7 @@ pub fn setup_serving_thread(
 }
 
 /// Restricts `thread` to `cpus`.
-fn set_affinity(thread: libc::pthread_t, cpus: &[usize]) -> Result<String, String> {
+fn set_affinity(thread: ThreadRef, cpus: &[usize]) -> Result<String, String> {
     // SAFETY: cpu_set_t is plain data; all zeroes is the empty set.
     let mut set: libc::cpu_set_t = unsafe { std::mem::zeroed() };
     for &cpu in cpus {
@@ -340,9 +351,16 @@ fn set_affinity(thread: libc::pthread_t, cpus: &[usize]) -> Result<String, Strin
         // every id core_affinity reports is.
         unsafe { libc::CPU_SET(cpu, &mut set) };
     }
+    let size = std::mem::size_of::<libc::cpu_set_t>();
     // SAFETY: `thread` is live; `set` is a valid cpu_set_t of its size.
     let rc = unsafe {
-        libc::pthread_setaffinity_np(thread, std::mem::size_of::<libc::cpu_set_t>(), &set)
+        match thread {
+            ThreadRef::Pthread(thread) => libc::pthread_setaffinity_np(thread, size, &set),
+            ThreadRef::Task(tid) => match libc::sched_setaffinity(tid, size, &set) {
+                0 => 0,
+                _ => std::io::Error::last_os_error().raw_os_error().unwrap_or(-1),
+            },
+        }
     };
     if rc == 0 {
         Ok(String::new())
@@ -442,8 +460,12 @@ mod tests {
             ..RtOptions::NONE
         };
         let cpus = options.serving_cpu_list();
-        let settings =
-            setup_serving_thread(thread.as_pthread_t(), "sensor", Some(10), cpus.as_deref());
+        let settings = setup_serving_thread(
+            ThreadRef::Pthread(thread.as_pthread_t()),
+            "sensor",
+            Some(10),
+            cpus.as_deref(),
+        );
         go.send(()).unwrap();
         let (policy, priority, cpus) = thread.join().unwrap();
 

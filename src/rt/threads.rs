@@ -39,7 +39,7 @@ use std::time::{Duration, Instant};
 
 use rtrb::RingBuffer;
 
-use crate::arm::{Arm, ArmError, ArmState};
+use crate::arm::{Arm, ArmError, ArmState, ThreadRef};
 use crate::clock::{Clock, MonotonicClock};
 use crate::control::core_config::CoreConfig;
 use crate::control::motion::workspace;
@@ -234,12 +234,16 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
     // The threads the loop waits on, each at its priority below the
     // control thread and off its CPU: granted or denied, in the report.
     let serving_cpus = settings.rt.serving_cpu_list();
-    let serve = |(name, thread): (String, libc::pthread_t), priority| {
+    let serve = |(name, thread): (String, ThreadRef), priority| {
         setup_serving_thread(thread, &name, priority, serving_cpus.as_deref())
     };
     let mut serving: Vec<RtSetting> = Vec::new();
     for thread in producer.threads() {
-        serving.extend(serve(thread, settings.rt.serving.sensor));
+        let (name, thread) = thread;
+        serving.extend(serve(
+            (name, ThreadRef::Pthread(thread)),
+            settings.rt.serving.sensor,
+        ));
     }
     // From here on the arm's stream ends with a zero command, whatever
     // happens (the stream's guard sees to it if a thread cannot start).
@@ -266,7 +270,11 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
         let (thread, lane) = OutputThread::start(serves, output, tick_zero.clone())
             .map_err(|e| RunError::Thread(format!("cannot start an output's thread: {e}")))?;
         if let Some(deadline) = thread.deadline_thread() {
-            serving.extend(serve(deadline, settings.rt.serving.output));
+            let (name, thread) = deadline;
+            serving.extend(serve(
+                (name, ThreadRef::Pthread(thread)),
+                settings.rt.serving.output,
+            ));
         }
         output_threads.push(thread);
         rings.outputs.outputs.push(lane);
@@ -287,7 +295,7 @@ pub fn run<S: Sensor, W: Work<S::Samples>>(
         .map_err(|e| RunError::Thread(format!("cannot start the arm thread: {e}")))?;
     tick.wakes_arm(arm_thread.thread().clone());
     serving.extend(serve(
-        ("arm".into(), arm_thread.as_pthread_t()),
+        ("arm".into(), ThreadRef::Pthread(arm_thread.as_pthread_t())),
         settings.rt.serving.arm,
     ));
 

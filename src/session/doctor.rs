@@ -12,7 +12,7 @@
 use std::net::{SocketAddr, TcpListener, TcpStream, ToSocketAddrs};
 use std::time::Duration;
 
-use crate::arm::ArmSpec;
+use crate::arm::{ArmSpec, ThreadRef};
 use crate::config::Config;
 use crate::output::OutputSpec;
 use crate::rt::setup::{
@@ -207,7 +207,12 @@ fn serving_threads(threads: &[(&str, Option<i32>)], cpus: Option<Vec<usize>>) ->
     });
     let mut settings = Vec::new();
     for (i, &(name, priority)) in threads.iter().enumerate() {
-        let applied = setup_serving_thread(scratch.as_pthread_t(), name, priority, cpus.as_deref());
+        let applied = setup_serving_thread(
+            ThreadRef::Pthread(scratch.as_pthread_t()),
+            name,
+            priority,
+            cpus.as_deref(),
+        );
         settings.extend(
             applied
                 .into_iter()

@@ -344,6 +344,17 @@ fn a_twist_stream_reaches_cyclone_dds_whole_at_100_hz() {
             "the built-in user moved the arm"
         );
         let stream = assert_stream(&messages, &commands, "twist_stamped");
+        // The DDS event loop sends each command the writer queues: it runs
+        // at the arm thread's priority whenever the arm thread does.
+        let granted = |name: &str| {
+            let settings = report["settings"].as_array().unwrap();
+            let setting = settings.iter().find(|s| s["name"] == name);
+            setting.unwrap_or_else(|| panic!("no {name:?} in {settings:?}"))["granted"] == true
+        };
+        assert_eq!(
+            granted("dds-event-loop thread: SCHED_FIFO priority 60"),
+            granted("arm thread: SCHED_FIFO priority 60")
+        );
         // Stamped now (the peer's wall clock is ours), in the configured frame.
         for m in &stream {
             assert_eq!(m.frame_id.as_deref(), Some("tool_base"));

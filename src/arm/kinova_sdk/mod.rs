@@ -30,7 +30,7 @@ use self::abi::{EthernetCommConfig, inet_addr};
 use self::library::{KinovaLibrary, command_layer_names};
 use self::worker::{Busy, SdkRequest, SdkStatus, Worker, elapsed_ns};
 use crate::arm::settings::ArmSettings;
-use crate::arm::{Arm, ArmError, ArmState, SdkLink};
+use crate::arm::{Arm, ArmError, ArmState, SdkLink, ThreadRef};
 use crate::control::motion::stream::ArmCommand;
 
 /// Commands the SDK thread may fall behind by (640 ms): more than the
@@ -386,12 +386,17 @@ impl Arm for KinovaSdkArm {
 
     /// The SDK's worker, which makes every library call (the trajectory
     /// points included), while it runs.
-    fn threads(&self) -> Vec<(String, libc::pthread_t)> {
+    fn threads(&self) -> Vec<(String, ThreadRef)> {
         use std::os::unix::thread::JoinHandleExt;
         self.worker
             .iter()
             .filter(|worker| !worker.is_finished())
-            .map(|worker| ("kinova-sdk".to_string(), worker.as_pthread_t()))
+            .map(|worker| {
+                (
+                    "kinova-sdk".to_string(),
+                    ThreadRef::Pthread(worker.as_pthread_t()),
+                )
+            })
             .collect()
     }
 }

@@ -40,7 +40,7 @@ use rustdds::{
 };
 
 use crate::arm::settings::Ros2Settings;
-use crate::arm::{Arm, ArmError, ArmState};
+use crate::arm::{Arm, ArmError, ArmState, ThreadRef};
 use crate::control::motion::stream::ArmCommand;
 use messages::{CommandMessage, PoseStamped};
 
@@ -57,6 +57,24 @@ pub const STOP_ACK_WAIT: Duration = Duration::from_millis(500);
 /// was asked for must end even if the library's teardown hangs.
 pub const CLOSE_WAIT: Duration = Duration::from_secs(2);
 
+/// The kernel's name (15 bytes of the thread's name) of a participant's
+/// event loop, "RustDDS Participant N event loop".
+const EVENT_LOOP_COMM: &str = "RustDDS Partici";
+
+/// The task ids of this process's threads named `comm`.
+fn tasks_named(comm: &str) -> Vec<libc::pid_t> {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return Vec::new();
+    };
+    tasks
+        .flatten()
+        .filter(|task| {
+            std::fs::read_to_string(task.path().join("comm")).is_ok_and(|c| c.trim_end() == comm)
+        })
+        .filter_map(|task| task.file_name().to_str()?.parse().ok())
+        .collect()
+}
+
 /// How often `connect` looks again while it waits.
 const CONNECT_POLL: Duration = Duration::from_millis(2);
 
@@ -69,6 +87,9 @@ struct Link {
     writer: CommandWriter,
     pose_reader: Option<PoseReader>,
     participant: DomainParticipant,
+    /// The participant's event loop's task ids: it sends what the writer
+    /// queues, so a command waits on it.
+    event_loop: Vec<libc::pid_t>,
     /// Matched subscribers now, as the writer's status last said.
     matched: i32,
     /// Why the last remote participant or reader went away (for the
@@ -121,9 +142,14 @@ impl Ros2Arm {
 
     /// Creates the participant, the writer and the pose reader.
     fn open(&self) -> Result<Link, String> {
+        let before = tasks_named(EVENT_LOOP_COMM);
         let participant = DomainParticipantBuilder::new(self.settings.domain_id)
             .build()
             .map_err(|e| format!("cannot start a DDS participant: {e}"))?;
+        let event_loop = tasks_named(EVENT_LOOP_COMM)
+            .into_iter()
+            .filter(|tid| !before.contains(tid))
+            .collect();
         let topic = participant
             .create_topic(
                 messages::dds_topic_name(&self.topic),
@@ -168,6 +194,7 @@ impl Ros2Arm {
             writer,
             pose_reader,
             participant,
+            event_loop,
             matched: 0,
             last_loss: None,
         })
@@ -404,6 +431,16 @@ impl Arm for Ros2Arm {
             Some(lost) => Err(ArmError::Disconnected { detail: lost }),
             None => Ok(()),
         }
+    }
+
+    /// The participant's event loop, which sends each command the writer
+    /// queues.
+    fn threads(&self) -> Vec<(String, ThreadRef)> {
+        self.link
+            .iter()
+            .flat_map(|link| &link.event_loop)
+            .map(|&tid| ("dds-event-loop".to_string(), ThreadRef::Task(tid)))
+            .collect()
     }
 
     fn stop(&mut self) -> Result<(), ArmError> {
