@@ -1,4 +1,4 @@
-//! `sipnpuff bench latency | tick | replay | accuracy`: the project's own
+//! `sipnpuff bench latency | cpu | tick | replay | accuracy`: the project's own
 //! measurements, each against a reference measured in the same run.
 
 use std::path::PathBuf;
@@ -6,8 +6,10 @@ use std::path::PathBuf;
 use anyhow::Context;
 
 use crate::cli::args::{ConfigArg, RtArgs, parse_seconds, parse_volts, writable_dir};
-use crate::cli::output;
+use crate::cli::output::{self, Terminal};
 use crate::rt::control_loop::StopReason;
+use crate::sensor::SensorSpec;
+use crate::session::cpu_bench::bench_cpu;
 use crate::tools::accuracy::{GridOptions, GridReport, accuracy_grid, grid_table};
 use crate::tools::bench_replay::bench_replay_dir;
 use crate::tools::bench_tick::bench_tick;
@@ -34,6 +36,31 @@ pub enum BenchCommand {
         /// Write each histogram in HdrHistogram's `.hgrm` text format here.
         #[arg(long, value_name = "DIR")]
         histogram_dir: Option<PathBuf>,
+        /// Real-time settings.
+        #[command(flatten)]
+        rt: RtArgs,
+    },
+    /// The process's CPU at 1 kHz against cyclictest's: the main job
+    /// (this sensor, the simulated arm, no display) and `cyclictest` at the
+    /// control thread's priority on its CPU, side by side for the same
+    /// seconds, in rounds; each round's CPU and ratio, and their median.
+    Cpu {
+        /// Seconds a round.
+        #[arg(long, default_value_t = 10.0, value_parser = parse_seconds)]
+        seconds: f64,
+        /// Rounds.
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+        rounds: u32,
+        /// Where samples come from, as `run --sensor` (e.g. `csv:PATH`: a
+        /// recording read by its own thread at 1 kHz).
+        #[arg(long, default_value = "synthetic", value_parser = SensorSpec::parse)]
+        sensor: SensorSpec,
+        /// The configuration.
+        #[command(flatten)]
+        config: ConfigArg,
+        /// Print one JSON object instead of a table.
+        #[arg(long)]
+        json: bool,
         /// Real-time settings.
         #[command(flatten)]
         rt: RtArgs,
@@ -154,6 +181,25 @@ pub fn bench(what: BenchCommand) -> anyhow::Result<u8> {
                 StopReason::Signal(n) => output::interrupted(n),
                 _ => output::COMPLETED,
             })
+        }
+        BenchCommand::Cpu {
+            seconds,
+            rounds,
+            sensor,
+            config,
+            json,
+            rt,
+        } => {
+            let config = config.load()?;
+            let settings = rt.loop_settings(Some(seconds), config.rt())?;
+            let report = bench_cpu(&config, &sensor, &settings, rounds, &Terminal)?;
+            if json {
+                output::stdout_line(&serde_json::to_string(&report)?)
+            } else {
+                output::stdout(&report.to_text())
+            }
+            .context("stdout")?;
+            Ok(output::COMPLETED)
         }
         BenchCommand::Tick {
             seconds,

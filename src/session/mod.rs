@@ -6,6 +6,7 @@
 //! goes to the command line's [`Console`].
 
 pub mod calibration;
+pub mod cpu_bench;
 pub mod doctor;
 pub mod fitting;
 pub mod gesture_session;

@@ -124,11 +124,59 @@ fn ten_seconds_of_running_allocate_nothing_on_the_control_thread() {
         assert!(report.events >= 8, "{} events", report.events);
         let arm = report.arm.expect("the simulated arm reports its state");
         assert!(arm.pose.translation.x > 0.3, "moved forward");
+        // Memory locked before the threads start, each touched before its
+        // loop: no thread the loop waits on faults while running.
+        let locked = report
+            .settings
+            .iter()
+            .any(|s| s.name.contains("mlockall") && s.granted);
+        if !locked {
+            return;
+        }
+        assert_eq!(report.control_thread_page_faults, 0);
+        assert_eq!(report.serving[0].thread, "arm");
+        assert_eq!(report.serving[0].page_faults, 0);
     });
 }
 
 fn binary() -> Command {
     crate::common::sipnpuff()
+}
+
+#[test]
+fn bench_cpu_sets_the_runs_cpu_beside_cyclictests() {
+    let _one = REAL_RUN.lock().unwrap_or_else(|e| e.into_inner());
+    let config = crate::common::fixture("shared-machine.toml");
+    let out = binary()
+        .args(["bench", "cpu", "--seconds", "1", "--rounds", "2", "--json"])
+        .arg("--config")
+        .arg(&config)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        report["cyclictest"]
+            .as_str()
+            .unwrap()
+            .starts_with("cyclictest --mlockall --priority=80 --affinity="),
+        "{report}"
+    );
+    let rounds = report["rounds"].as_array().unwrap();
+    assert_eq!(rounds.len(), 2);
+    let mut ratios = Vec::new();
+    for round in rounds {
+        let ours = round["sipnpuff_s"].as_f64().unwrap();
+        let theirs = round["cyclictest_s"].as_f64().unwrap();
+        // Both woke a thousand times a second for a second: each used CPU.
+        assert!(ours > 0.0 && theirs > 0.0, "{round}");
+        let ratio = round["ratio"].as_f64().unwrap();
+        assert!((ratio - ours / theirs).abs() < 1e-9, "{round}");
+        ratios.push(ratio);
+    }
+    let median = report["median_ratio"].as_f64().unwrap();
+    assert!((median - (ratios[0] + ratios[1]) / 2.0).abs() < 1e-9);
 }
 
 /// The real binary: `run` for `seconds` with the built-in user, on the
