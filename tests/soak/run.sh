@@ -8,13 +8,14 @@
 # cyclictest's latency under the same load. Figures: docs/runtime.md.
 #
 #   tests/soak/run.sh [--seconds N] [--loads "cpu vm hdd browser"]
-#                     [--arms "sim ros2"] [--check] [--out DIR]
+#                     [--arms "sim ros2"] [--check] [--out DIR] [--bin PATH]
 #
 # Loads (stress-ng, sized for a 2-core controller): cpu = --cpu 2,
 # vm = --vm 2 --vm-bytes 1G, hdd = --hdd 1, browser = headless Chromium
 # on the run's own display page; none = no load. Arms: sim (the simulated
 # JACO2) and ros2 (the Cyclone DDS peer of tests/peers/ros2 receiving, in
 # a private network namespace; its receive gaps are reported too).
+# --bin: this sipnpuff binary instead of building target/release.
 # --check: exit 1 if a run had a stale-sensor fault, or dropped more
 # samples than ticks the loop skipped (a reader starved while the loop
 # kept time; what .ci/run asserts). Needs root (SCHED_FIFO, mlockall,
@@ -28,6 +29,7 @@ LOADS="cpu vm hdd browser"
 ARMS="sim ros2"
 CHECK=0
 OUT=target/soak
+BIN=
 while [ $# -gt 0 ]; do
     case "$1" in
     --seconds) SECONDS_EACH=$2; shift 2 ;;
@@ -35,6 +37,7 @@ while [ $# -gt 0 ]; do
     --arms) ARMS=$2; shift 2 ;;
     --check) CHECK=1; shift ;;
     --out) OUT=$2; shift 2 ;;
+    --bin) BIN=$(realpath "$2"); shift 2 ;;
     *) echo "soak: unknown option $1 (see the header of $0)" >&2; exit 2 ;;
     esac
 done
@@ -46,8 +49,10 @@ done
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
 
-cargo build --release --quiet
-BIN=$ROOT/target/release/sipnpuff
+if [ -z "$BIN" ]; then
+    cargo build --release --quiet
+    BIN=$ROOT/target/release/sipnpuff
+fi
 CPU=$(($(nproc) - 1)) # the control thread's: the last CPU, as run pins it
 PEER_PYTHON=$ROOT/target/peers/cyclonedds/bin/python
 

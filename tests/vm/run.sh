@@ -22,6 +22,7 @@
 #
 # Environment: VM_DIR (default target/vm: the log, artifacts and cache),
 # VM_TIMEOUT (s), VM_TESTS ("kernel modules ..." to run only those),
+# VM_SOAK_LOADS (the soak test's loads, default "cpu"; also "vm hdd"),
 # VM_REFRESH_KERNEL=1 (download the newest RT kernel again).
 # Kept after a run: VM_DIR/console.log (the guest's console),
 # VM_DIR/artifacts/ (each test's events, reports and feeder logs; dmesg),
@@ -57,6 +58,7 @@ if ! [ -x /bin/busybox ] || ldd /bin/busybox >/dev/null 2>&1; then missing+=(bus
 command -v cpio >/dev/null || missing+=(cpio)
 command -v depmod >/dev/null && command -v modprobe >/dev/null || missing+=(kmod)
 command -v cyclictest >/dev/null || missing+=(rt-tests)
+command -v stress-ng >/dev/null || missing+=(stress-ng)
 command -v gcc >/dev/null || missing+=(gcc)
 command -v make >/dev/null || missing+=(make)
 [ -f /usr/lib/x86_64-linux-gnu/libc.a ] || missing+=(libc6-dev)
@@ -363,6 +365,8 @@ cp "$HERE/pattern.txt" "$HERE/pattern-unplug.txt" "$HERE/uinput-pattern.txt" "$H
     "$OUT/pattern.csv" "$OUT/uinput.csv" "$OUT/uinput.toml" "$RD/harness/"
 cp "$OUT/imu-drive.counts" "$OUT/imu-drive.bmi160" "$OUT/imu.toml" "$OUT/imu.env" "$OUT/both.toml" "$OUT/both-pattern.txt" "$RD/harness/"
 cp "$ROOT/fixtures/gesture-user/gestures.toml" "$RD/harness/gestures.toml"
+cp "$ROOT/fixtures/demo.csv" "$RD/harness/demo.csv"
+echo "${VM_SOAK_LOADS:-cpu}" >"$RD/harness/soak-loads" # the soak test's loads
 cp "$EXP"/*.txt "$EXP"/*.jsonl "$RD/harness/expected/"
 if [ -n "${VM_TESTS:-}" ]; then
     printf "%s\n" $VM_TESTS >"$RD/harness/tests.txt" # one name a line
@@ -380,6 +384,7 @@ with_libs() { # BINARY DEST
 }
 with_libs "$SIPNPUFF" "$RD/harness/bin/sipnpuff"
 with_libs "$(command -v cyclictest)" "$RD/bin/cyclictest"
+with_libs "$(command -v stress-ng)" "$RD/bin/stress-ng"
 (cd "$RD" && find . | cpio -o -H newc --quiet) | gzip -1 >"$OUT/initrd.gz"
 step "initramfs: $(du -h "$OUT/initrd.gz" | cut -f1)"
 
