@@ -19,7 +19,7 @@ use sipnpuff::arm::kinova_sdk::abi::{
     CartesianPosition, EthernetCommConfig, KinovaDevice, TrajectoryPoint, UserPosition,
 };
 
-use crate::common::{Running, assert_rate, have_peer, monotonic_ns};
+use crate::common::{Running, assert_rate, have_peer, monotonic_ns, setting_granted};
 use crate::peers::{Gaps, quantile, recorded_commands};
 use crate::scratch::Scratch;
 
@@ -322,14 +322,9 @@ fn usb_streams_the_cores_commands_at_100_hz_and_reads_the_measured_pose() {
         assert_eq!(report["drops"]["recorded_commands"], 0);
         // The SDK's worker carries every point: it runs at the arm
         // thread's priority whenever the arm thread does.
-        let granted = |name: &str| {
-            let settings = report["settings"].as_array().unwrap();
-            let setting = settings.iter().find(|s| s["name"] == name);
-            setting.unwrap_or_else(|| panic!("no {name:?} in {settings:?}"))["granted"] == true
-        };
         assert_eq!(
-            granted("kinova-sdk thread: SCHED_FIFO priority 60"),
-            granted("arm thread: SCHED_FIFO priority 60")
+            setting_granted(&report, "kinova-sdk thread: SCHED_FIFO priority 60"),
+            setting_granted(&report, "arm thread: SCHED_FIFO priority 60")
         );
 
         // The layouts the C compiler made of the headers' declarations.

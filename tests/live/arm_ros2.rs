@@ -17,7 +17,7 @@ use std::time::Duration;
 
 use sipnpuff::control::motion::stream::ArmCommand;
 
-use crate::common::{Running, assert_rate, have_peer, monotonic_ns, poll_until};
+use crate::common::{Running, assert_rate, have_peer, monotonic_ns, poll_until, setting_granted};
 use crate::peers::{Gaps, recorded_commands};
 use crate::scratch::{Scratch, on_a_thread_of_this_test, test_name};
 
@@ -346,14 +346,9 @@ fn a_twist_stream_reaches_cyclone_dds_whole_at_100_hz() {
         let stream = assert_stream(&messages, &commands, "twist_stamped");
         // The DDS event loop sends each command the writer queues: it runs
         // at the arm thread's priority whenever the arm thread does.
-        let granted = |name: &str| {
-            let settings = report["settings"].as_array().unwrap();
-            let setting = settings.iter().find(|s| s["name"] == name);
-            setting.unwrap_or_else(|| panic!("no {name:?} in {settings:?}"))["granted"] == true
-        };
         assert_eq!(
-            granted("dds-event-loop thread: SCHED_FIFO priority 60"),
-            granted("arm thread: SCHED_FIFO priority 60")
+            setting_granted(&report, "dds-event-loop thread: SCHED_FIFO priority 60"),
+            setting_granted(&report, "arm thread: SCHED_FIFO priority 60")
         );
         // Stamped now (the peer's wall clock is ours), in the configured frame.
         for m in &stream {

@@ -500,6 +500,14 @@ pub fn monotonic_ns() -> i64 {
     ts.tv_sec * 1_000_000_000 + ts.tv_nsec
 }
 
+/// Whether a run's JSON report granted its real-time setting `name`
+/// (a missing setting fails the test, naming what there was).
+pub fn setting_granted(report: &serde_json::Value, name: &str) -> bool {
+    let settings = report["settings"].as_array().unwrap();
+    let setting = settings.iter().find(|s| s["name"] == name);
+    setting.unwrap_or_else(|| panic!("no {name:?} in {settings:?}"))["granted"] == true
+}
+
 /// The rate at the receiver is 100 Hz ± 2 % of what the control loop ran:
 /// a command every 10 of its ticks, so a loop that had to skip ticks (a
 /// machine loaded by other tests) sends fewer — its report says how many.
