@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # The soak: a breathing person's recording played through `sipnpuff run`
 # in real time under load, with cyclictest beside it on the control
-# thread's CPU at the same priority, in the same run. For each arm and
+# thread's CPU at the same priority, and a second on the sensor reader's
+# CPU (0) at its priority (70), in the same run. For each arm and
 # each load it says whether the sensor went stale (a fault that brakes the
 # arm), how many samples were dropped, the arm's command gaps, the control
 # thread's missed deadlines, each deadline thread's wake-up latency, and
-# cyclictest's latency under the same load. Figures: docs/runtime.md.
+# cyclictest's latency under the same load, and the time the hypervisor
+# took from each CPU (steal). Figures: docs/runtime.md.
 #
 #   tests/soak/run.sh [--seconds N] [--loads "cpu vm hdd browser"]
 #                     [--arms "sim ros2"] [--check] [--out DIR] [--bin PATH]
@@ -18,7 +20,9 @@
 # --bin: this sipnpuff binary instead of building target/release.
 # --check: exit 1 if a run had a stale-sensor fault, or dropped more
 # samples than ticks the loop skipped (a reader starved while the loop
-# kept time; what .ci/run asserts). Needs root (SCHED_FIFO, mlockall,
+# kept time; what .ci/run asserts). A stale fault while the sensor's CPU
+# itself stalled past stale_ms (its cyclictest woke as late: the host
+# took the CPU away) is reported, not failed. Needs root (SCHED_FIFO, mlockall,
 # network namespaces), stress-ng and cyclictest (rt-tests).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -64,6 +68,9 @@ awk -v rows=$(((SECONDS_EACH + 5) * 1000)) '
     { v[n++] = $0; sub(/^[^,]*,/, "", v[n - 1]) }
     END { print "tick,volts"; for (i = 0; i < rows; i++) print i "," v[i % n] }
 ' fixtures/demo.csv >"$recording"
+
+# Each CPU's time stolen by the hypervisor so far, in ticks of 10 ms.
+steal() { awk '/^cpu[0-9]/ { print $1, $9 }' /proc/stat; }
 
 # Starts load $1 (its pids in LOAD_PIDS); `browser` needs the run's port.
 LOAD_PIDS=()
@@ -125,12 +132,20 @@ soak_one() {
         --duration="${SECONDS_EACH}s" --quiet --histogram=60000 \
         >"$dir/cyclictest.txt" 2>&1 &
     local cyclic=$!
+    # The sensor reader's reference: its CPU (the first serving one), its
+    # priority.
+    cyclictest --mlockall --priority=70 --affinity=0 --interval=1000 \
+        --duration="${SECONDS_EACH}s" --quiet --histogram=60000 \
+        >"$dir/cyclictest-serving.txt" 2>&1 &
+    local cyclic_serving=$!
+    steal >"$dir/steal-before.txt"
     set +e
     "$BIN" run --json --sensor "csv:$recording" --seconds "$SECONDS_EACH" \
         "${display[@]}" "${arm_args[@]}" >"$dir/run.jsonl" 2>"$dir/run.err"
     local status=$?
     set -e
-    wait "$cyclic" || true
+    wait "$cyclic" "$cyclic_serving" || true
+    steal >"$dir/steal-after.txt"
     if [ -n "$peer_pid" ]; then kill -TERM "$peer_pid" 2>/dev/null; wait "$peer_pid" || true; fi
     stop_load
     python3 - "$dir" "$arm" "$load" "$status" <<'PYEOF' | tee -a "$OUT/summary.txt"
@@ -161,6 +176,10 @@ def cyclic_percentiles(path):
             out["max"] = int(line.split()[-1])
     return out, total
 c, cyclic_samples = cyclic_percentiles(f"{d}/cyclictest.txt")
+cs, _ = cyclic_percentiles(f"{d}/cyclictest-serving.txt")
+def steal_ms(path):
+    return {l.split()[0]: int(l.split()[1]) * 10 for l in open(path) if l.strip()}
+before, after = steal_ms(f"{d}/steal-before.txt"), steal_ms(f"{d}/steal-after.txt")
 faults = report.get("faults", {})
 stale = faults.get("other", -1)
 stats = report.get("stats", {})
@@ -176,6 +195,8 @@ result = {
     "arm_gap_p999_ms": us(gaps, "p999") / 1000 if gaps else None,
     "arm_gap_max_ms": us(gaps, "max") / 1000 if gaps else None,
     "cyclictest_us": {"p50": c.get(0.5), "p99": c.get(0.99), "p999": c.get(0.999), "max": c.get("max")},
+    "cyclictest_serving_us": {"p50": cs.get(0.5), "p99": cs.get(0.99), "p999": cs.get(0.999), "max": cs.get("max")},
+    "steal_ms": {cpu: after[cpu] - before.get(cpu, 0) for cpu in after},
     "threads": {n: {"p50_us": us(p, "p50"), "p99_us": us(p, "p99"), "p999_us": us(p, "p999"),
                     "max_us": us(p, "max"), "page_faults": f} for n, p, f in threads},
 }
@@ -203,6 +224,9 @@ if page:
     line += f"\n      the page: {page['pages_opened']} opened, {page['frames_sent']} frames sent, {page['frames_skipped']} skipped"
 cy = result["cyclictest_us"]
 line += f"; cyclictest {cy['p50']}/{cy['p99']}/{cy['p999']}/{cy['max']} ({cyclic_samples} samples)"
+cz = result["cyclictest_serving_us"]
+line += f"\n      on the sensor's CPU 0 at 70: cyclictest {cz['p50']}/{cz['p99']}/{cz['p999']}/{cz['max']}; "
+line += "time stolen by the host: " + ", ".join(f"{k} {v} ms" for k, v in result["steal_ms"].items())
 if status != 0:
     line += f"\n      the run exited {status}: see {d}/run.err"
 print(line)
@@ -216,7 +240,7 @@ for arm in $ARMS; do
         if [ "$arm" = ros2 ]; then
             # The ROS 2 peer's DDS on a loopback of its own.
             unshare --net bash -c "ip link set lo up && ip link set lo multicast on &&
-                ip route add 224.0.0.0/4 dev lo && $(declare -f soak_one start_load stop_load die);
+                ip route add 224.0.0.0/4 dev lo && $(declare -f soak_one start_load stop_load die steal);
                 OUT='$OUT' SECONDS_EACH=$SECONDS_EACH CPU=$CPU BIN='$BIN' recording='$recording' \
                 PEER_PYTHON='$PEER_PYTHON' LOAD_PIDS=(); soak_one $arm $load"
         else
@@ -228,6 +252,7 @@ done
 if [ "$CHECK" = 1 ]; then
     python3 - "$OUT" <<'PYEOF'
 import glob, json, sys
+STALE_US = 50_000  # [detector] stale_ms, the default
 bad = []
 for path in sorted(glob.glob(f"{sys.argv[1]}/*/result.json")):
     r = json.load(open(path))
@@ -235,7 +260,16 @@ for path in sorted(glob.glob(f"{sys.argv[1]}/*/result.json")):
     # a stall of the whole machine (which cyclictest sees too) the
     # recording's rows for the ticks the loop skipped arrive late. More
     # dropped than skipped is a starved reader with the loop on time.
-    if r["stale_faults"] != 0 or r["dropped_samples"] > r["skipped_ticks"] or r["exit"] != 0:
+    # A stale fault while the sensor's CPU itself stalled past stale_ms
+    # (its cyclictest, at the reader's priority, woke as late) is the
+    # host taking that CPU away: no priority inside the machine helps,
+    # and the fault is the right answer. Reported, not failed.
+    cpu_stalled = (r["cyclictest_serving_us"]["max"] or 0) >= STALE_US
+    stale = r["stale_faults"] != 0 and not cpu_stalled
+    if r["stale_faults"] != 0 and cpu_stalled:
+        print(f"soak: {r['arm']} under {r['load']}: a stale fault while the sensor's CPU itself "
+              f"stalled {r['cyclictest_serving_us']['max']} µs (host steal: {r['steal_ms']})")
+    if stale or r["dropped_samples"] > r["skipped_ticks"] or (r["exit"] != 0 and not cpu_stalled):
         bad.append(f"{r['arm']} under {r['load']}: {r['stale_faults']} stale faults, "
                    f"{r['dropped_samples']} dropped samples with {r['skipped_ticks']} ticks "
                    f"skipped, exit {r['exit']}")
